@@ -1,0 +1,1 @@
+"""Entry point of the ``keepaway`` command line (see :mod:`keepaway.cli`)."""
