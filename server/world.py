@@ -7,7 +7,7 @@ Shapes: ``B`` arenas, ``N = 1 + K + T`` objects.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -37,9 +37,9 @@ COLLIDED_PLAYER = 2
 PARKED_Y = -37.0
 
 
-@dataclass
-class World:
-    """State of ``B`` arenas. All arrays are owned; kernels update them in place."""
+class World(NamedTuple):
+    """State of ``B`` arenas. Kernels take it as is (numba accepts NamedTuples of arrays) and update the
+    arrays in place; the tuple itself never changes."""
 
     pos: np.ndarray  # (B, N, 2) float64, m
     vel: np.ndarray  # (B, N, 2) float64, m/cycle (stored, i.e. post-decay)
@@ -88,7 +88,7 @@ class World:
         raise ValueError(f"no player {side} {unum}")
 
     def copy(self) -> "World":
-        return World(**{k: (v.copy() if isinstance(v, np.ndarray) else v) for k, v in vars(self).items()})
+        return World(*(v.copy() if isinstance(v, np.ndarray) else v for v in self))
 
 
 def new_world(params: ServerParams, n_keepers: int, n_takers: int, batch: int = 1, seed: int = 0) -> World:
@@ -131,9 +131,11 @@ def new_world(params: ServerParams, n_keepers: int, n_takers: int, batch: int = 
     )
 
 
-@dataclass
-class Commands:
-    """One cycle's commands of every player of every arena (what the step consumes)."""
+class Commands(NamedTuple):
+    """One cycle's commands of every player of every arena (what the step consumes).
+
+    The main slot is already resolved (one command per player, spec 3); out-of-range arguments are
+    clamped by the kernels exactly as rcssserver clamps them."""
 
     main: np.ndarray  # (B, N) int8 CMD_* code
     arg1: np.ndarray  # (B, N) float64: dash power / turn moment / kick power / tackle power / move x
