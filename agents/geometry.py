@@ -1,0 +1,169 @@
+"""Geometry and one-step motion prediction shared by every skill (spec `keepaway-agents.md` 2, "Shared
+geometry"; physics as in `server-physics.md` 2-3).
+
+Angles are degrees in the rcssserver frame (+y down, direction = atan2(y, x)). All functions are numba
+kernels on scalars so skills can call them inside their own per-row loops.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from server.world import CMD_DASH, CMD_TURN
+
+
+@njit(cache=True)
+def normalize_angle(a: float) -> float:
+    """Angle in (-180, 180]."""
+    a -= 360.0 * math.floor((a + 180.0) / 360.0)
+    return 180.0 if a == -180.0 else a
+
+
+@njit(cache=True)
+def direction(dx: float, dy: float) -> float:
+    """Global direction of the vector (dx, dy), degrees."""
+    return math.degrees(math.atan2(dy, dx))
+
+
+@njit(cache=True)
+def distance(ax: float, ay: float, bx: float, by: float) -> float:
+    return math.hypot(bx - ax, by - ay)
+
+
+@njit(cache=True)
+def vertex_angle(ax: float, ay: float, bx: float, by: float, cx: float, cy: float) -> float:
+    """ang(A, B, C): unsigned angle at vertex B between rays B->A and B->C, in [0, 180]
+    (spec `keepaway-task.md` 3). A degenerate ray (A or C on B) gives 0: nothing separates them."""
+    ux, uy = ax - bx, ay - by
+    vx, vy = cx - bx, cy - by
+    nu = math.hypot(ux, uy)
+    nv = math.hypot(vx, vy)
+    if nu == 0.0 or nv == 0.0:
+        return 0.0
+    c = (ux * vx + uy * vy) / (nu * nv)
+    return math.degrees(math.acos(min(1.0, max(-1.0, c))))
+
+
+@njit(cache=True)
+def geometric_sum(decay: float, n: float) -> float:
+    """1 + d + ... + d^(n-1) = (1 - d^n) / (1 - d): distance factor of a decaying velocity over n cycles."""
+    return (1.0 - decay**n) / (1.0 - decay)
+
+
+@njit(cache=True)
+def rolled_out(px: float, py: float, vx: float, vy: float, n: float, decay: float) -> tuple:
+    """Position after n cycles without acceleration: pos + vel (1 - d^n)/(1 - d) (spec 2, shared geometry;
+    velocities are the stored post-decay ones, so the next position is pos + vel)."""
+    f = geometric_sum(decay, n)
+    return px + vx * f, py + vy * f
+
+
+@njit(cache=True)
+def final_position(px: float, py: float, vx: float, vy: float, decay: float) -> tuple:
+    """Position once the current velocity has died out: pos + vel / (1 - d) (spec 2.4, reference position)."""
+    f = 1.0 / (1.0 - decay)
+    return px + vx * f, py + vy * f
+
+
+@njit(cache=True)
+def kick_rate(px: float, py: float, body: float, bx: float, by: float, kp) -> float:
+    """Effective kick power rate for a ball at (bx, by) and a player at (px, py) with ``body``:
+    kick_power_rate (1 - 0.25 |dir|/180 - 0.25 (dist - player_size - ball_size)/kickable_margin)
+    (`server-physics.md` 3, kick)."""
+    dir_diff = abs(normalize_angle(direction(bx - px, by - py) - body))
+    dist_ball = distance(px, py, bx, by) - kp.player_size - kp.ball_size
+    return kp.kick_power_rate * (1.0 - 0.25 * dir_diff / 180.0 - 0.25 * dist_ball / kp.kickable_margin)
+
+
+@njit(cache=True)
+def turn_moment(angle: float, speed: float, kp) -> float:
+    """Moment to send so that a player moving at ``speed`` turns by ``angle``: angle (1 + inertia v),
+    clipped to the moment range (spec 2, turn inertia)."""
+    m = angle * (1.0 + kp.inertia_moment * speed)
+    return min(kp.max_moment, max(kp.min_moment, m))
+
+
+@njit(cache=True)
+def turn_effect(moment: float, speed: float, kp) -> float:
+    """Body rotation produced by ``moment`` at ``speed`` (noise-free `server-physics.md` 3, turn)."""
+    m = min(kp.max_moment, max(kp.min_moment, moment))
+    return m / (1.0 + kp.inertia_moment * speed)
+
+
+@njit(cache=True)
+def dash_power_for(
+    dx: float, dy: float, body: float, vx: float, vy: float, effort: float, cycles: float, kp
+) -> float:
+    """Dash power to cover the forward component of (dx, dy) in ``cycles`` cycles (spec 2.4): first-cycle
+    speed d (1 - decay)/(1 - decay^n), capped at player_speed_max, minus the current forward speed, over
+    dash_power_rate * effort, clipped to the power range."""
+    rad = math.radians(body)
+    cs, sn = math.cos(rad), math.sin(rad)
+    forward = dx * cs + dy * sn
+    n = max(1.0, cycles)
+    speed = forward / geometric_sum(kp.player_decay, n)
+    speed = min(speed, kp.player_speed_max)
+    speed -= vx * cs + vy * sn
+    power = speed / (kp.dash_power_rate * effort)
+    return min(kp.max_dash_power, max(kp.min_dash_power, power))
+
+
+@njit(cache=True)
+def player_step(
+    px: float, py: float, vx: float, vy: float, body: float, effort: float, cmd: int, a1: float, kp
+) -> tuple:
+    """Noise-free player state after one command (`server-physics.md` 2-3): dash adds effort * power *
+    dash_power_rate along the body (capped at accel/speed max), turn rotates with inertia, then the
+    player moves and decays. ``cmd`` is a CMD_* code of `server/world.py`; anything but a dash or a turn
+    leaves the player coasting. Returns (x, y, vx, vy, body)."""
+    if cmd == CMD_DASH:
+        power = min(kp.max_dash_power, max(kp.min_dash_power, a1))
+        acc = effort * power * kp.dash_power_rate
+        acc = min(acc, kp.player_accel_max) if acc > 0.0 else max(acc, -kp.player_accel_max)
+        rad = math.radians(body)
+        vx += acc * math.cos(rad)
+        vy += acc * math.sin(rad)
+        speed = math.hypot(vx, vy)
+        if speed > kp.player_speed_max:
+            vx *= kp.player_speed_max / speed
+            vy *= kp.player_speed_max / speed
+    elif cmd == CMD_TURN:
+        body = normalize_angle(body + turn_effect(a1, math.hypot(vx, vy), kp))
+    px += vx
+    py += vy
+    return px, py, vx * kp.player_decay, vy * kp.player_decay, body
+
+
+@njit(cache=True)
+def ball_after_kick(
+    bx: float, by: float, bvx: float, bvy: float, rate: float, power: float, kick_dir: float, body: float, kp
+) -> tuple:
+    """Ball position and stored velocity one cycle after a kick of ``power`` at ``kick_dir`` relative to
+    ``body`` with effective ``rate`` (noise-free `server-physics.md` 3, kick). Returns (x, y, vx, vy)."""
+    acc = min(rate * power, kp.ball_accel_max)
+    rad = math.radians(body + kick_dir)
+    vx = bvx + acc * math.cos(rad)
+    vy = bvy + acc * math.sin(rad)
+    speed = math.hypot(vx, vy)
+    if speed > kp.ball_speed_max:
+        vx *= kp.ball_speed_max / speed
+        vy *= kp.ball_speed_max / speed
+    return bx + vx, by + vy, vx * kp.ball_decay, vy * kp.ball_decay
+
+
+@njit(cache=True)
+def in_cone(ox: float, oy: float, tx: float, ty: float, qx: float, qy: float, ratio: float) -> bool:
+    """Whether q lies in the cone from o towards t of half-width ``ratio`` (perpendicular distance <
+    ratio * distance along the line), projected between o and t and closer to o than t is
+    (spec `keepaway-agents.md` 2.5 step 4, 3 step 3)."""
+    lx, ly = tx - ox, ty - oy
+    length = math.hypot(lx, ly)
+    if length == 0.0:
+        return False
+    ux, uy = lx / length, ly / length
+    rx, ry = qx - ox, qy - oy
+    along = rx * ux + ry * uy
+    perp = abs(rx * uy - ry * ux)
+    return 0.0 < along < length and perp < ratio * along and math.hypot(rx, ry) < length

@@ -1,0 +1,130 @@
+"""The keeper's per-cycle decision (spec `keepaway-agents.md` 1, `keepaway-task.md` 2-3).
+
+``keeper_decide`` runs one row: ball lost -> search; ball kickable -> the Pass decision with its macro-
+action persistence; fastest keeper to the ball -> intercept; else GetOpen. The episode boundary
+(``agents.belief.forget_episode`` plus the learner's endEpisode) is the caller's.
+
+Pass learners plug in from outside: with ``PASS_EXTERNAL`` the kernel stops at a Pass decision point,
+leaves the outputs unwritten and returns PASS_DECISION_START or PASS_DECISION_STEP with the state
+vector written; the caller computes the reward ``bel.time[r] - mem.t_last[r]`` (for a step), asks its
+learner for an action and calls ``execute_pass_action``. The built-in policies (random, hand-coded,
+always hold) decide and act inside the kernel and return the same codes for information.
+"""
+
+from __future__ import annotations
+
+from numba import njit
+
+from agents.belief import AgentMemory, Belief
+from agents.getopen import getopen
+from agents.skills import (
+    PASS_EXTERNAL,
+    PASS_HANDCODED,
+    PASS_RANDOM,
+    ball_kickable,
+    fastest_to_ball,
+    hold_ball,
+    intercept,
+    neck_to_ball,
+    neck_to_point,
+    neck_with_body,
+    pass_ball,
+    search_ball,
+    write_action,
+)
+from agents.state_vars import pass_state
+from server.rng import randint
+
+NO_PASS_DECISION = 0
+PASS_DECISION_START = 1  # learner: startEpisode(state)
+PASS_DECISION_STEP = 2  # learner: step(reward = time - t_last, state)
+
+
+@njit(cache=True)
+def handcoded_pass(state, n_keepers: int, n_takers: int, cfg) -> int:
+    """P:HC (spec `keepaway-task.md` 3): hold if dist(K1, T1) > C1; else val_i = C2 min_j ang(Ki, K1, Tj)
+    + min_j dist(Ki, Tj) for i >= 2, pass to the best if above C3 (first wins ties), else hold.
+    Action k >= 1 passes to K(k+1)."""
+    k, t = n_keepers, n_takers
+    if state[2 * k + t - 1] > cfg.hc_hold_distance:
+        return 0
+    dist_at = 2 * k + 2 * t - 1
+    ang_at = dist_at + k - 1
+    action, best = 0, cfg.hc_pass_threshold
+    for i in range(k - 1):
+        v = cfg.hc_angle_weight * state[ang_at + i] + state[dist_at + i]
+        if v > best:
+            action, best = i + 1, v
+    return action
+
+
+@njit(cache=True)
+def execute_pass_action(
+    bel: Belief, r: int, mem: AgentMemory, action: int, kp, cfg, out_main, out_a1, out_a2, out_neck
+) -> None:
+    """Record and execute Pass action ``action`` (0 = HoldBall, k = PassBall to the k-th nearest
+    teammate), neck to the ball (spec `keepaway-agents.md` 1 steps 3c-3d)."""
+    mem.last_action[r] = action
+    mem.t_last[r] = bel.time[r]
+    if action == 0:
+        code, a1, a2 = hold_ball(bel, r, cfg.hold_ratio_keeper, kp, cfg)
+    else:
+        code, a1, a2 = pass_ball(bel, r, action, kp, cfg)
+    write_action(r, code, a1, a2, neck_to_ball(bel, r, code, a1, kp), out_main, out_a1, out_a2, out_neck)
+
+
+@njit(cache=True)
+def keeper_decide(
+    bel: Belief, r: int, mem: AgentMemory, theta, kp, cfg, out_main, out_a1, out_a2, out_neck, out_state
+) -> int:
+    """One keeper decision for row ``r`` (spec `keepaway-agents.md` 1 steps 2-5). ``theta`` is the row's
+    GetOpen net parameters, ``out_state`` its Pass state row. Returns NO_PASS_DECISION,
+    PASS_DECISION_START or PASS_DECISION_STEP (module docstring)."""
+    me = bel.me[r]
+    if bel.conf[r, 0] < cfg.ball_conf_threshold:
+        code, a1, a2 = search_ball(bel, r, mem, kp, cfg)
+        write_action(r, code, a1, a2, neck_with_body(bel, r), out_main, out_a1, out_a2, out_neck)
+        return NO_PASS_DECISION
+    if ball_kickable(bel, r, me, kp):
+        if not pass_state(bel, r, cfg, out_state):
+            code, a1, a2 = hold_ball(bel, r, cfg.hold_ratio_keeper, kp, cfg)
+            neck = neck_to_ball(bel, r, code, a1, kp)
+            write_action(r, code, a1, a2, neck, out_main, out_a1, out_a2, out_neck)
+            return NO_PASS_DECISION
+        now = bel.time[r]
+        if mem.t_last[r] >= 0 and mem.t_last[r] == now - 1 and mem.last_action[r] > 0:
+            execute_pass_action(bel, r, mem, mem.last_action[r], kp, cfg, out_main, out_a1, out_a2, out_neck)
+            return NO_PASS_DECISION
+        decision = PASS_DECISION_START if mem.t_last[r] < 0 else PASS_DECISION_STEP
+        policy = int(cfg.pass_policy)
+        if policy == PASS_EXTERNAL:
+            return decision
+        if policy == PASS_RANDOM:
+            action = randint(mem.rng, r, bel.n_keepers)
+        elif policy == PASS_HANDCODED:
+            action = handcoded_pass(out_state, bel.n_keepers, bel.n_takers, cfg)
+        else:
+            action = 0
+        execute_pass_action(bel, r, mem, action, kp, cfg, out_main, out_a1, out_a2, out_neck)
+        return decision
+    chaser, ball_cycles = fastest_to_ball(bel, r, 1, bel.n_keepers, kp, cfg)
+    if chaser == me:
+        code, a1, a2 = intercept(bel, r, mem, False, kp, cfg)
+        write_action(r, code, a1, a2, neck_to_ball(bel, r, code, a1, kp), out_main, out_a1, out_a2, out_neck)
+        return NO_PASS_DECISION
+    code, a1, a2 = getopen(bel, r, mem, theta, ball_cycles, kp, cfg)
+    neck = neck_to_point(bel, r, code, a1, 0.0, 0.0, kp)
+    write_action(r, code, a1, a2, neck, out_main, out_a1, out_a2, out_neck)
+    return NO_PASS_DECISION
+
+
+@njit(cache=True)
+def keepers_decide(
+    bel: Belief, mem: AgentMemory, theta, kp, cfg, out_main, out_a1, out_a2, out_neck, out_state, out_decision
+) -> None:
+    """``keeper_decide`` for every row (the batched mode); ``theta`` is (B, n_params), ``out_state``
+    (B, 4K + 2T - 3), ``out_decision`` (B,) int."""
+    for r in range(bel.pos.shape[0]):
+        out_decision[r] = keeper_decide(
+            bel, r, mem, theta[r], kp, cfg, out_main, out_a1, out_a2, out_neck, out_state[r]
+        )

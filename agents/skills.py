@@ -1,0 +1,695 @@
+"""The players' skills: intercept, HoldBall, kicks, PassBall, GoToPoint, ball search, travel time.
+
+A re-creation of the UvA Trilearn / keepaway-framework skills as described in `keepaway-agents.md` 2
+(section numbers below refer to it). Every skill is a numba kernel on one row ``r`` of a ``Belief``
+and returns a command triple ``(code, arg1, arg2)`` with the CMD_* codes of `server/world.py`
+(dash: power; turn: moment; kick: power, direction relative to the body). The neck is chosen separately
+(``neck_to_point``/``neck_with_body``) by the decision loops. Constants come from the server parameter
+record ``kp`` and from ``AgentConfig.kernel()`` (``cfg``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import namedtuple
+from dataclasses import dataclass, fields
+
+import numpy as np
+from numba import njit
+
+from agents.belief import AgentMemory, Belief
+from agents.geometry import (
+    ball_after_kick,
+    dash_power_for,
+    direction,
+    distance,
+    final_position,
+    kick_rate,
+    normalize_angle,
+    player_step,
+    rolled_out,
+    turn_moment,
+)
+from server.world import CMD_DASH, CMD_KICK, CMD_TURN
+
+# Pass policies (spec `keepaway-task.md` 3); EXTERNAL: the caller's learner picks the action.
+PASS_RANDOM = 0
+PASS_HANDCODED = 1
+PASS_EXTERNAL = 2
+PASS_HOLD = 3
+# GetOpen policies (spec `keepaway-task.md` 4; HANDCODED_CONE: the framework variant, agents.md 2.5).
+GETOPEN_RANDOM = 0
+GETOPEN_HANDCODED = 1
+GETOPEN_HANDCODED_CONE = 2
+GETOPEN_LEARNED = 3
+
+
+@dataclass(frozen=True)
+class AgentConfig:
+    """The players' own constants (not the server's), each with the spec section it comes from."""
+
+    pass_policy: int = PASS_HANDCODED  # keepaway-task.md 3
+    getopen_policy: int = GETOPEN_HANDCODED  # keepaway-task.md 4
+    ball_conf_threshold: float = 0.90  # agents.md 1: ball "known"
+    player_conf_threshold: float = 0.88  # agents.md 1: player usable
+    pass_end_speed: float = 1.2  # agents.md 2.3: PlayerSettings default
+    hold_ratio_keeper: float = 0.7  # agents.md 2.2
+    hold_ratio_taker: float = 0.3  # agents.md 2.2
+    hold_opponent_radius: float = 5.0  # agents.md 2.2 step 1
+    hold_escape_angle: float = 45.0  # agents.md 2.2 step 1
+    hold_ball_tolerance: float = 0.3  # agents.md 2.2 step 2
+    hold_turn_safety: float = 0.85  # agents.md 2.2 step 2 (x kickable distance)
+    still_ball_speed: float = 0.1  # agents.md 2.2 step 3
+    freeze_keep_ratio: float = 0.8  # agents.md 2.2 step 3 (x kickable distance)
+    freeze_target_ratio: float = 0.7  # agents.md 2.2 step 3 (x kickable distance)
+    freeze_inset: float = 0.1  # BasicPlayer::freezeBall, agents.md 2.2 step 3
+    pitch_pullback: float = 0.2  # BasicPlayer::kickBallCloseToBody, agents.md 2.2 step 3
+    pass_speed_ratio: float = 0.85  # agents.md 2.3 (x ball_speed_max)
+    pass_kick_rate_ratio: float = 0.85  # agents.md 2.3 (x kick_power_rate)
+    reposition_ratio: float = 0.16  # agents.md 2.3
+    pass_power_ok: float = 105.0  # agents.md 2.3
+    pass_power_pressed: float = 130.0  # agents.md 2.3
+    pass_pressure_radius: float = 2.0  # agents.md 2.3
+    turn_threshold: float = 7.0  # agents.md 2.4 (GetOpen's moveToPos angle)
+    max_sim_turns: float = 5.0  # agents.md 2.4
+    max_direct_turns: float = 2.0  # agents.md 2.4: 1-2 turns -> turn, 3+ -> brake
+    turn_aim_cycles: float = 2.0  # agents.md 2.4: turn aimed at my position 2 cycles ahead
+    intercept_horizon: float = 30.0  # agents.md 1 step 4, 2.1 step 2
+    intercept_roll_cycles: float = 4.0  # WorldModel::predictCommandTurnTowards: position min(i, 4) ahead
+    intercept_back_distance: float = 2.5  # WorldModel::predictCommandToMoveToPos default dDistBack
+    turn_ratio_near: float = 0.9  # WorldModel::predictCommandTurnTowards dRatioTurn (<= 10 m)
+    turn_ratio_mid: float = 2.0  # same (10-20 m)
+    turn_ratio_far: float = 3.0  # same (> 20 m)
+    turn_mid_distance: float = 10.0  # same
+    turn_far_distance: float = 20.0  # same
+    close_radius_margin: float = 1.0 / 6.0  # agents.md 2.1 step 1 (x kickable_margin)
+    close_margin: float = 0.95  # BasicPlayer::interceptClose (x kickable distance)
+    close_max_cycle: float = 3.0  # agents.md 2.1 step 3
+    stability_radius: float = 1.0  # agents.md 2.1 step 2
+    stability_margin: float = 0.7  # agents.md 2.1 step 2 (x kickable distance)
+    stability_ball_speed: float = 0.6  # agents.md 2.1 step 2
+    stability_window: float = 2.0  # agents.md 2.1 step 2 (cycles)
+    intercept_stay_radius: float = 0.5  # agents.md 2.1 step 3
+    search_turn: float = 60.0  # agents.md 1 step 2
+    search_memory: float = 3.0  # BasicPlayer::searchBall: side kept for 3 cycles
+    hc_hold_distance: float = 5.0  # keepaway-task.md 3, P:HC C1
+    hc_angle_weight: float = 0.25  # keepaway-task.md 3, P:HC C2
+    hc_pass_threshold: float = 22.5  # keepaway-task.md 3, P:HC C3
+    go_safety_angle: float = 18.4  # keepaway-task.md 4, GO:HC
+    go_cone_ratio: float = 0.3  # agents.md 2.5 step 4
+    grid_points: float = 5.0  # agents.md 2.5 step 2 (per side)
+    grid_margin: float = 0.15  # agents.md 2.5 step 2
+    arrival_radius: float = 1.5  # agents.md 2.5 step 6, 2.6
+    mark_distance: float = 4.0  # agents.md 3 step 3
+    mark_cone_ratio: float = 0.3  # agents.md 3 step 3
+    # Not in the spec (a deviation, on by default): takers plan their interception with the ball at rest
+    # while a keeper controls it. With exact beliefs the framework rule locks a taker into turning back
+    # and forth as HoldBall moves the ball around the keeper (see agents/taker.py).
+    takers_plan_held_ball_still: bool = True
+
+    def kernel(self) -> tuple:
+        """The fields as a NamedTuple of floats, the form numba kernels take."""
+        return AgentKernel(*(float(getattr(self, n)) for n in AgentKernel._fields))
+
+
+AgentKernel = namedtuple("AgentKernel", [f.name for f in fields(AgentConfig)])
+AgentKernel.__module__ = __name__
+
+
+@njit(cache=True)
+def kickable_distance(kp) -> float:
+    """player_size + kickable_margin + ball_size = 1.085 m (spec header)."""
+    return kp.player_size + kp.kickable_margin + kp.ball_size
+
+
+@njit(cache=True)
+def is_keeper(bel: Belief, obj: int) -> bool:
+    return 1 <= obj <= bel.n_keepers
+
+
+@njit(cache=True)
+def ball_in(bel: Belief, r: int, n: float, kp) -> tuple:
+    """The believed ball position after ``n`` cycles (spec 2, shared geometry)."""
+    return rolled_out(
+        bel.pos[r, 0, 0], bel.pos[r, 0, 1], bel.vel[r, 0, 0], bel.vel[r, 0, 1], n, kp.ball_decay
+    )
+
+
+@njit(cache=True)
+def _ball_plan(bel: Belief, r: int, n: float, still: bool, kp) -> tuple:
+    """The ball after ``n`` cycles as an interception plans it: at rest when ``still``."""
+    if still:
+        return bel.pos[r, 0, 0], bel.pos[r, 0, 1]
+    return ball_in(bel, r, n, kp)
+
+
+@njit(cache=True)
+def ball_kickable(bel: Belief, r: int, obj: int, kp) -> bool:
+    """Whether player ``obj`` can kick the ball (centre distance < kickable distance, spec 1 step 3)."""
+    gap = distance(bel.pos[r, obj, 0], bel.pos[r, obj, 1], bel.pos[r, 0, 0], bel.pos[r, 0, 1])
+    return gap < kickable_distance(kp)
+
+
+@njit(cache=True)
+def closest_to_ball(bel: Belief, r: int, first: int, last: int, skip: int, cfg) -> int:
+    """The usable player (conf >= threshold, not ``skip``) among objects first..last closest to the ball,
+    -1 if none; ties go to the lower index."""
+    best = -1
+    best_d = math.inf
+    for j in range(first, last + 1):
+        if j == skip or (j != bel.me[r] and bel.conf[r, j] < cfg.player_conf_threshold):
+            continue
+        d = distance(bel.pos[r, j, 0], bel.pos[r, j, 1], bel.pos[r, 0, 0], bel.pos[r, 0, 1])
+        if d < best_d:
+            best, best_d = j, d
+    return best
+
+
+@njit(cache=True)
+def sort_by_distance(bel: Belief, r: int, ox: float, oy: float, first: int, last: int, skip: int, out) -> int:
+    """Write the objects first..last except ``skip`` into ``out`` by increasing distance from (ox, oy)
+    (stable: lower index first on ties); returns how many were written."""
+    n = 0
+    for j in range(first, last + 1):
+        if j == skip:
+            continue
+        d = distance(ox, oy, bel.pos[r, j, 0], bel.pos[r, j, 1])
+        k = n
+        while k > 0 and distance(ox, oy, bel.pos[r, out[k - 1], 0], bel.pos[r, out[k - 1], 1]) > d:
+            out[k] = out[k - 1]
+            k -= 1
+        out[k] = j
+        n += 1
+    return n
+
+
+@njit(cache=True)
+def opponents(bel: Belief, obj: int) -> tuple:
+    """Object index range (first, last) of the opponents of player ``obj``."""
+    if is_keeper(bel, obj):
+        return bel.n_keepers + 1, bel.n_keepers + bel.n_takers
+    return 1, bel.n_keepers
+
+
+# ----------------------------------------------------------------------------------------------- neck
+
+
+@njit(cache=True)
+def neck_to_point(bel: Belief, r: int, cmd: int, a1: float, tx: float, ty: float, kp) -> float:
+    """turn_neck moment that points the head at (tx, ty) after this cycle's main command, the neck
+    clipped to its range (BasicPlayer::turnNeckToPoint)."""
+    me = bel.me[r]
+    px, py, _, _, body = player_step(
+        bel.pos[r, me, 0], bel.pos[r, me, 1], bel.vel[r, me, 0], bel.vel[r, me, 1], bel.body[r, me],
+        bel.effort[r], cmd, a1, kp,
+    )
+    want = normalize_angle(direction(tx - px, ty - py) - body)
+    want = min(kp.max_neck_angle, max(kp.min_neck_angle, want))
+    return want - bel.neck[r, me]
+
+
+@njit(cache=True)
+def neck_to_ball(bel: Belief, r: int, cmd: int, a1: float, kp) -> float:
+    """turn_neck moment towards the believed ball position."""
+    return neck_to_point(bel, r, cmd, a1, bel.pos[r, 0, 0], bel.pos[r, 0, 1], kp)
+
+
+@njit(cache=True)
+def neck_with_body(bel: Belief, r: int) -> float:
+    """turn_neck moment that aligns the neck with the body (spec 1 step 2)."""
+    return -bel.neck[r, bel.me[r]]
+
+
+@njit(cache=True)
+def write_action(
+    r: int, code: int, a1: float, a2: float, neck: float, out_main, out_a1, out_a2, out_neck
+) -> None:
+    """Store one decision (main command and neck moment) in row ``r`` of the caller's arrays."""
+    out_main[r] = code
+    out_a1[r] = a1
+    out_a2[r] = a2
+    out_neck[r] = neck
+
+
+# ------------------------------------------------------------------------------------------ movement
+
+
+@njit(cache=True)
+def turn_to_point(bel: Belief, r: int, tx: float, ty: float, cycles: float, kp) -> tuple:
+    """Turn the body towards (tx, ty) as seen from my position ``cycles`` ahead, compensating inertia
+    (BasicPlayer::turnBodyToPoint, spec 2 turn inertia)."""
+    me = bel.me[r]
+    vx, vy = bel.vel[r, me, 0], bel.vel[r, me, 1]
+    px, py = rolled_out(bel.pos[r, me, 0], bel.pos[r, me, 1], vx, vy, cycles, kp.player_decay)
+    angle = normalize_angle(direction(tx - px, ty - py) - bel.body[r, me])
+    return CMD_TURN, turn_moment(angle, math.hypot(vx, vy), kp), 0.0
+
+
+@njit(cache=True)
+def move_command(
+    px: float, py: float, vx: float, vy: float, body: float, effort: float,
+    tx: float, ty: float, cycles: float, kp, cfg,
+) -> tuple:
+    """GoToPoint for any player state (spec 2.4): from the rolled-out reference position dash if the
+    target is within the 7 deg threshold of the body direction, else count the turns needed (up to 5):
+    1-2 -> turn (aimed from my position 2 cycles ahead), 3+ -> brake with a dash to stand still.
+    Dash power covers the forward distance in ``cycles`` cycles. Returns (code, arg1)."""
+    fx, fy = final_position(px, py, vx, vy, kp.player_decay)
+    goal_dir = direction(tx - fx, ty - fy)
+    angle = normalize_angle(goal_dir - body)
+    if abs(angle) <= cfg.turn_threshold:
+        return CMD_DASH, dash_power_for(tx - px, ty - py, body, vx, vy, effort, cycles, kp)
+    sx, sy, svx, svy, sb = px, py, vx, vy, body
+    turns = 0
+    while abs(angle) > cfg.turn_threshold and turns < cfg.max_sim_turns:
+        turns += 1
+        sx, sy, svx, svy, sb = player_step(
+            sx, sy, svx, svy, sb, effort, CMD_TURN, turn_moment(angle, math.hypot(svx, svy), kp), kp
+        )
+        angle = normalize_angle(goal_dir - sb)
+    if turns <= cfg.max_direct_turns:
+        ax, ay = rolled_out(px, py, vx, vy, cfg.turn_aim_cycles, kp.player_decay)
+        aim = normalize_angle(direction(tx - ax, ty - ay) - body)
+        return CMD_TURN, turn_moment(aim, math.hypot(vx, vy), kp)
+    return CMD_DASH, dash_power_for(0.0, 0.0, body, vx, vy, effort, 1.0, kp)
+
+
+@njit(cache=True)
+def go_to_point(bel: Belief, r: int, tx: float, ty: float, kp, cfg) -> tuple:
+    """GoToPoint(target, 7 deg) for row ``r`` (spec 2.4)."""
+    me = bel.me[r]
+    code, a1 = move_command(
+        bel.pos[r, me, 0], bel.pos[r, me, 1], bel.vel[r, me, 0], bel.vel[r, me, 1], bel.body[r, me],
+        bel.effort[r], tx, ty, 1.0, kp, cfg,
+    )
+    return code, a1, 0.0
+
+
+@njit(cache=True)
+def intercept_move(
+    px: float, py: float, vx: float, vy: float, body: float, effort: float,
+    tx: float, ty: float, cycles: float, kp, cfg,
+) -> tuple:
+    """One move towards an interception point to be reached in ``cycles`` cycles, as the framework's
+    intercept and travel-time code moves (WorldModel::predictCommandToMoveToPos with back distance 2.5;
+    spec 2.1 steps 2-3 name the GoToPoint rule, the code uses this one): from my position rolled out
+    min(cycles, 4) cycles, turn towards the point only if it lies more than ratio x kickable distance
+    off my body line (ratio 0.9 within 10 m, 2 within 20 m, 3 beyond) or behind me beyond 2.5 m;
+    else dash (backwards if it is behind) with the power that covers the distance in ``cycles``.
+    (The code's angle threshold never applies there: an operator-precedence slip makes it 180.)
+    Returns (code, arg1)."""
+    qx, qy = rolled_out(px, py, vx, vy, min(cycles, cfg.intercept_roll_cycles), kp.player_decay)
+    angle = normalize_angle(direction(tx - qx, ty - qy) - body)
+    ahead = distance(qx, qy, tx, ty)
+    far = distance(px, py, tx, ty)
+    if far > cfg.turn_far_distance:
+        ratio = cfg.turn_ratio_far
+    elif far > cfg.turn_mid_distance:
+        ratio = cfg.turn_ratio_mid
+    else:
+        ratio = cfg.turn_ratio_near
+    off_line = ahead * abs(math.sin(math.radians(angle)))
+    behind = ahead > cfg.intercept_back_distance and abs(angle) > 90.0
+    if off_line > ratio * kickable_distance(kp) or behind:
+        return CMD_TURN, turn_moment(angle, math.hypot(vx, vy), kp)
+    return CMD_DASH, dash_power_for(tx - px, ty - py, body, vx, vy, effort, cycles, kp)
+
+
+@njit(cache=True)
+def travel(
+    px: float, py: float, vx: float, vy: float, body: float, effort: float,
+    tx: float, ty: float, radius: float, n: int, kp, cfg,
+) -> tuple:
+    """Simulate ``n`` intercept moves towards (tx, ty), paced to arrive after n cycles (spec 1 step 4,
+    2.1 step 2). Returns (first cycle at which the player is within ``radius``, or n + 1; distance after
+    n commands). Turns and dashes are counted alike; 0 if already within ``radius``. A target farther
+    than n steps of the largest possible step (max(player_speed_max, current speed)) is not simulated:
+    (n + 1, inf)."""
+    reached = n + 1
+    if distance(px, py, tx, ty) - radius > n * max(kp.player_speed_max, math.hypot(vx, vy)):
+        return reached, math.inf
+    for c in range(n + 1):
+        if reached > n and distance(px, py, tx, ty) < radius:
+            reached = c
+        if c == n:
+            break
+        code, a1 = intercept_move(px, py, vx, vy, body, effort, tx, ty, n - c, kp, cfg)
+        px, py, vx, vy, body = player_step(px, py, vx, vy, body, effort, code, a1, kp)
+    return reached, distance(px, py, tx, ty)
+
+
+@njit(cache=True)
+def player_travel(bel: Belief, r: int, obj: int, tx: float, ty: float, n: int, kp, cfg) -> tuple:
+    """``travel`` for player ``obj`` of row ``r`` to within kickable distance of (tx, ty); my own effort is
+    known, the others' is assumed at its initial value."""
+    effort = bel.effort[r] if obj == bel.me[r] else kp.effort_init
+    return travel(
+        bel.pos[r, obj, 0], bel.pos[r, obj, 1], bel.vel[r, obj, 0], bel.vel[r, obj, 1], bel.body[r, obj],
+        effort, tx, ty, kickable_distance(kp), n, kp, cfg,
+    )
+
+
+@njit(cache=True)
+def fastest_to_ball(bel: Belief, r: int, first: int, last: int, kp, cfg) -> tuple:
+    """(player, cycles): among usable players first..last, the one that reaches the predicted ball first
+    (spec 1 step 4): the smallest i <= horizon for which some travel time to the ball after i cycles is
+    <= i; ties go to the shorter travel time, then the lower index. (-1, horizon + 1) if nobody can."""
+    horizon = int(cfg.intercept_horizon)
+    for i in range(horizon + 1):
+        bx, by = ball_in(bel, r, i, kp)
+        best, best_c = -1, i + 1
+        for j in range(first, last + 1):
+            if j != bel.me[r] and bel.conf[r, j] < cfg.player_conf_threshold:
+                continue
+            c, _ = player_travel(bel, r, j, bx, by, i, kp, cfg)
+            if c < best_c:
+                best, best_c = j, c
+        if best >= 0:
+            return best, i
+    return -1, horizon + 1
+
+
+@njit(cache=True)
+def search_ball(bel: Belief, r: int, mem: AgentMemory, kp, cfg) -> tuple:
+    """Turn 60 deg towards the side where the ball was last seen; the side is re-chosen only after
+    3 cycles without searching (spec 1 step 2, BasicPlayer::searchBall)."""
+    me = bel.me[r]
+    now = bel.time[r]
+    px, py, body = bel.pos[r, me, 0], bel.pos[r, me, 1], bel.body[r, me]
+    if mem.search_time[r] < 0 or now - mem.search_time[r] > cfg.search_memory:
+        rel = normalize_angle(direction(bel.pos[r, 0, 0] - px, bel.pos[r, 0, 1] - py) - body)
+        mem.search_sign[r] = 1.0 if rel >= 0.0 else -1.0
+    mem.search_time[r] = now
+    aim = math.radians(body + cfg.search_turn * mem.search_sign[r])
+    return turn_to_point(bel, r, px + math.cos(aim), py + math.sin(aim), 1.0, kp)
+
+
+# ------------------------------------------------------------------------------------------- kicking
+
+
+@njit(cache=True)
+def _my_kick_rate(bel: Belief, r: int, kp) -> float:
+    me = bel.me[r]
+    return kick_rate(
+        bel.pos[r, me, 0], bel.pos[r, me, 1], bel.body[r, me], bel.pos[r, 0, 0], bel.pos[r, 0, 1], kp
+    )
+
+
+@njit(cache=True)
+def _power_for_speed(speed: float, rate: float) -> float:
+    """Kick power giving a velocity change ``speed`` at effective ``rate`` (spec 2, shared geometry)."""
+    return speed / rate if rate > 0.0 else math.inf
+
+
+@njit(cache=True)
+def accelerate_ball_to(bel: Belief, r: int, wx: float, wy: float, kp) -> tuple:
+    """Kick that gives the ball velocity (wx, wy); if one kick cannot, a full-power kick that aligns the
+    ball's new velocity with it (BasicPlayer::accelerateBallToVelocity, spec 2.3)."""
+    me = bel.me[r]
+    body = bel.body[r, me]
+    bvx, bvy = bel.vel[r, 0, 0], bel.vel[r, 0, 1]
+    rate = _my_kick_rate(bel, r, kp)
+    ax, ay = wx - bvx, wy - bvy
+    acc = math.hypot(ax, ay)
+    if acc < kp.ball_accel_max:
+        power = _power_for_speed(acc, rate)
+        if power <= kp.max_power:
+            return CMD_KICK, power, normalize_angle(direction(ax, ay) - body)
+    speed = rate * kp.max_power
+    want = direction(wx, wy)
+    rad = math.radians(-want)
+    side = bvx * math.sin(rad) + bvy * math.cos(rad)
+    ratio = min(1.0, max(-1.0, side / speed)) if speed > 0.0 else 0.0
+    kick_dir = want - math.degrees(math.asin(ratio))
+    return CMD_KICK, kp.max_power, normalize_angle(kick_dir - body)
+
+
+@njit(cache=True)
+def freeze_ball(bel: Belief, r: int, kp, cfg) -> tuple:
+    """Stop the ball: kick against its velocity; if that would leave it beyond 0.8 x kickable distance of
+    my next position, kick it towards a point inside 0.7 x kickable distance instead (spec 2.2 step 3)."""
+    me = bel.me[r]
+    body = bel.body[r, me]
+    bx, by = bel.pos[r, 0, 0], bel.pos[r, 0, 1]
+    bvx, bvy = bel.vel[r, 0, 0], bel.vel[r, 0, 1]
+    rate = _my_kick_rate(bel, r, kp)
+    power = min(_power_for_speed(math.hypot(bvx, bvy), rate), kp.max_power)
+    kick_dir = normalize_angle(direction(bvx, bvy) + 180.0 - body)
+    nx, ny = bel.pos[r, me, 0] + bel.vel[r, me, 0], bel.pos[r, me, 1] + bel.vel[r, me, 1]
+    fx, fy, _, _ = ball_after_kick(bx, by, bvx, bvy, rate, power, kick_dir, body, kp)
+    kickable = kickable_distance(kp)
+    if distance(fx, fy, nx, ny) < cfg.freeze_keep_ratio * kickable:
+        return CMD_KICK, power, kick_dir
+    reach = min(cfg.freeze_target_ratio * kickable, distance(bx, by, nx, ny) - cfg.freeze_inset)
+    aim = math.radians(direction(bx - nx, by - ny))
+    return accelerate_ball_to(bel, r, nx + reach * math.cos(aim) - bx, ny + reach * math.sin(aim) - by, kp)
+
+
+@njit(cache=True)
+def kick_close_to_body(bel: Belief, r: int, angle: float, ratio: float, kp, cfg) -> tuple:
+    """Kick the ball to my next position + (player_size + ball_size + kickable_margin * ratio) at
+    ``angle`` relative to my body, pulled back inside the pitch; freeze if one kick cannot compensate a
+    moving ball, kick at full power if the ball is still (spec 2.2 step 3)."""
+    me = bel.me[r]
+    body = bel.body[r, me]
+    nx, ny = bel.pos[r, me, 0] + bel.vel[r, me, 0], bel.pos[r, me, 1] + bel.vel[r, me, 1]
+    reach = kp.player_size + kp.ball_size + kp.kickable_margin * ratio
+    aim = math.radians(normalize_angle(body + angle))
+    cs, sn = math.cos(aim), math.sin(aim)
+    half_l, half_w = kp.pitch_length / 2.0, kp.pitch_width / 2.0
+    if abs(ny + reach * sn) > half_w and sn != 0.0:
+        reach = (math.copysign(half_w, sn) - ny) / sn - cfg.pitch_pullback
+    elif abs(nx + reach * cs) > half_l and cs != 0.0:
+        reach = (math.copysign(half_l, cs) - nx) / cs - cfg.pitch_pullback
+    bvx, bvy = bel.vel[r, 0, 0], bel.vel[r, 0, 1]
+    kx = nx + reach * cs - bel.pos[r, 0, 0] - bvx
+    ky = ny + reach * sn - bel.pos[r, 0, 1] - bvy
+    power = _power_for_speed(math.hypot(kx, ky), _my_kick_rate(bel, r, kp))
+    if power > kp.max_power:
+        if math.hypot(bvx, bvy) > cfg.still_ball_speed:
+            return freeze_ball(bel, r, kp, cfg)
+        power = kp.max_power
+    return CMD_KICK, power, normalize_angle(direction(kx, ky) - body)
+
+
+@njit(cache=True)
+def hold_ball(bel: Belief, r: int, ratio: float, kp, cfg) -> tuple:
+    """HoldBall (spec 2.2): keep the ball ``ratio`` x kickable_margin from the body, away from the
+    opponent closest to the ball (rotated 45 deg against its heading) when it is within 5 m; if the ball
+    already sits there, turn towards the opponent goal as long as the ball stays controllable."""
+    me = bel.me[r]
+    px, py, body = bel.pos[r, me, 0], bel.pos[r, me, 1], bel.body[r, me]
+    first, last = opponents(bel, me)
+    opp = closest_to_ball(bel, r, first, last, -1, cfg)
+    desired = 0.0
+    if opp >= 0:
+        ox, oy = bel.pos[r, opp, 0], bel.pos[r, opp, 1]
+        if distance(ox, oy, bel.pos[r, 0, 0], bel.pos[r, 0, 1]) < cfg.hold_opponent_radius:
+            phi = direction(px - ox, py - oy)
+            side = -1.0 if normalize_angle(bel.body[r, opp] - phi) > 0.0 else 1.0
+            desired = normalize_angle(phi + cfg.hold_escape_angle * side - body)
+    # The framework tests the relative angle as if it were global (a quirk kept, spec 2.2 step 2).
+    spot_x = px + ratio * math.cos(math.radians(desired))
+    spot_y = py + ratio * math.sin(math.radians(desired))
+    if distance(spot_x, spot_y, bel.pos[r, 0, 0], bel.pos[r, 0, 1]) < cfg.hold_ball_tolerance:
+        goal_x = kp.pitch_length / 2.0 if is_keeper(bel, me) else -kp.pitch_length / 2.0
+        code, a1, a2 = turn_to_point(bel, r, goal_x, 0.0, 1.0, kp)
+        mx, my, _, _, _ = player_step(
+            px, py, bel.vel[r, me, 0], bel.vel[r, me, 1], body, bel.effort[r], code, a1, kp
+        )
+        bx, by = ball_in(bel, r, 1.0, kp)
+        if distance(mx, my, bx, by) < cfg.hold_turn_safety * kickable_distance(kp):
+            return code, a1, a2
+    return kick_close_to_body(bel, r, desired, ratio, kp, cfg)
+
+
+@njit(cache=True)
+def pass_initial_speed(dist: float, end_speed: float, decay: float) -> tuple:
+    """(n, v0): cycles and initial speed for a ball to arrive after ``dist`` with ``end_speed``:
+    n = round(log(dist (1/d - 1)/end + 1) / log(1/d)), v0 = end (1/d)^n (spec 2.3)."""
+    inv = 1.0 / decay
+    n = math.floor(math.log(dist * (inv - 1.0) / end_speed + 1.0) / math.log(inv) + 0.5)
+    return n, end_speed * inv**n
+
+
+@njit(cache=True)
+def kick_to(bel: Belief, r: int, tx: float, ty: float, end_speed: float, kp, cfg) -> tuple:
+    """kickTo(target, end speed) (spec 2.3): the initial speed that makes the ball arrive at ``end_speed``;
+    if the ball's first step would end on my next position, it is shortened/extended to end 0.385 m
+    before/after my projection on its line (BasicPlayer::kickTo); too fast -> full-power kick, freeze or
+    reposition; too much power -> reposition in front (kick next cycle)."""
+    me = bel.me[r]
+    bx, by = bel.pos[r, 0, 0], bel.pos[r, 0, 1]
+    dist = distance(bx, by, tx, ty)
+    if dist == 0.0:
+        return kick_close_to_body(bel, r, 0.0, cfg.reposition_ratio, kp, cfg)
+    _, v0 = pass_initial_speed(dist, end_speed, kp.ball_decay)
+    ux, uy = (tx - bx) / dist, (ty - by) / dist
+    nx, ny = bel.pos[r, me, 0] + bel.vel[r, me, 0], bel.pos[r, me, 1] + bel.vel[r, me, 1]
+    body_clear = kp.player_size + kp.ball_size
+    if distance(bx + v0 * ux, by + v0 * uy, nx, ny) < body_clear:
+        along = abs((bel.pos[r, me, 0] - bx) * ux + (bel.pos[r, me, 1] - by) * uy)
+        v0 = along - body_clear if v0 < along else along + body_clear
+    if v0 > kp.ball_speed_max:
+        code, power, kick_dir = accelerate_ball_to(bel, r, v0 * ux, v0 * uy, kp)
+        rate = _my_kick_rate(bel, r, kp)
+        _, _, fvx, fvy = ball_after_kick(
+            bx, by, bel.vel[r, 0, 0], bel.vel[r, 0, 1], rate, power, kick_dir, bel.body[r, me], kp
+        )
+        if math.hypot(fvx, fvy) / kp.ball_decay > cfg.pass_speed_ratio * kp.ball_speed_max:
+            return code, power, kick_dir
+        if rate > cfg.pass_kick_rate_ratio * kp.kick_power_rate:
+            return freeze_ball(bel, r, kp, cfg)
+        return kick_close_to_body(bel, r, 0.0, cfg.reposition_ratio, kp, cfg)
+    power = _power_for_speed(
+        math.hypot(v0 * ux - bel.vel[r, 0, 0], v0 * uy - bel.vel[r, 0, 1]), _my_kick_rate(bel, r, kp)
+    )
+    pressed = False
+    if power <= cfg.pass_power_pressed:
+        first, last = opponents(bel, me)
+        opp = closest_to_ball(bel, r, first, last, -1, cfg)
+        if opp >= 0:
+            pressed = distance(bel.pos[r, opp, 0], bel.pos[r, opp, 1], bx, by) < cfg.pass_pressure_radius
+    if power <= cfg.pass_power_ok or pressed:
+        return accelerate_ball_to(bel, r, v0 * ux, v0 * uy, kp)
+    return kick_close_to_body(bel, r, 0.0, cfg.reposition_ratio, kp, cfg)
+
+
+@njit(cache=True)
+def pass_ball(bel: Belief, r: int, k: int, kp, cfg) -> tuple:
+    """PassBall-k (spec 1 step 3d, 2.3): kickTo the k-th nearest keeper from me (k = 1 nearest teammate),
+    resolved from the current positions, at the pass end speed."""
+    me = bel.me[r]
+    order = np.empty(bel.n_keepers, dtype=np.int64)
+    sort_by_distance(bel, r, bel.pos[r, me, 0], bel.pos[r, me, 1], 1, bel.n_keepers, me, order)
+    target = order[k - 1]
+    return kick_to(bel, r, bel.pos[r, target, 0], bel.pos[r, target, 1], cfg.pass_end_speed, kp, cfg)
+
+
+# ----------------------------------------------------------------------------------------- intercept
+
+
+@njit(cache=True)
+def _line_circle(px: float, py: float, ux: float, uy: float, cx: float, cy: float, radius: float) -> tuple:
+    """Parameters t1 <= t2 where the line p + t u meets the circle; (nan, nan) if it misses."""
+    along = (cx - px) * ux + (cy - py) * uy
+    perp2 = (cx - px) ** 2 + (cy - py) ** 2 - along**2
+    if perp2 > radius**2:
+        return math.nan, math.nan
+    half = math.sqrt(radius**2 - perp2)
+    return along - half, along + half
+
+
+@njit(cache=True)
+def close_intercept(bel: Belief, r: int, still: bool, kp, cfg) -> tuple:
+    """(ok, code, arg1): intercept a ball reachable in 1-2 cycles (spec 2.1 step 1). Tried in order:
+    one dash to a point of the circle (radius player_size + ball_size + kickable_margin/6) around the
+    next ball position on my body line, ball in front first, then a dash at the ball; turn+dash and
+    dash+dash to the ball in two cycles. Success: ending within 0.95 x kickable distance."""
+    me = bel.me[r]
+    px, py, vx, vy = bel.pos[r, me, 0], bel.pos[r, me, 1], bel.vel[r, me, 0], bel.vel[r, me, 1]
+    body, effort = bel.body[r, me], bel.effort[r]
+    reach = cfg.close_margin * kickable_distance(kp)
+    b1x, b1y = _ball_plan(bel, r, 1.0, still, kp)
+    b2x, b2y = _ball_plan(bel, r, 2.0, still, kp)
+    ux, uy = math.cos(math.radians(body)), math.sin(math.radians(body))
+    radius = kp.player_size + kp.ball_size + kp.kickable_margin * cfg.close_radius_margin
+    t1, t2 = _line_circle(px + vx, py + vy, ux, uy, b1x, b1y, radius)
+    n_aims = 1 if math.isnan(t1) else 3
+    for k in range(n_aims):
+        if k == n_aims - 1:
+            gx, gy = b1x, b1y
+        else:
+            t = t1 if k == 0 else t2
+            gx, gy = px + vx + t * ux, py + vy + t * uy
+        power = dash_power_for(gx - px, gy - py, body, vx, vy, effort, 1.0, kp)
+        sx, sy, _, _, _ = player_step(px, py, vx, vy, body, effort, CMD_DASH, power, kp)
+        if distance(sx, sy, b1x, b1y) < reach:
+            return True, CMD_DASH, power
+    to_ball = normalize_angle(direction(b2x - px - vx, b2y - py - vy) - body)
+    moment = turn_moment(to_ball, math.hypot(vx, vy), kp)
+    for first in (CMD_TURN, CMD_DASH):
+        if first == CMD_TURN:
+            a1 = moment
+        else:
+            a1 = dash_power_for(b2x - px, b2y - py, body, vx, vy, effort, 2.0, kp)
+        sx, sy, svx, svy, sb = player_step(px, py, vx, vy, body, effort, first, a1, kp)
+        power = dash_power_for(b2x - sx, b2y - sy, sb, svx, svy, effort, 1.0, kp)
+        sx, sy, _, _, _ = player_step(sx, sy, svx, svy, sb, effort, CMD_DASH, power, kp)
+        if distance(sx, sy, b2x, b2y) < reach:
+            return True, first, a1
+    return False, CMD_DASH, 0.0
+
+
+@njit(cache=True)
+def interception_point(bel: Belief, r: int, mem: AgentMemory, still: bool, kp, cfg) -> tuple:
+    """(i, x, y): the cycle and ball position at which I intercept (spec 2.1 step 2), -1 if none within
+    the horizon. First reachable i by default; the stability rule prefers a reachable i (at most 2 cycles
+    after the first) whose ball position is within 1 m of the point chosen last cycle, with margin and a
+    ball still moving, if I intercepted during the last 2 cycles. The choice is remembered in ``mem``.
+    (The framework scans on to first + 20 cycles, but only first..first + 2 can be chosen, so the scan
+    stops there.)"""
+    me = bel.me[r]
+    px, py, vx, vy = bel.pos[r, me, 0], bel.pos[r, me, 1], bel.vel[r, me, 0], bel.vel[r, me, 1]
+    fx, fy = final_position(px, py, vx, vy, kp.player_decay)
+    kickable = kickable_distance(kp)
+    ball_speed = 0.0 if still else math.hypot(bel.vel[r, 0, 0], bel.vel[r, 0, 1])
+    recent = mem.intercept_time[r] >= 0 and bel.time[r] - mem.intercept_time[r] <= cfg.stability_window
+    first, stable = -1, -1
+    for i in range(int(cfg.intercept_horizon) + 1):
+        if first >= 0 and i > first + cfg.stability_window:
+            break
+        bx, by = _ball_plan(bel, r, i, still, kp)
+        if abs(bx) > kp.pitch_length / 2.0 or abs(by) > kp.pitch_width / 2.0:
+            break
+        if distance(fx, fy, bx, by) / kp.player_speed_max > i + kickable:
+            continue
+        reached, end = player_travel(bel, r, me, bx, by, i, kp, cfg)
+        if reached > i:
+            continue
+        if first < 0:
+            first = i
+            if not recent:
+                break
+        if (
+            stable < 0
+            and i <= first + cfg.stability_window
+            and distance(bx, by, mem.intercept_point[r, 0], mem.intercept_point[r, 1]) < cfg.stability_radius
+            and end < cfg.stability_margin * kickable
+            and ball_speed * kp.ball_decay**i > cfg.stability_ball_speed
+        ):
+            stable = i
+    chosen = stable if stable >= 0 else first
+    if chosen < 0:
+        return -1, bel.pos[r, 0, 0], bel.pos[r, 0, 1]
+    x, y = _ball_plan(bel, r, chosen, still, kp)
+    mem.intercept_point[r, 0] = x
+    mem.intercept_point[r, 1] = y
+    mem.intercept_time[r] = bel.time[r]
+    return chosen, x, y
+
+
+@njit(cache=True)
+def intercept(bel: Belief, r: int, mem: AgentMemory, still: bool, kp, cfg) -> tuple:
+    """Intercept / GoToBall (spec 2.1 step 3): the close intercept when the chosen point is < 3 cycles
+    away and one exists; no move when my rolled-out position is already within 0.5 m of the point (the
+    framework then turns to global 0 deg, a quirk kept); else move to the point, sized to arrive in i
+    cycles (``intercept_move``). With no reachable point, head for the ball's current position.
+    ``still``: plan with the ball at rest (see ``taker_decide``); False is the framework's behaviour."""
+    me = bel.me[r]
+    i, x, y = interception_point(bel, r, mem, still, kp, cfg)
+    if 0 <= i < cfg.close_max_cycle:
+        ok, code, a1 = close_intercept(bel, r, still, kp, cfg)
+        if ok:
+            return code, a1, 0.0
+    fx, fy = final_position(
+        bel.pos[r, me, 0], bel.pos[r, me, 1], bel.vel[r, me, 0], bel.vel[r, me, 1], kp.player_decay
+    )
+    if distance(fx, fy, x, y) < cfg.intercept_stay_radius:
+        speed = math.hypot(bel.vel[r, me, 0], bel.vel[r, me, 1])
+        return CMD_TURN, turn_moment(normalize_angle(-bel.body[r, me]), speed, kp), 0.0
+    code, a1 = intercept_move(
+        bel.pos[r, me, 0], bel.pos[r, me, 1], bel.vel[r, me, 0], bel.vel[r, me, 1], bel.body[r, me],
+        bel.effort[r], x, y, max(i, 1), kp, cfg,
+    )
+    return code, a1, 0.0

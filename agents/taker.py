@@ -1,0 +1,136 @@
+"""The hand-coded taker (spec `keepaway-agents.md` 3).
+
+Per cycle: ball lost -> search; ball kickable and I am the taker closest to it -> HoldBall (ratio 0.3);
+with more than two takers, the third and further takers mark the least covered keeper; if another taker
+already controls the ball -> face it and do not interfere; else intercept. In 3v2 both takers chase.
+
+Deviation (``AgentConfig.takers_plan_held_ball_still``, on by default): while a keeper controls the ball,
+a chasing taker plans its interception with the ball at rest. With exact beliefs (batched mode) the
+framework rule deadlocks: HoldBall moves the ball ~1.2 m around the keeper every other cycle, away from
+the side the nearest taker's body points to; the taker's interception point swings with the ball's
+velocity, so it turns every cycle and never dashes, which flips the keeper's side again. In a noise-free
+check with hand-coded keepers most episodes never ended; with this option they ended after ~13 s.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from agents.belief import AgentMemory, Belief
+from agents.geometry import distance, in_cone
+from agents.getopen import move_to_spot
+from agents.skills import (
+    ball_kickable,
+    closest_to_ball,
+    fastest_to_ball,
+    hold_ball,
+    intercept,
+    kickable_distance,
+    neck_to_ball,
+    neck_with_body,
+    search_ball,
+    turn_to_point,
+    write_action,
+)
+from server.world import PARKED_Y
+
+# The chasers: the closest and the second-closest taker to the ball never mark (spec 3 step 3).
+CHASING_TAKERS = 2
+
+
+@njit(cache=True)
+def takers_closer_to_ball(bel: Belief, r: int, cfg) -> int:
+    """How many usable takers are closer to the ball than me (ties: lower index counts as closer)."""
+    me = bel.me[r]
+    bx, by = bel.pos[r, 0, 0], bel.pos[r, 0, 1]
+    mine = distance(bel.pos[r, me, 0], bel.pos[r, me, 1], bx, by)
+    count = 0
+    for j in range(bel.n_keepers + 1, bel.n_keepers + bel.n_takers + 1):
+        if j == me or bel.conf[r, j] < cfg.player_conf_threshold:
+            continue
+        d = distance(bel.pos[r, j, 0], bel.pos[r, j, 1], bx, by)
+        if d < mine or (d == mine and j < me):
+            count += 1
+    return count
+
+
+@njit(cache=True)
+def keeper_controls_ball(bel: Belief, r: int, kp, cfg) -> bool:
+    """Whether a usable keeper has the ball within its kickable distance."""
+    for i in range(1, bel.n_keepers + 1):
+        if bel.conf[r, i] >= cfg.player_conf_threshold and ball_kickable(bel, r, i, kp):
+            return True
+    return False
+
+
+@njit(cache=True)
+def mark_point(bel: Belief, r: int, kp, cfg) -> tuple:
+    """Where to mark (spec 3 step 3): for each keeper on the pitch count the takers in the cone (half-width
+    0.3) from the keeper fastest to the ball towards it; take the keeper with the fewest (first on ties,
+    the ball holder included: a framework quirk) and stand 4 m from it on its line to the ball."""
+    k, t = bel.n_keepers, bel.n_takers
+    origin, _ = fastest_to_ball(bel, r, 1, k, kp, cfg)
+    if origin < 0:
+        origin = closest_to_ball(bel, r, 1, k, -1, cfg)
+    ox, oy = bel.pos[r, 0, 0], bel.pos[r, 0, 1]
+    if origin >= 0:
+        ox, oy = bel.pos[r, origin, 0], bel.pos[r, origin, 1]
+    target, fewest = -1, t + 1
+    for i in range(1, k + 1):
+        kx, ky = bel.pos[r, i, 0], bel.pos[r, i, 1]
+        if abs(ky) >= abs(PARKED_Y):
+            continue
+        covered = 0
+        for j in range(k + 1, k + t + 1):
+            usable = bel.conf[r, j] >= cfg.player_conf_threshold
+            if usable and in_cone(ox, oy, kx, ky, bel.pos[r, j, 0], bel.pos[r, j, 1], cfg.mark_cone_ratio):
+                covered += 1
+        if covered < fewest:
+            target, fewest = i, covered
+    if target < 0:
+        return bel.pos[r, 0, 0], bel.pos[r, 0, 1]
+    kx, ky = bel.pos[r, target, 0], bel.pos[r, target, 1]
+    dx, dy = bel.pos[r, 0, 0] - kx, bel.pos[r, 0, 1] - ky
+    length = math.hypot(dx, dy)
+    if length == 0.0:
+        return kx, ky
+    return kx + cfg.mark_distance * dx / length, ky + cfg.mark_distance * dy / length
+
+
+@njit(cache=True)
+def taker_decide(bel: Belief, r: int, mem: AgentMemory, kp, cfg, out_main, out_a1, out_a2, out_neck) -> None:
+    """One taker decision for row ``r`` (spec `keepaway-agents.md` 3 steps 1-5)."""
+    me = bel.me[r]
+    if bel.conf[r, 0] < cfg.ball_conf_threshold:
+        code, a1, a2 = search_ball(bel, r, mem, kp, cfg)
+        write_action(r, code, a1, a2, neck_with_body(bel, r), out_main, out_a1, out_a2, out_neck)
+        return
+    rank = takers_closer_to_ball(bel, r, cfg)
+    if rank == 0 and ball_kickable(bel, r, me, kp):
+        code, a1, a2 = hold_ball(bel, r, cfg.hold_ratio_taker, kp, cfg)
+    elif bel.n_takers > CHASING_TAKERS and rank >= CHASING_TAKERS:
+        px, py = mark_point(bel, r, kp, cfg)
+        code, a1, a2 = move_to_spot(bel, r, px, py, kp, cfg)
+    else:
+        nearest = closest_to_ball(bel, r, 1, bel.n_keepers + bel.n_takers, -1, cfg)
+        if (
+            nearest != me
+            and nearest > bel.n_keepers
+            and distance(bel.pos[r, nearest, 0], bel.pos[r, nearest, 1], bel.pos[r, 0, 0], bel.pos[r, 0, 1])
+            < kickable_distance(kp)
+        ):
+            code, a1, a2 = turn_to_point(bel, r, bel.pos[r, 0, 0], bel.pos[r, 0, 1], 1.0, kp)
+            write_action(r, code, a1, a2, neck_with_body(bel, r), out_main, out_a1, out_a2, out_neck)
+            return
+        still = cfg.takers_plan_held_ball_still > 0.0 and keeper_controls_ball(bel, r, kp, cfg)
+        code, a1, a2 = intercept(bel, r, mem, still, kp, cfg)
+    write_action(r, code, a1, a2, neck_to_ball(bel, r, code, a1, kp), out_main, out_a1, out_a2, out_neck)
+
+
+@njit(cache=True)
+def takers_decide(bel: Belief, mem: AgentMemory, kp, cfg, out_main, out_a1, out_a2, out_neck) -> None:
+    """``taker_decide`` for every row (the batched mode)."""
+    for r in range(bel.pos.shape[0]):
+        taker_decide(bel, r, mem, kp, cfg, out_main, out_a1, out_a2, out_neck)

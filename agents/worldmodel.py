@@ -1,0 +1,662 @@
+"""The players' world model: localisation and tracking from noisy percepts.
+
+A player only sees quantised, partial percepts (spec `server-physics.md` 4). This module keeps, per
+deciding player (one row of a batch), an estimate of every object and writes it as one row of a
+:class:`agents.belief.Belief`:
+
+* **prediction** (every cycle): my own motion from the commands I sent, with the server's model (dash
+  acceleration with effort along the body, turn with inertia, neck, decay; spec 2-3) and no noise; my kick
+  changes the ball's velocity; the ball and the other players roll out their velocities with decay;
+* **sense_body**: my neck (head_angle), velocity (speed) and effort, both angles truncated to integers;
+* **see**: self-localisation from the flags, a weighted 2-D rigid fit (Procrustes) of the flags' relative
+  positions onto their global positions, which gives my head direction and position without a prior; the
+  ball and the players from their polar observations, velocities from dist_chg/dir_chg (spec 4 "Changes"),
+  unnamed players associated with the nearest compatible predicted player;
+* **confidence** conf = 1 - (cycles since seen)/100, 1 for myself (spec `keepaway-agents.md` 1).
+
+Not modelled: collisions, the line observations (the flags suffice), fusing successive noisy sightings of
+an object (each see replaces the estimate), commands that arrive late and act a cycle later.
+
+Hot paths are ``@njit`` kernels over arrays with a row per player; a row kernel takes the row index ``r``
+so the batched mode can compose them in one loop. :class:`WorldModel` is the per-process Python wrapper
+(B = 1) that unpacks decoded wire payloads (`protocol` messages ``see``, ``sense_body``, ``fullstate``)
+into preallocated arrays.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any, NamedTuple
+
+import numpy as np
+from numba import njit
+
+from agents.belief import Belief, empty_belief
+from agents.geometry import kick_rate, normalize_angle, turn_effect
+from protocol.params import ServerParams
+from server.world import BALL, CMD_DASH, CMD_KICK, CMD_NONE, CMD_TURN
+
+# Confidence falls to 0 after this many unseen cycles (spec `keepaway-agents.md` 1).
+CONF_HORIZON_CYCLES = 100.0
+# Percept directions are whole degrees (spec `server-physics.md` 4 "Content").
+DIR_STEP_DEG = 1.0
+# The outer quantisation of every seen distance, Q(exp(Q(ln d, q)), 0.1) (spec 4 "Distance").
+DIST_PRINT_STEP = 0.1
+# Velocity from two successive ball positions only if they are at most this many cycles apart: one see
+# period is 1-2 cycles at normal width and 3 at the widest synch-see (spec 4 "View modes"); beyond it a
+# kick or collision in between is likely.
+MAX_POSITION_DIFF_GAP = 3
+# seen/obs time of an object never seen since the last forget.
+NEVER = -(1 << 40)
+# Association tiers (spec: nearest compatible predicted player): a player within its reach beats a never
+# seen one, which beats one that could not have moved there.
+_UNSEEN_COST = 1.0e6
+
+SIDE_CODES = {"l": 0, "r": 1}
+_NO_SIDE = -1
+_NO_UNUM = 0
+
+
+class ModelState(NamedTuple):
+    """The world model of ``B`` players (a row each), updated in place by the kernels."""
+
+    time: np.ndarray  # (B,) int64 cycle of the estimate; -1 before the first percept
+    me: np.ndarray  # (B,) int64 my object index
+    pos: np.ndarray  # (B, N, 2) estimated positions
+    vel: np.ndarray  # (B, N, 2) estimated stored (post-decay) velocities
+    body: np.ndarray  # (B, N) global body angles, deg
+    neck: np.ndarray  # (B, N) necks relative to the bodies, deg
+    seen: np.ndarray  # (B, N) int64 cycle each object was last seen (NEVER if not since forget)
+    err: np.ndarray  # (B, N) how far a player may have moved since it was seen, m (association gate)
+    obs_pos: np.ndarray  # (B, N, 2) position of the last observation (for position differences)
+    stamina: np.ndarray  # (B,) my stamina (sense_body)
+    effort: np.ndarray  # (B,) my effort (sense_body)
+    speed: np.ndarray  # (B, 2) sense_body speed [amount, direction relative to head (truncated deg)]
+    speed_time: np.ndarray  # (B,) int64 cycle of that speed
+    cmd_main: np.ndarray  # (B,) int8 my main command of this cycle (CMD_*), applied at the next step
+    cmd_args: np.ndarray  # (B, 3) its arg1, arg2 and my turn_neck moment
+
+
+class SeeBuffer(NamedTuple):
+    """One ``see`` per row, unpacked (cycle < 0: no see for the row). NaN marks an omitted field."""
+
+    cycle: np.ndarray  # (B,) int64
+    n_flags: np.ndarray  # (B,) int64
+    flag_id: np.ndarray  # (B, F) int64 index into the landmark table
+    flag_obs: np.ndarray  # (B, F, 2) [dist, dir]
+    ball_seen: np.ndarray  # (B,) bool
+    ball_obs: np.ndarray  # (B, 4) [dist, dir, dist_chg, dir_chg]
+    n_players: np.ndarray  # (B,) int64
+    player_side: np.ndarray  # (B, P) int64 SIDE_CODES or -1
+    player_unum: np.ndarray  # (B, P) int64, 0 if unknown
+    player_obs: np.ndarray  # (B, P, 6) [dist, dir, dist_chg, dir_chg, body_dir, head_dir]
+    target: np.ndarray  # (B, P) int64 scratch: object each observation was assigned to
+    taken: np.ndarray  # (B, N) bool scratch: objects already assigned
+    cost: np.ndarray  # (B, P, N) scratch: association costs
+
+
+def new_model_state(batch: int, n_keepers: int, n_takers: int, me: np.ndarray | int,
+                    params: ServerParams) -> ModelState:
+    """A model that knows nothing yet (every object unseen), for players ``me`` (object indices)."""
+    n = 1 + n_keepers + n_takers
+    return ModelState(
+        time=np.full(batch, -1, dtype=np.int64),
+        me=np.array(np.broadcast_to(np.asarray(me, dtype=np.int64), (batch,))),
+        pos=np.zeros((batch, n, 2)),
+        vel=np.zeros((batch, n, 2)),
+        body=np.zeros((batch, n)),
+        neck=np.zeros((batch, n)),
+        seen=np.full((batch, n), NEVER, dtype=np.int64),
+        err=np.zeros((batch, n)),
+        obs_pos=np.zeros((batch, n, 2)),
+        stamina=np.full(batch, params.stamina_max),
+        effort=np.full(batch, params.effort_init),
+        speed=np.zeros((batch, 2)),
+        speed_time=np.full(batch, NEVER, dtype=np.int64),
+        cmd_main=np.full(batch, CMD_NONE, dtype=np.int8),
+        cmd_args=np.zeros((batch, 3)),
+    )
+
+
+def new_see_buffer(batch: int, n_flags: int, n_objects: int) -> SeeBuffer:
+    """Preallocated see arrays for ``batch`` rows (at most every other player is seen)."""
+    n_players = n_objects - 2
+    return SeeBuffer(
+        cycle=np.full(batch, -1, dtype=np.int64),
+        n_flags=np.zeros(batch, dtype=np.int64),
+        flag_id=np.zeros((batch, n_flags), dtype=np.int64),
+        flag_obs=np.zeros((batch, n_flags, 2)),
+        ball_seen=np.zeros(batch, dtype=np.bool_),
+        ball_obs=np.full((batch, 4), np.nan),
+        n_players=np.zeros(batch, dtype=np.int64),
+        player_side=np.full((batch, n_players), _NO_SIDE, dtype=np.int64),
+        player_unum=np.zeros((batch, n_players), dtype=np.int64),
+        player_obs=np.full((batch, n_players, 6), np.nan),
+        target=np.zeros((batch, n_players), dtype=np.int64),
+        taken=np.zeros((batch, n_objects), dtype=np.bool_),
+        cost=np.zeros((batch, n_players, n_objects)),
+    )
+
+
+# ---------------------------------------------------------------------------------------------------
+# small numeric helpers
+
+
+@njit(cache=True, inline="always")
+def _clamp(x, lo, hi):
+    return min(max(x, lo), hi)
+
+
+@njit(cache=True, inline="always")
+def _truncated_centre(v):
+    """Centre of the values that C truncation maps to the integer ``v`` (spec 4 sense_body)."""
+    if v > 0.0:
+        return v + 0.5 * DIR_STEP_DEG
+    if v < 0.0:
+        return v - 0.5 * DIR_STEP_DEG
+    return 0.0
+
+
+@njit(cache=True, inline="always")
+def _observation_bounds(dist, q):
+    """Worst-case error of a point seen at quantised distance ``dist`` with log-step ``q`` (spec 4):
+    radial, e^(q/2) - 1 relative plus the 0.05 m print rounding; lateral, half a degree."""
+    radial = dist * (math.exp(0.5 * q) - 1.0) + 0.5 * DIST_PRINT_STEP
+    return radial, dist * math.radians(0.5 * DIR_STEP_DEG)
+
+
+@njit(cache=True, inline="always")
+def _flag_weight(dist, kp):
+    """Inverse variance of a flag's relative position: uniform quantisation of ln d (step
+    quantize_step_l), of the direction (1 deg) and of the printed distance (0.1 m), spec 4."""
+    rel = (kp.quantize_step_l ** 2 + math.radians(DIR_STEP_DEG) ** 2) / 12.0
+    return 1.0 / (dist * dist * rel + DIST_PRINT_STEP ** 2 / 12.0)
+
+
+# ---------------------------------------------------------------------------------------------------
+# prediction (spec `server-physics.md` 2-3, without noise)
+
+
+@njit(cache=True)
+def _kick_acceleration(r, s, power, direction, kp):
+    """The acceleration my kick gives the ball, or zero if the ball is not kickable (spec 3 kick)."""
+    me = s.me[r]
+    px, py = s.pos[r, me, 0], s.pos[r, me, 1]
+    bx, by = s.pos[r, BALL, 0], s.pos[r, BALL, 1]
+    if math.hypot(bx - px, by - py) > kp.player_size + kp.kickable_margin + kp.ball_size:
+        return 0.0, 0.0
+    power = _clamp(power, kp.min_power, kp.max_power)
+    direction = _clamp(direction, kp.min_moment, kp.max_moment)
+    eff = power * kick_rate(px, py, s.body[r, me], bx, by, kp)
+    a = math.radians(s.body[r, me] + direction)
+    return eff * math.cos(a), eff * math.sin(a)
+
+
+@njit(cache=True)
+def _dash_acceleration(r, s, power, kp):
+    """My dash acceleration along the body, limited by the stamina left (spec 3 dash). The agents
+    always dash straight ahead, so CURRENT's dash direction is not modelled."""
+    power = _clamp(power, kp.min_dash_power, kp.max_dash_power)
+    cost = power if power >= 0.0 else -2.0 * power
+    cost = min(cost, max(0.0, s.stamina[r] + kp.extra_stamina))
+    s.stamina[r] = max(0.0, s.stamina[r] - cost)
+    power = cost if power >= 0.0 else -0.5 * cost
+    acc = s.effort[r] * power * kp.dash_power_rate
+    a = math.radians(s.body[r, s.me[r]])
+    return acc * math.cos(a), acc * math.sin(a)
+
+
+@njit(cache=True, inline="always")
+def _move(r, s, obj, ax, ay, accel_max, speed_max, decay):
+    """One step of an object (spec 2 step 1a and 1e, no noise)."""
+    if ax != 0.0 or ay != 0.0:
+        a = math.hypot(ax, ay)
+        if a > accel_max:
+            ax *= accel_max / a
+            ay *= accel_max / a
+        vx = s.vel[r, obj, 0] + ax
+        vy = s.vel[r, obj, 1] + ay
+        v = math.hypot(vx, vy)
+        if v > speed_max:
+            vx *= speed_max / v
+            vy *= speed_max / v
+        s.vel[r, obj, 0] = vx
+        s.vel[r, obj, 1] = vy
+    s.pos[r, obj, 0] += s.vel[r, obj, 0]
+    s.pos[r, obj, 1] += s.vel[r, obj, 1]
+    s.vel[r, obj, 0] *= decay
+    s.vel[r, obj, 1] *= decay
+
+
+@njit(cache=True)
+def predict_row(r: int, s: ModelState, kp) -> None:
+    """Advance row ``r`` by one cycle: apply my pending commands and roll every object out."""
+    me = s.me[r]
+    main = s.cmd_main[r]
+    ax = ay = bx = by = 0.0
+    if main == CMD_DASH:
+        ax, ay = _dash_acceleration(r, s, s.cmd_args[r, 0], kp)
+    elif main == CMD_TURN:
+        speed = math.hypot(s.vel[r, me, 0], s.vel[r, me, 1])
+        s.body[r, me] = normalize_angle(s.body[r, me] + turn_effect(s.cmd_args[r, 0], speed, kp))
+    elif main == CMD_KICK:
+        bx, by = _kick_acceleration(r, s, s.cmd_args[r, 0], s.cmd_args[r, 1], kp)
+    neck_moment = _clamp(s.cmd_args[r, 2], kp.min_neck_moment, kp.max_neck_moment)
+    s.neck[r, me] = _clamp(s.neck[r, me] + neck_moment, kp.min_neck_angle, kp.max_neck_angle)
+    s.cmd_main[r] = CMD_NONE
+    s.cmd_args[r, :] = 0.0
+
+    _move(r, s, BALL, bx, by, kp.ball_accel_max, kp.ball_speed_max, kp.ball_decay)
+    for obj in range(1, s.pos.shape[1]):
+        if obj == me:
+            _move(r, s, obj, ax, ay, kp.player_accel_max, kp.player_speed_max, kp.player_decay)
+        else:
+            _move(r, s, obj, 0.0, 0.0, kp.player_accel_max, kp.player_speed_max, kp.player_decay)
+            s.err[r, obj] += kp.player_speed_max
+    s.time[r] += 1
+
+
+@njit(cache=True)
+def advance_row(r: int, s: ModelState, cycle: int, kp) -> None:
+    """Predict row ``r`` forward to ``cycle`` (the first percept just sets the clock)."""
+    if s.time[r] < 0:
+        s.time[r] = cycle
+    while s.time[r] < cycle:
+        predict_row(r, s, kp)
+
+
+# ---------------------------------------------------------------------------------------------------
+# sense_body (spec 4 "sense_body")
+
+
+@njit(cache=True)
+def _velocity_from_speed(r, s):
+    """My velocity from the last sense_body speed, relative to my current head estimate."""
+    me = s.me[r]
+    a = math.radians(s.body[r, me] + s.neck[r, me] + _truncated_centre(s.speed[r, 1]))
+    s.vel[r, me, 0] = s.speed[r, 0] * math.cos(a)
+    s.vel[r, me, 1] = s.speed[r, 0] * math.sin(a)
+
+
+@njit(cache=True)
+def sense_body_row(r: int, s: ModelState, cycle: int, speed_amount: float, speed_dir: float, head_angle: int,
+                   stamina: float, effort: float, kp) -> None:
+    """Take a sense_body: advance to its cycle, correct my neck (kept if the prediction truncates to
+    the reported head_angle), velocity, stamina and effort."""
+    advance_row(r, s, cycle, kp)
+    me = s.me[r]
+    if int(s.neck[r, me]) != head_angle:
+        s.neck[r, me] = _truncated_centre(float(head_angle))
+    s.stamina[r] = stamina
+    s.effort[r] = effort
+    s.speed[r, 0] = speed_amount
+    s.speed[r, 1] = speed_dir
+    s.speed_time[r] = cycle
+    _velocity_from_speed(r, s)
+
+
+# ---------------------------------------------------------------------------------------------------
+# see (spec 4)
+
+
+@njit(cache=True)
+def localise_row(r: int, s: ModelState, see: SeeBuffer, flag_pos: np.ndarray, kp) -> None:
+    """My head direction and position from the seen flags.
+
+    Each flag i gives its position relative to my head, q_i = polar(d_i, dir_i), and its global
+    position f_i = p + R(head) q_i. The weighted least-squares (p, head) is a 2-D Procrustes fit: head =
+    atan2(sum w (Q x F), sum w (Q . F)) over centred Q, F, then p = mean f - R(head) mean q. Weights are the
+    inverse quantisation variances, so near flags dominate the position and far ones add baseline to
+    the direction. One flag keeps the predicted head.
+    """
+    n = see.n_flags[r]
+    if n == 0:
+        return
+    me = s.me[r]
+    sw = mqx = mqy = mfx = mfy = 0.0
+    for i in range(n):
+        d = see.flag_obs[r, i, 0]
+        a = math.radians(see.flag_obs[r, i, 1])
+        w = _flag_weight(d, kp)
+        sw += w
+        mqx += w * d * math.cos(a)
+        mqy += w * d * math.sin(a)
+        mfx += w * flag_pos[see.flag_id[r, i], 0]
+        mfy += w * flag_pos[see.flag_id[r, i], 1]
+    mqx /= sw
+    mqy /= sw
+    mfx /= sw
+    mfy /= sw
+    if n >= 2:
+        dot = cross = 0.0
+        for i in range(n):
+            d = see.flag_obs[r, i, 0]
+            a = math.radians(see.flag_obs[r, i, 1])
+            w = _flag_weight(d, kp)
+            qx = d * math.cos(a) - mqx
+            qy = d * math.sin(a) - mqy
+            fx = flag_pos[see.flag_id[r, i], 0] - mfx
+            fy = flag_pos[see.flag_id[r, i], 1] - mfy
+            dot += w * (qx * fx + qy * fy)
+            cross += w * (qx * fy - qy * fx)
+        head = math.degrees(math.atan2(cross, dot))
+    else:
+        head = s.body[r, me] + s.neck[r, me]
+    h = math.radians(head)
+    c = math.cos(h)
+    sn = math.sin(h)
+    s.pos[r, me, 0] = mfx - (c * mqx - sn * mqy)
+    s.pos[r, me, 1] = mfy - (sn * mqx + c * mqy)
+    s.body[r, me] = normalize_angle(head - s.neck[r, me])
+    s.err[r, me] = 0.0
+    s.seen[r, me] = s.time[r]
+
+
+@njit(cache=True)
+def _observe(r, s, obj, dist, direction, dist_chg, dir_chg, decay, from_positions):
+    """Set object ``obj`` from a polar observation relative to my head: position; velocity from the
+    change pair (v = v_me + dist_chg e + rad(dir_chg) d e_perp, spec 4 "Changes"), else, if
+    ``from_positions``, from the displacement since a recent observation (p1 - p0 = v0 (1 - d^n)/(1 - d),
+    v1 = v0 d^n), else the predicted velocity stays."""
+    me = s.me[r]
+    a = math.radians(s.body[r, me] + s.neck[r, me] + direction)
+    ex = math.cos(a)
+    ey = math.sin(a)
+    px = s.pos[r, me, 0] + dist * ex
+    py = s.pos[r, me, 1] + dist * ey
+    t = s.time[r]
+    if not (math.isnan(dist_chg) or math.isnan(dir_chg)):
+        tangential = math.radians(dir_chg) * dist
+        s.vel[r, obj, 0] = s.vel[r, me, 0] + dist_chg * ex - tangential * ey
+        s.vel[r, obj, 1] = s.vel[r, me, 1] + dist_chg * ey + tangential * ex
+    elif from_positions and 1 <= t - s.seen[r, obj] <= MAX_POSITION_DIFF_GAP:
+        gap = t - s.seen[r, obj]
+        k = decay ** gap * (1.0 - decay) / (1.0 - decay ** gap)
+        s.vel[r, obj, 0] = (px - s.obs_pos[r, obj, 0]) * k
+        s.vel[r, obj, 1] = (py - s.obs_pos[r, obj, 1]) * k
+    s.pos[r, obj, 0] = px
+    s.pos[r, obj, 1] = py
+    s.obs_pos[r, obj, 0] = px
+    s.obs_pos[r, obj, 1] = py
+    s.seen[r, obj] = t
+    s.err[r, obj] = 0.0
+
+
+@njit(cache=True)
+def update_ball_row(r: int, s: ModelState, see: SeeBuffer, kp) -> None:
+    """The ball from the see (spec 4), velocity from its change pair or successive positions."""
+    if not see.ball_seen[r]:
+        return
+    o = see.ball_obs[r]
+    _observe(r, s, BALL, o[0], o[1], o[2], o[3], kp.ball_decay, True)
+
+
+@njit(cache=True)
+def _compatible(obj, side, n_keepers):
+    """Can object ``obj`` be a player of ``side`` (-1: unknown side)? Keepers are 'l' (0), takers 'r'."""
+    if side < 0:
+        return True
+    return (obj <= n_keepers) == (side == 0)
+
+
+@njit(cache=True)
+def associate_row(r: int, s: ModelState, see: SeeBuffer, n_keepers: int, kp) -> None:
+    """Object index of every player observation of the see, in ``see.target[r]``.
+
+    Named observations (side and unum) map directly. Each remaining one goes to the nearest compatible
+    predicted player not yet taken (greedy over the smallest cost). Distances are measured in units of
+    what the player could have moved since seen plus the quantisation error of two observations, along
+    and across the line of sight separately (seen distances are far less precise than directions). A
+    player within those bounds costs its normalised distance; a never-seen player costs _UNSEEN_COST;
+    a seen player out of bounds costs more still.
+    """
+    me = s.me[r]
+    n_obj = s.pos.shape[1]
+    taken = see.taken[r]
+    taken[:] = False
+    taken[BALL] = True
+    taken[me] = True
+    head = math.radians(s.body[r, me] + s.neck[r, me])
+    n = see.n_players[r]
+    for i in range(n):
+        see.target[r, i] = -1
+        side = see.player_side[r, i]
+        unum = see.player_unum[r, i]
+        if side >= 0 and unum != _NO_UNUM:
+            obj = unum if side == 0 else n_keepers + unum
+            if 0 < obj < n_obj and not taken[obj]:
+                see.target[r, i] = obj
+                taken[obj] = True
+    for i in range(n):
+        if see.target[r, i] >= 0:
+            continue
+        d = see.player_obs[r, i, 0]
+        a = head + math.radians(see.player_obs[r, i, 1])
+        ex = math.cos(a)
+        ey = math.sin(a)
+        px = s.pos[r, me, 0] + d * ex
+        py = s.pos[r, me, 1] + d * ey
+        radial, lateral = _observation_bounds(d, kp.quantize_step)
+        for obj in range(n_obj):
+            cost = np.inf
+            if not taken[obj] and _compatible(obj, see.player_side[r, i], n_keepers):
+                if s.seen[r, obj] == NEVER:
+                    cost = _UNSEEN_COST
+                else:
+                    dx = s.pos[r, obj, 0] - px
+                    dy = s.pos[r, obj, 1] - py
+                    along = abs(dx * ex + dy * ey) / (s.err[r, obj] + 2.0 * radial)
+                    across = abs(dx * ey - dy * ex) / (s.err[r, obj] + 2.0 * lateral)
+                    cost = math.hypot(along, across)
+                    if max(along, across) > 1.0:
+                        cost += 2.0 * _UNSEEN_COST
+            see.cost[r, i, obj] = cost
+    while True:
+        best = np.inf
+        bi = bo = -1
+        for i in range(n):
+            if see.target[r, i] >= 0:
+                continue
+            for obj in range(n_obj):
+                if see.cost[r, i, obj] < best:
+                    best = see.cost[r, i, obj]
+                    bi = i
+                    bo = obj
+        if bi < 0:
+            break
+        see.target[r, bi] = bo
+        for i in range(n):
+            see.cost[r, i, bo] = np.inf
+
+
+@njit(cache=True)
+def update_players_row(r: int, s: ModelState, see: SeeBuffer, n_keepers: int, kp) -> None:
+    """The other players from the see: association, then position, change-pair velocity, facing."""
+    associate_row(r, s, see, n_keepers, kp)
+    me = s.me[r]
+    head = s.body[r, me] + s.neck[r, me]
+    for i in range(see.n_players[r]):
+        obj = see.target[r, i]
+        if obj < 0:
+            continue
+        o = see.player_obs[r, i]
+        _observe(r, s, obj, o[0], o[1], o[2], o[3], kp.player_decay, False)
+        if not math.isnan(o[4]):
+            s.body[r, obj] = normalize_angle(head + o[4])
+            if not math.isnan(o[5]):
+                s.neck[r, obj] = normalize_angle(o[5] - o[4])
+
+
+@njit(cache=True)
+def see_row(r: int, s: ModelState, see: SeeBuffer, flag_pos: np.ndarray, n_keepers: int, kp) -> None:
+    """Take the see of row ``r``: advance to its cycle, localise, then the ball and the players.
+    A see older than the estimate is ignored."""
+    cycle = see.cycle[r]
+    if cycle < 0 or cycle < s.time[r]:
+        return
+    advance_row(r, s, cycle, kp)
+    localise_row(r, s, see, flag_pos, kp)
+    if s.speed_time[r] == s.time[r]:
+        _velocity_from_speed(r, s)
+    update_ball_row(r, s, see, kp)
+    update_players_row(r, s, see, n_keepers, kp)
+
+
+@njit(cache=True)
+def forget_row(r: int, s: ModelState) -> None:
+    """Episode boundary (`training Keepaway 1`, spec `keepaway-agents.md` 1): every object but me is
+    unknown again."""
+    me = s.me[r]
+    for obj in range(s.pos.shape[1]):
+        if obj != me:
+            s.seen[r, obj] = NEVER
+            s.vel[r, obj, 0] = 0.0
+            s.vel[r, obj, 1] = 0.0
+            s.err[r, obj] = 0.0
+
+
+@njit(cache=True)
+def write_belief_row(r: int, s: ModelState, out: Belief, row: int) -> None:
+    """Row ``row`` of the belief ``out`` from row ``r`` of the model; conf = 1 - age/100, 1 for me."""
+    me = s.me[r]
+    out.time[row] = s.time[r]
+    out.me[row] = me
+    out.effort[row] = s.effort[r]
+    for obj in range(s.pos.shape[1]):
+        out.pos[row, obj, 0] = s.pos[r, obj, 0]
+        out.pos[row, obj, 1] = s.pos[r, obj, 1]
+        out.vel[row, obj, 0] = s.vel[r, obj, 0]
+        out.vel[row, obj, 1] = s.vel[r, obj, 1]
+        out.body[row, obj] = s.body[r, obj]
+        out.neck[row, obj] = s.neck[r, obj]
+        if obj == me:
+            out.conf[row, obj] = 1.0
+        else:
+            age = float(s.time[r] - s.seen[r, obj])
+            out.conf[row, obj] = _clamp(1.0 - age / CONF_HORIZON_CYCLES, 0.0, 1.0)
+
+
+# ---------------------------------------------------------------------------------------------------
+# the per-process wrapper
+
+
+class WorldModel:
+    """The world model of one player process (B = 1): feed it the decoded percepts of each cycle and
+    the commands sent, read :meth:`belief` before deciding.
+
+    ``flags`` is the landmark table of ``init_ok`` (``[[name, x, y], ...]``): see flag ids index it.
+    Keepers are side 'l', takers side 'r' (spec `keepaway-task.md`); ``me`` follows `server/world.py`.
+    """
+
+    def __init__(self, params: ServerParams, side: str, unum: int, n_keepers: int, n_takers: int,
+                 flags: Sequence[Sequence[Any]]) -> None:
+        if side not in SIDE_CODES:
+            raise ValueError(f"unknown side {side!r}")
+        limit = n_keepers if side == "l" else n_takers
+        if not 1 <= unum <= limit:
+            raise ValueError(f"no player {side} {unum} with {n_keepers} keepers and {n_takers} takers")
+        self.kp = params.kernel()
+        self.n_keepers = n_keepers
+        self.n_takers = n_takers
+        self.me = unum if side == "l" else n_keepers + unum
+        self.flag_pos = np.array([[f[1], f[2]] for f in flags], dtype=np.float64).reshape(-1, 2)
+        self.state = new_model_state(1, n_keepers, n_takers, self.me, params)
+        self.see_buffer = new_see_buffer(1, len(self.flag_pos), 1 + n_keepers + n_takers)
+        self._belief = empty_belief(1, n_keepers, n_takers)
+        self._exact_cycle = -1
+
+    def _is_exact(self, msg: Mapping[str, Any]) -> bool:
+        """Whether a fullstate already gave the exact state of the message's cycle."""
+        return int(msg["cycle"]) == self._exact_cycle
+
+    def on_sense_body(self, msg: Mapping[str, Any]) -> None:
+        """A sense_body payload (spec 4): my neck, velocity, stamina and effort of its cycle."""
+        if self._is_exact(msg):
+            return
+        speed, stamina = msg["speed"], msg["stamina"]
+        sense_body_row(0, self.state, int(msg["cycle"]), float(speed[0]), float(speed[1]),
+                       int(msg["head_angle"]), float(stamina[0]), float(stamina[1]), self.kp)
+
+    def on_see(self, msg: Mapping[str, Any]) -> None:
+        """A see payload (spec 4): anonymous flags are skipped, omitted fields become NaN."""
+        if self._is_exact(msg):
+            return
+        buf = self.see_buffer
+        flags = [f for f in msg["flags"] if f[0] is not None]
+        n = len(flags)
+        buf.n_flags[0] = n
+        if n:
+            rows = np.array([f[:3] for f in flags], dtype=np.float64)
+            buf.flag_id[0, :n] = rows[:, 0]
+            buf.flag_obs[0, :n] = rows[:, 1:]
+        ball = msg["ball"]
+        buf.ball_seen[0] = ball is not None
+        if ball is not None:
+            buf.ball_obs[0] = [np.nan if v is None else v for v in ball]
+        players = msg["players"][: buf.player_obs.shape[1]]
+        n = len(players)
+        buf.n_players[0] = n
+        if n:
+            buf.player_side[0, :n] = [SIDE_CODES.get(p[0], _NO_SIDE) for p in players]
+            buf.player_unum[0, :n] = [_NO_UNUM if p[1] is None else p[1] for p in players]
+            buf.player_obs[0, :n] = [[np.nan if v is None else v for v in p[2:]] for p in players]
+        buf.cycle[0] = int(msg["cycle"])
+        see_row(0, self.state, buf, self.flag_pos, self.n_keepers, self.kp)
+
+    def on_fullstate(self, msg: Mapping[str, Any]) -> None:
+        """Exact state (spec 4 fullstate): every object known exactly at the message's cycle; percepts
+        of the same cycle are then ignored."""
+        s = self.state
+        cycle = int(msg["cycle"])
+        self._exact_cycle = cycle
+        s.time[0] = cycle
+        s.pos[0, BALL] = msg["ball"][:2]
+        s.vel[0, BALL] = msg["ball"][2:4]
+        for p in msg["players"]:
+            obj = p[1] if p[0] == "l" else self.n_keepers + p[1]
+            s.pos[0, obj] = p[2:4]
+            s.vel[0, obj] = p[4:6]
+            s.body[0, obj] = p[6]
+            s.neck[0, obj] = p[7]
+            if obj == self.me:
+                s.stamina[0] = p[8]
+                s.effort[0] = p[9]
+        s.seen[0, :] = cycle
+        s.obs_pos[0] = s.pos[0]
+        s.err[0, :] = 0.0
+
+    def on_own_commands(self, main: int, a1: float, a2: float, neck: float = 0.0) -> None:
+        """The commands I sent this cycle (CMD_* code of `server/world.py`, its two arguments, the
+        turn_neck moment, 0 for none); they act in the next step."""
+        self.state.cmd_main[0] = main
+        self.state.cmd_args[0] = (a1, a2, neck)
+
+    def forget(self) -> None:
+        """Episode boundary: forget every object but me."""
+        forget_row(0, self.state)
+
+    def belief(self) -> Belief:
+        """The current belief (B = 1). The arrays are reused: copy them to keep a snapshot."""
+        write_belief_row(0, self.state, self._belief, 0)
+        return self._belief
+
+
+__all__ = [
+    "CONF_HORIZON_CYCLES",
+    "ModelState",
+    "SeeBuffer",
+    "WorldModel",
+    "advance_row",
+    "associate_row",
+    "forget_row",
+    "localise_row",
+    "new_model_state",
+    "new_see_buffer",
+    "predict_row",
+    "see_row",
+    "sense_body_row",
+    "update_ball_row",
+    "update_players_row",
+    "write_belief_row",
+]

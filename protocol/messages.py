@@ -1,0 +1,529 @@
+"""Every message of the players, coach and monitor ports (docs/protocol.md; architecture, "Channels").
+
+One frozen dataclass per message type; ``TYPE`` is the wire ``"type"``. Messages the server sends carry
+``cycle``, the server time when sent. Sequences are tuples in Python and arrays on the wire. Ranges are
+checked here only as far as they describe the *shape* of a message (an id, a uniform number, a finite
+number); clamping command arguments is the simulator's job, done exactly as rcssserver does
+(spec `server-physics.md` 3).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from types import MappingProxyType
+from typing import Any, ClassVar
+
+from protocol.codec import (
+    PROTOCOL_VERSION,
+    Invalid,
+    Loader,
+    Message,
+    boolean,
+    choice,
+    decode,
+    fixed,
+    integer,
+    kind,
+    message,
+    non_negative,
+    number,
+    optional,
+    payload_value,
+    record,
+    sequence,
+    show,
+    text,
+    protocol_version,
+    wire,
+)
+from protocol.endpoints import DEFAULT_MAX_MESSAGE_BYTES, MONITOR_EPISODE_TOPIC, MONITOR_FRAME_TOPIC
+from protocol.errors import ProtocolError
+from protocol.params import ServerParams
+
+# ------------------------------------------------------------------------------------------ vocabulary
+
+TEAMS = ("keepers", "takers")
+SIDES = ("l", "r")  # keepers play on the left side, takers on the right (spec 5, "Teams")
+PLAY_MODES = ("before_kick_off", "play_on")
+VIEW_WIDTHS = ("narrow", "normal", "wide")
+VIEW_QUALITIES = ("high", "low")
+COLLISIONS = ("ball", "player", "post")
+HEAR_SENDERS = ("referee", "self", "coach", "our", "opp")
+ADVICE_GROUPS = ("keepers", "takers", "all")
+EPISODE_ACTIONS = ("reset", "pause", "resume", "stop")
+EPISODE_ENDS = ("out", "taken")
+COMMAND_COUNTS = ("kick", "dash", "turn", "catch", "move", "turn_neck", "change_view", "say")
+
+# ------------------------------------------------------------------------------------------------ limits
+
+MAX_UNUM = 11
+MAX_CYCLE = 2**31 - 1
+MAX_COMMANDS = 16
+MAX_CLIENT_CHARS = 64
+MAX_SAY_CHARS = 256  # the codec's bound; the server applies say_msg_size (spec 3, "say")
+MAX_CODE_CHARS = 64
+MAX_TEXT_CHARS = 1024
+MAX_LANDMARK_NAME_CHARS = 32
+MAX_LANDMARKS = 256
+MAX_PLAYERS = 2 * MAX_UNUM
+
+# --------------------------------------------------------------------------------------- field loaders
+
+CYCLE = integer(0, MAX_CYCLE)
+COUNT = integer(0, MAX_CYCLE)
+UNUM = integer(1, MAX_UNUM)
+DIRECTION = integer(-180, 180)  # integer degrees in percepts (spec 4)
+LANDMARK_ID = integer(0, MAX_LANDMARKS - 1)  # index into init_ok's landmark lists
+TEAM = choice(*TEAMS)
+SIDE = choice(*SIDES)
+PLAY_MODE = choice(*PLAY_MODES)
+CLIENT = text(MAX_CLIENT_CHARS)
+TEXT = text(MAX_TEXT_CHARS)
+CHANGE = optional(number)
+
+_LANDMARK_LIST = sequence(fixed(text(MAX_LANDMARK_NAME_CHARS), number, number), MAX_LANDMARKS)
+LANDMARKS = record(flags=_LANDMARK_LIST, lines=_LANDMARK_LIST)
+
+BALL_STATE = fixed(number, number, number, number)
+PLAYER_STATE = fixed(SIDE, UNUM, *(number,) * 10)
+PLAYER_STATES = sequence(PLAYER_STATE, MAX_PLAYERS)
+STATE = record(
+    ball=BALL_STATE, players=PLAYER_STATES, play_mode=PLAY_MODE, episode=COUNT, take_count=COUNT
+)
+
+
+def _config(value: Any) -> dict:
+    """A free map (string keys, payload values)."""
+    if type(value) is not dict:
+        raise Invalid("bad_type", f"expected a map, got {kind(value)}")
+    return payload_value(value)
+
+
+def _params(value: Any) -> dict:
+    """The ``ServerParams.to_dict()`` map: every name known to this side's parameter table."""
+    if type(value) is not dict:
+        raise Invalid("bad_type", f"expected a map, got {kind(value)}")
+    for key, entry in value.items():
+        if type(key) is not str:
+            raise Invalid("malformed", f"map keys must be strings, got {kind(key)}")
+        if type(entry) not in (bool, int, float, str):
+            raise Invalid("bad_type", f"parameter {show(key)} is a {kind(entry)}")
+    try:
+        ServerParams.from_dict(value)
+    except (ValueError, TypeError) as exc:
+        raise Invalid("bad_value", " ".join(str(exc).split())[:200]) from None
+    return value
+
+
+# ------------------------------------------------------------------------------------- atomic commands
+
+
+@dataclass(frozen=True, slots=True)
+class AtomicCommand:
+    """One rcssserver command, e.g. ``AtomicCommand("dash", (100.0, 0.0))``; on the wire
+    ``["dash", 100.0, 0.0]``. Numeric arguments are floats after decoding."""
+
+    name: str
+    args: tuple = ()
+
+    def to_wire(self) -> list:
+        return [self.name, *self.args]
+
+
+COMMAND_ARGUMENTS: Mapping[str, tuple[tuple[Loader, ...], tuple[Loader, ...]]] = MappingProxyType({
+    # name: (required argument loaders, optional argument loaders); spec 3 and 6
+    "dash": ((number,), (number,)),  # power[, direction]
+    "turn": ((number,), ()),  # moment
+    "kick": ((number, number), ()),  # power, direction
+    "turn_neck": ((number,), ()),  # moment
+    "tackle": ((number,), ()),  # power
+    "move": ((number, number), ()),  # x, y
+    "catch": ((number,), ()),  # direction
+    "say": ((text(MAX_SAY_CHARS),), ()),  # message
+    "change_view": ((choice(*VIEW_WIDTHS),), (choice(*VIEW_QUALITIES),)),  # width[, quality]
+    "done": ((), ()),
+})
+
+
+_ARGUMENT_SPECS = {
+    name: (len(required), len(required) + len(extra), required + extra)
+    for name, (required, extra) in COMMAND_ARGUMENTS.items()
+}
+
+
+def _atomic_command(value: Any) -> AtomicCommand:
+    if type(value) is not list and type(value) is not tuple:
+        raise Invalid("bad_type", f"expected an array [name, args...], got {kind(value)}")
+    if not value:
+        raise Invalid("bad_value", "empty command")
+    name = value[0]
+    if type(name) is not str:
+        raise Invalid("bad_type", f"command name must be a str, got {kind(name)}")
+    spec = _ARGUMENT_SPECS.get(name)
+    if spec is None:
+        raise Invalid("unknown_command", f"unknown command {show(name)}")
+    fewest, most, loaders = spec
+    given = len(value) - 1
+    if not fewest <= given <= most:
+        expected = f"{fewest}" if fewest == most else f"{fewest} or {most}"
+        raise Invalid("bad_value", f"{name} takes {expected} arguments, got {given}")
+    args: list = []
+    try:
+        for load, argument in zip(loaders, value[1:]):
+            args.append(load(argument))
+    except Invalid as exc:
+        raise exc.at(f"[{len(args) + 1}]") from None
+    return AtomicCommand(name, tuple(args))
+
+
+def _commands_to_wire(commands: tuple[AtomicCommand, ...]) -> list[list]:
+    return [command.to_wire() for command in commands]
+
+
+def _advice_target(value: Any) -> str | tuple[str, int]:
+    if type(value) is str:
+        return choice(*ADVICE_GROUPS)(value)
+    if type(value) is list or type(value) is tuple:
+        return fixed(SIDE, UNUM)(value)
+    raise Invalid("bad_type", f"expected a str or a [side, unum] array, got {kind(value)}")
+
+
+# ---------------------------------------------------------------------------- players port: from client
+
+
+@message
+class Init(Message):
+    """Join a team; answered by ``init_ok`` or ``error`` (rcssserver's ``(init ...)``, spec 6)."""
+
+    TYPE: ClassVar[str] = "init"
+    version: int = wire(protocol_version, default=PROTOCOL_VERSION, required=True)
+    team: str = wire(TEAM)
+    unum: int | None = wire(optional(UNUM), default=None)
+    client: str = wire(CLIENT, default="")
+    fullstate: bool = wire(boolean, default=False)
+    synch_see: bool = wire(boolean, default=False)
+
+
+@message
+class Reconnect(Message):
+    """Take over uniform number ``unum`` of ``team`` again after a ``bye`` (spec 6)."""
+
+    TYPE: ClassVar[str] = "reconnect"
+    version: int = wire(protocol_version, default=PROTOCOL_VERSION, required=True)
+    team: str = wire(TEAM)
+    unum: int = wire(UNUM)
+
+
+@message
+class Command(Message):
+    """The atomic commands answering cycle ``cycle``."""
+
+    TYPE: ClassVar[str] = "command"
+    cycle: int = wire(CYCLE)
+    commands: tuple[AtomicCommand, ...] = wire(
+        sequence(_atomic_command, MAX_COMMANDS), default=(), dump=_commands_to_wire
+    )
+
+
+@message
+class Report(Message):
+    """A player's report to its coach (traces, weight snapshots), relayed as ``player_report``."""
+
+    TYPE: ClassVar[str] = "report"
+    cycle: int = wire(CYCLE)
+    payload: Any = wire(payload_value)
+
+
+@message
+class Bye(Message):
+    """Leave the game (rcssserver's ``(bye)``)."""
+
+    TYPE: ClassVar[str] = "bye"
+
+
+# ------------------------------------------------------------------------------ players port: to client
+
+
+@message
+class InitOk(Message):
+    """Accepted: who the player is and everything it must know about the simulation."""
+
+    TYPE: ClassVar[str] = "init_ok"
+    version: int = wire(protocol_version, default=PROTOCOL_VERSION, required=True)
+    cycle: int = wire(CYCLE)
+    side: str = wire(SIDE)
+    unum: int = wire(UNUM)
+    team: str = wire(TEAM)
+    play_mode: str = wire(PLAY_MODE)
+    params: dict = wire(_params)
+    landmarks: dict = wire(LANDMARKS)
+    config: dict = wire(_config)
+
+
+@message
+class Error(Message):
+    """A refused message or request, or a warning (e.g. a dropped ``say``)."""
+
+    TYPE: ClassVar[str] = "error"
+    cycle: int = wire(CYCLE)
+    code: str = wire(text(MAX_CODE_CHARS))
+    message: str = wire(TEXT)
+
+
+@message
+class SenseBody(Message):
+    """The player's own body, every cycle (rcssserver's ``sense_body``, spec 4)."""
+
+    TYPE: ClassVar[str] = "sense_body"
+    cycle: int = wire(CYCLE)
+    view_mode: tuple[str, str] = wire(fixed(choice(*VIEW_QUALITIES), choice(*VIEW_WIDTHS)))
+    stamina: tuple[float, float, float] = wire(fixed(non_negative, non_negative, number))
+    speed: tuple[float, int] = wire(fixed(non_negative, DIRECTION))
+    head_angle: int = wire(DIRECTION)
+    counts: dict = wire(record(**{name: COUNT for name in COMMAND_COUNTS}))
+    collision: tuple[str, ...] = wire(sequence(choice(*COLLISIONS), len(COLLISIONS)))
+
+
+@message
+class See(Message):
+    """A visual percept (rcssserver's ``see``, spec 4); directions relative to the head."""
+
+    TYPE: ClassVar[str] = "see"
+    cycle: int = wire(CYCLE)
+    flags: tuple = wire(
+        sequence(fixed(optional(LANDMARK_ID), non_negative, DIRECTION, CHANGE, CHANGE), MAX_LANDMARKS)
+    )
+    lines: tuple = wire(sequence(fixed(LANDMARK_ID, non_negative, DIRECTION), MAX_LANDMARKS))
+    ball: tuple | None = wire(optional(fixed(non_negative, DIRECTION, CHANGE, CHANGE)))
+    players: tuple = wire(
+        sequence(
+            fixed(optional(SIDE), optional(UNUM), non_negative, DIRECTION, CHANGE, CHANGE,
+                  optional(DIRECTION), optional(DIRECTION)),
+            MAX_PLAYERS,
+        )
+    )
+
+
+@message
+class Hear(Message):
+    """An aural percept: the referee, the player itself, the coach's advice, or another player."""
+
+    TYPE: ClassVar[str] = "hear"
+    cycle: int = wire(CYCLE)
+    sender: str = wire(choice(*HEAR_SENDERS))
+    direction: int | None = wire(optional(DIRECTION), default=None)
+    unum: int | None = wire(optional(UNUM), default=None)
+    message: Any = wire(payload_value)
+
+    def _check(self) -> None:
+        """Only the coach's advice is a free payload; everyone else says text."""
+        if self.sender != "coach":
+            try:
+                TEXT(self.message)
+            except Invalid as exc:
+                raise exc.at("message") from None
+
+
+@message
+class Fullstate(Message):
+    """The exact state of the field, for players that asked for it in ``init`` (spec 4, "fullstate")."""
+
+    TYPE: ClassVar[str] = "fullstate"
+    cycle: int = wire(CYCLE)
+    ball: tuple[float, float, float, float] = wire(BALL_STATE)
+    players: tuple = wire(PLAYER_STATES)
+    play_mode: str = wire(PLAY_MODE)
+    episode: int = wire(COUNT)
+
+
+@message
+class Think(Message):
+    """Synchronous mode: every percept of this cycle has been sent; answer now."""
+
+    TYPE: ClassVar[str] = "think"
+    cycle: int = wire(CYCLE)
+
+
+@message
+class Shutdown(Message):
+    """The server is ending; the client should exit."""
+
+    TYPE: ClassVar[str] = "shutdown"
+    cycle: int = wire(CYCLE)
+    reason: str = wire(TEXT)
+
+
+# ------------------------------------------------------------------------------ coach port: from client
+
+
+@message
+class CoachInit(Message):
+    """Connect as the arena's coach; ``synch`` asks for ``think`` every cycle."""
+
+    TYPE: ClassVar[str] = "coach_init"
+    version: int = wire(protocol_version, default=PROTOCOL_VERSION, required=True)
+    client: str = wire(CLIENT, default="")
+    synch: bool = wire(boolean, default=False)
+
+
+@message
+class Start(Message):
+    """Kick off now, even if not every expected player has connected."""
+
+    TYPE: ClassVar[str] = "start"
+
+
+@message
+class Look(Message):
+    """Ask for the noiseless state of the field; answered by ``look_ok``."""
+
+    TYPE: ClassVar[str] = "look"
+
+
+@message
+class Advice(Message):
+    """A payload for a team, everyone, or one player, delivered as ``hear`` from ``coach``."""
+
+    TYPE: ClassVar[str] = "advice"
+    target: str | tuple[str, int] = wire(_advice_target)
+    payload: Any = wire(payload_value)
+
+
+@message
+class EpisodeControl(Message):
+    """Reset the field, pause, resume, or stop (now, or after ``episodes_left`` more episodes)."""
+
+    TYPE: ClassVar[str] = "episode_control"
+    action: str = wire(choice(*EPISODE_ACTIONS))
+    episodes_left: int | None = wire(optional(COUNT), default=None)
+
+    def _check(self) -> None:
+        if self.episodes_left is not None and self.action != "stop":
+            raise Invalid("bad_value", f"episodes_left is only allowed with action 'stop', not {self.action!r}")
+
+
+@message
+class CoachBye(Message):
+    """Disconnect the coach."""
+
+    TYPE: ClassVar[str] = "coach_bye"
+
+
+# -------------------------------------------------------------------------------- coach port: to client
+
+
+@message
+class CoachInitOk(Message):
+    """Accepted coach: the simulation's parameters, landmarks and configuration."""
+
+    TYPE: ClassVar[str] = "coach_init_ok"
+    version: int = wire(protocol_version, default=PROTOCOL_VERSION, required=True)
+    cycle: int = wire(CYCLE)
+    play_mode: str = wire(PLAY_MODE)
+    params: dict = wire(_params)
+    landmarks: dict = wire(LANDMARKS)
+    config: dict = wire(_config)
+
+
+@message
+class LookOk(Message):
+    """The noiseless state: ``ball``, ``players``, ``play_mode``, ``episode``, ``take_count``."""
+
+    TYPE: ClassVar[str] = "look_ok"
+    cycle: int = wire(CYCLE)
+    state: dict = wire(STATE)
+
+
+@message
+class EpisodeEnd(Message):
+    """An episode ended (one line of rcssserver's kwy log, spec 5); also on the monitor port."""
+
+    TYPE: ClassVar[str] = "episode_end"
+    cycle: int = wire(CYCLE)
+    episode: int = wire(integer(1, MAX_CYCLE))
+    start_cycle: int = wire(CYCLE)
+    end_cycle: int = wire(CYCLE)
+    end: str = wire(choice(*EPISODE_ENDS))
+
+
+@message
+class PlayerReport(Message):
+    """A player's ``report``, relayed to the coach."""
+
+    TYPE: ClassVar[str] = "player_report"
+    cycle: int = wire(CYCLE)
+    side: str = wire(SIDE)
+    unum: int = wire(UNUM)
+    payload: Any = wire(payload_value)
+
+
+@message
+class PlayerSaid(Message):
+    """A player's ``say``, relayed to the coach."""
+
+    TYPE: ClassVar[str] = "player_said"
+    cycle: int = wire(CYCLE)
+    side: str = wire(SIDE)
+    unum: int = wire(UNUM)
+    message: str = wire(text(MAX_SAY_CHARS))
+
+
+# ------------------------------------------------------------------------------------------ monitor port
+
+
+@message
+class Frame(Message):
+    """The true state, published every cycle on the monitor topic ``frame``."""
+
+    TYPE: ClassVar[str] = "frame"
+    cycle: int = wire(CYCLE)
+    ball: tuple[float, float, float, float] = wire(BALL_STATE)
+    players: tuple = wire(PLAYER_STATES)
+    play_mode: str = wire(PLAY_MODE)
+    episode: int = wire(COUNT)
+    take_count: int = wire(COUNT)
+
+
+# -------------------------------------------------------------------------------------- allowed sets
+
+
+def _by_type(*classes: type[Message]) -> Mapping[str, type[Message]]:
+    return MappingProxyType({cls.TYPE: cls for cls in classes})
+
+
+PLAYER_TO_SERVER = _by_type(Init, Reconnect, Command, Report, Bye)
+SERVER_TO_PLAYER = _by_type(InitOk, Error, SenseBody, See, Hear, Fullstate, Think, Shutdown)
+COACH_TO_SERVER = _by_type(CoachInit, Start, Look, Advice, EpisodeControl, CoachBye)
+SERVER_TO_COACH = _by_type(CoachInitOk, LookOk, Error, EpisodeEnd, PlayerReport, PlayerSaid, Shutdown, Think)
+MONITOR_TOPICS: Mapping[bytes, type[Message]] = MappingProxyType(
+    {MONITOR_FRAME_TOPIC: Frame, MONITOR_EPISODE_TOPIC: EpisodeEnd}
+)
+
+
+def decode_from_player(data: bytes, max_bytes: int = DEFAULT_MAX_MESSAGE_BYTES) -> Message:
+    """Server side of the players port: one of :data:`PLAYER_TO_SERVER`."""
+    return decode(data, PLAYER_TO_SERVER, max_bytes)
+
+
+def decode_for_player(data: bytes, max_bytes: int = DEFAULT_MAX_MESSAGE_BYTES) -> Message:
+    """Player side of the players port: one of :data:`SERVER_TO_PLAYER`."""
+    return decode(data, SERVER_TO_PLAYER, max_bytes)
+
+
+def decode_from_coach(data: bytes, max_bytes: int = DEFAULT_MAX_MESSAGE_BYTES) -> Message:
+    """Server side of the coach port: one of :data:`COACH_TO_SERVER`."""
+    return decode(data, COACH_TO_SERVER, max_bytes)
+
+
+def decode_for_coach(data: bytes, max_bytes: int = DEFAULT_MAX_MESSAGE_BYTES) -> Message:
+    """Coach side of the coach port: one of :data:`SERVER_TO_COACH`."""
+    return decode(data, SERVER_TO_COACH, max_bytes)
+
+
+def decode_monitor(topic: bytes, data: bytes, max_bytes: int = DEFAULT_MAX_MESSAGE_BYTES) -> Message:
+    """A monitor subscriber's two frames: the topic names the one message type the data may hold."""
+    cls = MONITOR_TOPICS.get(topic) if isinstance(topic, bytes) else None
+    if cls is None:
+        raise ProtocolError("unknown_type", f"unknown monitor topic {show(topic)}")
+    return decode(data, {cls.TYPE: cls}, max_bytes)

@@ -1,0 +1,452 @@
+"""The ``keepaway server`` process: ZeroMQ sockets, timing (synchronous / real-time) and logging.
+
+Socket handling lives here and only here (zguide style): one poller loop, explicit linger, every frame
+decoded and validated by ``protocol`` before the game (``server/arena.py``) sees it. A bad message gets
+a one-line ``error`` reply and a log line; it never stops the loop.
+"""
+
+from __future__ import annotations
+
+import logging
+import signal
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+import zmq
+
+from protocol import messages as m
+from protocol.codec import encode
+from protocol.messages import decode_from_coach, decode_from_player
+from protocol.endpoints import MONITOR_EPISODE_TOPIC, MONITOR_FRAME_TOPIC, bind, configure
+from protocol.errors import ProtocolError
+from protocol import PROTOCOL_VERSION
+from server.arena import Arena, ArenaError, PlayerSlot, truth_state
+from server.config import ServerConfig
+from server.episode_log import EpisodeRecord, JsonlLog, KwyLog
+
+log = logging.getLogger("keepaway.server")
+
+
+@dataclass
+class Connection:
+    """A player client known by its ZeroMQ identity."""
+
+    identity: bytes
+    slot: PlayerSlot
+    answered: int = -1  # last cycle this client answered (sync mode)
+    missed: int = 0  # consecutive missed cycles
+    hung: bool = False  # missed more than max_missed_cycles: no longer waited for
+
+    @property
+    def name(self) -> str:
+        team = "keeper" if self.slot.side == "l" else "taker"
+        return f"{team} {self.slot.unum}"
+
+
+@dataclass
+class BoundPorts:
+    players: int
+    coach: int
+    monitor: int
+
+
+@dataclass
+class Server:
+    """One arena served over ZeroMQ. Create, :meth:`bind`, then :meth:`run` until it stops."""
+
+    config: ServerConfig
+    on_ready: Callable[[BoundPorts], None] | None = None
+    arena: Arena = field(init=False)
+    conns: dict[bytes, Connection] = field(init=False, default_factory=dict)
+    coaches: set[bytes] = field(init=False, default_factory=set)
+    episodes_done: int = field(init=False, default=0)
+    stop_reason: str | None = field(init=False, default=None)
+    exit_code: int = field(init=False, default=0)
+
+    def __post_init__(self) -> None:
+        cfg = self.config
+        self.arena = Arena(cfg.params, cfg.keepers, cfg.takers, cfg.seed)
+        self.ctx = zmq.Context()
+        self.players = self.ctx.socket(zmq.ROUTER)
+        self.coach = self.ctx.socket(zmq.ROUTER)
+        self.monitor = self.ctx.socket(zmq.XPUB)
+        for sock in (self.players, self.coach, self.monitor):
+            configure(sock, cfg.max_message_bytes)
+        self.monitor_subscribers = 0
+        self.kwy: KwyLog | None = None
+        self.jsonl: JsonlLog | None = None
+        self.episodes_left: int | None = cfg.episodes
+        self.paused = False
+        self._t0 = time.monotonic()
+
+    # -- lifecycle -----------------------------------------------------------------------------------
+    def bind(self) -> BoundPorts:
+        cfg = self.config
+        ports = BoundPorts(
+            players=bind(self.players, cfg.host, cfg.players_port),
+            coach=bind(self.coach, cfg.host, cfg.coach_port),
+            monitor=bind(self.monitor, cfg.host, cfg.monitor_port),
+        )
+        self.ports = ports
+        if cfg.log_dir is not None:
+            Path(cfg.log_dir).mkdir(parents=True, exist_ok=True)
+            p = cfg.params
+            self.kwy = KwyLog(Path(cfg.log_dir), cfg.keepers, cfg.takers, p.keepaway_length,
+                              p.keepaway_width, fixed_name=cfg.kwy_name)
+            self.jsonl = JsonlLog(Path(cfg.log_dir) / f"{cfg.kwy_name or 'keepaway'}.jsonl", seed=cfg.seed,
+                                  config=cfg.summary(), params=p.to_dict())
+        log.info("listening: players tcp://%s:%d coach tcp://%s:%d monitor tcp://%s:%d (%s mode, seed %d)",
+                 cfg.host, ports.players, cfg.host, ports.coach, cfg.host, ports.monitor, cfg.mode, cfg.seed)
+        if self.on_ready is not None:
+            self.on_ready(ports)
+        return ports
+
+    def request_stop(self, reason: str, exit_code: int = 0) -> None:
+        if self.stop_reason is None:
+            self.stop_reason = reason
+            self.exit_code = exit_code
+
+    def install_signal_handlers(self) -> None:
+        def handler(signum: int, _frame: Any) -> None:
+            self.request_stop(f"received {signal.Signals(signum).name}")
+
+        signal.signal(signal.SIGINT, handler)
+        signal.signal(signal.SIGTERM, handler)
+
+    def run(self) -> int:
+        """Serve until stopped (episodes/cycles done, coach stop, signal, hung players with on_hang=stop)."""
+        try:
+            if self.config.mode == "sync":
+                self._run_sync()
+            else:
+                self._run_realtime()
+        finally:
+            self.close()
+        return self.exit_code
+
+    def close(self) -> None:
+        reason = self.stop_reason or "server stopped"
+        shutdown = encode(m.Shutdown(cycle=self.arena.cycle, reason=reason))
+        for ident in list(self.conns) + list(self.coaches):
+            sock = self.coach if ident in self.coaches else self.players
+            self._send_raw(sock, ident, shutdown)
+        for logger in (self.kwy, self.jsonl):
+            if logger is not None:
+                logger.close()
+        for sock in (self.players, self.coach, self.monitor):
+            sock.close(linger=0)
+        self.ctx.term()
+        log.info("stopped at cycle %d after %d episodes: %s", self.arena.cycle, self.episodes_done, reason)
+
+    # -- timing loops --------------------------------------------------------------------------------
+    def _run_sync(self) -> None:
+        """Synchronous mode: percepts of cycle t + think, then wait until every connected, non-hung
+        player has answered t (or cycle_timeout_s passes), then step. Sockets are read only while
+        waiting, so a command that arrives after the step acts one cycle later (spec 1)."""
+        cfg = self.config
+        poller = zmq.Poller()
+        for sock in (self.players, self.coach, self.monitor):
+            poller.register(sock, zmq.POLLIN)
+        while self.stop_reason is None and not self._ready_to_start():
+            self._poll(poller, 50)
+        if self.stop_reason is not None:
+            return
+        self._start_game()
+        while self.stop_reason is None:
+            cycle = self.arena.cycle
+            self._send_cycle_percepts(think=True)
+            deadline = time.monotonic() + cfg.cycle_timeout_s
+            while self.stop_reason is None and not self._all_answered(cycle):
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    self._missed_cycle(cycle)
+                    break
+                self._poll(poller, max(1, int(remaining * 1000)))
+            if self.stop_reason is not None or self.paused:
+                while self.paused and self.stop_reason is None:
+                    self._poll(poller, 50)
+                if self.stop_reason is not None:
+                    break
+            self._step()
+
+    def _run_realtime(self) -> None:
+        """Real-time mode: a step every simulator_step_ms of wall time; sense_body right after it; each
+        player's see on its own period from its connect time (asynchronous with the cycle, spec 1)."""
+        poller = zmq.Poller()
+        for sock in (self.players, self.coach, self.monitor):
+            poller.register(sock, zmq.POLLIN)
+        while self.stop_reason is None and not self._ready_to_start():
+            self._poll(poller, 50)
+        if self.stop_reason is not None:
+            return
+        self._start_game()
+        step_s = self.config.params.simulator_step_ms / 1000.0
+        next_step = time.monotonic() + step_s
+        self._send_cycle_percepts(think=False, see=False)
+        next_see = {ident: time.monotonic() for ident in self.conns}
+        while self.stop_reason is None:
+            now = time.monotonic()
+            for ident, conn in list(self.conns.items()):
+                due = next_see.setdefault(ident, now)
+                if now >= due:
+                    self._send(conn, self.arena.see_message(conn.slot))
+                    next_see[ident] = due + conn.slot.see_period_ms(self.config.params.send_step_ms) / 1000.0
+            wake = min([next_step] + list(next_see.values()))
+            self._poll(poller, max(0, int((wake - time.monotonic()) * 1000)))
+            if time.monotonic() >= next_step:
+                if not self.paused:
+                    self._step()
+                    if self.stop_reason is None:
+                        self._send_cycle_percepts(think=False, see=False)
+                next_step += step_s
+                if next_step < time.monotonic():  # a slow cycle is not caught up (rcssserver)
+                    next_step = time.monotonic() + step_s
+
+    def _ready_to_start(self) -> bool:
+        if self.config.start_on == "players":
+            return self.arena.all_connected()
+        return self.arena.started
+
+    def _start_game(self) -> None:
+        self.arena.start()
+        log.info("game started with %d players", len(self.conns))
+
+    def _all_answered(self, cycle: int) -> bool:
+        return all(c.answered >= cycle or c.hung for c in self.conns.values())
+
+    def _missed_cycle(self, cycle: int) -> None:
+        cfg = self.config
+        for conn in self.conns.values():
+            if conn.answered >= cycle or conn.hung:
+                continue
+            conn.missed += 1
+            log.warning("%s missed cycle %d (%d in a row)", conn.name, cycle, conn.missed)
+            if conn.missed >= cfg.max_missed_cycles:
+                conn.hung = True
+                message = (f"{conn.name} missed {conn.missed} cycles in a row; "
+                           + ("stopping" if cfg.on_hang == "stop" else "no longer waiting for it"))
+                log.error(message)
+                self._send(conn, m.Error(cycle=cycle, code="missed_cycles", message=message))
+                if cfg.on_hang == "stop":
+                    self.request_stop(message, exit_code=3)
+
+    # -- the cycle -----------------------------------------------------------------------------------
+    def _step(self) -> None:
+        record = self.arena.step()
+        if self.monitor_subscribers:
+            self._publish(MONITOR_FRAME_TOPIC, m.Frame(cycle=self.arena.cycle, **truth_state(self.arena)))
+        if record is not None:
+            self._episode_ended(record)
+        cfg = self.config
+        if cfg.max_cycles is not None and self.arena.cycle >= cfg.max_cycles:
+            self.request_stop(f"reached {cfg.max_cycles} cycles")
+
+    def _episode_ended(self, record: EpisodeRecord) -> None:
+        self.episodes_done += 1
+        for logger in (self.kwy, self.jsonl):
+            if logger is not None:
+                logger.write(record)
+        end = m.EpisodeEnd(cycle=self.arena.cycle, episode=record.episode, start_cycle=record.start_cycle,
+                           end_cycle=record.end_cycle, end=record.end)
+        for ident in self.coaches:
+            self._send_raw(self.coach, ident, encode(end))
+        if self.monitor_subscribers:
+            self._publish(MONITOR_EPISODE_TOPIC, end)
+        if self.episodes_left is not None:
+            self.episodes_left -= 1
+            if self.episodes_left <= 0:
+                self.request_stop(f"{self.episodes_done} episodes done")
+
+    def _send_cycle_percepts(self, think: bool, see: bool = True) -> None:
+        arena = self.arena
+        cycle = arena.cycle
+        for conn in list(self.conns.values()):
+            with_see = see and arena.see_due(conn.slot, cycle)
+            for msg in arena.cycle_percepts(conn.slot, with_see):
+                self._send(conn, msg)
+            if think:
+                self._send(conn, m.Think(cycle=cycle))
+
+    # -- sockets -------------------------------------------------------------------------------------
+    def _poll(self, poller: zmq.Poller, timeout_ms: int) -> None:
+        events = dict(poller.poll(timeout_ms))
+        if self.players in events:
+            self._drain(self.players, self._on_player)
+        if self.coach in events:
+            self._drain(self.coach, self._on_coach)
+        if self.monitor in events:
+            self._drain_monitor()
+
+    def _drain(self, sock: zmq.Socket, handler: Callable[[bytes, bytes], None]) -> None:
+        while True:
+            try:
+                frames = sock.recv_multipart(zmq.NOBLOCK)
+            except zmq.Again:
+                return
+            if len(frames) != 2:
+                log.warning("dropped a message of %d frames (expected one msgpack frame)", len(frames) - 1)
+                if frames:
+                    self._error_raw(sock, frames[0], "malformed", "send exactly one msgpack frame per message")
+                continue
+            handler(frames[0], frames[1])
+
+    def _drain_monitor(self) -> None:
+        while True:
+            try:
+                event = self.monitor.recv(zmq.NOBLOCK)
+            except zmq.Again:
+                return
+            if event[:1] == b"\x01":
+                self.monitor_subscribers += 1
+            elif event[:1] == b"\x00":
+                self.monitor_subscribers = max(0, self.monitor_subscribers - 1)
+
+    def _send(self, conn: Connection, msg: Any) -> None:
+        self._send_raw(self.players, conn.identity, encode(msg))
+
+    def _send_raw(self, sock: zmq.Socket, ident: bytes, data: bytes) -> None:
+        try:
+            sock.send_multipart([ident, data], zmq.NOBLOCK)
+        except zmq.ZMQError as exc:  # peer gone (ROUTER_MANDATORY) or its queue is full
+            conn = self.conns.get(ident)
+            if conn is not None and exc.errno == zmq.EHOSTUNREACH and not conn.hung:
+                conn.hung = True
+                log.error("%s is unreachable (disconnected?): no longer waiting for it", conn.name)
+
+    def _error_raw(self, sock: zmq.Socket, ident: bytes, code: str, message: str) -> None:
+        log.warning("client %s: %s: %s", ident.hex()[:10], code, message)
+        self._send_raw(sock, ident, encode(m.Error(cycle=self.arena.cycle, code=code, message=message)))
+
+    def _publish(self, topic: bytes, msg: Any) -> None:
+        try:
+            self.monitor.send_multipart([topic, encode(msg)], zmq.NOBLOCK)
+        except zmq.Again:  # publishing never blocks the simulation
+            pass
+
+    # -- players port --------------------------------------------------------------------------------
+    def _on_player(self, ident: bytes, data: bytes) -> None:
+        try:
+            msg = decode_from_player(data, self.config.max_message_bytes)
+        except ProtocolError as exc:
+            self._error_raw(self.players, ident, exc.code, exc.message)
+            return
+        conn = self.conns.get(ident)
+        if isinstance(msg, (m.Init, m.Reconnect)):
+            self._on_init(ident, conn, msg)
+        elif conn is None:
+            self._error_raw(self.players, ident, "not_initialised", "send init (or reconnect) first")
+        elif isinstance(msg, m.Command):
+            self._on_command(conn, msg)
+        elif isinstance(msg, m.Report):
+            player_report = encode(m.PlayerReport(cycle=self.arena.cycle, side=conn.slot.side,
+                                                  unum=conn.slot.unum, payload=msg.payload))
+            for coach in self.coaches:
+                self._send_raw(self.coach, coach, player_report)
+        elif isinstance(msg, m.Bye):
+            log.info("%s said bye", conn.name)
+            self.arena.disconnect(conn.slot.obj)
+            del self.conns[ident]
+
+    def _on_init(self, ident: bytes, conn: Connection | None, msg: m.Init | m.Reconnect) -> None:
+        if conn is not None:
+            self._error_raw(self.players, ident, "already_initialised",
+                            f"this connection is already {conn.name}")
+            return
+        now_ms = self._virtual_ms()
+        try:
+            if isinstance(msg, m.Init):
+                slot = self.arena.connect(msg.team, msg.unum, fullstate=msg.fullstate,
+                                          synch_see=msg.synch_see, now_ms=now_ms)
+            else:
+                slot = self.arena.reconnect(msg.team, msg.unum, now_ms=now_ms)
+        except ArenaError as exc:
+            self._error_raw(self.players, ident, exc.code, exc.message)
+            return
+        conn = Connection(ident, slot, answered=self.arena.cycle - 1)
+        self.conns[ident] = conn
+        log.info("%s connected (%s)", conn.name, "reconnect" if isinstance(msg, m.Reconnect) else "init")
+        self._send(conn, m.InitOk(
+            cycle=self.arena.cycle, version=PROTOCOL_VERSION, side=slot.side, unum=slot.unum,
+            team=msg.team, play_mode=self.arena.play_mode, params=self.config.params.to_dict(),
+            landmarks=self.arena.landmarks(), config=self._client_config()))
+
+    def _on_command(self, conn: Connection, msg: m.Command) -> None:
+        cycle = self.arena.cycle
+        if msg.cycle > cycle:
+            self._send(conn, m.Error(cycle=cycle, code="bad_cycle",
+                                     message=f"command for cycle {msg.cycle} but the server is at {cycle}"))
+            return
+        warnings = self.arena.submit(conn.slot.obj, msg.commands)
+        for text in warnings:
+            self._send(conn, m.Error(cycle=cycle, code="dropped", message=text))
+        if msg.cycle == cycle:
+            conn.answered = cycle
+            conn.missed = 0
+            conn.hung = False
+
+    def _client_config(self) -> dict:
+        cfg = self.config
+        return {"mode": cfg.mode, "keepers": cfg.keepers, "takers": cfg.takers, "seed": cfg.seed}
+
+    def _virtual_ms(self) -> float:
+        if self.config.mode == "sync":
+            return self.arena.cycle * self.config.params.simulator_step_ms
+        return (time.monotonic() - self._t0) * 1000.0
+
+    # -- coach port ----------------------------------------------------------------------------------
+    def _on_coach(self, ident: bytes, data: bytes) -> None:
+        try:
+            msg = decode_from_coach(data, self.config.max_message_bytes)
+        except ProtocolError as exc:
+            self._error_raw(self.coach, ident, exc.code, exc.message)
+            return
+        if isinstance(msg, m.CoachInit):
+            self.coaches.add(ident)
+            log.info("coach %r connected", msg.client)
+            self._send_raw(self.coach, ident, encode(m.CoachInitOk(
+                cycle=self.arena.cycle, version=PROTOCOL_VERSION, params=self.config.params.to_dict(),
+                landmarks=self.arena.landmarks(), config=self._client_config(),
+                play_mode=self.arena.play_mode)))
+            return
+        if ident not in self.coaches:
+            self._error_raw(self.coach, ident, "not_initialised", "send init first")
+            return
+        if isinstance(msg, m.Start):
+            if not self.arena.started:
+                log.info("coach started the game")
+                self.arena.start()
+        elif isinstance(msg, m.Look):
+            self._send_raw(self.coach, ident, encode(m.LookOk(cycle=self.arena.cycle,
+                                                              state=truth_state(self.arena))))
+        elif isinstance(msg, m.Advice):
+            self.arena.advise(self._targets(msg.target), msg.payload)
+        elif isinstance(msg, m.EpisodeControl):
+            self._on_episode_control(ident, msg)
+        elif isinstance(msg, m.CoachBye):
+            self.coaches.discard(ident)
+
+    def _targets(self, target: Any) -> list[int]:
+        slots = self.arena.slots
+        if target == "keepers":
+            return [s.obj for s in slots if s.side == "l"]
+        if target == "takers":
+            return [s.obj for s in slots if s.side == "r"]
+        if target == "all":
+            return [s.obj for s in slots]
+        side, unum = target
+        return [s.obj for s in slots if s.side == side and s.unum == unum]
+
+    def _on_episode_control(self, ident: bytes, msg: m.EpisodeControl) -> None:
+        if msg.action == "stop":
+            if msg.episodes_left is None:
+                self.request_stop("coach asked to stop")
+            else:
+                self.episodes_left = msg.episodes_left
+        elif msg.action == "pause":
+            self.paused = True
+        elif msg.action == "resume":
+            self.paused = False
+        elif msg.action == "reset":
+            self.arena.reset_episode()

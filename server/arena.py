@@ -1,0 +1,338 @@
+"""One arena's game without sockets: players, their command slots, the step, percepts and hearing.
+
+The distributed server (``server/app.py``) wraps it with ZeroMQ and timing; the embedded mode drives it
+directly. Everything here is deterministic given the seed and the commands submitted per cycle.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+from typing import Any
+
+from protocol import messages as m
+from protocol.landmarks import to_wire as landmarks_to_wire
+from protocol.params import ServerParams
+from server import perception
+from server.physics import kick_possible
+from server.referee import END_CAUSES, new_referee_state, reset_field, start_game
+from server.rng import randint
+from server.simulation import new_causes, simulate_cycle
+from server.world import (
+    CMD_CATCH,
+    CMD_DASH,
+    CMD_KICK,
+    CMD_MOVE,
+    CMD_TACKLE,
+    CMD_TURN,
+    COUNT_CHANGE_VIEW,
+    COUNT_SAY,
+    PARKED_Y,
+    Commands,
+    World,
+    new_world,
+)
+from server.episode_log import EpisodeRecord
+
+TEAMS = {"keepers": "l", "takers": "r"}
+MAIN_SLOT = {"dash": CMD_DASH, "turn": CMD_TURN, "kick": CMD_KICK, "tackle": CMD_TACKLE, "move": CMD_MOVE,
+             "catch": CMD_CATCH}
+VIEW_WIDTHS = {"narrow": 0.5, "normal": 1.0, "wide": 2.0}
+SYNCH_SEE_PERIOD = {"narrow": 1, "normal": 2, "wide": 3}
+SAY_ALLOWED = re.compile(r"^[-0-9a-zA-Z ().+*/?<>_]*$")
+REFEREE_EPISODE_MESSAGE = "training Keepaway 1"
+
+
+class ArenaError(Exception):
+    """A request the arena refuses; ``code`` and a one-line ``message`` go back to the client."""
+
+    def __init__(self, code: str, message: str) -> None:
+        super().__init__(message)
+        self.code = code
+        self.message = message
+
+
+@dataclass
+class PlayerSlot:
+    """Server-side state of one player connection (spec 1, 3, 4)."""
+
+    obj: int
+    side: str
+    unum: int
+    connected: bool = False
+    fullstate: bool = False
+    synch_see: bool = False
+    view_width: str = "normal"
+    view_quality: str = "high"
+    see_phase_ms: float = 0.0  # virtual time of this player's first see (connect time, as rcssserver)
+    main_taken: bool = False
+    neck_taken: bool = False
+    hears: list = field(default_factory=list)
+
+    def see_period_ms(self, send_step_ms: float) -> float:
+        """Asynchronous see period: send_step x width factor x (0.5 for low quality) (spec 4)."""
+        return send_step_ms * VIEW_WIDTHS[self.view_width] * (0.5 if self.view_quality == "low" else 1.0)
+
+
+class Arena:
+    """A Keepaway arena: the world of one game, its referee and its player slots."""
+
+    def __init__(self, params: ServerParams, keepers: int, takers: int, seed: int) -> None:
+        self.params = params
+        self.kp = params.kernel()
+        self.world: World = new_world(params, keepers, takers, batch=1, seed=seed)
+        self.commands = Commands.empty(1, self.world.n_objects)
+        self.referee = new_referee_state(1)
+        self.causes = new_causes(1)
+        self.started = False
+        self.slots = [PlayerSlot(obj, self.world.side(obj), self.world.unum(obj))
+                      for obj in range(1, self.world.n_objects)]
+        self.pending_says: list[tuple[int, str]] = []
+        self.see_out = perception.SeeBuffers.empty(1, self.world.n_objects, self.kp)
+        self.body_out = perception.SenseBodyBuffers.empty(1, self.world.n_objects)
+
+    # -- connections ---------------------------------------------------------------------------------
+    @property
+    def cycle(self) -> int:
+        return int(self.world.time[0])
+
+    @property
+    def play_mode(self) -> str:
+        return "play_on" if self.started else "before_kick_off"
+
+    def slot(self, obj: int) -> PlayerSlot:
+        return self.slots[obj - 1]
+
+    def connect(self, team: str, unum: int | None = None, *, fullstate: bool = False,
+                synch_see: bool = False, now_ms: float = 0.0) -> PlayerSlot:
+        """Give a new client a uniform number of ``team`` (the requested one if free)."""
+        side = TEAMS.get(team)
+        if side is None:
+            raise ArenaError("illegal_teamname", f"team must be 'keepers' or 'takers', not {team!r}")
+        free = [s for s in self.slots if s.side == side and not s.connected]
+        if unum is not None:
+            free = [s for s in free if s.unum == unum]
+            if not free:
+                raise ArenaError("no_more_player", f"{team} {unum} is taken or does not exist")
+        if not free:
+            raise ArenaError("no_more_player", f"all {team} are connected")
+        return self._enable(free[0], fullstate, synch_see, now_ms)
+
+    def reconnect(self, team: str, unum: int, *, now_ms: float = 0.0) -> PlayerSlot:
+        """Take over a uniform number whose client said bye or was dropped (rcssserver's reconnect)."""
+        side = TEAMS.get(team)
+        if side is None:
+            raise ArenaError("illegal_teamname", f"team must be 'keepers' or 'takers', not {team!r}")
+        for s in self.slots:
+            if s.side == side and s.unum == unum:
+                if s.connected:
+                    raise ArenaError("cannot_reconnect", f"{team} {unum} is still connected")
+                return self._enable(s, s.fullstate, s.synch_see, now_ms)
+        raise ArenaError("no_such_player", f"there is no {team} {unum}")
+
+    def _enable(self, s: PlayerSlot, fullstate: bool, synch_see: bool, now_ms: float) -> PlayerSlot:
+        s.connected, s.fullstate, s.synch_see = True, fullstate, synch_see
+        s.see_phase_ms = now_ms
+        s.hears.clear()
+        self.world.enabled[0, s.obj] = True
+        return s
+
+    def disconnect(self, obj: int) -> None:
+        """bye: the player is disabled and parked off the pitch (spec 6)."""
+        s = self.slot(obj)
+        s.connected = False
+        w = self.world
+        w.enabled[0, obj] = False
+        w.pos[0, obj] = (-3.0 * obj, PARKED_Y)
+        w.vel[0, obj] = 0.0
+        w.acc[0, obj] = 0.0
+
+    def all_connected(self) -> bool:
+        return all(s.connected for s in self.slots)
+
+    def connected_slots(self) -> list[PlayerSlot]:
+        return [s for s in self.slots if s.connected]
+
+    # -- game ----------------------------------------------------------------------------------------
+    def start(self) -> None:
+        """Kick-off: the first play_on resets the field and starts episode 1 (spec 5 Start)."""
+        if not self.started:
+            self.started = True
+            start_game(0, self.world, self.referee, self.kp)
+            self._referee_says("play_on")
+
+    def submit(self, obj: int, commands: list) -> list[str]:
+        """Queue one client's atomic commands for this cycle; return one-line warnings for the client.
+
+        Slot rule (spec 1 Commands): the first accepted dash/turn/kick/tackle/move/catch wins, later
+        ones are ignored; CLASSIC: a kick that cannot reach the ball does not use the slot. turn_neck
+        has its own slot; say and change_view are unlimited. Numbers are finite (the codec checks);
+        ranges are clamped by the kernels as rcssserver clamps them.
+        """
+        s = self.slot(obj)
+        c = self.commands
+        warnings: list[str] = []
+        for cmd in commands:
+            name, args = cmd.name, cmd.args
+            code = MAIN_SLOT.get(name)
+            if code is not None:
+                if s.main_taken:
+                    continue
+                if code == CMD_KICK and not self.params.failed_kick_uses_slot \
+                        and not kick_possible(0, self.world, obj, self.kp):
+                    continue
+                s.main_taken = True
+                c.main[0, obj] = code
+                c.arg1[0, obj] = args[0] if args else 0.0
+                c.arg2[0, obj] = args[1] if len(args) > 1 else 0.0
+            elif name == "turn_neck":
+                if not s.neck_taken:
+                    s.neck_taken = True
+                    c.neck[0, obj] = args[0]
+                    c.has_neck[0, obj] = True
+            elif name == "say":
+                self.world.counts[0, obj, COUNT_SAY] += 1
+                text = args[0]
+                if len(text) > self.params.say_msg_size or not SAY_ALLOWED.match(text):
+                    warnings.append(f"say dropped: at most {int(self.params.say_msg_size)} characters "
+                                    "from [-0-9a-zA-Z ().+*/?<>_]")
+                else:
+                    self.pending_says.append((obj, text))
+            elif name == "change_view":
+                self.world.counts[0, obj, COUNT_CHANGE_VIEW] += 1
+                s.view_width = args[0]
+                if len(args) > 1:
+                    s.view_quality = args[1]
+        return warnings
+
+    def step(self) -> EpisodeRecord | None:
+        """Simulate one cycle; return the record of an episode that ended in it, if any."""
+        simulate_cycle(self.world, self.commands, self.referee, self.kp, self.causes)
+        self.commands.clear()
+        for s in self.slots:
+            s.main_taken = s.neck_taken = False
+        self._deliver_says()
+        if self.referee.dropped[0]:
+            self._referee_says("drop_ball", "play_on")
+        cause = int(self.causes[0])
+        if cause == 0:
+            return None
+        r = self.referee
+        record = EpisodeRecord(episode=int(r.episode[0]) - 1, start_cycle=int(r.last_start_cycle[0]),
+                               end_cycle=int(r.end_cycle[0]), end=END_CAUSES[cause])
+        self._referee_says(REFEREE_EPISODE_MESSAGE)
+        return record
+
+    def reset_episode(self) -> None:
+        """The coach's "reset": restart the episode now without logging it (the field is reset)."""
+        reset_field(0, self.world, self.kp)
+        self.referee.take_count[0] = 0
+        self.referee.start_cycle[0] = self.cycle
+        self._referee_says(REFEREE_EPISODE_MESSAGE)
+
+    def _referee_says(self, *messages: str) -> None:
+        """Referee messages are heard at once, in this cycle's percepts (spec 4 Hearing)."""
+        for s in self.connected_slots():
+            for text in messages:
+                s.hears.append(m.Hear(cycle=self.cycle, sender="referee", direction=None, unum=None,
+                                      message=text))
+
+    # -- hearing ------------------------------------------------------------------------------------
+    def advise(self, objs: list[int], payload: Any) -> None:
+        """Coach advice, heard by ``objs`` in their next percepts."""
+        for obj in objs:
+            s = self.slot(obj)
+            if s.connected:
+                s.hears.append(m.Hear(cycle=self.cycle, sender="coach", direction=None, unum=None,
+                                      message=payload))
+
+    def _deliver_says(self) -> None:
+        """Says of cycle t are heard in t+1 (spec 4 Hearing): self always, others within
+        audio_cut_dist, at most hear_max per listener from each team, chosen at random."""
+        if not self.pending_says:
+            return
+        w, p = self.world, self.params
+        for listener in self.connected_slots():
+            by_team: dict[str, list] = {"our": [], "opp": []}
+            lp = w.pos[0, listener.obj]
+            for speaker, text in self.pending_says:
+                if speaker == listener.obj:
+                    listener.hears.append(m.Hear(cycle=self.cycle, sender="self", direction=None,
+                                                 unum=None, message=text))
+                    continue
+                sp = w.pos[0, speaker]
+                dx, dy = sp[0] - lp[0], sp[1] - lp[1]
+                if math.hypot(dx, dy) > p.audio_cut_dist:
+                    continue
+                team = "our" if self.world.side(speaker) == listener.side else "opp"
+                direction = _normalize_deg(math.degrees(math.atan2(dy, dx)) - w.body[0, listener.obj])
+                by_team[team].append((speaker, direction, text))
+            for team, candidates in by_team.items():
+                for _ in range(min(int(p.hear_max), len(candidates))):
+                    speaker, direction, text = candidates.pop(randint(w.rng, 0, len(candidates)))
+                    listener.hears.append(m.Hear(
+                        cycle=self.cycle, sender=team, direction=int(round(direction)),
+                        unum=self.world.unum(speaker) if team == "our" else None, message=text))
+        self.pending_says.clear()
+
+    # -- percepts -----------------------------------------------------------------------------------
+    def see_due(self, s: PlayerSlot, cycle: int) -> bool:
+        """Synchronous-mode see schedule in virtual time (spec 1): a see whose time falls in
+        ((cycle-1)*100, cycle*100] ms is sent with cycle's percepts (normal/high: 2 per 3 cycles)."""
+        if s.synch_see:
+            return cycle % SYNCH_SEE_PERIOD[s.view_width] == 0
+        step = self.params.simulator_step_ms
+        period = s.see_period_ms(self.params.send_step_ms)
+        hi = cycle * step - s.see_phase_ms
+        lo = hi - step
+        return math.floor(hi / period) > math.floor(lo / period) or (cycle == 0 and hi >= 0 and lo < 0)
+
+    def see_message(self, s: PlayerSlot) -> m.See:
+        factor = perception.cone_factor(s.view_width, s.synch_see)
+        perception.see_arena(0, self.world, s.obj, factor, self.kp, self.see_out)
+        payload = perception.see_payload(self.see_out, 0, s.obj, self.world.n_keepers)
+        return m.See(cycle=self.cycle, **payload)
+
+    def sense_body_message(self, s: PlayerSlot) -> m.SenseBody:
+        perception.sense_body_arena(0, self.world, s.obj, self.body_out)
+        payload = perception.sense_body_payload(self.body_out, 0, s.obj, s.view_quality, s.view_width)
+        return m.SenseBody(cycle=self.cycle, **payload)
+
+    def fullstate_payload(self) -> dict:
+        payload = perception.fullstate(self.world, 0)
+        payload["play_mode"] = self.play_mode
+        payload["episode"] = int(self.referee.episode[0])
+        return payload
+
+    def cycle_percepts(self, s: PlayerSlot, with_see: bool) -> list:
+        """Percepts of this cycle for one player, in rcssserver's order: sense_body, (fullstate),
+        hears, then see."""
+        out: list = [self.sense_body_message(s)]
+        if s.fullstate:
+            out.append(m.Fullstate(cycle=self.cycle, **self.fullstate_payload()))
+        out.extend(s.hears)
+        s.hears.clear()
+        if with_see:
+            out.append(self.see_message(s))
+        return out
+
+    def landmarks(self) -> dict:
+        return landmarks_to_wire()
+
+
+def _normalize_deg(a: float) -> float:
+    a = math.fmod(a + 180.0, 360.0)
+    if a < 0:
+        a += 360.0
+    return a - 180.0
+
+
+def truth_state(arena: Arena) -> dict:
+    """The noiseless state for the coach's look and the monitor (ball, players, play mode, episode)."""
+    state = arena.fullstate_payload()
+    state["take_count"] = int(arena.referee.take_count[0])
+    return state
+
+
+__all__ = ["Arena", "ArenaError", "PlayerSlot", "truth_state"]

@@ -1,0 +1,121 @@
+"""``keepaway server`` (and ``keepaway replay-trace``): the server package's part of the command line."""
+
+from __future__ import annotations
+
+import logging
+import sys
+from pathlib import Path
+from typing import Any
+
+import click
+
+from protocol.params import ServerParams, parameter_set
+from server.config import HANG_POLICIES, TIMING_MODES, ServerConfig, load_toml
+
+
+def _parse_overrides(pairs: tuple[str, ...]) -> dict[str, float]:
+    out: dict[str, float] = {}
+    for pair in pairs:
+        name, sep, value = pair.partition("=")
+        if not sep:
+            raise click.BadParameter(f"expected NAME=VALUE, got {pair!r}", param_hint="--param")
+        try:
+            out[name.strip()] = float(value)
+        except ValueError:
+            raise click.BadParameter(f"{name}: {value!r} is not a number", param_hint="--param") from None
+    return out
+
+
+def build_config(config_file: Path | None, parameter_set_name: str | None, overrides: dict[str, float],
+                 keepaway_launch: bool, field_size: float | None, **settings: Any) -> ServerConfig:
+    """Defaults, then the TOML file, then flags (only those given); raises ValueError in one line."""
+    data: dict[str, Any] = load_toml(config_file) if config_file is not None else {}
+    file_params = data.pop("params", {}) or {}
+    set_name = parameter_set_name or data.pop("parameter_set", "classic")
+    data.pop("parameter_set", None)
+    param_changes = {**file_params, **overrides}
+    if field_size is not None:
+        param_changes["keepaway_length"] = param_changes["keepaway_width"] = field_size
+    params: ServerParams = parameter_set(set_name, keepaway_launch=keepaway_launch, **param_changes)
+    data.update({k: v for k, v in settings.items() if v is not None})
+    if "log_dir" in data and data["log_dir"] is not None:
+        data["log_dir"] = Path(data["log_dir"])
+    try:
+        return ServerConfig(params=params, **data)
+    except TypeError as exc:
+        raise ValueError(str(exc)) from None
+
+
+@click.command("server")
+@click.option("--config", "config_file", type=click.Path(exists=True, dir_okay=False, path_type=Path),
+              help="TOML file: ServerConfig fields at top level, [params] for parameter overrides.")
+@click.option("--host", default=None, help="Bind address (default 127.0.0.1).")
+@click.option("--players-port", type=int, default=None, help="Players ROUTER port (default 6000; 0 = free port).")
+@click.option("--coach-port", type=int, default=None, help="Coach ROUTER port (default 6001; 0 = free port).")
+@click.option("--monitor-port", type=int, default=None, help="Monitor PUB port (default 6002; 0 = free port).")
+@click.option("--keepers", type=int, default=None, help="Number of keepers (default 3).")
+@click.option("--takers", type=int, default=None, help="Number of takers (default 2).")
+@click.option("--field-size", type=float, default=None, help="Side of the square region in m (default 20).")
+@click.option("--mode", type=click.Choice(TIMING_MODES), default=None, help="Timing (default sync).")
+@click.option("--seed", type=int, default=None, help="Seed of all server randomness (default 0).")
+@click.option("--params", "parameter_set_name", type=click.Choice(["classic", "current"]), default=None,
+              help="Parameter set: rcssserver 11 (classic, default) or 19 (current).")
+@click.option("--param", "param_pairs", multiple=True, metavar="NAME=VALUE",
+              help="Override one server parameter (repeatable).")
+@click.option("--no-keepaway-launch", is_flag=True,
+              help="Do not apply keepaway.sh's stamina_inc_max=3500 and visible_angle=360.")
+@click.option("--episodes", type=int, default=None, help="Stop after this many episodes.")
+@click.option("--max-cycles", type=int, default=None, help="Stop after this many cycles.")
+@click.option("--cycle-timeout", "cycle_timeout_s", type=float, default=None,
+              help="Sync mode: seconds to wait for every player per cycle (default 1.25).")
+@click.option("--max-missed", "max_missed_cycles", type=int, default=None,
+              help="Consecutive missed cycles before a player counts as hung (default 20).")
+@click.option("--on-hang", type=click.Choice(HANG_POLICIES), default=None,
+              help="What to do with a hung player: continue without it (default) or stop.")
+@click.option("--start-on", type=click.Choice(["players", "coach"]), default=None,
+              help="Start when all players connected (default) or when a coach says start.")
+@click.option("--log-dir", type=click.Path(file_okay=False, path_type=Path), default=None,
+              help="Write the .kwy and .jsonl episode logs here.")
+@click.option("--kwy-name", default=None, help="Fixed log name (default keepaway).")
+@click.option("-v", "--verbose", count=True, help="More log output (-v info, -vv debug).")
+def server_command(config_file: Path | None, parameter_set_name: str | None, param_pairs: tuple[str, ...],
+                   no_keepaway_launch: bool, field_size: float | None, verbose: int, **settings: Any) -> None:
+    """Run the Keepaway simulation server (one arena) until its episodes are done or it is stopped.
+
+    Prints one line with the bound endpoints (useful with port 0), then logs to stderr.
+    """
+    from server.app import Server  # imported here so `keepaway --help` does not compile kernels
+
+    logging.basicConfig(level=logging.WARNING - 10 * min(verbose, 2) if verbose else logging.WARNING,
+                        format="%(asctime)s %(name)s %(levelname)s %(message)s", stream=sys.stderr)
+    try:
+        config = build_config(config_file, parameter_set_name, _parse_overrides(param_pairs),
+                              not no_keepaway_launch, field_size, **settings)
+    except ValueError as exc:
+        raise click.UsageError(str(exc)) from None
+
+    def announce(ports: Any) -> None:
+        h = config.host
+        click.echo(f"keepaway server listening players=tcp://{h}:{ports.players} "
+                   f"coach=tcp://{h}:{ports.coach} monitor=tcp://{h}:{ports.monitor}")
+        sys.stdout.flush()
+
+    server = Server(config, on_ready=announce)
+    server.install_signal_handlers()
+    try:
+        server.bind()
+    except Exception as exc:  # zmq.ZMQError: address in use etc.
+        raise click.ClickException(f"cannot bind: {exc}") from None
+    code = server.run()
+    if code:
+        click.echo(f"keepaway server: {server.stop_reason}", err=True)
+    sys.exit(code)
+
+
+def _replay_trace_command() -> click.Command:
+    from server.trace_replay import replay_trace_command
+
+    return replay_trace_command
+
+
+commands = [server_command, _replay_trace_command()]

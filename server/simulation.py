@@ -1,0 +1,30 @@
+"""One simulation cycle of a batch of arenas, in rcssserver's order (spec `server-physics.md` 2).
+
+apply commands -> move objects -> collisions -> time += 1 -> Keepaway referee -> stamina. The same
+compiled loop serves the distributed server (batch of one) and the batched mode (many arenas).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from server.physics import apply_commands, move_objects, resolve_collisions, update_stamina
+from server.referee import keepaway_referee
+
+
+@njit(cache=True)
+def simulate_cycle(w, c, r, kp, causes):
+    """Advance every arena one cycle; ``causes[b]`` gets the referee's episode-end code (0: goes on)."""
+    for b in range(w.pos.shape[0]):
+        apply_commands(b, w, c, kp)
+        move_objects(b, w, kp)
+        resolve_collisions(b, w, kp)
+        w.time[b] += 1
+        causes[b] = keepaway_referee(b, w, r, kp)
+        update_stamina(b, w, kp)
+
+
+def new_causes(batch: int) -> np.ndarray:
+    """The per-arena episode-end output array :func:`simulate_cycle` fills."""
+    return np.zeros(batch, dtype=np.int8)

@@ -1,0 +1,219 @@
+"""Skills pinned by hand computations from `keepaway-agents.md` 2 (classic parameters, keepaway launch)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from agents.belief import belief_from_truth, new_memory
+from agents.geometry import (
+    ball_after_kick,
+    kick_rate,
+    normalize_angle,
+    player_step,
+    turn_moment,
+    vertex_angle,
+)
+from agents.skills import (
+    AgentConfig,
+    fastest_to_ball,
+    go_to_point,
+    hold_ball,
+    intercept,
+    interception_point,
+    kick_close_to_body,
+    pass_ball,
+    pass_initial_speed,
+    search_ball,
+)
+from protocol.params import parameter_set
+from server.rng import seed_streams
+from server.world import CMD_DASH, CMD_KICK, CMD_TURN
+
+KP = parameter_set("classic").kernel()
+CFG = AgentConfig().kernel()
+
+
+def belief(pos, me, vel=None, body=None, n_keepers=3, n_takers=2, time=100):
+    """One perfect-belief row; ``pos`` lists ball, keepers, takers."""
+    pos = np.asarray(pos, dtype=float)
+    n = pos.shape[0]
+    vel = np.zeros((n, 2)) if vel is None else np.asarray(vel, dtype=float)
+    body = np.zeros(n) if body is None else np.asarray(body, dtype=float)
+    return belief_from_truth(pos, vel, body, np.zeros(n), me, time, n_keepers, n_takers)
+
+
+FAR_TAKERS = [[9.0, 9.0], [9.0, -9.0]]
+
+
+def test_normalize_angle_and_vertex_angle():
+    assert normalize_angle(190.0) == pytest.approx(-170.0)
+    assert normalize_angle(-180.0) == pytest.approx(180.0)
+    assert normalize_angle(540.0) == pytest.approx(180.0)
+    # rays (4, 3) and (4, 0) from the origin: cos = 16/20 = 0.8 -> 36.8699 deg
+    assert vertex_angle(4.0, 3.0, 0.0, 0.0, 4.0, 0.0) == pytest.approx(36.8699, abs=1e-4)
+
+
+def test_kick_rate_and_turn_inertia():
+    # ball 0.7 m ahead at 90 deg: 0.027 (1 - 0.25 * 90/180 - 0.25 (0.7 - 0.385)/0.7) = 0.027 * 0.7625
+    assert kick_rate(0.0, 0.0, 0.0, 0.0, 0.7, KP) == pytest.approx(0.027 * 0.7625)
+    # 30 deg at speed 0.5: 30 * (1 + 5 * 0.5) = 105; 60 deg at 0.5 -> 210, clipped to 180
+    assert turn_moment(30.0, 0.5, KP) == pytest.approx(105.0)
+    assert turn_moment(60.0, 0.5, KP) == pytest.approx(180.0)
+
+
+@pytest.mark.parametrize("dist, n, v0", [(10.0, 7, 1.85), (20.0, 12, 2.52)])
+def test_pass_initial_speed(dist, n, v0):
+    # n = round(log(dist (1/0.94 - 1)/1.2 + 1) / log(1/0.94)): 10 m -> round(6.89) = 7, 1.2/0.94^7 = 1.850;
+    # 20 m -> round(11.71) = 12, 1.2/0.94^12 = 2.522
+    got_n, got_v0 = pass_initial_speed(dist, 1.2, KP.ball_decay)
+    assert got_n == n
+    assert got_v0 == pytest.approx(v0, abs=0.005)
+
+
+def test_hold_ball_kicks_ball_0875_m_ahead_of_predicted_position():
+    # keeper 1 at (0, 0) moving (0.2, 0), body 0; ball still at (0.5, 0.3); takers > 5 m away, so the
+    # desired direction is 0. Ball not at the 0.7 m spot ((0.7, 0) is 0.36 m away) -> kick close to body:
+    # target = (0.2, 0) + 0.875 (1, 0) = (1.075, 0), 0.3 + 0.085 + 0.7 * 0.7 = 0.875 m from my next position.
+    # kick vector (0.575, -0.3), |.| = 0.64856; rate = 0.027 (1 - 0.25 * 30.964/180 - 0.25 * 0.19806/0.7)
+    # = 0.023929 -> power 27.10
+    bel = belief([[0.5, 0.3], [0.0, 0.0], [-9.0, 0.0], [0.0, 9.0]] + FAR_TAKERS, 1,
+                 vel=[[0, 0], [0.2, 0.0], [0, 0], [0, 0], [0, 0], [0, 0]])
+    code, power, kick_dir = hold_ball(bel, 0, CFG.hold_ratio_keeper, KP, CFG)
+    assert code == CMD_KICK
+    assert power == pytest.approx(27.10, abs=0.01)
+    rate = kick_rate(0.0, 0.0, 0.0, 0.5, 0.3, KP)
+    bx, by, _, _ = ball_after_kick(0.5, 0.3, 0.0, 0.0, rate, power, kick_dir, 0.0, KP)
+    assert (bx, by) == pytest.approx((1.075, 0.0), abs=1e-9)
+    assert math.hypot(bx - 0.2, by) == pytest.approx(0.875)
+
+
+def test_hold_ball_turns_away_from_a_close_taker():
+    # taker at (1.5, 0) with body 180 next to the ball (0.6, 0): phi = dir(taker -> me) = 180;
+    # normalize(180 - 180) = 0 is not > 0, so s = +1 and the desired direction is 180 + 45 = -135 deg.
+    # target = (0, 0) + 0.875 (cos -135, sin -135) = (-0.6187, -0.6187)
+    bel = belief([[0.6, 0.0], [0.0, 0.0], [-9.0, 0.0], [0.0, 9.0], [1.5, 0.0], [9.0, -9.0]], 1,
+                 body=[0, 0, 0, 0, 180, 180])
+    code, power, kick_dir = hold_ball(bel, 0, CFG.hold_ratio_keeper, KP, CFG)
+    assert code == CMD_KICK
+    rate = kick_rate(0.0, 0.0, 0.0, 0.6, 0.0, KP)
+    bx, by, _, _ = ball_after_kick(0.6, 0.0, 0.0, 0.0, rate, power, kick_dir, 0.0, KP)
+    assert (bx, by) == pytest.approx((-0.875 / math.sqrt(2), -0.875 / math.sqrt(2)), abs=1e-9)
+
+
+def test_taker_hold_ratio_keeps_ball_0595_m_from_body():
+    # 0.3 + 0.085 + 0.7 * 0.3 = 0.595 m straight ahead of a still taker
+    bel = belief([[0.5, 0.0], [-9.0, 0.0], [-9.0, 9.0], [-9.0, -9.0], [0.0, 0.0], [9.0, -9.0]], 4)
+    code, power, kick_dir = kick_close_to_body(bel, 0, 0.0, CFG.hold_ratio_taker, KP, CFG)
+    rate = kick_rate(0.0, 0.0, 0.0, 0.5, 0.0, KP)
+    bx, by, _, _ = ball_after_kick(0.5, 0.0, 0.0, 0.0, rate, power, kick_dir, 0.0, KP)
+    assert (bx, by) == pytest.approx((0.595, 0.0), abs=1e-9)
+
+
+@pytest.mark.parametrize("taker, expected", [([-1.5, 1.5], (CMD_KICK, 100.0, 180.0)),
+                                             ([9.0, 9.0], (CMD_KICK, 91.40, 0.0))])
+def test_pass_needing_more_than_105_power_repositions_unless_pressed(taker, expected):
+    # ball 0.9 m behind keeper 1 (body 0): rate = 0.027 (1 - 0.25 - 0.25 (0.9 - 0.385)/0.7) = 0.015284.
+    # PassBall-1 to keeper 2, 10 m from the ball: v0 = 1.2/0.94^7 = 1.8503 -> power 121.06, in (105, 130].
+    # A taker 1.62 m from the ball -> pass anyway (one kick cannot: full power aligned, 180 deg);
+    # nobody within 2 m -> reposition in front: 0.3 + 0.085 + 0.7 * 0.16 = 0.497 m ahead,
+    # kick (1.397, 0) -> power 1.397 / 0.015284 = 91.40 at 0 deg
+    bel = belief([[-0.9, 0.0], [0.0, 0.0], [-10.9, 0.0], [9.0, 9.0], taker, [9.0, -9.0]], 1)
+    code, power, kick_dir = pass_ball(bel, 0, 1, KP, CFG)
+    assert code == expected[0]
+    assert power == pytest.approx(expected[1], abs=0.01)
+    assert abs(normalize_angle(kick_dir - expected[2])) < 1e-9
+
+
+def test_go_to_point_dashes_within_7_degrees():
+    # target (10, 1) from a still player facing 0: atan(0.1) = 5.71 deg < 7 -> dash; 10 m in one cycle
+    # needs 10 m/cycle, capped at 1.2 -> 1.2/0.006 = 200, clipped to 100
+    bel = belief([[-5.0, 0.0], [0.0, 0.0], [-9.0, 0.0], [0.0, 9.0]] + FAR_TAKERS, 1)
+    assert go_to_point(bel, 0, 10.0, 1.0, KP, CFG) == (CMD_DASH, 100.0, 0.0)
+
+
+def test_go_to_point_turns_beyond_7_degrees():
+    # target (10, 2): atan(0.2) = 11.31 deg > 7; a still player needs one turn -> moment 11.31 (1 + 5 * 0)
+    bel = belief([[-5.0, 0.0], [0.0, 0.0], [-9.0, 0.0], [0.0, 9.0]] + FAR_TAKERS, 1)
+    code, moment, _ = go_to_point(bel, 0, 10.0, 2.0, KP, CFG)
+    assert code == CMD_TURN
+    assert moment == pytest.approx(math.degrees(math.atan(0.2)))
+
+
+def test_go_to_point_brakes_when_three_turns_are_needed():
+    # moving at 0.4 m/cycle along 0 deg, target (-10, 0.5) behind: reference (0.667, 0), angle 177.3 deg.
+    # turns: at v = 0.4 at most 180/3 = 60 deg; at 0.16, 180/1.8 = 100 deg; the rest (17.3) at 0.064
+    # -> 3 turns -> brake: dash power (0 - 0.4)/(0.006 * 1) = -66.67
+    bel = belief([[-5.0, 5.0], [0.0, 0.0], [-9.0, 0.0], [0.0, 9.0]] + FAR_TAKERS, 1,
+                 vel=[[0, 0], [0.4, 0.0], [0, 0], [0, 0], [0, 0], [0, 0]])
+    code, power, _ = go_to_point(bel, 0, -10.0, 0.5, KP, CFG)
+    assert code == CMD_DASH
+    assert power == pytest.approx(-0.4 / 0.006)
+
+
+def test_interception_point_of_a_ball_rolling_towards_me():
+    # ball from (-10, 0) at 1.5 m/cycle towards a keeper at (0, 0) facing it (body 180).
+    # ball after i cycles: x_i = -10 + 25 (1 - 0.94^i): x_4 = -4.519, x_5 = -3.348.
+    # full dashes cover 0.6, 0.84, 0.936, 0.974 (sum 3.350 after 4 cycles, 4.339 after 5): within
+    # 1.085 of x_4 needs 3.434 m (no), of x_5 needs 2.263 m (yes) -> i = 5
+    bel = belief([[-10.0, 0.0], [0.0, 0.0], [9.0, 0.0], [0.0, 9.0]] + FAR_TAKERS, 1,
+                 vel=[[1.5, 0.0], [0, 0], [0, 0], [0, 0], [0, 0], [0, 0]], body=[0, 180, 0, 0, 0, 0])
+    mem = new_memory(1, seed_streams(0, 1))
+    i, x, y = interception_point(bel, 0, mem, False, KP, CFG)
+    assert i == 5
+    assert (x, y) == pytest.approx((-10.0 + 25.0 * (1.0 - 0.94**5), 0.0))
+    # far from it (i >= 3): move there, a full dash since 3.35 m in 5 cycles needs more than 1.2 m/cycle
+    assert intercept(bel, 0, new_memory(1, seed_streams(0, 1)), False, KP, CFG) == (CMD_DASH, 100.0, 0.0)
+
+
+def test_fastest_keeper_to_a_rolling_ball():
+    # same ball; keeper 1 (0, 0) facing it reaches it after 5 cycles (above); keeper 2 at (0, -6) must
+    # first cover 4.9 m sideways (>= 6 cycles) and keeper 3 at (9, 0) is behind keeper 1
+    bel = belief([[-10.0, 0.0], [0.0, 0.0], [0.0, -6.0], [9.0, 0.0]] + FAR_TAKERS, 2,
+                 vel=[[1.5, 0.0], [0, 0], [0, 0], [0, 0], [0, 0], [0, 0]], body=[0, 180, 90, 180, 0, 0])
+    assert fastest_to_ball(bel, 0, 1, 3, KP, CFG) == (1, 5)
+
+
+def _run_intercept(ball_pos, ball_vel, me_pos, me_body, cycles):
+    """Closed loop on a noise-free world: the keeper intercepts each cycle; returns the first cycle in
+    which the ball is kickable (or None)."""
+    pos = np.array([ball_pos, me_pos, [9.0, 0.0], [0.0, 9.0]] + FAR_TAKERS, dtype=float)
+    vel = np.zeros_like(pos)
+    vel[0] = ball_vel
+    body = np.zeros(6)
+    body[1] = me_body
+    mem = new_memory(1, seed_streams(0, 1))
+    for t in range(cycles):
+        if math.dist(pos[0], pos[1]) < KP.player_size + KP.kickable_margin + KP.ball_size:
+            return t
+        bel = belief_from_truth(pos, vel, body, np.zeros(6), 1, t, 3, 2)
+        code, a1, _ = intercept(bel, 0, mem, False, KP, CFG)
+        x, y, vx, vy, b = player_step(pos[1, 0], pos[1, 1], vel[1, 0], vel[1, 1], body[1], 1.0, code, a1, KP)
+        pos[1], vel[1], body[1] = (x, y), (vx, vy), b
+        pos[0] += vel[0]
+        vel[0] *= KP.ball_decay
+    return None
+
+
+def test_intercept_gets_a_ball_rolling_towards_me():
+    # the interception point above is 5 cycles away; the closed loop reaches the ball by then
+    assert _run_intercept([-10.0, 0.0], [1.5, 0.0], [0.0, 0.0], 180.0, 30) <= 5
+
+
+def test_intercept_gets_a_ball_rolling_past_me():
+    # the ball passes 3 m beside the keeper (body 90 faces the ball's line, +y). It crosses x = 0 when
+    # 25 (1 - 0.94^i) = 10, i = 8.3; the keeper needs 3 - 1.085 = 1.9 m sideways (3 dashes: 2.38 m), so he
+    # must have it before the ball has passed him
+    t = _run_intercept([-10.0, 3.0], [1.5, 0.0], [0.0, 0.0], 90.0, 30)
+    assert t is not None and t <= 8
+
+
+def test_search_turns_60_degrees_towards_the_last_ball_side():
+    # ball last seen at relative angle -90 (up, y < 0): turn -60 deg (still player: moment = angle)
+    bel = belief([[0.0, -5.0], [0.0, 0.0], [-9.0, 0.0], [0.0, 9.0]] + FAR_TAKERS, 1)
+    mem = new_memory(1, seed_streams(0, 1))
+    code, moment, _ = search_ball(bel, 0, mem, KP, CFG)
+    assert code == CMD_TURN
+    assert moment == pytest.approx(-60.0)
