@@ -1,0 +1,46 @@
+"""The Keepaway players: world model, skills, keeper/taker decisions, policies and the player agent.
+
+``PlayerAgent`` (`agents/player.py`) is the transport-free player that ``keepaway player``
+(`agents/cli.py`) connects to a server; the numba kernels below it take a batch dimension so the batched
+mode can run many players at once (spec `architecture.md`, Embedded and batched execution).
+
+Names are imported on first use (PEP 562), so loading the command line (``agents.cli``) does not import
+numba or the kernels.
+"""
+
+from __future__ import annotations
+
+from importlib import import_module
+from typing import Any
+
+_EXPORTS = {
+    "agents.belief": ("AgentMemory", "Belief", "belief_from_truth", "empty_belief", "forget_episode",
+                      "new_memory"),
+    "agents.worldmodel": ("WorldModel",),
+    "agents.skills": ("AgentConfig", "GETOPEN_HANDCODED", "GETOPEN_HANDCODED_CONE", "GETOPEN_LEARNED",
+                      "GETOPEN_RANDOM", "PASS_EXTERNAL", "PASS_HANDCODED", "PASS_HOLD", "PASS_RANDOM"),
+    "agents.state_vars": ("getopen_state", "getopen_state_size", "pass_state", "pass_state_size"),
+    "agents.getopen": ("net_size", "net_value"),
+    "agents.keeper": ("NO_PASS_DECISION", "PASS_DECISION_START", "PASS_DECISION_STEP", "execute_pass_action",
+                      "handcoded_pass", "keeper_decide", "keepers_decide"),
+    "agents.taker": ("taker_decide", "takers_decide"),
+    "agents.policy_file": ("Policy", "PolicyFileError", "getopen_theta_size", "load_policy", "save_policy"),
+    "agents.player": ("GETOPEN_POLICIES", "PASS_POLICIES", "GreedyPassEvaluator", "PassLearner",
+                      "PlayerAgent", "compile_kernels", "greedy_pass_factory", "pass_q"),
+}
+_MODULE_OF = {name: module for module, names in _EXPORTS.items() for name in names}
+
+__all__ = sorted(_MODULE_OF)
+
+
+def __getattr__(name: str) -> Any:
+    module = _MODULE_OF.get(name)
+    if module is None:
+        raise AttributeError(f"module 'agents' has no attribute {name!r}")
+    value = getattr(import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

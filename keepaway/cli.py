@@ -13,8 +13,9 @@ def main() -> None:
 
 def _register() -> None:
     from server.cli import commands as server_commands
+    from agents.cli import commands as agent_commands
 
-    for command in server_commands:
+    for command in server_commands + agent_commands:
         main.add_command(command)
 
 

@@ -28,6 +28,10 @@ from server.episode_log import EpisodeRecord, JsonlLog, KwyLog
 
 log = logging.getLogger("keepaway.server")
 
+# Frames up to max_message_bytes are decoded; larger ones up to this factor are answered with a
+# ``too_large`` error; beyond it ZeroMQ (MAXMSGSIZE) disconnects the sender before reading the frame.
+HARD_LIMIT_FACTOR = 4
+
 
 @dataclass
 class Connection:
@@ -73,7 +77,7 @@ class Server:
         self.coach = self.ctx.socket(zmq.ROUTER)
         self.monitor = self.ctx.socket(zmq.XPUB)
         for sock in (self.players, self.coach, self.monitor):
-            configure(sock, cfg.max_message_bytes)
+            configure(sock, cfg.max_message_bytes * HARD_LIMIT_FACTOR)
         self.monitor_subscribers = 0
         self.kwy: KwyLog | None = None
         self.jsonl: JsonlLog | None = None
@@ -224,13 +228,18 @@ class Server:
             conn.missed += 1
             log.warning("%s missed cycle %d (%d in a row)", conn.name, cycle, conn.missed)
             if conn.missed >= cfg.max_missed_cycles:
-                conn.hung = True
-                message = (f"{conn.name} missed {conn.missed} cycles in a row; "
-                           + ("stopping" if cfg.on_hang == "stop" else "no longer waiting for it"))
-                log.error(message)
-                self._send(conn, m.Error(cycle=cycle, code="missed_cycles", message=message))
-                if cfg.on_hang == "stop":
-                    self.request_stop(message, exit_code=3)
+                self._give_up_on(conn, f"{conn.name} missed {conn.missed} cycles in a row")
+                self._send(conn, m.Error(cycle=cycle, code="missed_cycles",
+                                         message=f"you missed {conn.missed} cycles in a row"))
+
+    def _give_up_on(self, conn: Connection, why: str) -> None:
+        """Stop waiting for a hung or vanished player; with on_hang=stop, stop the server (exit 3)."""
+        conn.hung = True
+        stop = self.config.on_hang == "stop"
+        message = f"{why}; " + ("stopping" if stop else "no longer waiting for it")
+        log.error(message)
+        if stop:
+            self.request_stop(message, exit_code=3)
 
     # -- the cycle -----------------------------------------------------------------------------------
     def _step(self) -> None:
@@ -312,8 +321,7 @@ class Server:
         except zmq.ZMQError as exc:  # peer gone (ROUTER_MANDATORY) or its queue is full
             conn = self.conns.get(ident)
             if conn is not None and exc.errno == zmq.EHOSTUNREACH and not conn.hung:
-                conn.hung = True
-                log.error("%s is unreachable (disconnected?): no longer waiting for it", conn.name)
+                self._give_up_on(conn, f"{conn.name} is unreachable (disconnected?)")
 
     def _error_raw(self, sock: zmq.Socket, ident: bytes, code: str, message: str) -> None:
         log.warning("client %s: %s: %s", ident.hex()[:10], code, message)

@@ -14,15 +14,23 @@ from server.referee import keepaway_referee
 
 
 @njit(cache=True)
+def step_arena(b, w, c, r, kp) -> int:
+    """Advance arena ``b`` one cycle; returns the referee's episode-end code (0: goes on). The batched
+    mode composes it with percepts and decisions in its own loop over arenas."""
+    apply_commands(b, w, c, kp)
+    move_objects(b, w, kp)
+    resolve_collisions(b, w, kp)
+    w.time[b] += 1
+    cause = keepaway_referee(b, w, r, kp)
+    update_stamina(b, w, kp)
+    return cause
+
+
+@njit(cache=True)
 def simulate_cycle(w, c, r, kp, causes):
     """Advance every arena one cycle; ``causes[b]`` gets the referee's episode-end code (0: goes on)."""
     for b in range(w.pos.shape[0]):
-        apply_commands(b, w, c, kp)
-        move_objects(b, w, kp)
-        resolve_collisions(b, w, kp)
-        w.time[b] += 1
-        causes[b] = keepaway_referee(b, w, r, kp)
-        update_stamina(b, w, kp)
+        causes[b] = step_arena(b, w, c, r, kp)
 
 
 def new_causes(batch: int) -> np.ndarray:

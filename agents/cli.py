@@ -1,0 +1,174 @@
+"""``keepaway player``: one keeper or taker process over ZeroMQ (architecture, "Processes").
+
+The socket edge of :class:`agents.player.PlayerAgent` (style guide, "Sockets at the edge"): one DEALER
+socket (LINGER 0, the protocol's size limit), one poll loop, every frame decoded by ``protocol`` before
+the agent sees it. Exit codes: 0 when the server shuts down or on SIGTERM/SIGINT (after saying ``bye``),
+2 when the player cannot start (bad policy file, no server within ``--connect-timeout``, ``init``
+refused). Expected conditions end with one line on stderr, never a traceback.
+"""
+
+from __future__ import annotations
+
+import logging
+import signal
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import click
+
+from protocol.endpoints import DEFAULT_PORTS, parse_endpoint
+
+EXIT_OK = 0
+EXIT_START_FAILED = 2
+POLL_MS = 100  # longest wait between checks of the stop flag and the connect deadline
+CLIENT_NAME = "keepaway-player"
+DEFAULT_SERVER = f"tcp://127.0.0.1:{DEFAULT_PORTS['players']}"
+
+log = logging.getLogger("keepaway.player")
+
+
+class PlayerExit(Exception):
+    """Ends the player with ``code``; a non-empty ``message`` is printed as one stderr line."""
+
+    def __init__(self, code: int, message: str = "") -> None:
+        super().__init__(message)
+        self.code = code
+        self.message = message
+
+
+class _StopFlag:
+    """Set by SIGTERM/SIGINT; the loop checks it between polls."""
+
+    def __init__(self) -> None:
+        self.signal_name: str | None = None
+
+    def __call__(self, signum: int, _frame: Any) -> None:
+        self.signal_name = signal.Signals(signum).name
+
+
+def run_player(agent: Any, endpoint: str, connect_timeout_s: float, stop: _StopFlag) -> int:
+    """Connect, send ``init`` and feed ``agent`` until the server shuts down or ``stop`` is set.
+    Returns the exit code; raises :class:`PlayerExit` when the player cannot start."""
+    import zmq
+
+    from agents.policy_file import PolicyFileError
+    from protocol import messages as m
+    from protocol.codec import encode
+    from protocol.endpoints import configure
+    from protocol.errors import ProtocolError
+    from protocol.messages import decode_for_player
+
+    ctx = zmq.Context()
+    sock = ctx.socket(zmq.DEALER)
+    configure(sock)
+    try:
+        sock.connect(endpoint)
+
+        def send(msg: Any) -> None:
+            try:
+                sock.send(encode(msg), zmq.NOBLOCK)
+            except zmq.Again:
+                log.warning("could not send %s: the server is not reachable", msg.TYPE)
+
+        send(m.Init(team=agent.team, client=CLIENT_NAME, fullstate=agent.fullstate))
+        deadline = time.monotonic() + connect_timeout_s
+        while True:
+            if stop.signal_name is not None:
+                log.info("%s: saying bye", stop.signal_name)
+                if agent.ready:
+                    send(m.Bye())
+                return EXIT_OK
+            if not agent.ready and time.monotonic() > deadline:
+                raise PlayerExit(EXIT_START_FAILED, f"no server at {endpoint} after {connect_timeout_s:g} s")
+            if not sock.poll(POLL_MS):
+                continue
+            while True:
+                try:
+                    data = sock.recv(zmq.NOBLOCK)
+                except zmq.Again:
+                    break
+                try:
+                    msg = decode_for_player(data)
+                except ProtocolError as exc:
+                    log.warning("dropped a message from the server: %s: %s", exc.code, exc.message)
+                    continue
+                if isinstance(msg, m.Shutdown):
+                    log.info("server shut down: %s", msg.reason)
+                    return EXIT_OK
+                if isinstance(msg, m.Error):
+                    if not agent.ready:
+                        raise PlayerExit(EXIT_START_FAILED, f"the server refused init: {msg.code}: {msg.message}")
+                    log.warning("server error at cycle %d: %s: %s", msg.cycle, msg.code, msg.message)
+                    continue
+                try:
+                    command = agent.on_message(msg)
+                except (PolicyFileError, ValueError) as exc:
+                    if agent.ready and not isinstance(msg, m.InitOk):
+                        raise
+                    send(m.Bye())
+                    raise PlayerExit(EXIT_START_FAILED, str(exc)) from None
+                if isinstance(msg, m.InitOk):
+                    log.info("joined as %s %d (%s mode)", agent.team, agent.unum, agent.mode)
+                if command is not None:
+                    send(command)
+    finally:
+        sock.close(linger=0)
+        ctx.term()
+
+
+@click.command("player")
+@click.option("--team", type=click.Choice(["keepers", "takers"]), required=True, help="The team to join.")
+@click.option("--pass", "pass_policy", type=click.Choice(["random", "handcoded", "learned", "hold"]),
+              default="handcoded", show_default=True,
+              help="Keepers' Pass policy (learned: greedy on the policy file's Pass weights).")
+@click.option("--getopen", "getopen_policy",
+              type=click.Choice(["random", "handcoded", "handcoded-cone", "learned"]), default="handcoded",
+              show_default=True,
+              help="Keepers' GetOpen policy (handcoded: the paper's rule; handcoded-cone: the framework's; "
+                   "learned: the policy file's net, or the coach's).")
+@click.option("--policy", "policy_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Policy file (.npz) with the learned parameters.")
+@click.option("--server", "endpoint", default=DEFAULT_SERVER, show_default=True,
+              help="The server's players endpoint, tcp://HOST:PORT.")
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
+              help="Seed of the player's own randomness (combined with its side and uniform number).")
+@click.option("--fullstate", is_flag=True, help="Use the exact fullstate percepts instead of seeing.")
+@click.option("--connect-timeout", "connect_timeout_s", type=click.FloatRange(min=0.0), default=60.0,
+              show_default=True, help="Seconds to wait for the server's init_ok before giving up (exit 2).")
+@click.option("-v", "--verbose", count=True, help="More log output (-v info, -vv debug).")
+def player_command(team: str, pass_policy: str, getopen_policy: str, policy_path: Path | None, endpoint: str,
+                   seed: int, fullstate: bool, connect_timeout_s: float, verbose: int) -> None:
+    """Run one Keepaway player: connect to the server, play until it ends, exit.
+
+    Exits 0 when the server shuts down or on SIGTERM/SIGINT (after saying bye), 2 when it cannot start.
+    """
+    logging.basicConfig(level=logging.WARNING - 10 * min(verbose, 2) if verbose else logging.WARNING,
+                        format="%(asctime)s %(name)s %(levelname)s %(message)s", stream=sys.stderr)
+    try:
+        parse_endpoint(endpoint)
+    except ValueError as exc:
+        raise click.BadParameter(str(exc), param_hint="--server") from None
+    stop = _StopFlag()
+    signal.signal(signal.SIGTERM, stop)
+    signal.signal(signal.SIGINT, stop)
+
+    from agents.player import PlayerAgent, compile_kernels  # here so `keepaway --help` stays light
+    from agents.policy_file import PolicyFileError, load_policy
+
+    try:
+        policy = load_policy(policy_path) if policy_path is not None else None
+        agent = PlayerAgent(team, pass_policy, getopen_policy, policy=policy, seed=seed, fullstate=fullstate)
+        if team == "keepers" and getopen_policy == "learned" and policy is None:
+            log.warning("--getopen learned without --policy: GetOpen uses zero weights until the coach "
+                        "sends a policy")
+        compile_kernels()
+        code = run_player(agent, endpoint, connect_timeout_s, stop)
+    except (PolicyFileError, PlayerExit) as exc:
+        click.echo(f"keepaway player: {exc}", err=True)
+        sys.exit(getattr(exc, "code", EXIT_START_FAILED))
+    sys.exit(code)
+
+
+commands = [player_command]

@@ -1,0 +1,210 @@
+"""Policy files: a keeper's learned parameters on disk (``.npz``), read by ``keepaway player --policy``.
+
+One ``.npz`` archive holds a JSON header and the parameter arrays:
+
+* ``header``: UTF-8 JSON stored as a uint8 array (a str array is read too), ``{"format":
+  "keepaway-policy", "version": 1, "config": {...}, "seed": ..., "created": ...}``; ``config`` is a free
+  map in which ``keepers`` and ``takers`` (default 3 and 2) size the nets;
+* ``getopen_theta`` (optional): the GO:L net parameters, ``net_size(3K + T - 1)`` floats (91 for 3v2;
+  spec `keepaway-task.md` 4, layout in ``agents.getopen.net_value``);
+* ``pass_weights`` (optional): the Pass learner's weights, whose shape belongs to the Sarsa learner
+  (spec `keepaway-agents.md` 5); only checked to be finite numbers here.
+
+The archive is read without pickle. Whatever is wrong with a file (missing, not an archive, corrupt,
+wrong header, wrong shape, NaN) is reported as one :class:`PolicyFileError` line naming the file.
+"""
+
+from __future__ import annotations
+
+import json
+import zipfile
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agents.getopen import net_size
+from agents.state_vars import getopen_state_size
+
+POLICY_FORMAT = "keepaway-policy"
+POLICY_VERSION = 1
+DEFAULT_KEEPERS = 3
+DEFAULT_TAKERS = 2
+ARRAY_NAMES = ("header", "getopen_theta", "pass_weights")
+
+
+class PolicyFileError(Exception):
+    """A policy file that cannot be used; ``str(exc)`` is one line naming the file and the problem."""
+
+
+@dataclass(frozen=True)
+class Policy:
+    """The contents of a policy file (arrays are float64 and read-only)."""
+
+    path: str
+    config: dict[str, Any] = field(default_factory=dict)
+    seed: int | None = None
+    created: str | None = None
+    getopen_theta: np.ndarray | None = None
+    pass_weights: np.ndarray | None = None
+
+    @property
+    def n_keepers(self) -> int:
+        return int(self.config.get("keepers", DEFAULT_KEEPERS))
+
+    @property
+    def n_takers(self) -> int:
+        return int(self.config.get("takers", DEFAULT_TAKERS))
+
+
+def getopen_theta_size(n_keepers: int = DEFAULT_KEEPERS, n_takers: int = DEFAULT_TAKERS) -> int:
+    """Parameters of the GO:L net for K keepers and T takers: the (3K + T - 1)-5-5-1 net (91 for 3v2)."""
+    return net_size(getopen_state_size(n_keepers, n_takers))
+
+
+def as_getopen_theta(values: Any, size: int) -> np.ndarray:
+    """``values`` as a read-only float64 GO:L parameter vector of length ``size``; ValueError (one line)
+    if it is not ``size`` finite real numbers. Shared by the file reader and the coach's policy advice."""
+    array = np.asarray(values)
+    if array.dtype.kind not in "iuf":
+        raise ValueError(f"getopen_theta must hold real numbers, not {array.dtype}")
+    if array.shape != (size,):
+        raise ValueError(f"getopen_theta has shape {array.shape}, expected ({size},)")
+    return _finite(array, "getopen_theta")
+
+
+def _finite(array: np.ndarray, name: str) -> np.ndarray:
+    out = np.array(array, dtype=np.float64)
+    bad = ~np.isfinite(out)
+    if bad.any():
+        raise ValueError(f"{name} has {int(bad.sum())} non-finite values (first at index "
+                         f"{tuple(int(i) for i in np.argwhere(bad)[0])})")
+    out.flags.writeable = False
+    return out
+
+
+def _pass_weights(values: Any) -> np.ndarray:
+    array = np.asarray(values)
+    if array.dtype.kind not in "iuf":
+        raise ValueError(f"pass_weights must hold real numbers, not {array.dtype}")
+    if array.ndim == 0 or array.size == 0:
+        raise ValueError(f"pass_weights has shape {array.shape}, expected a non-empty array")
+    return _finite(array, "pass_weights")
+
+
+def _team_size(config: dict, name: str, default: int) -> int:
+    value = config.get(name, default)
+    if type(value) is not int or value < 1:
+        raise ValueError(f"config.{name} must be a positive integer, not {value!r}")
+    return value
+
+
+def _header(raw: np.ndarray) -> dict:
+    """The header map from its stored array (uint8 bytes of UTF-8 JSON, or a str scalar)."""
+    if raw.dtype == np.uint8 and raw.ndim == 1:
+        text = raw.tobytes().decode("utf-8")
+    elif raw.dtype.kind == "U" and raw.ndim == 0:
+        text = str(raw[()])
+    else:
+        raise ValueError(f"header is a {raw.dtype} array of shape {raw.shape}, expected uint8 JSON bytes")
+    header = json.loads(text)
+    if type(header) is not dict:
+        raise ValueError("header is not a JSON object")
+    if header.get("format") != POLICY_FORMAT:
+        raise ValueError(f"header format is {header.get('format')!r}, expected {POLICY_FORMAT!r}")
+    if header.get("version") != POLICY_VERSION:
+        raise ValueError(f"policy file version {header.get('version')!r} is not supported "
+                         f"(this program reads version {POLICY_VERSION})")
+    config = header.get("config", {})
+    if type(config) is not dict:
+        raise ValueError("header config is not a JSON object")
+    seed = header.get("seed")
+    if seed is not None and type(seed) is not int:
+        raise ValueError(f"header seed must be an integer or null, not {seed!r}")
+    return header
+
+
+def _read_arrays(path: Path) -> dict[str, np.ndarray]:
+    """Every array of the archive, read eagerly (a corrupt member fails here, not later)."""
+    loaded = np.load(path, allow_pickle=False)
+    if not isinstance(loaded, np.lib.npyio.NpzFile):
+        raise ValueError("not an .npz archive (a single .npy array)")
+    with loaded:
+        return {name: loaded[name] for name in loaded.files}
+
+
+def load_policy(path: str | Path) -> Policy:
+    """Read and check a policy file; raises :class:`PolicyFileError` (one line) for any problem."""
+    where = str(path)
+    file = Path(path)
+    if not file.is_file():
+        raise PolicyFileError(f"{where}: no such policy file")
+    try:
+        arrays = _read_arrays(file)
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile, KeyError) as exc:
+        reason = " ".join(str(exc).split()) or type(exc).__name__
+        raise PolicyFileError(f"{where}: not a readable policy archive ({reason})") from None
+    try:
+        unknown = sorted(set(arrays) - set(ARRAY_NAMES))
+        if unknown:
+            raise ValueError(f"unexpected arrays {unknown} (expected {list(ARRAY_NAMES)})")
+        if "header" not in arrays:
+            raise ValueError("no header array")
+        header = _header(arrays["header"])
+        config = header.get("config", {})
+        keepers = _team_size(config, "keepers", DEFAULT_KEEPERS)
+        takers = _team_size(config, "takers", DEFAULT_TAKERS)
+        theta = arrays.get("getopen_theta")
+        if theta is not None:
+            theta = as_getopen_theta(theta, getopen_theta_size(keepers, takers))
+        weights = arrays.get("pass_weights")
+        if weights is not None:
+            weights = _pass_weights(weights)
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise PolicyFileError(f"{where}: {' '.join(str(exc).split())}") from None
+    return Policy(path=where, config=config, seed=header.get("seed"), created=header.get("created"),
+                  getopen_theta=theta, pass_weights=weights)
+
+
+def save_policy(
+    path: str | Path,
+    *,
+    getopen_theta: Any = None,
+    pass_weights: Any = None,
+    config: dict[str, Any] | None = None,
+    seed: int | None = None,
+) -> Path:
+    """Write a policy file that :func:`load_policy` accepts (the same checks run before writing, so a
+    bad policy is refused here with ValueError). Returns the path written (``.npz`` appended if absent,
+    as numpy does)."""
+    config = dict(config or {})
+    keepers = _team_size(config, "keepers", DEFAULT_KEEPERS)
+    takers = _team_size(config, "takers", DEFAULT_TAKERS)
+    header = {"format": POLICY_FORMAT, "version": POLICY_VERSION, "config": config, "seed": seed,
+              "created": datetime.now(timezone.utc).isoformat(timespec="seconds")}
+    arrays: dict[str, np.ndarray] = {
+        "header": np.frombuffer(json.dumps(header).encode("utf-8"), dtype=np.uint8)
+    }
+    if getopen_theta is not None:
+        arrays["getopen_theta"] = as_getopen_theta(getopen_theta, getopen_theta_size(keepers, takers))
+    if pass_weights is not None:
+        arrays["pass_weights"] = _pass_weights(pass_weights)
+    out = Path(path)
+    if out.suffix != ".npz":
+        out = out.with_name(out.name + ".npz")
+    np.savez(out, **arrays)
+    return out
+
+
+__all__ = [
+    "POLICY_FORMAT",
+    "POLICY_VERSION",
+    "Policy",
+    "PolicyFileError",
+    "as_getopen_theta",
+    "getopen_theta_size",
+    "load_policy",
+    "save_policy",
+]

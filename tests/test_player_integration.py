@@ -1,0 +1,115 @@
+"""``keepaway player`` processes against a real ``keepaway server`` (docs/protocol.md; issue: the player
+connects, waits for the game, plays and exits cleanly when the server ends or on SIGTERM)."""
+
+from __future__ import annotations
+
+import select
+import signal
+import socket
+import subprocess
+import time
+
+import numpy as np
+
+from tests.conftest import keepaway_command
+
+TEAMS = ["keepers"] * 3 + ["takers"] * 2
+PROCESS_TIMEOUT_S = 300  # generous: five players load numba caches on two shared cores
+
+
+def start_players(processes, server, *extra, fullstate_takers=False):
+    players = []
+    for i, team in enumerate(TEAMS):
+        args = ["player", "--team", team, "--server", server.players_endpoint, "--seed", "5", *extra]
+        if fullstate_takers and team == "takers":
+            args.append("--fullstate")
+        players.append(processes.popen(keepaway_command(*args), stdout=subprocess.PIPE, stderr=subprocess.PIPE))
+    return players
+
+
+def episodes_in_kwy(log_dir):
+    (kwy,) = log_dir.glob("*.kwy")
+    return [line.split() for line in kwy.read_text().splitlines() if line and not line.startswith("#")]
+
+
+def assert_game_played(server, players, episodes):
+    assert server.wait(PROCESS_TIMEOUT_S) == 0, server.stderr_text()[-3000:]
+    for proc in players:
+        code = proc.wait(PROCESS_TIMEOUT_S)
+        err = proc.stderr.read().decode()
+        assert code == 0, err[-3000:]
+        assert "Traceback" not in err
+    rows = episodes_in_kwy(server.log_dir)
+    assert [int(r[0]) for r in rows] == list(range(1, episodes + 1))
+    assert all(r[4] in ("o", "t") for r in rows)
+
+
+def test_five_players_play_a_synchronous_game_to_its_end(processes, tmp_path):
+    server = processes.start_server(tmp_path, "--episodes", "5", "--mode", "sync")
+    players = start_players(processes, server, fullstate_takers=True)
+    assert_game_played(server, players, 5)
+
+
+def test_five_players_play_a_real_time_game_to_its_end(processes, tmp_path):
+    server = processes.start_server(tmp_path, "--episodes", "2", "--mode", "realtime")
+    players = start_players(processes, server)
+    assert_game_played(server, players, 2)
+
+
+def read_until(stream, text, timeout_s):
+    """Lines of ``stream`` up to the first containing ``text`` (AssertionError after ``timeout_s``)."""
+    lines = []
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        ready, _, _ = select.select([stream], [], [], max(0.0, deadline - time.monotonic()))
+        if not ready:
+            break
+        line = stream.readline().decode()
+        if not line:
+            break
+        lines.append(line)
+        if text in line:
+            return lines
+    raise AssertionError(f"no {text!r} in {''.join(lines)[-2000:]!r}")
+
+
+def test_sigterm_makes_a_player_say_bye_and_exit_0(processes, tmp_path):
+    server = processes.start_server(tmp_path, "--mode", "sync")
+    player = processes.popen(keepaway_command("player", "--team", "keepers", "--server", server.players_endpoint,
+                                              "-v"), stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    read_until(player.stderr, "joined as keepers 1", PROCESS_TIMEOUT_S)
+    player.send_signal(signal.SIGTERM)
+    assert player.wait(PROCESS_TIMEOUT_S) == 0
+    assert "Traceback" not in player.stderr.read().decode()
+    read_until(server.proc.stderr, "keeper 1 said bye", 30)
+    server.proc.send_signal(signal.SIGTERM)
+    assert server.wait(PROCESS_TIMEOUT_S) == 0
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_a_player_without_a_server_exits_2_after_the_connect_timeout(processes):
+    endpoint = f"tcp://127.0.0.1:{free_port()}"
+    proc = processes.popen(keepaway_command("player", "--team", "takers", "--server", endpoint,
+                                            "--connect-timeout", "2"),
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    assert proc.wait(PROCESS_TIMEOUT_S) == 2
+    err = proc.stderr.read().decode()
+    assert err.strip() == f"keepaway player: no server at {endpoint} after 2 s"
+
+
+def test_a_bad_policy_file_stops_the_player_with_one_line(processes, tmp_path):
+    policy = tmp_path / "broken.npz"
+    np.save(tmp_path / "broken.npy", np.zeros(3))
+    policy.write_bytes((tmp_path / "broken.npy").read_bytes()[:20])
+    proc = processes.popen(keepaway_command("player", "--team", "keepers", "--getopen", "learned",
+                                            "--policy", str(policy), "--connect-timeout", "1"),
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    assert proc.wait(PROCESS_TIMEOUT_S) == 2
+    err = proc.stderr.read().decode()
+    assert len(err.strip().splitlines()) == 1
+    assert err.startswith(f"keepaway player: {policy}: not a readable policy archive")

@@ -1,0 +1,486 @@
+"""The batched mode: many Keepaway arenas, each with five full noisy players, stepped in one process.
+
+Spec `architecture.md`, "Embedded and batched execution": the same simulator core and the same agent
+kernels as the distributed mode, composed in one numba loop over arenas. Per arena and cycle, in the
+distributed server's synchronous order (``server/app.py`` ``_run_sync``, ``server/arena.py``):
+
+1. percepts of every player, in object order: sense_body; the referee's episode message
+   (`training Keepaway 1`, heard in the first cycle of a new episode) -> world-model forget and
+   ``forget_episode``; the see when due (``see_due``: phase 0 for players connected before the start,
+   2 sees per 3 cycles at normal width), written from the server's :class:`SeeBuffers` row straight into
+   the world model's :class:`SeeBuffer` row (:func:`see_to_model_row`, the same numbers the wire carries);
+2. the decision (``keeper_decide`` / ``taker_decide``) on the player's belief row;
+3. its commands into the server's :class:`Commands` (with the server's slot rule for kicks out of reach)
+   and into the world model as the commands it sent (``WorldModel.on_own_commands``);
+4. the step (``server.simulation.step_arena``).
+
+Python runs only between chunks of cycles, to collect the episodes that ended. Randomness: arena ``b``
+of a batch seeded ``seed`` plays the game of a single arena seeded ``seed + b`` (:func:`arena_seed`):
+its server stream is the one the distributed server draws with that seed, each player's stream is
+derived from it and the player's object index (:func:`agent_seed`), so an arena's episodes do not
+depend on the batch size or on the thread that steps it.
+
+Pass learning (SMDP Sarsa) plugs in later at ``keeper_decide``'s external decision points
+(``PASS_EXTERNAL``): the keeper's return code and Pass state are kept per player row
+(:class:`Decisions` ``decision``/``pass_state``) for that purpose; this module runs the built-in Pass
+policies only.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit, prange
+
+from agents.belief import AgentMemory, Belief, empty_belief, forget_episode, new_memory
+from agents.getopen import net_size
+from agents.keeper import keeper_decide
+from agents.skills import (
+    GETOPEN_HANDCODED,
+    GETOPEN_HANDCODED_CONE,
+    GETOPEN_LEARNED,
+    GETOPEN_RANDOM,
+    PASS_HANDCODED,
+    PASS_HOLD,
+    PASS_RANDOM,
+    AgentConfig,
+)
+from agents.state_vars import getopen_state_size, pass_state_size
+from agents.taker import taker_decide
+from agents.worldmodel import (
+    SIDE_CODES,
+    ModelState,
+    SeeBuffer,
+    forget_row,
+    new_model_state,
+    new_see_buffer,
+    see_row,
+    sense_body_row,
+    write_belief_row,
+)
+from protocol.landmarks import FLAG_POSITIONS, N_FLAGS
+from protocol.params import ServerParams
+from server.arena import PlayerSlot
+from server.perception import FULL, PARTIAL, UNSEEN, SeeBuffers, SenseBodyBuffers, cone_factor, see_arena, \
+    sense_body_arena
+from server.physics import kick_possible
+from server.referee import END_NONE, RefereeState, new_referee_state, start_game
+from server.rng import seed_streams
+from server.simulation import step_arena
+from server.world import BALL, CMD_KICK, CMD_NONE, Commands, World, new_world
+
+PASS_POLICIES: dict[str, int] = {"random": PASS_RANDOM, "handcoded": PASS_HANDCODED, "hold": PASS_HOLD}
+GETOPEN_POLICIES: dict[str, int] = {
+    "random": GETOPEN_RANDOM,
+    "handcoded": GETOPEN_HANDCODED,
+    "handcoded_cone": GETOPEN_HANDCODED_CONE,
+    "learned": GETOPEN_LEARNED,
+}
+# Cycles per compiled call: Python collects the ended episodes and checks the stop rules in between.
+CHUNK_CYCLES = 100
+# The view mode of the players (the server's default for a new connection, never changed by them).
+VIEW_WIDTH = "normal"
+_UNLIMITED = -1
+_SIDE_KEEPERS = SIDE_CODES["l"]
+_SIDE_TAKERS = SIDE_CODES["r"]
+
+
+def arena_seed(seed: int, b: int) -> int:
+    """The seed of arena ``b`` of a batch seeded ``seed``: it plays the game a single arena (batched with
+    batch 1, or the distributed server) started with this seed would play."""
+    return int(seed) + b
+
+
+def agent_seed(seed: int, obj: int) -> np.uint64:
+    """The random stream of player object ``obj`` of the arena seeded ``seed`` (its exploration and
+    random policies; spec `architecture.md`, Determinism): the ``obj``-th spawned child of the arena's
+    seed sequence, so it never coincides with the server's stream (the root of the same sequence)."""
+    child = np.random.SeedSequence(int(seed), spawn_key=(int(obj),))
+    return child.generate_state(1, dtype=np.uint64)[0]
+
+
+class Decisions(NamedTuple):
+    """The last decision of every player row (see :class:`Players`)."""
+
+    pass_state: np.ndarray  # (R, 4K + 2T - 3) keepers' Pass state (the Pass learner's input)
+    decision: np.ndarray  # (R,) int8: keeper_decide's NO_PASS_DECISION / PASS_DECISION_*
+    main: np.ndarray  # (R,) int8 CMD_*
+    arg1: np.ndarray  # (R,) float64
+    arg2: np.ndarray  # (R,) float64
+    neck: np.ndarray  # (R,) float64 turn_neck moment, 0 for none
+
+
+class Players(NamedTuple):
+    """Every player of every arena, one row each: row ``b * P + p`` is player object ``p + 1`` of arena
+    ``b`` (``P = K + T`` players per arena). Updated in place by the kernels. (A parallel loop cannot
+    take nested tuples, so :func:`run_chunk` takes the five parts and rebuilds this per arena.)"""
+
+    model: ModelState
+    see: SeeBuffer
+    belief: Belief  # the belief of the last decision
+    memory: AgentMemory
+    out: Decisions
+
+
+class Bookkeeping(NamedTuple):
+    """Per-arena run state and the episodes that ended in the last chunk (at most one per cycle)."""
+
+    episode_message: np.ndarray  # (B,) bool: the referee's episode message is due in the next percepts
+    active: np.ndarray  # (B,) bool: the arena still runs in this call
+    episodes_left: np.ndarray  # (B,) int64 episodes to run in this call, -1 unlimited
+    stop_cycle: np.ndarray  # (B,) int64 cycle at which the arena stops in this call, -1 unlimited
+    stepped: np.ndarray  # (B,) int64 cycles simulated in the last chunk
+    n_ended: np.ndarray  # (B,) int64 episodes ended in the last chunk
+    episode: np.ndarray  # (B, CHUNK_CYCLES) int64 their numbers
+    start_cycle: np.ndarray  # (B, CHUNK_CYCLES) int64
+    end_cycle: np.ndarray  # (B, CHUNK_CYCLES) int64
+    end: np.ndarray  # (B, CHUNK_CYCLES) int8 END_OUT / END_TAKEN
+
+
+@dataclass(frozen=True)
+class EpisodeTable:
+    """Episodes in the order they ended (ties in a cycle: by arena); ``cycles``: arena-cycles simulated
+    in total (every arena's cycles summed)."""
+
+    arena: np.ndarray  # int64
+    episode: np.ndarray  # int64, per arena from 1
+    start_cycle: np.ndarray  # int64
+    end_cycle: np.ndarray  # int64
+    end: np.ndarray  # int8: 1 out of the region, 2 taken (server.referee END_*)
+    cycles: int
+
+    def __len__(self) -> int:
+        return len(self.arena)
+
+    @property
+    def hold_cycles(self) -> np.ndarray:
+        """Episode lengths in cycles (hold time, spec `keepaway-task.md` 1)."""
+        return self.end_cycle - self.start_cycle
+
+
+# --------------------------------------------------------------------------------------------------
+# kernels
+
+
+@njit(cache=True)
+def see_due(cycle: int, step_ms: float, period_ms: float) -> bool:
+    """``server.arena.Arena.see_due`` of an asynchronous player connected at time 0: a see whose
+    virtual time falls in ((cycle - 1) step, cycle step] comes with the cycle's percepts (spec
+    `server-physics.md` 1; normal width: cycles 0, 2, 3, 5, 6, ...)."""
+    hi = cycle * step_ms
+    lo = hi - step_ms
+    return math.floor(hi / period_ms) > math.floor(lo / period_ms) or (cycle == 0 and hi >= 0 and lo < 0)
+
+
+@njit(cache=True)
+def see_to_model_row(out: SeeBuffers, b: int, obs: int, cycle: int, n_keepers: int, see: SeeBuffer,
+                     row: int) -> None:
+    """Observer ``obs``'s see of arena ``b`` as the world model's see row ``row``: what
+    ``see_payload`` puts on the wire and ``WorldModel.on_see`` unpacks, without the wire. Flags with an
+    id (PARTIAL, FULL) in slot order; the ball; every seen player in slot order, its side if PARTIAL or
+    FULL, its unum and facing if FULL; omitted fields NaN (spec `server-physics.md` 4 "Content")."""
+    p = obs - 1
+    n_flags = 0
+    for slot in range(N_FLAGS):
+        level = out.level[b, p, slot]
+        if level == PARTIAL or level == FULL:
+            see.flag_id[row, n_flags] = slot
+            see.flag_obs[row, n_flags, 0] = out.dist[b, p, slot]
+            see.flag_obs[row, n_flags, 1] = out.direction[b, p, slot]
+            n_flags += 1
+    see.n_flags[row] = n_flags
+    ball = N_FLAGS + BALL
+    see.ball_seen[row] = out.level[b, p, ball] != UNSEEN
+    if see.ball_seen[row]:
+        see.ball_obs[row, 0] = out.dist[b, p, ball]
+        see.ball_obs[row, 1] = out.direction[b, p, ball]
+        see.ball_obs[row, 2] = out.dist_chg[b, p, ball]
+        see.ball_obs[row, 3] = out.dir_chg[b, p, ball]
+    n_players = 0
+    for slot in range(ball + 1, out.level.shape[2]):
+        level = out.level[b, p, slot]
+        if level == UNSEEN or n_players == see.player_obs.shape[1]:
+            continue
+        i = slot - N_FLAGS
+        keeper = i <= n_keepers
+        see.player_side[row, n_players] = -1
+        if level == PARTIAL or level == FULL:
+            see.player_side[row, n_players] = _SIDE_KEEPERS if keeper else _SIDE_TAKERS
+        see.player_unum[row, n_players] = 0
+        obs_row = see.player_obs[row, n_players]
+        obs_row[0] = out.dist[b, p, slot]
+        obs_row[1] = out.direction[b, p, slot]
+        obs_row[2] = out.dist_chg[b, p, slot]
+        obs_row[3] = out.dir_chg[b, p, slot]
+        obs_row[4] = np.nan
+        obs_row[5] = np.nan
+        if level == FULL:
+            see.player_unum[row, n_players] = i if keeper else i - n_keepers
+            obs_row[4] = out.body_dir[b, p, slot]
+            obs_row[5] = out.head_dir[b, p, slot]
+        n_players += 1
+    see.n_players[row] = n_players
+    see.cycle[row] = cycle
+
+
+@njit(cache=True)
+def perceive(b: int, obs: int, row: int, w: World, with_see: bool, episode_message: bool, cone: float, kp,
+             pl: Players, see_out: SeeBuffers, body_out: SenseBodyBuffers) -> None:
+    """Player ``obs``'s percepts of this cycle into its world-model row, in the server's order
+    (sense_body, hears, see; ``server.arena.Arena.cycle_percepts``)."""
+    p = obs - 1
+    cycle = w.time[b]
+    sense_body_arena(b, w, obs, body_out)
+    sense_body_row(row, pl.model, cycle, body_out.speed[b, p], float(body_out.speed_dir[b, p]),
+                   body_out.head_angle[b, p], body_out.stamina[b, p], body_out.effort[b, p], kp)
+    if episode_message:
+        forget_row(row, pl.model)
+        forget_episode(pl.memory, row)
+    if with_see:
+        see_arena(b, w, obs, cone, kp, see_out)
+        see_to_model_row(see_out, b, obs, cycle, w.n_keepers, pl.see, row)
+        see_row(row, pl.model, pl.see, FLAG_POSITIONS, w.n_keepers, kp)
+
+
+@njit(cache=True)
+def decide(b: int, obs: int, row: int, w: World, c: Commands, theta: np.ndarray, kp, cfg, pl: Players) -> None:
+    """Player ``obs``'s decision on its belief, sent to the server (``server.arena.Arena.submit``: a kick
+    that cannot reach the ball does not take the main slot unless ``failed_kick_uses_slot``) and
+    remembered by its world model as sent (``WorldModel.on_own_commands``)."""
+    out = pl.out
+    write_belief_row(row, pl.model, pl.belief, row)
+    if obs <= w.n_keepers:
+        # The built-in Pass policies act inside keeper_decide; PASS_EXTERNAL would return here at a
+        # decision point with pl.pass_state[row] written, for a learner to pick the action.
+        out.decision[row] = keeper_decide(pl.belief, row, pl.memory, theta, kp, cfg, out.main, out.arg1,
+                                          out.arg2, out.neck, out.pass_state[row])
+    else:
+        taker_decide(pl.belief, row, pl.memory, kp, cfg, out.main, out.arg1, out.arg2, out.neck)
+    code = out.main[row]
+    if code == CMD_KICK and kp.failed_kick_uses_slot == 0.0 and not kick_possible(b, w, obs, kp):
+        c.main[b, obs] = CMD_NONE
+        c.arg1[b, obs] = 0.0
+        c.arg2[b, obs] = 0.0
+    else:
+        c.main[b, obs] = code
+        c.arg1[b, obs] = out.arg1[row]
+        c.arg2[b, obs] = out.arg2[row]
+    c.neck[b, obs] = out.neck[row]
+    c.has_neck[b, obs] = out.neck[row] != 0.0
+    pl.model.cmd_main[row] = code
+    pl.model.cmd_args[row, 0] = out.arg1[row]
+    pl.model.cmd_args[row, 1] = out.arg2[row]
+    pl.model.cmd_args[row, 2] = out.neck[row]
+
+
+@njit(cache=True)
+def arena_cycle(b: int, w: World, c: Commands, ref: RefereeState, theta: np.ndarray, kp, cfg, pl: Players,
+                see_out: SeeBuffers, body_out: SenseBodyBuffers, episode_message: bool, see_period_ms: float,
+                cone: float) -> int:
+    """One synchronous cycle of arena ``b``: every player perceives, decides and sends its commands,
+    then the step; returns the referee's end code (module docstring)."""
+    n_players = w.pos.shape[1] - 1
+    with_see = see_due(w.time[b], kp.simulator_step_ms, see_period_ms)
+    for p in range(n_players):
+        obs = p + 1
+        row = b * n_players + p
+        perceive(b, obs, row, w, with_see, episode_message, cone, kp, pl, see_out, body_out)
+        decide(b, obs, row, w, c, theta, kp, cfg, pl)
+    return step_arena(b, w, c, ref, kp)
+
+
+@njit(cache=True, parallel=True)
+def run_chunk(n_cycles: int, w: World, c: Commands, ref: RefereeState, theta: np.ndarray, kp, cfg,
+              model: ModelState, see: SeeBuffer, belief: Belief, memory: AgentMemory, out: Decisions,
+              see_out: SeeBuffers, body_out: SenseBodyBuffers, book: Bookkeeping, see_period_ms: float,
+              cone: float) -> None:
+    """Up to ``n_cycles`` cycles of every active arena, one arena per thread (arenas share nothing),
+    recording ended episodes in ``book``. An arena stops after its last episode or at its stop cycle.
+    ``model`` .. ``out`` are the parts of :class:`Players`."""
+    for b in prange(w.pos.shape[0]):
+        pl = Players(model, see, belief, memory, out)
+        book.stepped[b] = 0
+        book.n_ended[b] = 0
+        for _ in range(n_cycles):
+            if not book.active[b]:
+                break
+            cause = arena_cycle(b, w, c, ref, theta[b], kp, cfg, pl, see_out, body_out,
+                                book.episode_message[b], see_period_ms, cone)
+            book.stepped[b] += 1
+            book.episode_message[b] = cause != END_NONE
+            if cause != END_NONE:
+                k = book.n_ended[b]
+                book.episode[b, k] = ref.episode[b] - 1
+                book.start_cycle[b, k] = ref.last_start_cycle[b]
+                book.end_cycle[b, k] = ref.end_cycle[b]
+                book.end[b, k] = cause
+                book.n_ended[b] = k + 1
+                if book.episodes_left[b] > 0:
+                    book.episodes_left[b] -= 1
+                    if book.episodes_left[b] == 0:
+                        book.active[b] = False
+            if book.stop_cycle[b] >= 0 and w.time[b] >= book.stop_cycle[b]:
+                book.active[b] = False
+
+
+@njit(cache=True)
+def _start_games(w: World, ref: RefereeState, kp) -> None:
+    for b in range(w.pos.shape[0]):
+        start_game(b, w, ref, kp)
+
+
+# --------------------------------------------------------------------------------------------------
+# the Python surface
+
+
+def _policy_code(table: dict[str, int], name: str, what: str) -> int:
+    try:
+        return table[name]
+    except KeyError:
+        raise ValueError(f"unknown {what} policy {name!r}; choose one of {', '.join(table)}") from None
+
+
+class BatchedArenas:
+    """``batch`` Keepaway arenas (``keepers`` vs ``takers``, every player connected before the start),
+    stepped together by compiled kernels. ``getopen_theta`` is the GO:L net per arena ((batch, n) or
+    (n,) for all; n = 91 in 3v2), required with ``getopen_policy="learned"`` only. The games continue
+    across :meth:`run` calls."""
+
+    def __init__(self, params: ServerParams, batch: int, seed: int, keepers: int = 3, takers: int = 2,
+                 pass_policy: str = "handcoded", getopen_policy: str = "handcoded",
+                 getopen_theta: np.ndarray | None = None, agent_config: AgentConfig = AgentConfig()) -> None:
+        if batch < 1:
+            raise ValueError("batch must be at least 1")
+        self.params = params
+        self.kp = params.kernel()
+        self.cfg = dataclasses.replace(
+            agent_config,
+            pass_policy=_policy_code(PASS_POLICIES, pass_policy, "Pass"),
+            getopen_policy=_policy_code(GETOPEN_POLICIES, getopen_policy, "GetOpen"),
+        ).kernel()
+        self.theta = self._thetas(getopen_theta, getopen_policy, batch, keepers, takers)
+        seeds = [arena_seed(seed, b) for b in range(batch)]
+        self.world = new_world(params, keepers, takers, batch=batch)
+        self.world.rng[:] = [seed_streams(s, 1)[0] for s in seeds]
+        self.world.enabled[:] = True
+        n_objects = self.world.n_objects
+        n_players = n_objects - 1
+        rows = batch * n_players
+        self.commands = Commands.empty(batch, n_objects)
+        self.referee = new_referee_state(batch)
+        self.see_out = SeeBuffers.empty(batch, n_objects, self.kp)
+        self.body_out = SenseBodyBuffers.empty(batch, n_objects)
+        me = np.tile(np.arange(1, n_objects), batch)
+        self.players = Players(
+            model=new_model_state(rows, keepers, takers, me, params),
+            see=new_see_buffer(rows, N_FLAGS, n_objects),
+            belief=empty_belief(rows, keepers, takers),
+            memory=new_memory(rows, np.array([agent_seed(s, obj) for s in seeds for obj in range(1, n_objects)],
+                                              dtype=np.uint64)),
+            out=Decisions(
+                pass_state=np.zeros((rows, pass_state_size(keepers, takers))),
+                decision=np.zeros(rows, dtype=np.int8),
+                main=np.zeros(rows, dtype=np.int8),
+                arg1=np.zeros(rows),
+                arg2=np.zeros(rows),
+                neck=np.zeros(rows),
+            ),
+        )
+        self.book = Bookkeeping(
+            episode_message=np.zeros(batch, dtype=np.bool_),
+            active=np.zeros(batch, dtype=np.bool_),
+            episodes_left=np.zeros(batch, dtype=np.int64),
+            stop_cycle=np.zeros(batch, dtype=np.int64),
+            stepped=np.zeros(batch, dtype=np.int64),
+            n_ended=np.zeros(batch, dtype=np.int64),
+            episode=np.zeros((batch, CHUNK_CYCLES), dtype=np.int64),
+            start_cycle=np.zeros((batch, CHUNK_CYCLES), dtype=np.int64),
+            end_cycle=np.zeros((batch, CHUNK_CYCLES), dtype=np.int64),
+            end=np.zeros((batch, CHUNK_CYCLES), dtype=np.int8),
+        )
+        slot = PlayerSlot(obj=1, side="l", unum=1, view_width=VIEW_WIDTH)
+        self.see_period_ms = slot.see_period_ms(params.send_step_ms)
+        self.cone = cone_factor(VIEW_WIDTH, slot.synch_see)
+        _start_games(self.world, self.referee, self.kp)
+
+    @staticmethod
+    def _thetas(theta: np.ndarray | None, getopen_policy: str, batch: int, keepers: int,
+                takers: int) -> np.ndarray:
+        n = net_size(getopen_state_size(keepers, takers))
+        if theta is None:
+            if getopen_policy == "learned":
+                raise ValueError("the learned GetOpen policy needs getopen_theta")
+            return np.zeros((batch, n))
+        theta = np.asarray(theta, dtype=np.float64)
+        if theta.shape not in ((n,), (batch, n)):
+            raise ValueError(f"getopen_theta must have shape ({n},) or ({batch}, {n}), not {theta.shape}")
+        return np.ascontiguousarray(np.broadcast_to(theta, (batch, n)))
+
+    @property
+    def batch(self) -> int:
+        return self.world.batch
+
+    def run(self, episodes_per_arena: int | None = None, total_episodes: int | None = None,
+            max_cycles: int | None = None, progress: Callable[[int], None] | None = None) -> EpisodeTable:
+        """Play until every arena has finished ``episodes_per_arena`` more episodes, or ``total_episodes``
+        have ended in all, or every arena has played ``max_cycles`` more cycles, whichever comes first
+        (at least one limit is needed). With ``total_episodes`` the table holds exactly that many, the
+        first to end. ``progress`` is called with the number of episodes collected after each chunk."""
+        limits = (episodes_per_arena, total_episodes, max_cycles)
+        if all(v is None for v in limits):
+            raise ValueError("give episodes_per_arena, total_episodes or max_cycles")
+        if any(v is not None and v < 1 for v in limits):
+            raise ValueError("limits must be at least 1")
+        book, w = self.book, self.world
+        book.active[:] = True
+        book.episodes_left[:] = _UNLIMITED if episodes_per_arena is None else episodes_per_arena
+        book.stop_cycle[:] = _UNLIMITED if max_cycles is None else w.time + max_cycles
+        parts: list[tuple[np.ndarray, ...]] = []
+        collected = 0
+        cycles = 0
+        while book.active.any() and (total_episodes is None or collected < total_episodes):
+            run_chunk(CHUNK_CYCLES, w, self.commands, self.referee, self.theta, self.kp, self.cfg,
+                      *self.players, self.see_out, self.body_out, book, self.see_period_ms, self.cone)
+            cycles += int(book.stepped.sum())
+            part = self._ended()
+            parts.append(part)
+            collected += len(part[0])
+            if progress is not None:
+                progress(collected)
+        columns = [np.concatenate(c) for c in zip(*parts)]
+        if total_episodes is not None:
+            columns = [c[:total_episodes] for c in columns]
+        arena, episode, start, end_cycle, end = columns
+        return EpisodeTable(arena=arena.astype(np.int64), episode=episode, start_cycle=start,
+                            end_cycle=end_cycle, end=end.astype(np.int8), cycles=cycles)
+
+    def _ended(self) -> tuple[np.ndarray, ...]:
+        """The episodes ended in the last chunk, ordered by end cycle, then arena."""
+        book = self.book
+        mask = np.arange(CHUNK_CYCLES)[None, :] < book.n_ended[:, None]
+        arena = np.broadcast_to(np.arange(self.batch)[:, None], mask.shape)[mask]
+        end_cycle = book.end_cycle[mask]
+        order = np.lexsort((arena, end_cycle))
+        return (arena[order], book.episode[mask][order], book.start_cycle[mask][order], end_cycle[order],
+                book.end[mask][order])
+
+
+__all__ = [
+    "BatchedArenas",
+    "Decisions",
+    "EpisodeTable",
+    "GETOPEN_POLICIES",
+    "PASS_POLICIES",
+    "Players",
+    "agent_seed",
+    "arena_cycle",
+    "arena_seed",
+    "run_chunk",
+    "see_due",
+    "see_to_model_row",
+]
