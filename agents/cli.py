@@ -1,10 +1,11 @@
 """``keepaway player``: one keeper or taker process over ZeroMQ (architecture, "Processes").
 
 The socket edge of :class:`agents.player.PlayerAgent` (style guide, "Sockets at the edge"): one DEALER
-socket (LINGER 0, the protocol's size limit), one poll loop, every frame decoded by ``protocol`` before
-the agent sees it. Exit codes: 0 when the server shuts down or on SIGTERM/SIGINT (after saying ``bye``),
-2 when the player cannot start (bad policy file, no server within ``--connect-timeout``, ``init``
-refused). Expected conditions end with one line on stderr, never a traceback.
+socket (LINGER 0 but for a bounded wait after ``bye``, the protocol's size limit), one poll loop, every
+frame decoded by ``protocol`` before the agent sees it. Exit codes: 0 when the server shuts down or on
+SIGTERM/SIGINT (after saying ``bye``), 2 when the player cannot start (bad policy file, no server within
+``--connect-timeout``, ``init`` refused). Expected conditions end with one line on stderr, never a
+traceback.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ import signal
 import sys
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
 
@@ -23,8 +24,14 @@ from protocol.endpoints import DEFAULT_PORTS, parse_endpoint
 EXIT_OK = 0
 EXIT_START_FAILED = 2
 POLL_MS = 100  # longest wait between checks of the stop flag and the connect deadline
+# Sockets have LINGER 0, except after a bye: closing then waits this long for the bye to leave, so it
+# is not discarded unsent (and never longer, should the server be gone).
+BYE_LINGER_MS = 1000
 CLIENT_NAME = "keepaway-player"
 DEFAULT_SERVER = f"tcp://127.0.0.1:{DEFAULT_PORTS['players']}"
+
+if TYPE_CHECKING:
+    from agents.player import PlayerAgent
 
 log = logging.getLogger("keepaway.player")
 
@@ -39,16 +46,21 @@ class PlayerExit(Exception):
 
 
 class _StopFlag:
-    """Set by SIGTERM/SIGINT; the loop checks it between polls."""
+    """The SIGTERM/SIGINT handler. Before the socket loop runs (loading the policy, compiling the
+    kernels) there is nobody to say bye to: the player ends at once, with exit code 0. In the loop the
+    signal only sets the flag, which the loop checks between polls."""
 
     def __init__(self) -> None:
         self.signal_name: str | None = None
+        self.in_loop = False
 
     def __call__(self, signum: int, _frame: Any) -> None:
         self.signal_name = signal.Signals(signum).name
+        if not self.in_loop:
+            raise PlayerExit(EXIT_OK)
 
 
-def run_player(agent: Any, endpoint: str, connect_timeout_s: float, stop: _StopFlag) -> int:
+def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop: _StopFlag) -> int:
     """Connect, send ``init`` and feed ``agent`` until the server shuts down or ``stop`` is set.
     Returns the exit code; raises :class:`PlayerExit` when the player cannot start."""
     import zmq
@@ -60,9 +72,11 @@ def run_player(agent: Any, endpoint: str, connect_timeout_s: float, stop: _StopF
     from protocol.errors import ProtocolError
     from protocol.messages import decode_for_player
 
+    stop.in_loop = True
     ctx = zmq.Context()
     sock = ctx.socket(zmq.DEALER)
     configure(sock)
+    linger_ms = 0
     try:
         sock.connect(endpoint)
 
@@ -72,13 +86,18 @@ def run_player(agent: Any, endpoint: str, connect_timeout_s: float, stop: _StopF
             except zmq.Again:
                 log.warning("could not send %s: the server is not reachable", msg.TYPE)
 
+        def say_bye() -> None:
+            nonlocal linger_ms
+            send(m.Bye())
+            linger_ms = BYE_LINGER_MS
+
         send(m.Init(team=agent.team, client=CLIENT_NAME, fullstate=agent.fullstate))
         deadline = time.monotonic() + connect_timeout_s
         while True:
             if stop.signal_name is not None:
                 log.info("%s: saying bye", stop.signal_name)
                 if agent.ready:
-                    send(m.Bye())
+                    say_bye()
                 return EXIT_OK
             if not agent.ready and time.monotonic() > deadline:
                 raise PlayerExit(EXIT_START_FAILED, f"no server at {endpoint} after {connect_timeout_s:g} s")
@@ -107,14 +126,14 @@ def run_player(agent: Any, endpoint: str, connect_timeout_s: float, stop: _StopF
                 except (PolicyFileError, ValueError) as exc:
                     if agent.ready and not isinstance(msg, m.InitOk):
                         raise
-                    send(m.Bye())
+                    say_bye()
                     raise PlayerExit(EXIT_START_FAILED, str(exc)) from None
                 if isinstance(msg, m.InitOk):
                     log.info("joined as %s %d (%s mode)", agent.team, agent.unum, agent.mode)
                 if command is not None:
                     send(command)
     finally:
-        sock.close(linger=0)
+        sock.close(linger=linger_ms)
         ctx.term()
 
 
@@ -165,9 +184,13 @@ def player_command(team: str, pass_policy: str, getopen_policy: str, policy_path
                         "sends a policy")
         compile_kernels()
         code = run_player(agent, endpoint, connect_timeout_s, stop)
-    except (PolicyFileError, PlayerExit) as exc:
+    except PolicyFileError as exc:
         click.echo(f"keepaway player: {exc}", err=True)
-        sys.exit(getattr(exc, "code", EXIT_START_FAILED))
+        sys.exit(EXIT_START_FAILED)
+    except PlayerExit as exc:
+        if exc.message:
+            click.echo(f"keepaway player: {exc.message}", err=True)
+        sys.exit(exc.code)
     sys.exit(code)
 
 

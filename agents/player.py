@@ -94,11 +94,11 @@ PassLearnerFactory = Callable[[np.random.SeedSequence], PassLearner]
 
 def pass_q(policy: Policy) -> PassQ:
     """Extension point of the Sarsa learner (spec `keepaway-agents.md` 5): the Pass value function that
-    the policy file's ``pass_weights`` define. Tile coding and the weights' layout belong to that
-    learner, which does not exist yet, so no weights can be evaluated: always a one-line
-    :class:`PolicyFileError`."""
+    the policy file's Pass arrays (``policy.pass_arrays``, at least ``pass_weights``) define. The tile
+    coding that gives those weights a meaning belongs to that learner, which is not wired in here, so no
+    weights can be evaluated yet: always a one-line :class:`PolicyFileError`."""
     raise PolicyFileError(f"{policy.path}: its Pass weights cannot be evaluated yet (the Sarsa tile coder "
-                          "that reads them is not part of this program)")
+                          "that reads them is not wired into the player)")
 
 
 class GreedyPassEvaluator:

@@ -7,8 +7,9 @@ One ``.npz`` archive holds a JSON header and the parameter arrays:
   map in which ``keepers`` and ``takers`` (default 3 and 2) size the nets;
 * ``getopen_theta`` (optional): the GO:L net parameters, ``net_size(3K + T - 1)`` floats (91 for 3v2;
   spec `keepaway-task.md` 4, layout in ``agents.getopen.net_value``);
-* ``pass_weights`` (optional): the Pass learner's weights, whose shape belongs to the Sarsa learner
-  (spec `keepaway-agents.md` 5); only checked to be finite numbers here.
+* ``pass_weights`` (optional): the Pass learner's weights, and any further ``pass_*`` arrays of its
+  state (e.g. a hash table's bookkeeping); their shapes belong to the Sarsa learner (spec
+  `keepaway-agents.md` 5), so they are only checked to be finite real numbers here.
 
 The archive is read without pickle. Whatever is wrong with a file (missing, not an archive, corrupt,
 wrong header, wrong shape, NaN) is reported as one :class:`PolicyFileError` line naming the file.
@@ -20,6 +21,7 @@ import json
 import zipfile
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -32,7 +34,8 @@ POLICY_FORMAT = "keepaway-policy"
 POLICY_VERSION = 1
 DEFAULT_KEEPERS = 3
 DEFAULT_TAKERS = 2
-ARRAY_NAMES = ("header", "getopen_theta", "pass_weights")
+PASS_PREFIX = "pass_"  # the Pass learner's arrays
+PASS_WEIGHTS = "pass_weights"
 
 
 class PolicyFileError(Exception):
@@ -41,14 +44,18 @@ class PolicyFileError(Exception):
 
 @dataclass(frozen=True)
 class Policy:
-    """The contents of a policy file (arrays are float64 and read-only)."""
+    """The contents of a policy file (arrays are read-only; floats are float64)."""
 
     path: str
     config: dict[str, Any] = field(default_factory=dict)
     seed: int | None = None
     created: str | None = None
     getopen_theta: np.ndarray | None = None
-    pass_weights: np.ndarray | None = None
+    pass_arrays: dict[str, np.ndarray] = field(default_factory=dict)
+
+    @property
+    def pass_weights(self) -> np.ndarray | None:
+        return self.pass_arrays.get(PASS_WEIGHTS)
 
     @property
     def n_keepers(self) -> int:
@@ -72,11 +79,13 @@ def as_getopen_theta(values: Any, size: int) -> np.ndarray:
         raise ValueError(f"getopen_theta must hold real numbers, not {array.dtype}")
     if array.shape != (size,):
         raise ValueError(f"getopen_theta has shape {array.shape}, expected ({size},)")
-    return _finite(array, "getopen_theta")
+    return _finite(array.astype(np.float64), "getopen_theta")
 
 
 def _finite(array: np.ndarray, name: str) -> np.ndarray:
-    out = np.array(array, dtype=np.float64)
+    """A read-only copy of ``array`` (integers kept, floats as float64); ValueError if a value is NaN or
+    infinite."""
+    out = np.array(array, dtype=np.float64 if array.dtype.kind == "f" else array.dtype)
     bad = ~np.isfinite(out)
     if bad.any():
         raise ValueError(f"{name} has {int(bad.sum())} non-finite values (first at index "
@@ -85,13 +94,23 @@ def _finite(array: np.ndarray, name: str) -> np.ndarray:
     return out
 
 
-def _pass_weights(values: Any) -> np.ndarray:
-    array = np.asarray(values)
-    if array.dtype.kind not in "iuf":
-        raise ValueError(f"pass_weights must hold real numbers, not {array.dtype}")
-    if array.ndim == 0 or array.size == 0:
-        raise ValueError(f"pass_weights has shape {array.shape}, expected a non-empty array")
-    return _finite(array, "pass_weights")
+def _pass_arrays(arrays: Mapping[str, Any]) -> dict[str, np.ndarray]:
+    """The Pass learner's arrays, checked: names ``pass_*`` including ``pass_weights``, each a non-empty
+    array of finite real numbers."""
+    bad_names = sorted(name for name in arrays if not name.startswith(PASS_PREFIX))
+    if bad_names:
+        raise ValueError(f"Pass arrays must be named {PASS_PREFIX}*, not {bad_names}")
+    if PASS_WEIGHTS not in arrays:
+        raise ValueError(f"Pass arrays {sorted(arrays)} lack {PASS_WEIGHTS}")
+    out = {}
+    for name, values in arrays.items():
+        array = np.asarray(values)
+        if array.dtype.kind not in "iuf":
+            raise ValueError(f"{name} must hold real numbers, not {array.dtype}")
+        if array.ndim == 0 or array.size == 0:
+            raise ValueError(f"{name} has shape {array.shape}, expected a non-empty array")
+        out[name] = _finite(array, name)
+    return out
 
 
 def _team_size(config: dict, name: str, default: int) -> int:
@@ -147,9 +166,9 @@ def load_policy(path: str | Path) -> Policy:
         reason = " ".join(str(exc).split()) or type(exc).__name__
         raise PolicyFileError(f"{where}: not a readable policy archive ({reason})") from None
     try:
-        unknown = sorted(set(arrays) - set(ARRAY_NAMES))
+        unknown = sorted(n for n in arrays if n not in ("header", "getopen_theta") and not n.startswith(PASS_PREFIX))
         if unknown:
-            raise ValueError(f"unexpected arrays {unknown} (expected {list(ARRAY_NAMES)})")
+            raise ValueError(f"unexpected arrays {unknown} (expected header, getopen_theta, {PASS_PREFIX}*)")
         if "header" not in arrays:
             raise ValueError("no header array")
         header = _header(arrays["header"])
@@ -159,26 +178,26 @@ def load_policy(path: str | Path) -> Policy:
         theta = arrays.get("getopen_theta")
         if theta is not None:
             theta = as_getopen_theta(theta, getopen_theta_size(keepers, takers))
-        weights = arrays.get("pass_weights")
-        if weights is not None:
-            weights = _pass_weights(weights)
+        passes = {name: a for name, a in arrays.items() if name.startswith(PASS_PREFIX)}
+        if passes:
+            passes = _pass_arrays(passes)
     except (ValueError, UnicodeDecodeError) as exc:
         raise PolicyFileError(f"{where}: {' '.join(str(exc).split())}") from None
     return Policy(path=where, config=config, seed=header.get("seed"), created=header.get("created"),
-                  getopen_theta=theta, pass_weights=weights)
+                  getopen_theta=theta, pass_arrays=passes)
 
 
 def save_policy(
     path: str | Path,
     *,
     getopen_theta: Any = None,
-    pass_weights: Any = None,
+    pass_arrays: Mapping[str, Any] | None = None,
     config: dict[str, Any] | None = None,
     seed: int | None = None,
 ) -> Path:
     """Write a policy file that :func:`load_policy` accepts (the same checks run before writing, so a
-    bad policy is refused here with ValueError). Returns the path written (``.npz`` appended if absent,
-    as numpy does)."""
+    bad policy is refused here with ValueError). ``pass_arrays`` is the Pass learner's state, at least
+    ``{"pass_weights": ...}``. Returns the path written (``.npz`` appended if absent, as numpy does)."""
     config = dict(config or {})
     keepers = _team_size(config, "keepers", DEFAULT_KEEPERS)
     takers = _team_size(config, "takers", DEFAULT_TAKERS)
@@ -189,8 +208,8 @@ def save_policy(
     }
     if getopen_theta is not None:
         arrays["getopen_theta"] = as_getopen_theta(getopen_theta, getopen_theta_size(keepers, takers))
-    if pass_weights is not None:
-        arrays["pass_weights"] = _pass_weights(pass_weights)
+    if pass_arrays:
+        arrays.update(_pass_arrays(pass_arrays))
     out = Path(path)
     if out.suffix != ".npz":
         out = out.with_name(out.name + ".npz")
@@ -199,6 +218,7 @@ def save_policy(
 
 
 __all__ = [
+    "PASS_WEIGHTS",
     "POLICY_FORMAT",
     "POLICY_VERSION",
     "Policy",

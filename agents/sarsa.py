@@ -15,7 +15,7 @@ take the row index ``r`` so a batched loop can drive many learners inside one nj
 (``pass_decisions``); ``SarsaLearner`` wraps one row for a keeper process.
 
 Memory per row at the default sizes: weights 8 MB, collision table 4 MB (int32: the check values are
-below 2^31), trace slots 4 MB, trace list 1.2 MB.
+below 2^31), trace slots 4 MB, trace list 1.6 MB.
 """
 
 from __future__ import annotations
@@ -74,7 +74,7 @@ class SarsaConfig:
 
     def __post_init__(self) -> None:
         if self.gamma != 1.0:
-            raise ValueError("SMDP Sarsa here bootstraps undiscounted (LinearSarsaAgent.cc assumes gamma = 1)")
+            raise ValueError("the SMDP update bootstraps undiscounted (LinearSarsaAgent.cc assumes gamma 1)")
         if self.table_size < 2 or self.table_size & (self.table_size - 1):
             raise ValueError(f"table_size must be a power of 2 (collision_table), got {self.table_size}")
         if not 0.0 < self.min_trace <= 1.0 or not 0.0 <= self.trace_decay <= 1.0:
@@ -125,7 +125,8 @@ class SarsaMemory(NamedTuple):
 def code_variable_order(n_keepers: int, n_takers: int) -> np.ndarray:
     """For each variable index of the C++ state vector (`WorldModelKeepaway.cc` keeperStateVars:
     dist(K1, C), dist(K1, Ki), dist(K1, Tj), dist(Ki, C), dist(Tj, C), min dist, min angle), its index in
-    ``agents.state_vars.pass_state`` (`keepaway-task.md` 3 order). 3v2: [0, 5, 6, 7, 8, 1, 2, 3, 4, 9, ...]."""
+    ``agents.state_vars.pass_state`` (`keepaway-task.md` 3 order). 3v2: [0, 5, 6, 7, 8, 1, 2, 3, 4, 9,
+    10, 11, 12]."""
     k, t = n_keepers - 1, n_takers
     centre_keepers, centre_takers = 1, 1 + k
     from_k1_keepers, from_k1_takers = 1 + k + t, 1 + 2 * k + t
@@ -200,27 +201,31 @@ def unh_hash(coordinate: int, tiling: int, action: int, variable: int, increment
 
 
 @njit(cache=True)
-def tile_index(mem: SarsaMemory, r: int, coordinate: int, tiling: int, action: int, variable: int) -> int:
-    """tiles2.cc ``hash`` in safe mode: the home slot if it is empty or holds this tile's check value,
-    else re-probe with an odd stride until one does (so distinct tiles never share a weight)."""
-    m = mem.weights.shape[1]
+def tile_index(
+    hash_check, hash_counts, r: int, coordinate: int, tiling: int, action: int, variable: int
+) -> int:
+    """tiles2.cc ``hash`` in safe mode on row ``r``'s collision table (``SarsaMemory.hash_check`` and
+    ``hash_counts``, passed alone to keep this per-tile call cheap): the home slot if it is empty or
+    holds this tile's check value, else re-probe with an odd stride until one does (so distinct tiles
+    never share a weight)."""
+    m = hash_check.shape[1]
     index = unh_hash(coordinate, tiling, action, variable, INDEX_INCREMENT, m)
     check = unh_hash(coordinate, tiling, action, variable, CHECK_INCREMENT, MAX_LONG_INT)
-    mem.hash_counts[r, HASH_CALLS] += 1
-    stored = mem.hash_check[r, index]
+    hash_counts[r, HASH_CALLS] += 1
+    stored = hash_check[r, index]
     if stored == check or stored == EMPTY_SLOT:
-        mem.hash_counts[r, HASH_CLEAR_HITS] += 1
-        mem.hash_check[r, index] = check
+        hash_counts[r, HASH_CLEAR_HITS] += 1
+        hash_check[r, index] = check
         return index
     stride = 1 + 2 * unh_hash(coordinate, tiling, action, variable, INDEX_INCREMENT, MAX_LONG_INT // 4)
     for _ in range(m):
-        mem.hash_counts[r, HASH_COLLISIONS] += 1
+        hash_counts[r, HASH_COLLISIONS] += 1
         index = (index + stride) % m
-        stored = mem.hash_check[r, index]
+        stored = hash_check[r, index]
         if stored == check:
             return index
         if stored == EMPTY_SLOT:
-            mem.hash_check[r, index] = check
+            hash_check[r, index] = check
             return index
     raise RuntimeError("Sarsa weight table full (tiles2.cc: Out of Memory)")
 
@@ -251,7 +256,9 @@ def load_tiles(mem: SarsaMemory, r: int, state) -> None:
         q = quantize(state[v], mem.widths[v], tilings)
         for a in range(mem.tiles.shape[1]):
             for j in range(tilings):
-                mem.tiles[r, a, cv * tilings + j] = tile_index(mem, r, tiling_coordinate(q, j, tilings), j, a, cv)
+                coordinate = tiling_coordinate(q, j, tilings)
+                index = tile_index(mem.hash_check, mem.hash_counts, r, coordinate, j, a, cv)
+                mem.tiles[r, a, cv * tilings + j] = index
 
 
 @njit(cache=True)
@@ -290,16 +297,17 @@ def select_action(mem: SarsaMemory, r: int, explore: bool, sp: SarsaParams) -> i
 
 
 @njit(cache=True)
-def _drop_trace(mem: SarsaMemory, r: int, slot: int) -> None:
-    """Remove the trace list entry ``slot`` by moving the last entry into it (clearExistentTrace)."""
-    mem.trace_slot[r, mem.trace_feature[r, slot]] = EMPTY_SLOT
-    last = mem.n_traces[r] - 1
-    mem.n_traces[r] = last
+def _drop_trace(trace_slot, trace_feature, trace_value, n_traces, r: int, slot: int) -> None:
+    """Remove trace list entry ``slot`` of row ``r`` by moving the last entry into it
+    (clearExistentTrace); takes the trace arrays alone to keep this per-tile call cheap."""
+    trace_slot[r, trace_feature[r, slot]] = EMPTY_SLOT
+    last = n_traces[r] - 1
+    n_traces[r] = last
     if slot != last:
-        moved = mem.trace_feature[r, last]
-        mem.trace_feature[r, slot] = moved
-        mem.trace_value[r, slot] = mem.trace_value[r, last]
-        mem.trace_slot[r, moved] = slot
+        moved = trace_feature[r, last]
+        trace_feature[r, slot] = moved
+        trace_value[r, slot] = trace_value[r, last]
+        trace_slot[r, moved] = slot
 
 
 @njit(cache=True)
@@ -308,32 +316,35 @@ def decay_traces(mem: SarsaMemory, r: int, rate: float) -> None:
     for slot in range(mem.n_traces[r] - 1, -1, -1):
         mem.trace_value[r, slot] *= rate
         if mem.trace_value[r, slot] < mem.min_trace[r]:
-            _drop_trace(mem, r, slot)
+            _drop_trace(mem.trace_slot, mem.trace_feature, mem.trace_value, mem.n_traces, r, slot)
 
 
 @njit(cache=True)
-def clear_trace(mem: SarsaMemory, r: int, f: int) -> None:
-    slot = mem.trace_slot[r, f]
-    if slot != EMPTY_SLOT:
-        _drop_trace(mem, r, slot)
+def clear_action_traces(mem: SarsaMemory, r: int, a: int) -> None:
+    """Drop the traces of action ``a``'s active tiles in the loaded state."""
+    for f in mem.tiles[r, a]:
+        slot = mem.trace_slot[r, f]
+        if slot != EMPTY_SLOT:
+            _drop_trace(mem.trace_slot, mem.trace_feature, mem.trace_value, mem.n_traces, r, slot)
 
 
 @njit(cache=True)
-def set_trace(mem: SarsaMemory, r: int, f: int, value: float) -> None:
-    """Replacing trace: weight ``f``'s trace becomes ``value``. A full list raises the minimum trace by
-    10 % and culls until there is room (increaseMinTrace)."""
-    slot = mem.trace_slot[r, f]
-    if slot != EMPTY_SLOT:
-        mem.trace_value[r, slot] = value
-        return
-    while mem.n_traces[r] >= mem.trace_feature.shape[1]:
-        mem.min_trace[r] *= MIN_TRACE_GROWTH
-        decay_traces(mem, r, 1.0)
-    n = mem.n_traces[r]
-    mem.trace_feature[r, n] = f
-    mem.trace_value[r, n] = value
-    mem.trace_slot[r, f] = n
-    mem.n_traces[r] = n + 1
+def set_action_traces(mem: SarsaMemory, r: int, a: int) -> None:
+    """Replacing traces: the traces of action ``a``'s active tiles become 1 (setTrace). A full list
+    raises the minimum trace by 10 % and culls until there is room (increaseMinTrace)."""
+    for f in mem.tiles[r, a]:
+        slot = mem.trace_slot[r, f]
+        if slot != EMPTY_SLOT:
+            mem.trace_value[r, slot] = 1.0
+            continue
+        while mem.n_traces[r] >= mem.trace_feature.shape[1]:
+            mem.min_trace[r] *= MIN_TRACE_GROWTH
+            decay_traces(mem, r, 1.0)
+        n = mem.n_traces[r]
+        mem.trace_feature[r, n] = f
+        mem.trace_value[r, n] = 1.0
+        mem.trace_slot[r, f] = n
+        mem.n_traces[r] = n + 1
 
 
 @njit(cache=True)
@@ -342,12 +353,6 @@ def update_weights(mem: SarsaMemory, r: int, delta: float, sp: SarsaParams) -> N
     step_size = delta * sp.alpha / mem.tiles.shape[2]
     for slot in range(mem.n_traces[r]):
         mem.weights[r, mem.trace_feature[r, slot]] += step_size * mem.trace_value[r, slot]
-
-
-@njit(cache=True)
-def _set_action_traces(mem: SarsaMemory, r: int, a: int) -> None:
-    for f in mem.tiles[r, a]:
-        set_trace(mem, r, f, 1.0)
 
 
 @njit(cache=True)
@@ -372,7 +377,7 @@ def start_episode(mem: SarsaMemory, r: int, state, sp: SarsaParams) -> int:
     a = select_action(mem, r, mem.mode[r] != MODE_GREEDY, sp)
     mem.last_action[r] = a
     mem.last_state[r, :] = state
-    _set_action_traces(mem, r, a)
+    set_action_traces(mem, r, a)
     return a
 
 
@@ -396,13 +401,11 @@ def step(mem: SarsaMemory, r: int, reward: float, state, sp: SarsaParams) -> int
         return a
     delta += mem.q[r, a]
     update_weights(mem, r, delta, sp)
-    mem.q[r, a] = action_value(mem, r, a)
     decay_traces(mem, r, sp.gamma * sp.trace_decay)
     for other in range(mem.tiles.shape[1]):
         if other != a:
-            for f in mem.tiles[r, other]:
-                clear_trace(mem, r, f)
-    _set_action_traces(mem, r, a)
+            pass
+    set_action_traces(mem, r, a)
     return a
 
 
@@ -576,6 +579,7 @@ __all__ = [
     "SarsaMemory",
     "SarsaParams",
     "action_value",
+    "clear_action_traces",
     "code_variable_order",
     "end_episode",
     "glibc_rand",
@@ -586,6 +590,7 @@ __all__ = [
     "policy_arrays",
     "quantize",
     "select_action",
+    "set_action_traces",
     "start_episode",
     "step",
     "tile_index",

@@ -283,7 +283,7 @@ def test_learned_pass_without_pass_weights_is_a_one_line_error(tmp_path):
 
 
 def test_learned_getopen_with_a_policy_file_without_theta_is_an_error(tmp_path):
-    path = save_policy(tmp_path / "pass.npz", pass_weights=np.zeros(4))
+    path = save_policy(tmp_path / "pass.npz", pass_arrays={"pass_weights": np.zeros(4)})
     with pytest.raises(PolicyFileError, match="no GetOpen weights"):
         PlayerAgent("keepers", getopen_policy="learned", policy=load_policy(path))
 
@@ -314,11 +314,15 @@ def test_policy_file_theta_is_the_keepers_getopen_net(tmp_path):
 def test_policy_file_round_trip(tmp_path):
     theta = np.linspace(-0.5, 0.5, THETA_SIZE)
     weights = np.arange(12.0).reshape(3, 4)
-    path = save_policy(tmp_path / "p.npz", getopen_theta=theta, pass_weights=weights,
+    table = np.array([7, -1, 3], dtype=np.int32)  # a learner's integer bookkeeping keeps its dtype
+    path = save_policy(tmp_path / "p.npz", getopen_theta=theta,
+                       pass_arrays={"pass_weights": weights, "pass_hash_check": table},
                        config={"keepers": 3, "takers": 2, "trainer": "cem"}, seed=11)
     policy = load_policy(path)
     np.testing.assert_array_equal(policy.getopen_theta, theta)
     np.testing.assert_array_equal(policy.pass_weights, weights)
+    assert policy.pass_arrays["pass_hash_check"].dtype == np.int32
+    np.testing.assert_array_equal(policy.pass_arrays["pass_hash_check"], table)
     assert policy.config["trainer"] == "cem" and policy.seed == 11 and policy.created
     assert getopen_theta_size(3, 2) == THETA_SIZE
 
@@ -351,6 +355,7 @@ GOOD_HEADER = '{"format": "keepaway-policy", "version": 1, "config": {}, "seed":
     (lambda p: write_npz(p, GOOD_HEADER, getopen_theta=np.array([None] * 91, dtype=object)),
      "not a readable policy archive"),
     (lambda p: write_npz(p, GOOD_HEADER, extra=np.zeros(2)), "unexpected arrays"),
+    (lambda p: write_npz(p, GOOD_HEADER, pass_hash_check=np.zeros(2)), "lack pass_weights"),
 ])
 def test_bad_policy_files_are_one_line_errors_naming_the_file(tmp_path, make, problem):
     path = make(tmp_path / "bad.npz")
@@ -365,4 +370,6 @@ def test_save_policy_refuses_what_load_policy_would_refuse(tmp_path):
         save_policy(tmp_path / "nan.npz", getopen_theta=np.full(THETA_SIZE, np.nan))
     with pytest.raises(ValueError, match="expected \\(91,\\)"):
         save_policy(tmp_path / "short.npz", getopen_theta=np.zeros(10))
+    with pytest.raises(ValueError, match="must be named pass_"):
+        save_policy(tmp_path / "names.npz", pass_arrays={"pass_weights": np.zeros(3), "weights": np.zeros(3)})
     assert not list(tmp_path.iterdir())

@@ -3,6 +3,7 @@ connects, waits for the game, plays and exits cleanly when the server ends or on
 
 from __future__ import annotations
 
+import os
 import select
 import signal
 import socket
@@ -11,7 +12,9 @@ import time
 
 import numpy as np
 
-from tests.conftest import keepaway_command
+from conftest import keepaway_command
+from protocol import messages as m
+from scripted import ScriptedPlayer
 
 TEAMS = ["keepers"] * 3 + ["takers"] * 2
 PROCESS_TIMEOUT_S = 300  # generous: five players load numba caches on two shared cores
@@ -57,20 +60,17 @@ def test_five_players_play_a_real_time_game_to_its_end(processes, tmp_path):
 
 
 def read_until(stream, text, timeout_s):
-    """Lines of ``stream`` up to the first containing ``text`` (AssertionError after ``timeout_s``)."""
-    lines = []
+    """What ``stream`` says up to and including ``text`` (AssertionError after ``timeout_s``). Reads the
+    file descriptor directly: a buffered readline would hide lines from select."""
+    seen = b""
     deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
+    while text.encode() not in seen:
         ready, _, _ = select.select([stream], [], [], max(0.0, deadline - time.monotonic()))
-        if not ready:
-            break
-        line = stream.readline().decode()
-        if not line:
-            break
-        lines.append(line)
-        if text in line:
-            return lines
-    raise AssertionError(f"no {text!r} in {''.join(lines)[-2000:]!r}")
+        chunk = os.read(stream.fileno(), 65536) if ready else b""
+        if not chunk:
+            raise AssertionError(f"no {text!r} in {seen.decode()[-2000:]!r}")
+        seen += chunk
+    return seen.decode()
 
 
 def test_sigterm_makes_a_player_say_bye_and_exit_0(processes, tmp_path):
@@ -113,3 +113,18 @@ def test_a_bad_policy_file_stops_the_player_with_one_line(processes, tmp_path):
     err = proc.stderr.read().decode()
     assert len(err.strip().splitlines()) == 1
     assert err.startswith(f"keepaway player: {policy}: not a readable policy archive")
+
+
+def test_a_refused_init_exits_2_with_the_servers_message(processes, tmp_path):
+    server = processes.start_server(tmp_path, "--mode", "sync")
+    keepers = [ScriptedPlayer(server.players_endpoint) for _ in range(3)]
+    try:
+        assert all(isinstance(k.init("keepers"), m.InitOk) for k in keepers)
+        proc = processes.popen(keepaway_command("player", "--team", "keepers", "--server", server.players_endpoint),
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+        assert proc.wait(PROCESS_TIMEOUT_S) == 2
+    finally:
+        for k in keepers:
+            k.close()
+    err = proc.stderr.read().decode()
+    assert err.strip() == "keepaway player: the server refused init: no_more_player: all keepers are connected"

@@ -17,7 +17,8 @@ distributed server's synchronous order (``server/app.py`` ``_run_sync``, ``serve
 Python runs only between chunks of cycles, to collect the episodes that ended. Randomness: arena ``b``
 of a batch seeded ``seed`` plays the game of a single arena seeded ``seed + b`` (:func:`arena_seed`):
 its server stream is the one the distributed server draws with that seed, each player's stream is
-derived from it and the player's object index (:func:`agent_seed`), so an arena's episodes do not
+derived from it and the player's side and uniform number as a player process derives it
+(:func:`agent_seed`), so an arena's episodes do not
 depend on the batch size or on the thread that steps it.
 
 Pass learning (SMDP Sarsa) plugs in later at ``keeper_decide``'s external decision points
@@ -31,11 +32,13 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit, prange
+import numba
+from numba import njit
 
 from agents.belief import AgentMemory, Belief, empty_belief, forget_episode, new_memory
 from agents.getopen import net_size
@@ -66,8 +69,16 @@ from agents.worldmodel import (
 from protocol.landmarks import FLAG_POSITIONS, N_FLAGS
 from protocol.params import ServerParams
 from server.arena import PlayerSlot
-from server.perception import FULL, PARTIAL, UNSEEN, SeeBuffers, SenseBodyBuffers, cone_factor, see_arena, \
-    sense_body_arena
+from server.perception import (
+    FULL,
+    PARTIAL,
+    UNSEEN,
+    SeeBuffers,
+    SenseBodyBuffers,
+    cone_factor,
+    see_arena,
+    sense_body_arena,
+)
 from server.physics import kick_possible
 from server.referee import END_NONE, RefereeState, new_referee_state, start_game
 from server.rng import seed_streams
@@ -96,12 +107,12 @@ def arena_seed(seed: int, b: int) -> int:
     return int(seed) + b
 
 
-def agent_seed(seed: int, obj: int) -> np.uint64:
+def agent_seed(seed: int, obj: int, n_keepers: int) -> np.uint64:
     """The random stream of player object ``obj`` of the arena seeded ``seed`` (its exploration and
-    random policies; spec `architecture.md`, Determinism): the ``obj``-th spawned child of the arena's
-    seed sequence, so it never coincides with the server's stream (the root of the same sequence)."""
-    child = np.random.SeedSequence(int(seed), spawn_key=(int(obj),))
-    return child.generate_state(1, dtype=np.uint64)[0]
+    random policies; spec `architecture.md`, Determinism): the player process's own derivation
+    (``agents/player.py``, ``SeedSequence([seed, side, unum])``, side 0 keepers, 1 takers)."""
+    side, unum = (SIDE_CODES["l"], obj) if obj <= n_keepers else (SIDE_CODES["r"], obj - n_keepers)
+    return np.random.SeedSequence([int(seed), side, unum]).generate_state(1, dtype=np.uint64)[0]
 
 
 class Decisions(NamedTuple):
@@ -112,13 +123,12 @@ class Decisions(NamedTuple):
     main: np.ndarray  # (R,) int8 CMD_*
     arg1: np.ndarray  # (R,) float64
     arg2: np.ndarray  # (R,) float64
-    neck: np.ndarray  # (R,) float64 turn_neck moment, 0 for none
+    neck: np.ndarray  # (R,) float64 turn_neck moment
 
 
 class Players(NamedTuple):
     """Every player of every arena, one row each: row ``b * P + p`` is player object ``p + 1`` of arena
-    ``b`` (``P = K + T`` players per arena). Updated in place by the kernels. (A parallel loop cannot
-    take nested tuples, so :func:`run_chunk` takes the five parts and rebuilds this per arena.)"""
+    ``b`` (``P = K + T`` players per arena). Updated in place by the kernels."""
 
     model: ModelState
     see: SeeBuffer
@@ -249,8 +259,9 @@ def perceive(b: int, obs: int, row: int, w: World, with_see: bool, episode_messa
 
 @njit(cache=True)
 def decide(b: int, obs: int, row: int, w: World, c: Commands, theta: np.ndarray, kp, cfg, pl: Players) -> None:
-    """Player ``obs``'s decision on its belief, sent to the server (``server.arena.Arena.submit``: a kick
-    that cannot reach the ball does not take the main slot unless ``failed_kick_uses_slot``) and
+    """Player ``obs``'s decision on its belief, sent as the player process sends it (``agents/player.py``:
+    the main command and always a turn_neck) into the server's slots (``server.arena.Arena.submit``: a
+    kick that cannot reach the ball does not take the main slot unless ``failed_kick_uses_slot``) and
     remembered by its world model as sent (``WorldModel.on_own_commands``)."""
     out = pl.out
     write_belief_row(row, pl.model, pl.belief, row)
@@ -269,9 +280,9 @@ def decide(b: int, obs: int, row: int, w: World, c: Commands, theta: np.ndarray,
     else:
         c.main[b, obs] = code
         c.arg1[b, obs] = out.arg1[row]
-        c.arg2[b, obs] = out.arg2[row]
+        c.arg2[b, obs] = out.arg2[row] if code == CMD_KICK else 0.0  # dash and turn go with one argument
     c.neck[b, obs] = out.neck[row]
-    c.has_neck[b, obs] = out.neck[row] != 0.0
+    c.has_neck[b, obs] = True
     pl.model.cmd_main[row] = code
     pl.model.cmd_args[row, 0] = out.arg1[row]
     pl.model.cmd_args[row, 1] = out.arg2[row]
@@ -294,16 +305,14 @@ def arena_cycle(b: int, w: World, c: Commands, ref: RefereeState, theta: np.ndar
     return step_arena(b, w, c, ref, kp)
 
 
-@njit(cache=True, parallel=True)
-def run_chunk(n_cycles: int, w: World, c: Commands, ref: RefereeState, theta: np.ndarray, kp, cfg,
-              model: ModelState, see: SeeBuffer, belief: Belief, memory: AgentMemory, out: Decisions,
-              see_out: SeeBuffers, body_out: SenseBodyBuffers, book: Bookkeeping, see_period_ms: float,
-              cone: float) -> None:
-    """Up to ``n_cycles`` cycles of every active arena, one arena per thread (arenas share nothing),
-    recording ended episodes in ``book``. An arena stops after its last episode or at its stop cycle.
-    ``model`` .. ``out`` are the parts of :class:`Players`."""
-    for b in prange(w.pos.shape[0]):
-        pl = Players(model, see, belief, memory, out)
+@njit(cache=True, nogil=True)
+def run_chunk(first: int, stop: int, n_cycles: int, w: World, c: Commands, ref: RefereeState,
+              theta: np.ndarray, kp, cfg, pl: Players, see_out: SeeBuffers, body_out: SenseBodyBuffers,
+              book: Bookkeeping, see_period_ms: float, cone: float) -> None:
+    """Up to ``n_cycles`` cycles of every active arena among ``first .. stop - 1``, recording ended
+    episodes in ``book``. An arena stops after its last episode or at its stop cycle. Arenas share no
+    state, so disjoint ranges run on parallel threads (the GIL is released)."""
+    for b in range(first, stop):
         book.stepped[b] = 0
         book.n_ended[b] = 0
         for _ in range(n_cycles):
@@ -348,14 +357,17 @@ def _policy_code(table: dict[str, int], name: str, what: str) -> int:
 class BatchedArenas:
     """``batch`` Keepaway arenas (``keepers`` vs ``takers``, every player connected before the start),
     stepped together by compiled kernels. ``getopen_theta`` is the GO:L net per arena ((batch, n) or
-    (n,) for all; n = 91 in 3v2), required with ``getopen_policy="learned"`` only. The games continue
-    across :meth:`run` calls."""
+    (n,) for all; n = 91 in 3v2), required with ``getopen_policy="learned"`` only. ``threads`` (default
+    numba's thread count, ``NUMBA_NUM_THREADS``) step disjoint ranges of arenas side by side; the
+    results do not depend on it. The games continue across :meth:`run` calls."""
 
     def __init__(self, params: ServerParams, batch: int, seed: int, keepers: int = 3, takers: int = 2,
                  pass_policy: str = "handcoded", getopen_policy: str = "handcoded",
-                 getopen_theta: np.ndarray | None = None, agent_config: AgentConfig = AgentConfig()) -> None:
+                 getopen_theta: np.ndarray | None = None, agent_config: AgentConfig = AgentConfig(),
+                 threads: int | None = None) -> None:
         if batch < 1:
             raise ValueError("batch must be at least 1")
+        self.threads = max(1, min(batch, numba.config.NUMBA_NUM_THREADS if threads is None else threads))
         self.params = params
         self.kp = params.kernel()
         self.cfg = dataclasses.replace(
@@ -380,8 +392,8 @@ class BatchedArenas:
             model=new_model_state(rows, keepers, takers, me, params),
             see=new_see_buffer(rows, N_FLAGS, n_objects),
             belief=empty_belief(rows, keepers, takers),
-            memory=new_memory(rows, np.array([agent_seed(s, obj) for s in seeds for obj in range(1, n_objects)],
-                                              dtype=np.uint64)),
+            memory=new_memory(rows, np.array([agent_seed(s, obj, keepers) for s in seeds
+                                              for obj in range(1, n_objects)], dtype=np.uint64)),
             out=Decisions(
                 pass_state=np.zeros((rows, pass_state_size(keepers, takers))),
                 decision=np.zeros(rows, dtype=np.int8),
@@ -444,8 +456,7 @@ class BatchedArenas:
         collected = 0
         cycles = 0
         while book.active.any() and (total_episodes is None or collected < total_episodes):
-            run_chunk(CHUNK_CYCLES, w, self.commands, self.referee, self.theta, self.kp, self.cfg,
-                      *self.players, self.see_out, self.body_out, book, self.see_period_ms, self.cone)
+            self._run_chunk()
             cycles += int(book.stepped.sum())
             part = self._ended()
             parts.append(part)
@@ -458,6 +469,18 @@ class BatchedArenas:
         arena, episode, start, end_cycle, end = columns
         return EpisodeTable(arena=arena.astype(np.int64), episode=episode, start_cycle=start,
                             end_cycle=end_cycle, end=end.astype(np.int8), cycles=cycles)
+
+    def _run_chunk(self) -> None:
+        """One chunk of every arena, the arenas split into ``threads`` contiguous ranges."""
+        bounds = np.linspace(0, self.batch, self.threads + 1).astype(int)
+        args = (CHUNK_CYCLES, self.world, self.commands, self.referee, self.theta, self.kp, self.cfg,
+                self.players, self.see_out, self.body_out, self.book, self.see_period_ms, self.cone)
+        if self.threads == 1:
+            run_chunk(0, self.batch, *args)
+            return
+        with ThreadPoolExecutor(self.threads) as pool:
+            for done in [pool.submit(run_chunk, lo, hi, *args) for lo, hi in zip(bounds[:-1], bounds[1:])]:
+                done.result()
 
     def _ended(self) -> tuple[np.ndarray, ...]:
         """The episodes ended in the last chunk, ordered by end cycle, then arena."""
