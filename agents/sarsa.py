@@ -401,10 +401,11 @@ def step(mem: SarsaMemory, r: int, reward: float, state, sp: SarsaParams) -> int
         return a
     delta += mem.q[r, a]
     update_weights(mem, r, delta, sp)
+    mem.q[r, a] = action_value(mem, r, a)
     decay_traces(mem, r, sp.gamma * sp.trace_decay)
     for other in range(mem.tiles.shape[1]):
         if other != a:
-            pass
+            clear_action_traces(mem, r, other)
     set_action_traces(mem, r, a)
     return a
 
