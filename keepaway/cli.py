@@ -12,10 +12,12 @@ def main() -> None:
 
 
 def _register() -> None:
-    from server.cli import commands as server_commands
     from agents.cli import commands as agent_commands
+    from coach.cli import commands as coach_commands
+    from server.cli import commands as server_commands
+    from trainer.cli import commands as trainer_commands
 
-    for command in server_commands + agent_commands:
+    for command in server_commands + agent_commands + coach_commands + trainer_commands:
         main.add_command(command)
 
 

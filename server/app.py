@@ -271,7 +271,9 @@ class Server:
     def _send_cycle_percepts(self, think: bool, see: bool = True) -> None:
         arena = self.arena
         cycle = arena.cycle
-        for conn in list(self.conns.values()):
+        # object order, not connection order: the see draws identity-loss randomness from the arena's
+        # one stream, so the order must not depend on which process connected first (determinism)
+        for conn in sorted(self.conns.values(), key=lambda c: c.slot.obj):
             with_see = see and arena.see_due(conn.slot, cycle)
             for msg in arena.cycle_percepts(conn.slot, with_see):
                 self._send(conn, msg)
@@ -375,10 +377,7 @@ class Server:
         conn = Connection(ident, slot, answered=self.arena.cycle - 1)
         self.conns[ident] = conn
         log.info("%s connected (%s)", conn.name, "reconnect" if isinstance(msg, m.Reconnect) else "init")
-        self._send(conn, m.InitOk(
-            cycle=self.arena.cycle, version=PROTOCOL_VERSION, side=slot.side, unum=slot.unum,
-            team=msg.team, play_mode=self.arena.play_mode, params=self.config.params.to_dict(),
-            landmarks=self.arena.landmarks(), config=self._client_config()))
+        self._send(conn, self.arena.init_ok(slot, msg.team, self._client_config()))
 
     def _on_command(self, conn: Connection, msg: m.Command) -> None:
         cycle = self.arena.cycle

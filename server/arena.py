@@ -11,6 +11,7 @@ import re
 from dataclasses import dataclass, field
 from typing import Any
 
+from protocol import PROTOCOL_VERSION
 from protocol import messages as m
 from protocol.landmarks import to_wire as landmarks_to_wire
 from protocol.params import ServerParams
@@ -253,6 +254,7 @@ class Arena:
         if not self.pending_says:
             return
         w, p = self.world, self.params
+        self.pending_says.sort(key=lambda said: said[0])  # arrival order must not matter (determinism)
         for listener in self.connected_slots():
             by_team: dict[str, list] = {"our": [], "opp": []}
             lp = w.pos[0, listener.obj]
@@ -316,6 +318,12 @@ class Arena:
         if with_see:
             out.append(self.see_message(s))
         return out
+
+    def init_ok(self, s: PlayerSlot, team: str, config: dict) -> m.InitOk:
+        """The answer to a player's init/reconnect: its number, the parameter table, the landmarks."""
+        return m.InitOk(cycle=self.cycle, version=PROTOCOL_VERSION, side=s.side, unum=s.unum, team=team,
+                        play_mode=self.play_mode, params=self.params.to_dict(),
+                        landmarks=landmarks_to_wire(), config=config)
 
     def landmarks(self) -> dict:
         return landmarks_to_wire()

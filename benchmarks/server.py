@@ -1,0 +1,159 @@
+"""Server benchmarks (issue: the simulation server and the protocol).
+
+(a) batched physics + perception throughput, arena-cycles per second, batch 1 (baseline) and 1024, one
+    core: every cycle every player dashes or turns, and each player gets a see on 2 of 3 cycles.
+(b) synchronous-mode cycles per second of the real ``keepaway server`` process with five minimal client
+    processes that answer every think with one dash; baseline in the same invocation: a bare ZeroMQ
+    ROUTER loop doing the same message exchange with no simulation (the transport's ceiling).
+
+Run: ``python benchmarks/server.py [--cycles N] [--seconds S]``. Prints figures; asserts nothing.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(REPO))
+
+from protocol.params import parameter_set  # noqa: E402
+from server.perception import SeeBuffers, SenseBodyBuffers, see_batch, sense_body_batch  # noqa: E402
+from server.referee import new_referee_state, start_game  # noqa: E402
+from server.simulation import new_causes, simulate_cycle  # noqa: E402
+from server.world import CMD_DASH, CMD_TURN, Commands, new_world  # noqa: E402
+
+
+def batched_throughput(batch: int, seconds: float) -> float:
+    """Arena-cycles per second of simulate_cycle + sense_body + see (2 of 3 cycles) for ``batch`` arenas."""
+    params = parameter_set("classic")
+    kp = params.kernel()
+    w = new_world(params, 3, 2, batch=batch, seed=1)
+    w.enabled[:] = True
+    r = new_referee_state(batch)
+    for b in range(batch):
+        start_game(b, w, r, kp)
+    c = Commands.empty(batch, w.n_objects)
+    see_out = SeeBuffers.empty(batch, w.n_objects, kp)
+    body_out = SenseBodyBuffers.empty(batch, w.n_objects)
+    causes = new_causes(batch)
+    width = np.ones((batch, w.n_objects - 1))
+    due_patterns = [np.zeros((batch, w.n_objects - 1), dtype=np.bool_) for _ in range(3)]
+    due_patterns[0][:] = True
+    due_patterns[2][:] = True
+    rng = np.random.default_rng(0)
+    mains = rng.choice([CMD_DASH, CMD_TURN], size=(64, batch, w.n_objects)).astype(np.int8)
+    args = rng.uniform(-100, 100, size=(64, batch, w.n_objects))
+
+    def one(i: int) -> None:
+        c.main[:] = mains[i % 64]
+        c.arg1[:] = args[i % 64]
+        simulate_cycle(w, c, r, kp, causes)
+        sense_body_batch(w, body_out)
+        see_batch(w, width, due_patterns[i % 3], kp, see_out)
+
+    for i in range(3):  # compile / load the cache
+        one(i)
+    cycles, start = 0, time.perf_counter()
+    while time.perf_counter() - start < seconds:
+        for _ in range(10):
+            one(cycles)
+            cycles += 1
+    return cycles * batch / (time.perf_counter() - start)
+
+
+MINIMAL_CLIENT = r'''
+import sys, time, msgpack, zmq
+endpoint, team = sys.argv[1], sys.argv[2]
+sock = zmq.Context().socket(zmq.DEALER); sock.setsockopt(zmq.LINGER, 0); sock.connect(endpoint)
+sock.send(msgpack.packb({"type": "init", "version": 1, "team": team}))
+pack, unpack = msgpack.packb, msgpack.unpackb
+first = None; cycles = 0
+while True:
+    msg = unpack(sock.recv())
+    kind = msg["type"]
+    if kind == "think":
+        if first is None: first = time.perf_counter()
+        cycles += 1
+        sock.send(pack({"type": "command", "cycle": msg["cycle"], "commands": [["dash", 100.0]]}))
+    elif kind == "shutdown":
+        break
+elapsed = time.perf_counter() - first
+print(f"{cycles} {elapsed}", flush=True)
+'''
+
+NULL_SERVER = r'''
+import sys, msgpack, zmq
+n_players, cycles = int(sys.argv[1]), int(sys.argv[2])
+sock = zmq.Context().socket(zmq.ROUTER); sock.setsockopt(zmq.LINGER, 0)
+port = sock.bind_to_random_port("tcp://127.0.0.1")
+print(f"keepaway server listening players=tcp://127.0.0.1:{port} coach=tcp://127.0.0.1:0 monitor=tcp://127.0.0.1:0", flush=True)
+pack, unpack = msgpack.packb, msgpack.unpackb
+ids = []
+while len(ids) < n_players:
+    ident, data = sock.recv_multipart(); unpack(data); ids.append(ident)
+    sock.send_multipart([ident, pack({"type": "init_ok", "cycle": 0})])
+for t in range(cycles):
+    for ident in ids:
+        sock.send_multipart([ident, pack({"type": "sense_body", "cycle": t, "speed": [0.0, 0]})])
+        sock.send_multipart([ident, pack({"type": "think", "cycle": t})])
+    answered = 0
+    while answered < n_players:
+        ident, data = sock.recv_multipart(); unpack(data); answered += 1
+for ident in ids:
+    sock.send_multipart([ident, pack({"type": "shutdown", "cycle": cycles, "reason": "done"})])
+'''
+
+
+def sync_cycles_per_second(server_args: list[str], n_players: int = 5) -> float:
+    """Cycles per second seen by the first minimal client (from its first think to the shutdown)."""
+    server = subprocess.Popen(server_args, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, cwd=REPO,
+                              start_new_session=True)
+    clients: list[subprocess.Popen] = []
+    try:
+        line = server.stdout.readline().decode()
+        match = re.search(r"players=(tcp://[\d.]+:\d+)", line)
+        if not match:
+            raise RuntimeError(f"server did not start: {line!r}")
+        teams = (["keepers"] * 3 + ["takers"] * 2)[:n_players]
+        clients = [subprocess.Popen([sys.executable, "-c", MINIMAL_CLIENT, match.group(1), team],
+                                    stdout=subprocess.PIPE, cwd=REPO) for team in teams]
+        cycles, elapsed = map(float, clients[0].communicate(timeout=600)[0].split())
+        server.wait(timeout=60)
+        return cycles / elapsed
+    finally:
+        for proc in [server, *clients]:
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait()
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--cycles", type=int, default=3000, help="cycles per synchronous-mode run")
+    parser.add_argument("--seconds", type=float, default=3.0, help="seconds per batched measurement")
+    opts = parser.parse_args()
+    os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+    print("(a) batched physics + perception, one core (arena-cycles/s)")
+    base = batched_throughput(1, opts.seconds)
+    print(f"    batch    1: {base:12,.0f}   (baseline)")
+    big = batched_throughput(1024, opts.seconds)
+    print(f"    batch 1024: {big:12,.0f}   ({big / base:.1f}x baseline; target >= 100,000)")
+    print("(b) synchronous mode, 5 minimal client processes answering every think with one dash (cycles/s)")
+    null = sync_cycles_per_second([sys.executable, "-c", NULL_SERVER, "5", str(opts.cycles)])
+    print(f"    bare ZeroMQ loop, no simulation: {null:8,.0f}   (baseline: transport ceiling)")
+    real = sync_cycles_per_second([sys.executable, "-m", "keepaway", "server", "--players-port", "0",
+                                   "--coach-port", "0", "--monitor-port", "0", "--max-cycles",
+                                   str(opts.cycles)])
+    print(f"    keepaway server:                 {real:8,.0f}   ({real / null:.0%} of baseline; target >= 3,000)")
+
+
+if __name__ == "__main__":
+    main()

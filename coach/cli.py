@@ -1,0 +1,47 @@
+"""``keepaway coach``: the coach package's part of the command line."""
+
+from __future__ import annotations
+
+import json
+import logging
+import sys
+
+import click
+
+
+@click.command("coach")
+@click.option("--server", "server_endpoint", required=True, metavar="tcp://HOST:PORT",
+              help="The server's coach port.")
+@click.option("--arena-port", type=int, default=None,
+              help="Serve trainers on this port (0 = a free port, printed); default: no arena endpoint.")
+@click.option("--host", default="127.0.0.1", help="Bind address of the arena port.")
+@click.option("--episodes", "stop_after", type=int, default=None,
+              help="Stop the server after this many episodes.")
+@click.option("--connect-timeout", type=float, default=60.0, help="Seconds to wait for the server.")
+@click.option("--json", "as_json", is_flag=True, help="Print the episode record as JSON at the end.")
+@click.option("-v", "--verbose", count=True)
+def coach_command(server_endpoint: str, arena_port: int | None, host: str, stop_after: int | None,
+                  connect_timeout: float, as_json: bool, verbose: int) -> None:
+    """Run an arena's online coach: the ground-truth episode record and the trainer's endpoint."""
+    from coach.coach import Coach
+
+    logging.basicConfig(level=logging.WARNING - 10 * min(verbose, 2),
+                        format="%(asctime)s %(name)s %(levelname)s %(message)s", stream=sys.stderr)
+    coach = Coach(server_endpoint, host=host, arena_port=arena_port, stop_after=stop_after,
+                  connect_timeout_s=connect_timeout)
+    coach.install_signal_handlers()
+    try:
+        coach.connect()
+    except ConnectionError as exc:
+        coach.close()
+        click.echo(f"keepaway coach: {exc}", err=True)
+        sys.exit(2)
+    if coach.bound_arena_port is not None:
+        click.echo(f"keepaway coach arena=tcp://{host}:{coach.bound_arena_port}")
+        sys.stdout.flush()
+    coach.run()
+    if as_json:
+        click.echo(json.dumps(coach.summary()))
+
+
+commands = [coach_command]

@@ -1,0 +1,126 @@
+"""Starting a whole distributed arena (server, coach, keepers, takers) as separate processes.
+
+Every process gets its own session so the whole arena can be stopped at once; a process that dies is
+named in one line; nothing is left running whatever happens (architecture, "Processes").
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+LISTEN_RE = re.compile(r"players=(tcp://\S+) coach=(tcp://\S+) monitor=(tcp://\S+)")
+
+
+class ArenaFailure(RuntimeError):
+    """A process of the arena died or could not start; the message names it."""
+
+
+@dataclass
+class Member:
+    """One process of the arena."""
+
+    name: str
+    proc: subprocess.Popen
+
+    def describe_exit(self) -> str:
+        code = self.proc.returncode
+        how = f"was killed by {signal.Signals(-code).name}" if code is not None and code < 0 else f"exited with code {code}"
+        return f"{self.name} (pid {self.proc.pid}) {how}"
+
+
+def keepaway_argv(*args: str) -> list[str]:
+    """Run the ``keepaway`` CLI with this interpreter (no dependence on PATH)."""
+    return [sys.executable, "-m", "keepaway", *args]
+
+
+@dataclass
+class ArenaProcesses:
+    """The processes of one arena; use as a context manager so they are always stopped."""
+
+    log_dir: Path
+    members: list[Member] = field(default_factory=list)
+
+    def __enter__(self) -> "ArenaProcesses":
+        self.log_dir.mkdir(parents=True, exist_ok=True)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+    def start(self, name: str, argv: list[str], capture_stdout: bool = False) -> Member:
+        stderr = open(self.log_dir / f"{name.replace(' ', '_')}.log", "wb")
+        proc = subprocess.Popen(argv, stdout=subprocess.PIPE if capture_stdout else subprocess.DEVNULL,
+                                stderr=stderr, start_new_session=True)
+        stderr.close()
+        member = Member(name, proc)
+        self.members.append(member)
+        return member
+
+    def start_server(self, server_args: list[str], timeout_s: float = 120.0) -> tuple[Member, str, str, str]:
+        """Start ``keepaway server`` on free ports and return it with its three endpoints."""
+        member = self.start("server", keepaway_argv("server", "--players-port", "0", "--coach-port", "0",
+                                                    "--monitor-port", "0", *server_args), capture_stdout=True)
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            line = member.proc.stdout.readline().decode()
+            match = LISTEN_RE.search(line)
+            if match:
+                return member, match.group(1), match.group(2), match.group(3)
+            if not line and member.proc.poll() is not None:
+                break
+        member.proc.poll()
+        raise ArenaFailure(f"the server did not start: {member.describe_exit()}; see {self.log_dir / 'server.log'}")
+
+    def first_death(self) -> Member | None:
+        """A member that exited although the arena is not done: any exit while the server runs, and
+        any non-zero exit after it ended cleanly (players and coach follow its shutdown)."""
+        server_done = any(mem.name == "server" and mem.proc.poll() == 0 for mem in self.members)
+        for member in self.members:
+            code = member.proc.poll()
+            if code is None or (server_done and code == 0):
+                continue
+            return member
+        return None
+
+    def wait_all(self, timeout_s: float) -> list[Member]:
+        """Wait for every member to exit; return those that did not exit cleanly (code != 0)."""
+        deadline = time.monotonic() + timeout_s
+        bad = []
+        for member in self.members:
+            try:
+                member.proc.wait(timeout=max(0.1, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                bad.append(member)
+                continue
+            if member.proc.returncode != 0:
+                bad.append(member)
+        return bad
+
+    def stop(self) -> None:
+        """SIGTERM every member's session, then SIGKILL what is left after a grace period."""
+        for member in self.members:
+            if member.proc.poll() is None:
+                _signal_group(member.proc, signal.SIGTERM)
+        deadline = time.monotonic() + 5.0
+        for member in self.members:
+            try:
+                member.proc.wait(timeout=max(0.1, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                _signal_group(member.proc, signal.SIGKILL)
+                member.proc.wait()
+            if member.proc.stdout is not None:
+                member.proc.stdout.close()
+
+
+def _signal_group(proc: subprocess.Popen, sig: signal.Signals) -> None:
+    try:
+        os.killpg(proc.pid, sig)
+    except ProcessLookupError:
+        pass

@@ -1,0 +1,220 @@
+"""``keepaway run``: play N episodes of one configuration in the distributed, embedded or batched mode.
+
+All three modes yield the same thing, a stream of ended episodes, which this module turns into a
+progress bar, a summary table, the logs and the machine-readable summary of the issue:
+``{"mode", "seed", "episodes": [...], "mean_hold_time_s", "stderr_hold_time_s", "cycles_per_s",
+"episodes_per_s"}``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import zmq
+
+from protocol import MONITOR_EPISODE_TOPIC
+from protocol import messages as m
+from protocol.messages import decode_monitor
+from server.episode_log import EpisodeRecord, JsonlLog, KwyLog
+from trainer.embedded import ArenaSpec, embedded_episodes
+from trainer.launch import ArenaFailure, ArenaProcesses, keepaway_argv
+
+MODES = ("distributed", "embedded", "batched")
+
+
+@dataclass(frozen=True)
+class RunOptions:
+    spec: ArenaSpec
+    episodes: int
+    mode: str = "distributed"
+    batch: int = 1024
+    realtime: bool = False
+    out: Path = Path("out")
+    policy_path: Path | None = None
+    parameter_set: str = "classic"
+
+
+@dataclass
+class RunResult:
+    mode: str
+    seed: int
+    episodes: list[EpisodeRecord]
+    elapsed_s: float  # wall time over which cycles_per_s / episodes_per_s are measured
+    cycles: int  # simulated cycles in that time
+    rate_episodes: int  # episodes ended in that time
+
+    @property
+    def hold_times(self) -> list[float]:
+        return [e.hold_time_s for e in self.episodes]
+
+    def summary(self) -> dict:
+        holds = self.hold_times
+        n = len(holds)
+        mean = sum(holds) / n if n else float("nan")
+        var = sum((h - mean) ** 2 for h in holds) / (n - 1) if n > 1 else float("nan")
+        return {
+            "mode": self.mode,
+            "seed": self.seed,
+            "episodes": [{"episode": e.episode, "start_cycle": e.start_cycle, "end_cycle": e.end_cycle,
+                          "hold_time_s": e.hold_time_s, "end": e.end} for e in self.episodes],
+            "mean_hold_time_s": mean,
+            "stderr_hold_time_s": math.sqrt(var / n) if n > 1 else float("nan"),
+            "cycles_per_s": self.cycles / self.elapsed_s if self.elapsed_s > 0 else float("nan"),
+            "episodes_per_s": self.rate_episodes / self.elapsed_s if self.elapsed_s > 0 else float("nan"),
+        }
+
+
+def summary_table(summary: dict) -> str:
+    """A short human-readable table of a run's summary."""
+    eps = summary["episodes"]
+    n = len(eps)
+    taken = sum(e["end"] == "taken" for e in eps)
+    rows = [
+        ("mode", summary["mode"]),
+        ("seed", str(summary["seed"])),
+        ("episodes", str(n)),
+        ("mean hold time", f"{summary['mean_hold_time_s']:.2f} s +- {summary['stderr_hold_time_s']:.2f} (s.e.)"),
+        ("ended by take", f"{taken} ({taken / n:.0%})" if n else "0"),
+        ("ended out", f"{n - taken} ({(n - taken) / n:.0%})" if n else "0"),
+        ("cycles / s", f"{summary['cycles_per_s']:,.0f}"),
+        ("episodes / s", f"{summary['episodes_per_s']:,.2f}"),
+    ]
+    width = max(len(k) for k, _ in rows)
+    return "\n".join(f"{k:<{width}}  {v}" for k, v in rows)
+
+
+# -- modes ------------------------------------------------------------------------------------------
+def distributed_episodes(opts: RunOptions, processes: ArenaProcesses) -> Iterator[tuple[EpisodeRecord, int]]:
+    """Start server, coach and players as processes; yield episodes as the monitor port reports them.
+
+    Raises ArenaFailure naming the process if any of them dies before the server has finished.
+    """
+    spec = opts.spec
+    server_args = ["--seed", str(spec.seed), "--keepers", str(spec.keepers), "--takers", str(spec.takers),
+                   "--field-size", str(spec.params.keepaway_length), "--episodes", str(opts.episodes),
+                   "--params", opts.parameter_set, "--log-dir", str(opts.out), "--kwy-name", "keepaway"]
+    if opts.realtime:
+        server_args += ["--mode", "realtime"]
+    server, players_ep, coach_ep, monitor_ep = processes.start_server(server_args)
+    ctx = zmq.Context.instance()
+    monitor = ctx.socket(zmq.SUB)
+    monitor.setsockopt(zmq.LINGER, 0)
+    monitor.setsockopt(zmq.SUBSCRIBE, MONITOR_EPISODE_TOPIC)
+    monitor.connect(monitor_ep)
+    try:
+        processes.start("coach", keepaway_argv("coach", "--server", coach_ep))
+        player_args = ["--server", players_ep, "--seed", str(spec.seed), "--pass", spec.pass_policy,
+                       "--getopen", spec.getopen_policy]
+        if opts.policy_path is not None:
+            player_args += ["--policy", str(opts.policy_path)]
+        for team, count in (("keepers", spec.keepers), ("takers", spec.takers)):
+            for i in range(1, count + 1):
+                processes.start(f"{team[:-1]} {i}", keepaway_argv("player", "--team", team, *player_args))
+        seen = 0
+        while seen < opts.episodes:
+            if monitor.poll(200):
+                topic, data = monitor.recv_multipart()
+                end = decode_monitor(topic, data)
+                assert isinstance(end, m.EpisodeEnd)
+                seen += 1
+                yield EpisodeRecord(end.episode, end.start_cycle, end.end_cycle, end.end), end.end_cycle
+            dead = processes.first_death()
+            if dead is not None:
+                raise ArenaFailure(dead.describe_exit())
+            if server.proc.poll() == 0 and seen < opts.episodes and not monitor.poll(500):
+                raise ArenaFailure(f"the server ended after {seen} of {opts.episodes} episodes")
+        unclean = processes.wait_all(timeout_s=30.0)
+        if unclean:
+            raise ArenaFailure("; ".join(mem.describe_exit() for mem in unclean))
+    finally:
+        monitor.close(linger=0)
+
+
+def batched_episodes(opts: RunOptions) -> Iterator[tuple[EpisodeRecord, int]]:
+    """Step ``opts.batch`` arenas in one process; yield episodes in the order they end."""
+    from trainer.batched import BatchedArenas
+
+    spec = opts.spec
+    theta = spec.policy.getopen_theta if spec.policy is not None else None
+    arenas = BatchedArenas(spec.params, opts.batch, spec.seed, keepers=spec.keepers, takers=spec.takers,
+                           pass_policy=spec.pass_policy, getopen_policy=spec.getopen_policy,
+                           getopen_theta=theta)
+    table = arenas.run(total_episodes=opts.episodes)
+    step_ms = spec.params.simulator_step_ms
+    for i in range(min(opts.episodes, len(table))):
+        end = "out" if table.end[i] == 1 else "taken"
+        yield EpisodeRecord(i + 1, int(table.start_cycle[i]), int(table.end_cycle[i]), end,
+                            simulator_step_ms=step_ms), int(table.cycles)
+
+
+def run(opts: RunOptions, progress: bool = True) -> RunResult:
+    """Play ``opts.episodes`` episodes in ``opts.mode``; write the logs; return the result."""
+    from tqdm import tqdm
+
+    spec = opts.spec
+    opts.out.mkdir(parents=True, exist_ok=True)
+    records: list[EpisodeRecord] = []
+    bar = tqdm(total=opts.episodes, unit="ep", disable=not progress, dynamic_ncols=True)
+    first_at: float | None = None
+    first_cycle = 0
+    last_cycle = 0
+    start = time.perf_counter()
+    processes = ArenaProcesses(opts.out / "processes") if opts.mode == "distributed" else None
+    try:
+        if opts.mode == "distributed":
+            assert processes is not None
+            processes.__enter__()
+            stream = distributed_episodes(opts, processes)
+        elif opts.mode == "embedded":
+            stream = embedded_episodes(spec)
+        else:
+            stream = batched_episodes(opts)
+        for record, cycles in stream:
+            records.append(record)
+            if first_at is None:
+                first_at, first_cycle = time.perf_counter(), cycles
+            last_cycle = cycles
+            bar.update(1)
+            bar.set_postfix(mean_hold_s=f"{sum(r.hold_time_s for r in records) / len(records):.2f}")
+            if len(records) >= opts.episodes:
+                break
+    finally:
+        bar.close()
+        if processes is not None:
+            processes.stop()
+    end = time.perf_counter()
+    if opts.mode == "distributed" and len(records) > 1 and first_at is not None:
+        # rates between the first and the last episode end: start-up and compilation excluded
+        elapsed, cycles = end - first_at, last_cycle - first_cycle
+        n_rate = len(records) - 1
+    else:
+        elapsed, cycles, n_rate = end - start, last_cycle, len(records)
+    if opts.mode != "distributed":  # the distributed server writes its own logs
+        _write_logs(opts, records)
+    return RunResult(opts.mode, spec.seed, records, elapsed, cycles, n_rate)
+
+
+def _write_logs(opts: RunOptions, records: list[EpisodeRecord]) -> None:
+    spec = opts.spec
+    p = spec.params
+    config = {"mode": opts.mode, "keepers": spec.keepers, "takers": spec.takers, "pass": spec.pass_policy,
+              "getopen": spec.getopen_policy, "episodes": opts.episodes, "batch": opts.batch}
+    with KwyLog(opts.out, spec.keepers, spec.takers, p.keepaway_length, p.keepaway_width,
+                fixed_name="keepaway") as kwy:
+        jsonl = JsonlLog(opts.out / "keepaway.jsonl", seed=spec.seed, config=config, params=p.to_dict())
+        for record in records:
+            kwy.write(record)
+            jsonl.write(record)
+        jsonl.close()
+
+
+def dump_json(summary: dict) -> str:
+    return json.dumps(summary, allow_nan=True)
+
+
+__all__ = ["MODES", "ArenaFailure", "RunOptions", "RunResult", "dump_json", "run", "summary_table"]
