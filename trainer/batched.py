@@ -16,10 +16,10 @@ distributed server's synchronous order (``server/app.py`` ``_run_sync``, ``serve
 
 Python runs only between chunks of cycles, to collect the episodes that ended. Randomness: arena ``b``
 of a batch seeded ``seed`` plays the game of a single arena seeded ``seed + b`` (:func:`arena_seed`):
-its server stream is the one the distributed server draws with that seed, each player's stream is
-derived from it and the player's side and uniform number as a player process derives it
-(:func:`agent_seed`), so an arena's episodes do not
-depend on the batch size or on the thread that steps it.
+its server stream is the one the distributed server draws with that seed, and each player's stream is
+derived from it, its side and uniform number as a player process derives it (:func:`agent_seed`). So
+an arena's episodes depend neither on the batch size nor on the thread that steps it, and equal those
+of the embedded game (``tests/test_batched.py``).
 
 Pass learning (SMDP Sarsa) plugs in later at ``keeper_decide``'s external decision points
 (``PASS_EXTERNAL``): the keeper's return code and Pass state are kept per player row
@@ -99,6 +99,7 @@ VIEW_WIDTH = "normal"
 _UNLIMITED = -1
 _SIDE_KEEPERS = SIDE_CODES["l"]
 _SIDE_TAKERS = SIDE_CODES["r"]
+_UNKNOWN_SIDE = -1  # the world model's side code of a player seen without its team
 
 
 def arena_seed(seed: int, b: int) -> int:
@@ -111,7 +112,7 @@ def agent_seed(seed: int, obj: int, n_keepers: int) -> np.uint64:
     """The random stream of player object ``obj`` of the arena seeded ``seed`` (its exploration and
     random policies; spec `architecture.md`, Determinism): the player process's own derivation
     (``agents/player.py``, ``SeedSequence([seed, side, unum])``, side 0 keepers, 1 takers)."""
-    side, unum = (SIDE_CODES["l"], obj) if obj <= n_keepers else (SIDE_CODES["r"], obj - n_keepers)
+    side, unum = (_SIDE_KEEPERS, obj) if obj <= n_keepers else (_SIDE_TAKERS, obj - n_keepers)
     return np.random.SeedSequence([int(seed), side, unum]).generate_state(1, dtype=np.uint64)[0]
 
 
@@ -218,7 +219,7 @@ def see_to_model_row(out: SeeBuffers, b: int, obs: int, cycle: int, n_keepers: i
             continue
         i = slot - N_FLAGS
         keeper = i <= n_keepers
-        see.player_side[row, n_players] = -1
+        see.player_side[row, n_players] = _UNKNOWN_SIDE
         if level == PARTIAL or level == FULL:
             see.player_side[row, n_players] = _SIDE_KEEPERS if keeper else _SIDE_TAKERS
         see.player_unum[row, n_players] = 0
@@ -267,7 +268,7 @@ def decide(b: int, obs: int, row: int, w: World, c: Commands, theta: np.ndarray,
     write_belief_row(row, pl.model, pl.belief, row)
     if obs <= w.n_keepers:
         # The built-in Pass policies act inside keeper_decide; PASS_EXTERNAL would return here at a
-        # decision point with pl.pass_state[row] written, for a learner to pick the action.
+        # decision point with out.pass_state[row] written, for a learner to pick the action.
         out.decision[row] = keeper_decide(pl.belief, row, pl.memory, theta, kp, cfg, out.main, out.arg1,
                                           out.arg2, out.neck, out.pass_state[row])
     else:
