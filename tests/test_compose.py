@@ -1,0 +1,38 @@
+"""docker-compose.yml cannot run on CI (no Docker engine): check that it parses, that it has the arena's
+services wired by service names, and that every service's command is a valid ``keepaway`` invocation."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+import pytest
+import yaml
+
+from keepaway.cli import main
+
+REPO = Path(__file__).resolve().parent.parent
+COMPOSE = yaml.safe_load((REPO / "docker-compose.yml").read_text())
+SERVICES = COMPOSE["services"]
+
+
+def test_compose_has_the_arena_services_and_a_trainer_profile():
+    assert {"server", "coach", "keeper1", "keeper2", "keeper3", "taker1", "taker2"} <= set(SERVICES)
+    assert SERVICES["trainer"]["profiles"] == ["train"]
+    assert all(s.get("image") == "keepaway:latest" for s in SERVICES.values())
+    assert "ENTRYPOINT [\"keepaway\"]" in (REPO / "Dockerfile").read_text()
+
+
+@pytest.mark.parametrize("name", sorted(SERVICES))
+def test_service_command_is_a_valid_keepaway_invocation(name):
+    argv = SERVICES[name]["command"]
+    command = main.get_command(click.Context(main), argv[0])
+    assert command is not None, f"{name}: unknown subcommand {argv[0]}"
+    command.make_context(argv[0], list(argv[1:]))  # raises click.UsageError on a bad option
+
+
+@pytest.mark.parametrize("name", ["coach", "keeper1", "taker2"])
+def test_clients_reach_the_server_by_service_name(name):
+    argv = SERVICES[name]["command"]
+    endpoint = argv[argv.index("--server") + 1]
+    assert endpoint.startswith("tcp://server:")
