@@ -359,12 +359,11 @@ class Shutdown(Message):
 
 @message
 class CoachInit(Message):
-    """Connect as the arena's coach; ``synch`` asks for ``think`` every cycle."""
+    """Connect as the arena's coach."""
 
     TYPE: ClassVar[str] = "coach_init"
     version: int = wire(protocol_version, default=PROTOCOL_VERSION, required=True)
     client: str = wire(CLIENT, default="")
-    synch: bool = wire(boolean, default=False)
 
 
 @message
@@ -495,7 +494,7 @@ def _by_type(*classes: type[Message]) -> Mapping[str, type[Message]]:
 PLAYER_TO_SERVER = _by_type(Init, Reconnect, Command, Report, Bye)
 SERVER_TO_PLAYER = _by_type(InitOk, Error, SenseBody, See, Hear, Fullstate, Think, Shutdown)
 COACH_TO_SERVER = _by_type(CoachInit, Start, Look, Advice, EpisodeControl, CoachBye)
-SERVER_TO_COACH = _by_type(CoachInitOk, LookOk, Error, EpisodeEnd, PlayerReport, PlayerSaid, Shutdown, Think)
+SERVER_TO_COACH = _by_type(CoachInitOk, LookOk, Error, EpisodeEnd, PlayerReport, PlayerSaid, Shutdown)
 MONITOR_TOPICS: Mapping[bytes, type[Message]] = MappingProxyType(
     {MONITOR_FRAME_TOPIC: Frame, MONITOR_EPISODE_TOPIC: EpisodeEnd}
 )

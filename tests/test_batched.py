@@ -230,8 +230,21 @@ def test_run_limits():
     assert first.cycles == 3 * 250 and np.all(arenas.world.time == 250)
     assert np.all(first.end_cycle <= 250)
     more = arenas.run(total_episodes=5)
-    assert len(more) == 5 and np.all(more.end_cycle > 250)
+    # quotas 5 // 3 = 1 each plus one for the first 5 % 3 = 2 arenas: 2, 2, 1
+    assert np.bincount(more.arena).tolist() == [2, 2, 1]
+    assert np.all(more.end_cycle > 250)
     assert np.all(np.diff(more.end_cycle) >= 0)
+    for b in range(3):
+        before = first.episode[first.arena == b]
+        assert more.episode[more.arena == b][0] == (before.max() + 1 if len(before) else 1)
+    seen = []
+    capped = arenas.run(episodes_per_arena=4, total_episodes=9, progress=seen.append)
+    assert np.bincount(capped.arena).tolist() == [3, 3, 3]
+    assert seen == sorted(seen) and seen[-1] == 9
+    time_before = arenas.world.time.copy()
+    single = arenas.run(total_episodes=1)
+    assert single.arena.tolist() == [0]
+    np.testing.assert_array_equal(arenas.world.time[1:], time_before[1:])  # arenas without a quota rest
 
 
 @pytest.mark.parametrize("kw, message", [

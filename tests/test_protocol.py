@@ -129,7 +129,7 @@ SAMPLES = [
     FULLSTATE := Fullstate(cycle=7, ball=BALL, players=PLAYERS, play_mode="play_on", episode=1),
     Think(cycle=7),
     Shutdown(cycle=900, reason="the coach stopped the run"),
-    CoachInit(client="trainer", synch=True),
+    CoachInit(client="trainer"),
     Start(),
     Look(),
     Advice(target="keepers", payload={"mode": "freeze"}),
@@ -247,7 +247,7 @@ def test_command_wire_form_of_the_docs_decodes_to_atomic_commands():
 def test_optional_fields_take_their_defaults():
     msg = decode_from_player(wire_bytes(type="init", version=PROTOCOL_VERSION, team="keepers"))
     assert msg == Init(team="keepers", unum=None, client="", fullstate=False, synch_see=False)
-    assert decode_from_coach(wire_bytes(type="coach_init", version=1)) == CoachInit(client="", synch=False)
+    assert decode_from_coach(wire_bytes(type="coach_init", version=1)) == CoachInit(client="")
 
 
 def test_protocol_version_is_one_and_is_the_default_of_the_init_messages():

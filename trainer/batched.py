@@ -307,13 +307,13 @@ def arena_cycle(b: int, w: World, c: Commands, ref: RefereeState, theta: np.ndar
 
 
 @njit(cache=True, nogil=True)
-def run_chunk(first: int, stop: int, n_cycles: int, w: World, c: Commands, ref: RefereeState,
+def run_chunk(first: int, stride: int, n_cycles: int, w: World, c: Commands, ref: RefereeState,
               theta: np.ndarray, kp, cfg, pl: Players, see_out: SeeBuffers, body_out: SenseBodyBuffers,
               book: Bookkeeping, see_period_ms: float, cone: float) -> None:
-    """Up to ``n_cycles`` cycles of every active arena among ``first .. stop - 1``, recording ended
+    """Up to ``n_cycles`` cycles of every active arena ``first, first + stride, ...``, recording ended
     episodes in ``book``. An arena stops after its last episode or at its stop cycle. Arenas share no
-    state, so disjoint ranges run on parallel threads (the GIL is released)."""
-    for b in range(first, stop):
+    state, so disjoint sets of them run on parallel threads (the GIL is released)."""
+    for b in range(first, w.pos.shape[0], stride):
         book.stepped[b] = 0
         book.n_ended[b] = 0
         for _ in range(n_cycles):
@@ -359,7 +359,7 @@ class BatchedArenas:
     """``batch`` Keepaway arenas (``keepers`` vs ``takers``, every player connected before the start),
     stepped together by compiled kernels. ``getopen_theta`` is the GO:L net per arena ((batch, n) or
     (n,) for all; n = 91 in 3v2), required with ``getopen_policy="learned"`` only. ``threads`` (default
-    numba's thread count, ``NUMBA_NUM_THREADS``) step disjoint ranges of arenas side by side; the
+    numba's thread count, ``NUMBA_NUM_THREADS``) step disjoint sets of arenas side by side; the
     results do not depend on it. The games continue across :meth:`run` calls."""
 
     def __init__(self, params: ServerParams, batch: int, seed: int, keepers: int = 3, takers: int = 2,
@@ -440,23 +440,29 @@ class BatchedArenas:
 
     def run(self, episodes_per_arena: int | None = None, total_episodes: int | None = None,
             max_cycles: int | None = None, progress: Callable[[int], None] | None = None) -> EpisodeTable:
-        """Play until every arena has finished ``episodes_per_arena`` more episodes, or ``total_episodes``
-        have ended in all, or every arena has played ``max_cycles`` more cycles, whichever comes first
-        (at least one limit is needed). With ``total_episodes`` the table holds exactly that many, the
-        first to end. ``progress`` is called with the number of episodes collected after each chunk."""
+        """Play on until every arena has ended its quota of episodes or played ``max_cycles`` more
+        cycles (at least one limit is needed). The quota is ``episodes_per_arena``; ``total_episodes``
+        shares that many out, ``total // batch`` per arena plus one in the first ``total % batch``
+        arenas (the smaller quota wins if both are given). Fixed quotas rather than the first episodes
+        to end keep the hold times unbiased: the short ones end first. ``progress`` is called with the
+        number of episodes collected after each chunk."""
         limits = (episodes_per_arena, total_episodes, max_cycles)
         if all(v is None for v in limits):
             raise ValueError("give episodes_per_arena, total_episodes or max_cycles")
         if any(v is not None and v < 1 for v in limits):
             raise ValueError("limits must be at least 1")
         book, w = self.book, self.world
-        book.active[:] = True
-        book.episodes_left[:] = _UNLIMITED if episodes_per_arena is None else episodes_per_arena
+        quota = np.full(self.batch, _UNLIMITED if episodes_per_arena is None else episodes_per_arena)
+        if total_episodes is not None:
+            share = total_episodes // self.batch + (np.arange(self.batch) < total_episodes % self.batch)
+            quota = np.where(quota == _UNLIMITED, share, np.minimum(quota, share))
+        book.episodes_left[:] = quota
+        book.active[:] = quota != 0
         book.stop_cycle[:] = _UNLIMITED if max_cycles is None else w.time + max_cycles
         parts: list[tuple[np.ndarray, ...]] = []
         collected = 0
         cycles = 0
-        while book.active.any() and (total_episodes is None or collected < total_episodes):
+        while book.active.any():
             self._run_chunk()
             cycles += int(book.stepped.sum())
             part = self._ended()
@@ -464,23 +470,20 @@ class BatchedArenas:
             collected += len(part[0])
             if progress is not None:
                 progress(collected)
-        columns = [np.concatenate(c) for c in zip(*parts)]
-        if total_episodes is not None:
-            columns = [c[:total_episodes] for c in columns]
-        arena, episode, start, end_cycle, end = columns
+        arena, episode, start, end_cycle, end = (np.concatenate(c) for c in zip(*parts))
         return EpisodeTable(arena=arena.astype(np.int64), episode=episode, start_cycle=start,
                             end_cycle=end_cycle, end=end.astype(np.int8), cycles=cycles)
 
     def _run_chunk(self) -> None:
-        """One chunk of every arena, the arenas split into ``threads`` contiguous ranges."""
-        bounds = np.linspace(0, self.batch, self.threads + 1).astype(int)
+        """One chunk of every arena; thread k steps arenas k, k + threads, ... (finished arenas are
+        spread evenly)."""
         args = (CHUNK_CYCLES, self.world, self.commands, self.referee, self.theta, self.kp, self.cfg,
                 self.players, self.see_out, self.body_out, self.book, self.see_period_ms, self.cone)
         if self.threads == 1:
-            run_chunk(0, self.batch, *args)
+            run_chunk(0, 1, *args)
             return
         with ThreadPoolExecutor(self.threads) as pool:
-            for done in [pool.submit(run_chunk, lo, hi, *args) for lo, hi in zip(bounds[:-1], bounds[1:])]:
+            for done in [pool.submit(run_chunk, k, self.threads, *args) for k in range(self.threads)]:
                 done.result()
 
     def _ended(self) -> tuple[np.ndarray, ...]:

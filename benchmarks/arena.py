@@ -1,0 +1,53 @@
+"""Arena benchmarks (issue: keepers, takers and the coach as processes): episodes per second of
+P:HC-GO:HC in the distributed mode (server, coach and five player processes over ZeroMQ), the embedded
+mode (one process, no sockets; the baseline) and the batched mode (many arenas in one process).
+
+Run: ``python benchmarks/arena.py [--episodes N] [--batch B] [--batched-episodes M]``. Rates exclude
+start-up and compilation where the mode allows (distributed: between the first and last episode end).
+Prints figures; asserts nothing.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from protocol.params import parameter_set  # noqa: E402
+from trainer.embedded import ArenaSpec  # noqa: E402
+from trainer.run import RunOptions, run  # noqa: E402
+
+
+def measure(mode: str, episodes: int, batch: int, seed: int) -> dict:
+    spec = ArenaSpec(parameter_set("classic"), seed=seed)
+    with tempfile.TemporaryDirectory() as out:
+        return run(RunOptions(spec, episodes, mode, batch, out=Path(out)), progress=False).summary()
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--episodes", type=int, default=40, help="episodes for distributed and embedded")
+    parser.add_argument("--batch", type=int, default=1024)
+    parser.add_argument("--batched-episodes", type=int, default=4096)
+    parser.add_argument("--seed", type=int, default=0)
+    opts = parser.parse_args()
+    measure("batched", opts.batch, opts.batch, opts.seed)  # compile / load every kernel once
+    print(f"P:HC-GO:HC, 3v2 on 20 m, classic parameters, seed {opts.seed}")
+    rows = [
+        ("embedded (baseline)", measure("embedded", opts.episodes, 1, opts.seed)),
+        ("distributed, 7 processes", measure("distributed", opts.episodes, 1, opts.seed)),
+        (f"batched, batch {opts.batch}", measure("batched", opts.batched_episodes, opts.batch, opts.seed)),
+    ]
+    base = rows[0][1]["episodes_per_s"]
+    for name, s in rows:
+        print(f"  {name:<26} {s['episodes_per_s']:9.2f} episodes/s {s['cycles_per_s']:11,.0f} cycles/s "
+              f"({s['episodes_per_s'] / base:6.1f}x)  mean hold {s['mean_hold_time_s']:.2f} s over "
+              f"{len(s['episodes'])} episodes")
+    print("  targets: batched >= 300 episodes/s; distributed >= 5 episodes/s (>= 750 cycles/s)")
+
+
+if __name__ == "__main__":
+    main()
