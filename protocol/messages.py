@@ -24,6 +24,7 @@ from protocol.codec import (
     decode,
     fixed,
     integer,
+    is_finite_float,
     kind,
     message,
     non_negative,
@@ -36,6 +37,7 @@ from protocol.codec import (
     text,
     protocol_version,
     wire,
+    rows,
 )
 from protocol.endpoints import DEFAULT_MAX_MESSAGE_BYTES, MONITOR_EPISODE_TOPIC, MONITOR_FRAME_TOPIC
 from protocol.errors import ProtocolError
@@ -285,6 +287,15 @@ class SenseBody(Message):
     collision: tuple[str, ...] = wire(sequence(choice(*COLLISIONS), len(COLLISIONS)))
 
 
+def _seen_flag(row: Any) -> bool:
+    """A well-formed ``see`` flag row whose values need no conversion (the common case, checked in one
+    expression instead of five loader calls)."""
+    return (type(row) is list and len(row) == 5
+            and (row[0] is None or (type(row[0]) is int and 0 <= row[0] < MAX_LANDMARKS))
+            and is_finite_float(row[1], 0.0) and type(row[2]) is int and -180 <= row[2] <= 180
+            and (row[3] is None or is_finite_float(row[3])) and (row[4] is None or is_finite_float(row[4])))
+
+
 @message
 class See(Message):
     """A visual percept (rcssserver's ``see``, spec 4); directions relative to the head."""
@@ -292,7 +303,7 @@ class See(Message):
     TYPE: ClassVar[str] = "see"
     cycle: int = wire(CYCLE)
     flags: tuple = wire(
-        sequence(fixed(optional(LANDMARK_ID), non_negative, DIRECTION, CHANGE, CHANGE), MAX_LANDMARKS)
+        rows(_seen_flag, fixed(optional(LANDMARK_ID), non_negative, DIRECTION, CHANGE, CHANGE), MAX_LANDMARKS)
     )
     lines: tuple = wire(sequence(fixed(LANDMARK_ID, non_negative, DIRECTION), MAX_LANDMARKS))
     ball: tuple | None = wire(optional(fixed(non_negative, DIRECTION, CHANGE, CHANGE)))

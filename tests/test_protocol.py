@@ -542,3 +542,25 @@ def test_connect_endpoint_brackets_ipv6_and_inverts_parse():
     assert parse_endpoint(connect_endpoint("example.org", 6002)) == ("example.org", 6002)
     with pytest.raises(ValueError):
         connect_endpoint("127.0.0.1", 0)
+
+
+def test_see_fast_path_gives_what_the_full_loader_gives():
+    """The see flags' fast path (rows) must accept exactly what the full loader accepts unchanged."""
+    good = [[0, 12.2, -30, 0.0, None], [None, 3.0, 180, None, None]]
+    msg = decode_for_player(encode_map({"type": "see", "cycle": 1, "flags": good, "lines": [],
+                                        "ball": None, "players": []}))
+    assert msg.flags == ((0, 12.2, -30, 0.0, None), (None, 3.0, 180, None, None))
+    ints = [[0, 12, -30, 0, None]]  # ints are converted by the full loader
+    msg = decode_for_player(encode_map({"type": "see", "cycle": 1, "flags": ints, "lines": [],
+                                        "ball": None, "players": []}))
+    assert msg.flags == ((0, 12.0, -30, 0.0, None),) and type(msg.flags[0][1]) is float
+    for bad, code in [([[0, float("nan"), 0, None, None]], "bad_value"), ([[True, 1.0, 0, None, None]], "bad_type"),
+                      ([[0, 1.0, 0, None, None]] * 257, "too_large"), ([[0, -1.0, 0, None, None]], "bad_value")]:
+        with pytest.raises(ProtocolError) as err:
+            decode_for_player(encode_map({"type": "see", "cycle": 1, "flags": bad, "lines": [], "ball": None,
+                                          "players": []}))
+        assert err.value.code == code
+
+
+def encode_map(value: dict) -> bytes:
+    return msgpack.packb(value, use_bin_type=True)
