@@ -25,8 +25,8 @@ _EXPORTS = {
                       "handcoded_pass", "keeper_decide", "keepers_decide"),
     "agents.taker": ("taker_decide", "takers_decide"),
     "agents.policy_file": ("Policy", "PolicyFileError", "getopen_theta_size", "load_policy", "save_policy"),
-    "agents.player": ("GETOPEN_POLICIES", "PASS_POLICIES", "GreedyPassEvaluator", "PassLearner",
-                      "PlayerAgent", "compile_kernels", "greedy_pass_factory", "pass_q"),
+    "agents.player": ("GETOPEN_POLICIES", "PASS_POLICIES", "PassLearner",
+                      "PlayerAgent", "compile_kernels", "greedy_pass_factory", "sarsa_config"),
 }
 _MODULE_OF = {name: module for module, names in _EXPORTS.items() for name in names}
 

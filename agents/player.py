@@ -17,9 +17,8 @@ atomic commands ``[main, turn_neck]``; the world model is told what was sent so 
 cycle. The per-cycle arrays are allocated once, at ``init_ok``.
 
 With ``--pass learned`` the keeper's Pass decisions go to a :class:`PassLearner` (spec
-`keepaway-agents.md` 5: ``start``/``step``/``end``). This module provides only a greedy evaluator over a
-Pass value function; that function comes from the policy file's ``pass_weights`` through
-:func:`pass_q`, the extension point of the Sarsa learner.
+`keepaway-agents.md` 5: ``start``/``step``/``end``): by default the policy file's SMDP Sarsa weights,
+frozen (:func:`greedy_pass_factory`); a learning Sarsa learner plugs in through ``pass_learner``.
 """
 
 from __future__ import annotations
@@ -34,6 +33,7 @@ import numpy as np
 from agents.belief import forget_episode, new_memory
 from agents.keeper import NO_PASS_DECISION, PASS_DECISION_START, execute_pass_action, keeper_decide
 from agents.policy_file import Policy, PolicyFileError, as_getopen_theta, getopen_theta_size
+from agents.sarsa import MODE_GREEDY, SarsaConfig, SarsaLearner
 from agents.skills import (
     GETOPEN_HANDCODED,
     GETOPEN_HANDCODED_CONE,
@@ -85,55 +85,43 @@ class PassLearner(Protocol):
     def end(self, reward: float) -> None: ...
 
 
-PassQ = Callable[[np.ndarray], np.ndarray]
-"""A Pass value function: the state vector -> Q(s, a) for every action a (length K)."""
-
 PassLearnerFactory = Callable[[np.random.SeedSequence], PassLearner]
 """Builds a keeper's learner once its uniform number is known, from its own seed sequence."""
 
 
-def pass_q(policy: Policy) -> PassQ:
-    """Extension point of the Sarsa learner (spec `keepaway-agents.md` 5): the Pass value function that
-    the policy file's Pass arrays (``policy.pass_arrays``, at least ``pass_weights``) define. The tile
-    coding that gives those weights a meaning belongs to that learner, which is not wired in here, so no
-    weights can be evaluated yet: always a one-line :class:`PolicyFileError`."""
-    raise PolicyFileError(f"{policy.path}: its Pass weights cannot be evaluated yet (the Sarsa tile coder "
-                          "that reads them is not wired into the player)")
-
-
-class GreedyPassEvaluator:
-    """A Pass learner that does not learn: the greedy action of a fixed value function, ties broken
-    uniformly at random (spec `keepaway-agents.md` 5, evaluation mode)."""
-
-    def __init__(self, q: PassQ, rng: np.random.Generator) -> None:
-        self._q = q
-        self._rng = rng
-
-    def _greedy(self, state: np.ndarray) -> int:
-        values = np.asarray(self._q(state))
-        best = np.flatnonzero(values == values.max())
-        return int(best[0]) if best.size == 1 else int(self._rng.choice(best))
-
-    def start(self, state: np.ndarray) -> int:
-        return self._greedy(state)
-
-    def step(self, reward: float, state: np.ndarray) -> int:
-        return self._greedy(state)
-
-    def end(self, reward: float) -> None:
-        """Nothing to update when evaluating."""
+def sarsa_config(policy: Policy) -> SarsaConfig:
+    """The tile-coding configuration a policy file's Pass weights were learned with (its header's
+    ``config.sarsa``; the defaults of spec `keepaway-agents.md` 5 when absent)."""
+    settings = policy.config.get("sarsa", {})
+    try:
+        return SarsaConfig(**settings)
+    except (TypeError, ValueError) as exc:
+        raise PolicyFileError(f"{policy.path}: bad config.sarsa: {exc}") from None
 
 
 def greedy_pass_factory(policy: Policy | None) -> PassLearnerFactory:
-    """The ``--pass learned`` learner of this program: a :class:`GreedyPassEvaluator` over
-    ``pass_q(policy)``. Raises :class:`PolicyFileError` at once (before any game) when there are no Pass
-    weights to evaluate."""
+    """The ``--pass learned`` learner of a player process: the policy file's SMDP Sarsa weights, frozen
+    (greedy actions, no updates: spec `keepaway-agents.md` 5, evaluation mode). Raises
+    :class:`PolicyFileError` at once (before any game) when the file has no usable Pass weights."""
     if policy is None:
         raise PolicyFileError("--pass learned needs a policy file with Pass weights (--policy FILE)")
     if policy.pass_weights is None:
         raise PolicyFileError(f"{policy.path}: this policy file has no Pass weights")
-    q = pass_q(policy)
-    return lambda seq: GreedyPassEvaluator(q, np.random.default_rng(seq))
+    config = sarsa_config(policy)
+    arrays = policy.pass_arrays
+    probe = SarsaLearner(policy.n_keepers, policy.n_takers, config, 0, MODE_GREEDY)
+    try:
+        probe.load(arrays)
+    except (KeyError, ValueError) as exc:
+        raise PolicyFileError(f"{policy.path}: Pass weights do not fit the Sarsa learner: {exc}") from None
+
+    def build(seq: np.random.SeedSequence) -> PassLearner:
+        learner = SarsaLearner(policy.n_keepers, policy.n_takers, config,
+                               int(seq.generate_state(1, np.uint64)[0]), MODE_GREEDY)
+        learner.load(arrays)
+        return learner
+
+    return build
 
 
 class _Fields:
@@ -386,12 +374,10 @@ __all__ = [
     "EPISODE_MESSAGE",
     "GETOPEN_POLICIES",
     "PASS_POLICIES",
-    "GreedyPassEvaluator",
     "PassLearner",
     "PassLearnerFactory",
-    "PassQ",
     "PlayerAgent",
     "compile_kernels",
     "greedy_pass_factory",
-    "pass_q",
+    "sarsa_config",
 ]

@@ -22,7 +22,7 @@ from protocol.messages import decode_from_coach, decode_from_player
 from protocol.endpoints import MONITOR_EPISODE_TOPIC, MONITOR_FRAME_TOPIC, bind, configure
 from protocol.errors import ProtocolError
 from protocol import PROTOCOL_VERSION
-from server.arena import Arena, ArenaError, PlayerSlot, truth_state
+from server.arena import Arena, ArenaError, PlayerSlot, compile_kernels, truth_state
 from server.config import ServerConfig
 from server.episode_log import EpisodeRecord, JsonlLog, KwyLog
 
@@ -87,7 +87,9 @@ class Server:
 
     # -- lifecycle -----------------------------------------------------------------------------------
     def bind(self) -> BoundPorts:
+        """Compile the kernels, bind the sockets, open the logs; then announce the ports (``on_ready``)."""
         cfg = self.config
+        compile_kernels(cfg.params, cfg.keepers, cfg.takers)
         ports = BoundPorts(
             players=bind(self.players, cfg.host, cfg.players_port),
             coach=bind(self.coach, cfg.host, cfg.coach_port),

@@ -343,4 +343,17 @@ def truth_state(arena: Arena) -> dict:
     return state
 
 
-__all__ = ["Arena", "ArenaError", "PlayerSlot", "truth_state"]
+def compile_kernels(params: ServerParams, keepers: int, takers: int) -> None:
+    """Compile (or load from numba's cache) every kernel a game uses, on a scratch arena, so that the
+    first cycles of a real game run at full speed and no client's timeout counts compilation."""
+    scratch = Arena(params, keepers, takers, seed=0)
+    for s in scratch.slots:
+        scratch.connect("keepers" if s.side == "l" else "takers")
+    scratch.start()
+    for s in scratch.slots:
+        scratch.cycle_percepts(s, True)
+        scratch.submit(s.obj, [])
+    scratch.step()
+
+
+__all__ = ["Arena", "ArenaError", "PlayerSlot", "compile_kernels", "truth_state"]

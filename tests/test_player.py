@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from agents.player import GreedyPassEvaluator, PlayerAgent, greedy_pass_factory
+from agents.player import PlayerAgent, greedy_pass_factory
 from agents.policy_file import PolicyFileError, getopen_theta_size, load_policy, save_policy
 from protocol import PROTOCOL_VERSION, encode
 from protocol import messages as m
@@ -263,13 +263,35 @@ def test_learned_pass_asks_the_learner_at_each_decision_and_ends_its_episode():
     assert learner.calls[-1] == ("end", 5.0, None)
 
 
-def test_greedy_evaluator_takes_the_best_action_and_breaks_ties_at_random():
-    rng = np.random.default_rng(0)
-    q_values = {"v": np.array([1.0, 3.0, 2.0])}
-    evaluator = GreedyPassEvaluator(lambda state: q_values["v"], rng)
-    assert evaluator.start(np.zeros(13)) == 1
-    q_values["v"] = np.array([5.0, 1.0, 5.0])
-    assert {evaluator.step(1.0, np.zeros(13)) for _ in range(50)} == {0, 2}
+def test_learned_pass_plays_the_policy_files_sarsa_weights_greedily(tmp_path):
+    """A Sarsa learner's saved weights, loaded with --pass learned, decide greedily: weights that make
+    HoldBall worth more than any pass give a keeper that never passes."""
+    from agents.sarsa import SarsaConfig, SarsaLearner
+
+    small = SarsaConfig(table_size=2**14)
+    teacher = SarsaLearner(K, T, small, seed=1)
+    state = np.linspace(1.0, 20.0, 13)
+    teacher.start(state)
+    arrays = teacher.save()
+    arrays["pass_weights"][:] = 0.0
+    path = save_policy(tmp_path / "pass.npz", pass_arrays=arrays,
+                       config={"keepers": K, "takers": T, "sarsa": {"table_size": 2**14}})
+    factory = greedy_pass_factory(load_policy(path))
+    learner = factory(np.random.SeedSequence(5))
+    assert learner.start(state) in (0, 1, 2)  # all equal: a uniform tie-break
+    hold_tiles = teacher.memory.tiles[0, 0].copy()  # the 416 tiles of HoldBall in this state
+    arrays["pass_weights"][hold_tiles] = 1.0
+    path = save_policy(tmp_path / "hold.npz", pass_arrays=arrays,
+                       config={"keepers": K, "takers": T, "sarsa": {"table_size": 2**14}})
+    learner = greedy_pass_factory(load_policy(path))(np.random.SeedSequence(5))
+    assert learner.start(state) == 0
+    assert learner.step(1.0, state) == 0
+
+
+def test_learned_pass_weights_of_the_wrong_size_are_a_one_line_error(tmp_path):
+    path = save_policy(tmp_path / "odd.npz", pass_arrays={"pass_weights": np.zeros(4)})
+    with pytest.raises(PolicyFileError, match="do not fit the Sarsa learner"):
+        PlayerAgent("keepers", pass_policy="learned", policy=load_policy(path))
 
 
 def test_learned_pass_without_pass_weights_is_a_one_line_error(tmp_path):

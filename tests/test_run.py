@@ -107,3 +107,11 @@ def test_bad_options_are_one_line_errors(processes, tmp_path):
         _, err = proc.communicate(timeout=120)
         assert proc.returncode == 2, err
         assert text in err.decode() and "Traceback" not in err.decode()
+
+
+def test_four_versus_three_on_a_larger_field_runs_distributed(processes, tmp_path):
+    summary = run_json(processes, "--keepers", "4", "--takers", "3", "--field-size", "30", "--episodes", "2",
+                       "--out", str(tmp_path))
+    assert len(summary["episodes"]) == 2
+    header = (tmp_path / "keepaway.kwy").read_text().splitlines()[:3]
+    assert header == ["# Keepers: 4", "# Takers:  3", "# Region:  30 x 30"]
