@@ -100,14 +100,40 @@ def dash_power_for(
     speed d (1 - decay)/(1 - decay^n), capped at player_speed_max, minus the current forward speed, over
     dash_power_rate * effort, clipped to the power range."""
     rad = math.radians(body)
-    cs, sn = math.cos(rad), math.sin(rad)
-    forward = dx * cs + dy * sn
     n = max(1.0, cycles)
-    speed = forward / geometric_sum(kp.player_decay, n)
+    return dash_power_along(dx, dy, math.cos(rad), math.sin(rad), vx, vy, effort, geometric_sum(kp.player_decay, n),
+                            kp)
+
+
+@njit(cache=True)
+def dash_power_along(
+    dx: float, dy: float, cs: float, sn: float, vx: float, vy: float, effort: float, decay_sum: float, kp
+) -> float:
+    """``dash_power_for`` from the body's cosine and sine and the geometric sum of the cycles, for
+    callers that reuse them across steps (the same arithmetic)."""
+    forward = dx * cs + dy * sn
+    speed = forward / decay_sum
     speed = min(speed, kp.player_speed_max)
     speed -= vx * cs + vy * sn
     power = speed / (kp.dash_power_rate * effort)
     return min(kp.max_dash_power, max(kp.min_dash_power, power))
+
+
+@njit(cache=True)
+def dash_velocity(vx: float, vy: float, cs: float, sn: float, effort: float, power: float, kp) -> tuple:
+    """Velocity after a dash of ``power`` along the body (cosine ``cs``, sine ``sn``), before the move:
+    effort * power * dash_power_rate capped at player_accel_max, the speed at player_speed_max
+    (`server-physics.md` 3, dash, noise-free)."""
+    power = min(kp.max_dash_power, max(kp.min_dash_power, power))
+    acc = effort * power * kp.dash_power_rate
+    acc = min(acc, kp.player_accel_max) if acc > 0.0 else max(acc, -kp.player_accel_max)
+    vx += acc * cs
+    vy += acc * sn
+    speed = math.hypot(vx, vy)
+    if speed > kp.player_speed_max:
+        vx *= kp.player_speed_max / speed
+        vy *= kp.player_speed_max / speed
+    return vx, vy
 
 
 @njit(cache=True)
@@ -119,16 +145,8 @@ def player_step(
     player moves and decays. ``cmd`` is a CMD_* code of `server/world.py`; anything but a dash or a turn
     leaves the player coasting. Returns (x, y, vx, vy, body)."""
     if cmd == CMD_DASH:
-        power = min(kp.max_dash_power, max(kp.min_dash_power, a1))
-        acc = effort * power * kp.dash_power_rate
-        acc = min(acc, kp.player_accel_max) if acc > 0.0 else max(acc, -kp.player_accel_max)
         rad = math.radians(body)
-        vx += acc * math.cos(rad)
-        vy += acc * math.sin(rad)
-        speed = math.hypot(vx, vy)
-        if speed > kp.player_speed_max:
-            vx *= kp.player_speed_max / speed
-            vy *= kp.player_speed_max / speed
+        vx, vy = dash_velocity(vx, vy, math.cos(rad), math.sin(rad), effort, a1, kp)
     elif cmd == CMD_TURN:
         body = normalize_angle(body + turn_effect(a1, math.hypot(vx, vy), kp))
     px += vx

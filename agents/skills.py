@@ -20,14 +20,18 @@ from numba import njit
 from agents.belief import AgentMemory, Belief
 from agents.geometry import (
     ball_after_kick,
+    dash_power_along,
     dash_power_for,
+    dash_velocity,
     direction,
     distance,
     final_position,
+    geometric_sum,
     kick_rate,
     normalize_angle,
     player_step,
     rolled_out,
+    turn_effect,
     turn_moment,
 )
 from server.world import CMD_DASH, CMD_KICK, CMD_TURN
@@ -286,6 +290,28 @@ def go_to_point(bel: Belief, r: int, tx: float, ty: float, kp, cfg) -> tuple:
 
 
 @njit(cache=True)
+def _intercept_turns(
+    px: float, py: float, vx: float, vy: float, body: float, tx: float, ty: float, far: float, roll: float,
+    kp, cfg,
+) -> tuple:
+    """(turn?, angle): ``intercept_move``'s choice between a turn by ``angle`` and a dash, given ``far``
+    = distance(p, t) and ``roll`` = geometric_sum(player_decay, min(cycles, 4)), which the travel
+    simulation reuses."""
+    qx, qy = px + vx * roll, py + vy * roll
+    angle = normalize_angle(direction(tx - qx, ty - qy) - body)
+    ahead = distance(qx, qy, tx, ty)
+    if far > cfg.turn_far_distance:
+        ratio = cfg.turn_ratio_far
+    elif far > cfg.turn_mid_distance:
+        ratio = cfg.turn_ratio_mid
+    else:
+        ratio = cfg.turn_ratio_near
+    off_line = ahead * abs(math.sin(math.radians(angle)))
+    behind = ahead > cfg.intercept_back_distance and abs(angle) > 90.0
+    return off_line > ratio * kickable_distance(kp) or behind, angle
+
+
+@njit(cache=True)
 def intercept_move(
     px: float, py: float, vx: float, vy: float, body: float, effort: float,
     tx: float, ty: float, cycles: float, kp, cfg,
@@ -298,54 +324,96 @@ def intercept_move(
     else dash (backwards if it is behind) with the power that covers the distance in ``cycles``.
     (The code's angle threshold never applies there: an operator-precedence slip makes it 180.)
     Returns (code, arg1)."""
-    qx, qy = rolled_out(px, py, vx, vy, min(cycles, cfg.intercept_roll_cycles), kp.player_decay)
-    angle = normalize_angle(direction(tx - qx, ty - qy) - body)
-    ahead = distance(qx, qy, tx, ty)
-    far = distance(px, py, tx, ty)
-    if far > cfg.turn_far_distance:
-        ratio = cfg.turn_ratio_far
-    elif far > cfg.turn_mid_distance:
-        ratio = cfg.turn_ratio_mid
-    else:
-        ratio = cfg.turn_ratio_near
-    off_line = ahead * abs(math.sin(math.radians(angle)))
-    behind = ahead > cfg.intercept_back_distance and abs(angle) > 90.0
-    if off_line > ratio * kickable_distance(kp) or behind:
+    roll = geometric_sum(kp.player_decay, min(cycles, cfg.intercept_roll_cycles))
+    turn, angle = _intercept_turns(px, py, vx, vy, body, tx, ty, distance(px, py, tx, ty), roll, kp, cfg)
+    if turn:
         return CMD_TURN, turn_moment(angle, math.hypot(vx, vy), kp)
     return CMD_DASH, dash_power_for(tx - px, ty - py, body, vx, vy, effort, cycles, kp)
 
 
 @njit(cache=True)
+def decay_sums(cfg) -> np.ndarray:
+    """A table of geometric_sum(player_decay, k) for k = 0..horizon, filled on first use (NaN: not yet),
+    shared by the travel simulations of one decision: the same numbers without a pow per step."""
+    return np.full(int(cfg.intercept_horizon) + 1, np.nan)
+
+
+@njit(cache=True)
+def _decay_sum(sums, k: int, kp) -> float:
+    """geometric_sum(player_decay, float(k)) through the table ``sums`` (``decay_sums``)."""
+    if k >= sums.shape[0]:
+        return geometric_sum(kp.player_decay, float(k))
+    f = sums[k]
+    if math.isnan(f):
+        f = geometric_sum(kp.player_decay, float(k))
+        sums[k] = f
+    return f
+
+
+# Relative and absolute slack of travel's out-of-reach test: far above the rounding of a few dozen
+# position updates, far below any distance that matters.
+_REACH_SLACK = 1.0e-9
+
+
+@njit(cache=True)
 def travel(
     px: float, py: float, vx: float, vy: float, body: float, effort: float,
-    tx: float, ty: float, radius: float, n: int, kp, cfg,
+    tx: float, ty: float, radius: float, n: int, need_end: bool, sums, kp, cfg,
 ) -> tuple:
     """Simulate ``n`` intercept moves towards (tx, ty), paced to arrive after n cycles (spec 1 step 4,
     2.1 step 2). Returns (first cycle at which the player is within ``radius``, or n + 1; distance after
-    n commands). Turns and dashes are counted alike; 0 if already within ``radius``. A target farther
-    than n steps of the largest possible step (max(player_speed_max, current speed)) is not simulated:
-    (n + 1, inf)."""
+    n commands). Turns and dashes are counted alike; 0 if already within ``radius``.
+
+    The moves are ``intercept_move`` then ``player_step``, fused: the decay sums come from ``sums``
+    (``decay_sums``), the body's cosine and sine are kept between turns; the arithmetic is the same, so
+    are the numbers. The simulation stops with (n + 1, inf) as soon as the target is out of reach:
+    farther than the cycles left times the longest possible step, max(player_speed_max, current speed)
+    (a dash caps the speed, a turn lets it decay). Without ``need_end`` it also stops at the first cycle
+    within ``radius`` (distance NaN)."""
     reached = n + 1
     if distance(px, py, tx, ty) - radius > n * max(kp.player_speed_max, math.hypot(vx, vy)):
         return reached, math.inf
+    roll_limit = cfg.intercept_roll_cycles
+    roll_far = geometric_sum(kp.player_decay, roll_limit) if n >= roll_limit else 0.0
+    rad = math.radians(body)
+    cs, sn = math.cos(rad), math.sin(rad)
     for c in range(n + 1):
-        if reached > n and distance(px, py, tx, ty) < radius:
+        far = distance(px, py, tx, ty)
+        if reached > n and far < radius:
             reached = c
+            if not need_end:
+                return reached, math.nan
         if c == n:
             break
-        code, a1 = intercept_move(px, py, vx, vy, body, effort, tx, ty, n - c, kp, cfg)
-        px, py, vx, vy, body = player_step(px, py, vx, vy, body, effort, code, a1, kp)
+        speed = math.hypot(vx, vy)
+        left = n - c
+        step = max(kp.player_speed_max, speed) * (1.0 + _REACH_SLACK)
+        if reached > n and far - radius > left * step + _REACH_SLACK:
+            return n + 1, math.inf
+        roll = _decay_sum(sums, left, kp) if left < roll_limit else roll_far
+        turn, angle = _intercept_turns(px, py, vx, vy, body, tx, ty, far, roll, kp, cfg)
+        if turn:
+            body = normalize_angle(body + turn_effect(turn_moment(angle, speed, kp), speed, kp))
+            rad = math.radians(body)
+            cs, sn = math.cos(rad), math.sin(rad)
+        else:
+            power = dash_power_along(tx - px, ty - py, cs, sn, vx, vy, effort, _decay_sum(sums, left, kp), kp)
+            vx, vy = dash_velocity(vx, vy, cs, sn, effort, power, kp)
+        px += vx
+        py += vy
+        vx, vy = vx * kp.player_decay, vy * kp.player_decay
     return reached, distance(px, py, tx, ty)
 
 
 @njit(cache=True)
-def player_travel(bel: Belief, r: int, obj: int, tx: float, ty: float, n: int, kp, cfg) -> tuple:
+def player_travel(bel: Belief, r: int, obj: int, tx: float, ty: float, n: int, need_end: bool, sums, kp,
+                  cfg) -> tuple:
     """``travel`` for player ``obj`` of row ``r`` to within kickable distance of (tx, ty); my own effort is
     known, the others' is assumed at its initial value."""
     effort = bel.effort[r] if obj == bel.me[r] else kp.effort_init
     return travel(
         bel.pos[r, obj, 0], bel.pos[r, obj, 1], bel.vel[r, obj, 0], bel.vel[r, obj, 1], bel.body[r, obj],
-        effort, tx, ty, kickable_distance(kp), n, kp, cfg,
+        effort, tx, ty, kickable_distance(kp), n, need_end, sums, kp, cfg,
     )
 
 
@@ -355,13 +423,14 @@ def fastest_to_ball(bel: Belief, r: int, first: int, last: int, kp, cfg) -> tupl
     (spec 1 step 4): the smallest i <= horizon for which some travel time to the ball after i cycles is
     <= i; ties go to the shorter travel time, then the lower index. (-1, horizon + 1) if nobody can."""
     horizon = int(cfg.intercept_horizon)
+    sums = decay_sums(cfg)
     for i in range(horizon + 1):
         bx, by = ball_in(bel, r, i, kp)
         best, best_c = -1, i + 1
         for j in range(first, last + 1):
             if j != bel.me[r] and bel.conf[r, j] < cfg.player_conf_threshold:
                 continue
-            c, _ = player_travel(bel, r, j, bx, by, i, kp, cfg)
+            c, _ = player_travel(bel, r, j, bx, by, i, False, sums, kp, cfg)
             if c < best_c:
                 best, best_c = j, c
         if best >= 0:
@@ -622,19 +691,23 @@ def close_intercept(bel: Belief, r: int, still: bool, kp, cfg) -> tuple:
 
 
 @njit(cache=True)
-def interception_point(bel: Belief, r: int, mem: AgentMemory, still: bool, kp, cfg) -> tuple:
+def interception_point(bel: Belief, r: int, mem: AgentMemory, still: bool, kp, cfg, known_first: int = -1
+                       ) -> tuple:
     """(i, x, y): the cycle and ball position at which I intercept (spec 2.1 step 2), -1 if none within
     the horizon. First reachable i by default; the stability rule prefers a reachable i (at most 2 cycles
     after the first) whose ball position is within 1 m of the point chosen last cycle, with margin and a
     ball still moving, if I intercepted during the last 2 cycles. The choice is remembered in ``mem``.
     (The framework scans on to first + 20 cycles, but only first..first + 2 can be chosen, so the scan
-    stops there.)"""
+    stops there.) ``known_first`` >= 0: my first reachable cycle with the ball rolling is known (a keeper's
+    ``fastest_to_ball`` found it), so the travel simulations before it are skipped, and at it too unless the
+    stability rule needs my distance there; -1: unknown."""
     me = bel.me[r]
     px, py, vx, vy = bel.pos[r, me, 0], bel.pos[r, me, 1], bel.vel[r, me, 0], bel.vel[r, me, 1]
     fx, fy = final_position(px, py, vx, vy, kp.player_decay)
     kickable = kickable_distance(kp)
     ball_speed = 0.0 if still else math.hypot(bel.vel[r, 0, 0], bel.vel[r, 0, 1])
     recent = mem.intercept_time[r] >= 0 and bel.time[r] - mem.intercept_time[r] <= cfg.stability_window
+    sums = decay_sums(cfg)
     first, stable = -1, -1
     for i in range(int(cfg.intercept_horizon) + 1):
         if first >= 0 and i > first + cfg.stability_window:
@@ -642,9 +715,14 @@ def interception_point(bel: Belief, r: int, mem: AgentMemory, still: bool, kp, c
         bx, by = _ball_plan(bel, r, i, still, kp)
         if abs(bx) > kp.pitch_length / 2.0 or abs(by) > kp.pitch_width / 2.0:
             break
+        if i < known_first:
+            continue
         if distance(fx, fy, bx, by) / kp.player_speed_max > i + kickable:
             continue
-        reached, end = player_travel(bel, r, me, bx, by, i, kp, cfg)
+        if i == known_first and not recent:
+            reached, end = i, math.nan
+        else:
+            reached, end = player_travel(bel, r, me, bx, by, i, recent, sums, kp, cfg)
         if reached > i:
             continue
         if first < 0:
@@ -670,14 +748,15 @@ def interception_point(bel: Belief, r: int, mem: AgentMemory, still: bool, kp, c
 
 
 @njit(cache=True)
-def intercept(bel: Belief, r: int, mem: AgentMemory, still: bool, kp, cfg) -> tuple:
+def intercept(bel: Belief, r: int, mem: AgentMemory, still: bool, kp, cfg, known_first: int = -1) -> tuple:
     """Intercept / GoToBall (spec 2.1 step 3): the close intercept when the chosen point is < 3 cycles
     away and one exists; no move when my rolled-out position is already within 0.5 m of the point (the
     framework then turns to global 0 deg, a quirk kept); else move to the point, sized to arrive in i
     cycles (``intercept_move``). With no reachable point, head for the ball's current position.
-    ``still``: plan with the ball at rest (see ``taker_decide``); False is the framework's behaviour."""
+    ``still``: plan with the ball at rest (see ``taker_decide``); False is the framework's behaviour.
+    ``known_first``: as in ``interception_point``."""
     me = bel.me[r]
-    i, x, y = interception_point(bel, r, mem, still, kp, cfg)
+    i, x, y = interception_point(bel, r, mem, still, kp, cfg, known_first)
     if 0 <= i < cfg.close_max_cycle:
         ok, code, a1 = close_intercept(bel, r, still, kp, cfg)
         if ok:

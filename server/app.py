@@ -124,10 +124,14 @@ class Server:
     def run(self) -> int:
         """Serve until stopped (episodes/cycles done, coach stop, signal, hung players with on_hang=stop)."""
         try:
-            if self.config.mode == "sync":
-                self._run_sync()
-            else:
-                self._run_realtime()
+            poller = zmq.Poller()
+            for sock in (self.players, self.coach, self.monitor):
+                poller.register(sock, zmq.POLLIN)
+            while self.stop_reason is None and not self._ready_to_start():
+                self._poll(poller, 50)
+            if self.stop_reason is None:
+                self._start_game()
+                (self._run_sync if self.config.mode == "sync" else self._run_realtime)(poller)
         finally:
             self.close()
         return self.exit_code
@@ -147,19 +151,11 @@ class Server:
         log.info("stopped at cycle %d after %d episodes: %s", self.arena.cycle, self.episodes_done, reason)
 
     # -- timing loops --------------------------------------------------------------------------------
-    def _run_sync(self) -> None:
+    def _run_sync(self, poller: zmq.Poller) -> None:
         """Synchronous mode: percepts of cycle t + think, then wait until every connected, non-hung
         player has answered t (or cycle_timeout_s passes), then step. Sockets are read only while
         waiting, so a command that arrives after the step acts one cycle later (spec 1)."""
         cfg = self.config
-        poller = zmq.Poller()
-        for sock in (self.players, self.coach, self.monitor):
-            poller.register(sock, zmq.POLLIN)
-        while self.stop_reason is None and not self._ready_to_start():
-            self._poll(poller, 50)
-        if self.stop_reason is not None:
-            return
-        self._start_game()
         while self.stop_reason is None:
             cycle = self.arena.cycle
             self._send_cycle_percepts(think=True)
@@ -170,24 +166,14 @@ class Server:
                     self._missed_cycle(cycle)
                     break
                 self._poll(poller, max(1, int(remaining * 1000)))
-            if self.stop_reason is not None or self.paused:
-                while self.paused and self.stop_reason is None:
-                    self._poll(poller, 50)
-                if self.stop_reason is not None:
-                    break
-            self._step()
+            while self.paused and self.stop_reason is None:
+                self._poll(poller, 50)
+            if self.stop_reason is None:
+                self._step()
 
-    def _run_realtime(self) -> None:
+    def _run_realtime(self, poller: zmq.Poller) -> None:
         """Real-time mode: a step every simulator_step_ms of wall time; sense_body right after it; each
         player's see on its own period from its connect time (asynchronous with the cycle, spec 1)."""
-        poller = zmq.Poller()
-        for sock in (self.players, self.coach, self.monitor):
-            poller.register(sock, zmq.POLLIN)
-        while self.stop_reason is None and not self._ready_to_start():
-            self._poll(poller, 50)
-        if self.stop_reason is not None:
-            return
-        self._start_game()
         step_s = self.config.params.simulator_step_ms / 1000.0
         next_step = time.monotonic() + step_s
         self._send_cycle_percepts(think=False, see=False)

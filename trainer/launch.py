@@ -46,6 +46,7 @@ class ArenaProcesses:
 
     log_dir: Path
     members: list[Member] = field(default_factory=list)
+    _clean_exit_seen: dict[str, float] = field(default_factory=dict)
 
     def __enter__(self) -> "ArenaProcesses":
         self.log_dir.mkdir(parents=True, exist_ok=True)
@@ -78,15 +79,20 @@ class ArenaProcesses:
         member.proc.poll()
         raise ArenaFailure(f"the server did not start: {member.describe_exit()}; see {self.log_dir / 'server.log'}")
 
-    def first_death(self) -> Member | None:
-        """A member that exited although the arena is not done: any exit while the server runs, and
-        any non-zero exit after it ended cleanly (players and coach follow its shutdown)."""
-        server_done = any(mem.name == "server" and mem.proc.poll() == 0 for mem in self.members)
+    def first_death(self, grace_s: float = 5.0) -> Member | None:
+        """A member that died: any non-zero exit, or a clean exit while the server keeps running for
+        ``grace_s`` more seconds (players and coach exit cleanly right after the server's shutdown,
+        possibly a moment before the server process itself is gone)."""
+        now = time.monotonic()
+        server_running = any(mem.name == "server" and mem.proc.poll() is None for mem in self.members)
         for member in self.members:
             code = member.proc.poll()
-            if code is None or (server_done and code == 0):
+            if code is None:
                 continue
-            return member
+            if code != 0:
+                return member
+            if server_running and now - self._clean_exit_seen.setdefault(member.name, now) > grace_s:
+                return member
         return None
 
     def wait_all(self, timeout_s: float) -> list[Member]:

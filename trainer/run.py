@@ -12,6 +12,7 @@ import json
 import math
 import time
 from collections.abc import Iterator
+from itertools import islice
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -20,7 +21,7 @@ import zmq
 from protocol import MONITOR_EPISODE_TOPIC
 from protocol import messages as m
 from protocol.messages import decode_monitor
-from server.episode_log import EpisodeRecord, JsonlLog, KwyLog
+from server.episode_log import EpisodeRecord, JsonlLog, KwyLog, read_jsonl
 from trainer.embedded import ArenaSpec, embedded_episodes
 from trainer.launch import ArenaFailure, ArenaProcesses, keepaway_argv
 
@@ -115,19 +116,27 @@ def distributed_episodes(opts: RunOptions, processes: ArenaProcesses) -> Iterato
         for team, count in (("keepers", spec.keepers), ("takers", spec.takers)):
             for i in range(1, count + 1):
                 processes.start(f"{team[:-1]} {i}", keepaway_argv("player", "--team", team, *player_args))
-        seen = 0
-        while seen < opts.episodes:
+        yielded: set[int] = set()
+        while server.proc.poll() is None:
             if monitor.poll(200):
-                topic, data = monitor.recv_multipart()
-                end = decode_monitor(topic, data)
+                end = decode_monitor(*monitor.recv_multipart())
                 assert isinstance(end, m.EpisodeEnd)
-                seen += 1
+                yielded.add(end.episode)
                 yield EpisodeRecord(end.episode, end.start_cycle, end.end_cycle, end.end), end.end_cycle
             dead = processes.first_death()
             if dead is not None:
                 raise ArenaFailure(dead.describe_exit())
-            if server.proc.poll() == 0 and seen < opts.episodes and not monitor.poll(500):
-                raise ArenaFailure(f"the server ended after {seen} of {opts.episodes} episodes")
+        dead = processes.first_death()
+        if dead is not None:
+            raise ArenaFailure(dead.describe_exit())
+        # the server's log is the record; the monitor (PUB/SUB) only drives the progress bar and may
+        # have missed events published before the subscription took effect
+        _, records = read_jsonl(opts.out / "keepaway.jsonl")
+        if len(records) < opts.episodes:
+            raise ArenaFailure(f"the server ended after {len(records)} of {opts.episodes} episodes")
+        for record in records:
+            if record.episode not in yielded:
+                yield record, record.end_cycle
         unclean = processes.wait_all(timeout_s=30.0)
         if unclean:
             raise ArenaFailure("; ".join(mem.describe_exit() for mem in unclean))
@@ -161,8 +170,8 @@ def run(opts: RunOptions, progress: bool = True) -> RunResult:
     records: list[EpisodeRecord] = []
     bar = tqdm(total=opts.episodes, unit="ep", disable=not progress, dynamic_ncols=True)
     first_at: float | None = None
-    first_cycle = 0
-    last_cycle = 0
+    last_at = 0.0
+    first_cycle = last_cycle = 0
     start = time.perf_counter()
     processes = ArenaProcesses(opts.out / "processes") if opts.mode == "distributed" else None
     try:
@@ -174,26 +183,28 @@ def run(opts: RunOptions, progress: bool = True) -> RunResult:
             stream = embedded_episodes(spec)
         else:
             stream = batched_episodes(opts)
-        for record, cycles in stream:
+        # the distributed stream ends by itself (and then checks every process's exit); the others
+        # are cut at the wanted number of episodes
+        for record, cycles in stream if opts.mode == "distributed" else islice(stream, opts.episodes):
             records.append(record)
+            now = time.perf_counter()
             if first_at is None:
-                first_at, first_cycle = time.perf_counter(), cycles
-            last_cycle = cycles
+                first_at, first_cycle = now, cycles
+            if cycles > last_cycle:
+                last_at, last_cycle = now, cycles
             bar.update(1)
             bar.set_postfix(mean_hold_s=f"{sum(r.hold_time_s for r in records) / len(records):.2f}")
-            if len(records) >= opts.episodes:
-                break
     finally:
         bar.close()
         if processes is not None:
             processes.stop()
-    end = time.perf_counter()
-    if opts.mode == "distributed" and len(records) > 1 and first_at is not None:
+    records.sort(key=lambda r: r.episode)
+    if opts.mode == "distributed" and len(records) > 1 and first_at is not None and last_at > first_at:
         # rates between the first and the last episode end: start-up and compilation excluded
-        elapsed, cycles = end - first_at, last_cycle - first_cycle
-        n_rate = len(records) - 1
+        elapsed, cycles = last_at - first_at, last_cycle - first_cycle
+        n_rate = sum(first_cycle < r.end_cycle <= last_cycle for r in records)
     else:
-        elapsed, cycles, n_rate = end - start, last_cycle, len(records)
+        elapsed, cycles, n_rate = time.perf_counter() - start, last_cycle, len(records)
     if opts.mode != "distributed":  # the distributed server writes its own logs
         _write_logs(opts, records)
     return RunResult(opts.mode, spec.seed, records, elapsed, cycles, n_rate)
