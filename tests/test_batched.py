@@ -15,6 +15,7 @@ import pytest
 
 from agents.getopen import net_size
 from agents.player import PlayerAgent
+from agents.sarsa import SarsaConfig
 from agents.worldmodel import WorldModel, new_model_state, new_see_buffer, see_row, write_belief_row
 from agents.belief import empty_belief
 from protocol import PROTOCOL_VERSION, encode
@@ -248,7 +249,9 @@ def test_run_limits():
 
 
 @pytest.mark.parametrize("kw, message", [
-    ({"pass_policy": "learned"}, "unknown Pass policy"),
+    ({"pass_policy": "clever"}, "unknown Pass policy"),
+    ({"pass_policy": "learned", "pass_mode": "clever"}, "unknown Sarsa mode"),
+    ({"sarsa": SarsaConfig()}, "needs pass_policy='learned'"),
     ({"getopen_policy": "clever"}, "unknown GetOpen policy"),
     ({"getopen_policy": "learned"}, "needs getopen_theta"),
     ({"getopen_theta": np.zeros(90)}, "must have shape"),

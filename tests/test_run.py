@@ -23,6 +23,11 @@ def run_json(processes, *args: str, timeout: float = 600) -> dict:
     return json.loads(out)
 
 
+def episodes_logged(out: Path) -> int:
+    kwy = out / "keepaway.kwy"
+    return sum(1 for l in kwy.read_text().splitlines() if l and l[0] != "#") if kwy.exists() else 0
+
+
 def children_of(pid: int) -> dict[int, str]:
     """pid -> command line of the direct children of ``pid`` (from /proc)."""
     found = {}
@@ -72,8 +77,7 @@ def test_a_killed_player_is_named_and_the_run_fails_without_hanging(processes, t
         kids = children_of(proc.pid)
         players = sorted(pid for pid, cmd in kids.items() if "player --team takers" in cmd)
         # wait until the game runs (an episode was logged), then kill the second taker
-        kwy = tmp_path / "keepaway.kwy"
-        if len(players) == 2 and kwy.exists() and len(kwy.read_text().splitlines()) > 9:
+        if len(players) == 2 and episodes_logged(tmp_path) >= 1:
             victim = players[1]
         time.sleep(0.2)
     assert victim is not None, "the arena did not start"
@@ -115,3 +119,22 @@ def test_four_versus_three_on_a_larger_field_runs_distributed(processes, tmp_pat
     assert len(summary["episodes"]) == 2
     header = (tmp_path / "keepaway.kwy").read_text().splitlines()[:3]
     assert header == ["# Keepers: 4", "# Takers:  3", "# Region:  30 x 30"]
+
+
+def test_ctrl_c_stops_every_process_of_the_arena(processes, tmp_path):
+    proc = processes.popen(keepaway_command("run", "--episodes", "100000", "--no-progress", "--out", str(tmp_path)),
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 180
+    kids: dict[int, str] = {}
+    while time.monotonic() < deadline:
+        kids = children_of(proc.pid)
+        if len(kids) == 7 and episodes_logged(tmp_path) >= 1:
+            break
+        time.sleep(0.2)
+    assert len(kids) == 7, kids
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130
+    assert "interrupted; every process was stopped" in err.decode()
+    for pid in kids:
+        assert not Path(f"/proc/{pid}").exists() or "zombie" in Path(f"/proc/{pid}/status").read_text()

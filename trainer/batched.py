@@ -21,10 +21,27 @@ derived from it, its side and uniform number as a player process derives it (:fu
 an arena's episodes depend neither on the batch size nor on the thread that steps it, and equal those
 of the embedded game (``tests/test_batched.py``).
 
-Pass learning (SMDP Sarsa) plugs in later at ``keeper_decide``'s external decision points
-(``PASS_EXTERNAL``): the keeper's return code and Pass state are kept per player row
-(:class:`Decisions` ``decision``/``pass_state``) for that purpose; this module runs the built-in Pass
-policies only.
+Pass learning (``pass_policy="learned"``, spec `keepaway-agents.md` 5, `keepaway-task.md` 5): every keeper
+of every arena owns one row of an ``agents.sarsa.SarsaMemory`` (row ``b * K + k`` for keeper object
+``k + 1`` of arena ``b``: its own weights, as in the original, where each keeper process learns alone).
+At ``keeper_decide``'s external decision points (``PASS_EXTERNAL``, :class:`Decisions`
+``decision``/``pass_state``) the row starts its episode or steps with reward = cycles since the keeper's
+last kicking cycle (``time - t_last``; spec agents 1 step 3b), and the keeper executes the action; when an
+episode ends, every keeper that decided in it gets the terminal update with reward = first cycle of the
+new episode - its ``t_last`` (the cycle in which a player process hears the referee; agents 5), keepers
+that never had the ball none. All of it runs inside the compiled chunk loop. A learner row draws its
+exploration from the stream a player process's learner gets (:func:`learner_seed`), so a learning arena
+of the batched mode learns the very weights of the embedded game with learning players
+(``tests/test_batched_learning.py``).
+
+The Sarsa mode (learn / greedy / explore) is per arena and changes only at an episode start
+(:meth:`BatchedArenas.set_pass_mode`), like the coach's ``pass_mode`` advice to a player process. The
+weight table defaults to 2^16 slots per keeper (:data:`BATCHED_SARSA`), not the original 2^20: a 3v2
+keeper touches some 15,000 distinct tiles (13 variables x 3 actions x 32 tilings x ~12 coordinates), so
+2^16 holds them with few re-probes (the table is collision-safe: distinct tiles never share a weight),
+while 2^20 would cost 18 MB per keeper, 55 GB for 1024 arenas. At 2^16 a keeper costs ~1.1 MB (weights
+8 B, collision check 4 B and trace slot 4 B per slot, plus 4,096 trace entries and a 64-transition log),
+~3.3 GB for 1024 arenas of 3 keepers; learn with up to a few hundred arenas, or a smaller table.
 """
 
 from __future__ import annotations
@@ -42,12 +59,26 @@ from numba import njit
 
 from agents.belief import AgentMemory, Belief, empty_belief, forget_episode, new_memory
 from agents.getopen import net_size
-from agents.keeper import keeper_decide
+from agents.keeper import NO_PASS_DECISION, PASS_DECISION_START, execute_pass_action, keeper_decide
+from agents.sarsa import (
+    MODE_EXPLORE,
+    MODE_GREEDY,
+    MODE_LEARN,
+    SarsaConfig,
+    SarsaMemory,
+    end_episode,
+    load_policy_arrays,
+    new_memory as new_sarsa_memory,
+    policy_arrays,
+    start_episode,
+    step as sarsa_step,
+)
 from agents.skills import (
     GETOPEN_HANDCODED,
     GETOPEN_HANDCODED_CONE,
     GETOPEN_LEARNED,
     GETOPEN_RANDOM,
+    PASS_EXTERNAL,
     PASS_HANDCODED,
     PASS_HOLD,
     PASS_RANDOM,
@@ -85,7 +116,14 @@ from server.rng import seed_streams
 from server.simulation import step_arena
 from server.world import BALL, CMD_KICK, CMD_NONE, Commands, World, new_world
 
-PASS_POLICIES: dict[str, int] = {"random": PASS_RANDOM, "handcoded": PASS_HANDCODED, "hold": PASS_HOLD}
+PASS_POLICIES: dict[str, int] = {"random": PASS_RANDOM, "handcoded": PASS_HANDCODED, "hold": PASS_HOLD,
+                                 "learned": PASS_EXTERNAL}
+PASS_MODES: dict[str, int] = {"learn": MODE_LEARN, "greedy": MODE_GREEDY, "explore": MODE_EXPLORE}
+# The batched mode's Sarsa sizes (module docstring): a 2^16 weight table per keeper; 4,096 live traces
+# are ample for lambda = 0 (one action's 416 tiles at a time); the transition log is not reported here.
+BATCHED_SARSA = SarsaConfig(table_size=1 << 16, max_traces=4096, transition_log_size=64)
+# The learner memory of arenas without Pass learning: no rows (kernels never touch it).
+_NO_LEARNERS = SarsaConfig(table_size=2, max_traces=1, transition_log_size=1)
 GETOPEN_POLICIES: dict[str, int] = {
     "random": GETOPEN_RANDOM,
     "handcoded": GETOPEN_HANDCODED,
@@ -116,6 +154,14 @@ def agent_seed(seed: int, obj: int, n_keepers: int) -> np.uint64:
     return np.random.SeedSequence([int(seed), side, unum]).generate_state(1, dtype=np.uint64)[0]
 
 
+def learner_seed(seed: int, keeper: int) -> int:
+    """The seed of the Pass learner of keeper ``keeper`` (uniform number) in the arena seeded ``seed``: a
+    player process's (``agents/player.py``: the first child of ``SeedSequence([seed, 0, unum])``, whose
+    first word seeds its ``SarsaLearner``)."""
+    child = np.random.SeedSequence([int(seed), _SIDE_KEEPERS, keeper]).spawn(1)[0]
+    return int(child.generate_state(1, dtype=np.uint64)[0])
+
+
 class Decisions(NamedTuple):
     """The last decision of every player row (see :class:`Players`)."""
 
@@ -142,6 +188,7 @@ class Bookkeeping(NamedTuple):
     """Per-arena run state and the episodes that ended in the last chunk (at most one per cycle)."""
 
     episode_message: np.ndarray  # (B,) bool: the referee's episode message is due in the next percepts
+    pass_mode: np.ndarray  # (B,) int64 Sarsa MODE_* the arena's keepers take up at their next episode start
     active: np.ndarray  # (B,) bool: the arena still runs in this call
     episodes_left: np.ndarray  # (B,) int64 episodes to run in this call, -1 unlimited
     stop_cycle: np.ndarray  # (B,) int64 cycle at which the arena stops in this call, -1 unlimited
@@ -259,18 +306,48 @@ def perceive(b: int, obs: int, row: int, w: World, with_see: bool, episode_messa
 
 
 @njit(cache=True)
-def decide(b: int, obs: int, row: int, w: World, c: Commands, theta: np.ndarray, kp, cfg, pl: Players) -> None:
+def learn_pass(b: int, obs: int, row: int, n_keepers: int, kp, cfg, pl: Players, sarsa: SarsaMemory,
+               sp) -> None:
+    """Keeper ``obs``'s Pass decision point (``keeper_decide`` returned PASS_DECISION_*): its learner row
+    starts its episode or steps with reward = now - t_last (cycles since its last kicking cycle, spec
+    `keepaway-agents.md` 1 step 3b), and the keeper executes the chosen action."""
+    out = pl.out
+    r = b * n_keepers + obs - 1
+    if out.decision[row] == PASS_DECISION_START:
+        action = start_episode(sarsa, r, out.pass_state[row], sp)
+    else:
+        reward = pl.belief.time[row] - pl.memory.t_last[row]
+        action = sarsa_step(sarsa, r, reward, out.pass_state[row], sp)
+    execute_pass_action(pl.belief, row, pl.memory, action, kp, cfg, out.main, out.arg1, out.arg2, out.neck)
+
+
+@njit(cache=True)
+def end_pass_episodes(b: int, w: World, pl: Players, sarsa: SarsaMemory, sp) -> None:
+    """The episode of arena ``b`` ended: each keeper that decided in it gets its terminal update with
+    reward = the new episode's first cycle (``w.time`` after the step, when a player process hears the
+    referee) - its last kicking cycle (spec `keepaway-agents.md` 1 step 1, 5); ``end_episode`` skips
+    keepers that never had the ball."""
+    k = w.n_keepers
+    for p in range(k):
+        row = b * (w.pos.shape[1] - 1) + p
+        end_episode(sarsa, b * k + p, w.time[b] - pl.memory.t_last[row], sp)
+
+
+@njit(cache=True)
+def decide(b: int, obs: int, row: int, w: World, c: Commands, theta: np.ndarray, kp, cfg, pl: Players,
+           sarsa: SarsaMemory, sp) -> None:
     """Player ``obs``'s decision on its belief, sent as the player process sends it (``agents/player.py``:
     the main command and always a turn_neck) into the server's slots (``server.arena.Arena.submit``: a
     kick that cannot reach the ball does not take the main slot unless ``failed_kick_uses_slot``) and
-    remembered by its world model as sent (``WorldModel.on_own_commands``)."""
+    remembered by its world model as sent (``WorldModel.on_own_commands``). With PASS_EXTERNAL the
+    keeper's Pass decisions come from its Sarsa row (:func:`learn_pass`)."""
     out = pl.out
     write_belief_row(row, pl.model, pl.belief, row)
     if obs <= w.n_keepers:
-        # The built-in Pass policies act inside keeper_decide; PASS_EXTERNAL would return here at a
-        # decision point with out.pass_state[row] written, for a learner to pick the action.
         out.decision[row] = keeper_decide(pl.belief, row, pl.memory, theta, kp, cfg, out.main, out.arg1,
                                           out.arg2, out.neck, out.pass_state[row])
+        if out.decision[row] != NO_PASS_DECISION and int(cfg.pass_policy) == PASS_EXTERNAL:
+            learn_pass(b, obs, row, w.n_keepers, kp, cfg, pl, sarsa, sp)
     else:
         taker_decide(pl.belief, row, pl.memory, kp, cfg, out.main, out.arg1, out.arg2, out.neck)
     code = out.main[row]
@@ -292,8 +369,8 @@ def decide(b: int, obs: int, row: int, w: World, c: Commands, theta: np.ndarray,
 
 @njit(cache=True)
 def arena_cycle(b: int, w: World, c: Commands, ref: RefereeState, theta: np.ndarray, kp, cfg, pl: Players,
-                see_out: SeeBuffers, body_out: SenseBodyBuffers, episode_message: bool, see_period_ms: float,
-                cone: float) -> int:
+                sarsa: SarsaMemory, sp, see_out: SeeBuffers, body_out: SenseBodyBuffers, episode_message: bool,
+                see_period_ms: float, cone: float) -> int:
     """One synchronous cycle of arena ``b``: every player perceives, decides and sends its commands,
     then the step; returns the referee's end code (module docstring)."""
     n_players = w.pos.shape[1] - 1
@@ -302,28 +379,36 @@ def arena_cycle(b: int, w: World, c: Commands, ref: RefereeState, theta: np.ndar
         obs = p + 1
         row = b * n_players + p
         perceive(b, obs, row, w, with_see, episode_message, cone, kp, pl, see_out, body_out)
-        decide(b, obs, row, w, c, theta, kp, cfg, pl)
+        decide(b, obs, row, w, c, theta, kp, cfg, pl, sarsa, sp)
     return step_arena(b, w, c, ref, kp)
 
 
 @njit(cache=True, nogil=True)
 def run_chunk(first: int, stride: int, n_cycles: int, w: World, c: Commands, ref: RefereeState,
-              theta: np.ndarray, kp, cfg, pl: Players, see_out: SeeBuffers, body_out: SenseBodyBuffers,
-              book: Bookkeeping, see_period_ms: float, cone: float) -> None:
+              theta: np.ndarray, kp, cfg, pl: Players, sarsa: SarsaMemory, sp, see_out: SeeBuffers,
+              body_out: SenseBodyBuffers, book: Bookkeeping, see_period_ms: float, cone: float) -> None:
     """Up to ``n_cycles`` cycles of every active arena ``first, first + stride, ...``, recording ended
-    episodes in ``book``. An arena stops after its last episode or at its stop cycle. Arenas share no
-    state, so disjoint sets of them run on parallel threads (the GIL is released)."""
+    episodes in ``book``. An arena stops after its last episode or at its stop cycle. With Pass learning
+    the arena's learners take up ``book.pass_mode`` at each episode start and get their terminal updates
+    at each end (module docstring). Arenas share no state, so disjoint sets of them run on parallel
+    threads (the GIL is released)."""
+    learning = int(cfg.pass_policy) == PASS_EXTERNAL
+    k = w.n_keepers
     for b in range(first, w.pos.shape[0], stride):
         book.stepped[b] = 0
         book.n_ended[b] = 0
         for _ in range(n_cycles):
             if not book.active[b]:
                 break
-            cause = arena_cycle(b, w, c, ref, theta[b], kp, cfg, pl, see_out, body_out,
+            if learning and book.episode_message[b]:
+                sarsa.mode[b * k:(b + 1) * k] = book.pass_mode[b]
+            cause = arena_cycle(b, w, c, ref, theta[b], kp, cfg, pl, sarsa, sp, see_out, body_out,
                                 book.episode_message[b], see_period_ms, cone)
             book.stepped[b] += 1
             book.episode_message[b] = cause != END_NONE
             if cause != END_NONE:
+                if learning:
+                    end_pass_episodes(b, w, pl, sarsa, sp)
                 k = book.n_ended[b]
                 book.episode[b, k] = ref.episode[b] - 1
                 book.start_cycle[b, k] = ref.last_start_cycle[b]
@@ -352,7 +437,7 @@ def _policy_code(table: dict[str, int], name: str, what: str) -> int:
     try:
         return table[name]
     except KeyError:
-        raise ValueError(f"unknown {what} policy {name!r}; choose one of {', '.join(table)}") from None
+        raise ValueError(f"unknown {what} {name!r}; choose one of {', '.join(table)}") from None
 
 
 class BatchedArenas:
@@ -360,24 +445,43 @@ class BatchedArenas:
     stepped together by compiled kernels. ``getopen_theta`` is the GO:L net per arena ((batch, n) or
     (n,) for all; n = 91 in 3v2), required with ``getopen_policy="learned"`` only. ``threads`` (default
     numba's thread count, ``NUMBA_NUM_THREADS``) step disjoint sets of arenas side by side; the
-    results do not depend on it. The games continue across :meth:`run` calls."""
+    results do not depend on it. The games continue across :meth:`run` calls.
+
+    ``pass_policy="learned"``: each keeper of each arena learns its own Pass policy by SMDP Sarsa
+    (module docstring) with the constants and sizes of ``sarsa`` (default :data:`BATCHED_SARSA`), from
+    zero weights, in ``pass_mode`` (:data:`PASS_MODES`) until :meth:`set_pass_mode` says otherwise.
+    Arenas learn independently: a trainer that wants more experience per policy picks the best row
+    (:meth:`pass_policy_arrays`) and shares it with :meth:`load_pass_arrays`. Averaging weights is only
+    meaningful between rows whose collision tables agree (the tile -> slot map depends on the order in
+    which tiles were first met), e.g. rows that all started from one loaded policy."""
 
     def __init__(self, params: ServerParams, batch: int, seed: int, keepers: int = 3, takers: int = 2,
                  pass_policy: str = "handcoded", getopen_policy: str = "handcoded",
                  getopen_theta: np.ndarray | None = None, agent_config: AgentConfig = AgentConfig(),
-                 threads: int | None = None) -> None:
+                 threads: int | None = None, sarsa: SarsaConfig | None = None,
+                 pass_mode: str = "learn") -> None:
         if batch < 1:
             raise ValueError("batch must be at least 1")
+        mode = _policy_code(PASS_MODES, pass_mode, "Sarsa mode")
+        if sarsa is not None and pass_policy != "learned":
+            raise ValueError("a Sarsa configuration needs pass_policy='learned'")
         self.threads = max(1, min(batch, numba.config.NUMBA_NUM_THREADS if threads is None else threads))
         self.params = params
         self.kp = params.kernel()
         self.cfg = dataclasses.replace(
             agent_config,
-            pass_policy=_policy_code(PASS_POLICIES, pass_policy, "Pass"),
-            getopen_policy=_policy_code(GETOPEN_POLICIES, getopen_policy, "GetOpen"),
+            pass_policy=_policy_code(PASS_POLICIES, pass_policy, "Pass policy"),
+            getopen_policy=_policy_code(GETOPEN_POLICIES, getopen_policy, "GetOpen policy"),
         ).kernel()
         self.theta = self._thetas(getopen_theta, getopen_policy, batch, keepers, takers)
         seeds = [arena_seed(seed, b) for b in range(batch)]
+        self.learning = pass_policy == "learned"
+        self.sarsa_config = (sarsa or BATCHED_SARSA) if self.learning else _NO_LEARNERS
+        self.sarsa_params = self.sarsa_config.kernel()
+        self.sarsa = new_sarsa_memory(self.sarsa_config, keepers, takers, batch * keepers if self.learning else 0,
+                                      seed, mode)
+        if self.learning:
+            self.sarsa.rng[:] = [seed_streams(learner_seed(s, k), 1)[0] for s in seeds for k in range(1, keepers + 1)]
         self.world = new_world(params, keepers, takers, batch=batch)
         self.world.rng[:] = [seed_streams(s, 1)[0] for s in seeds]
         self.world.enabled[:] = True
@@ -406,6 +510,7 @@ class BatchedArenas:
         )
         self.book = Bookkeeping(
             episode_message=np.zeros(batch, dtype=np.bool_),
+            pass_mode=np.full(batch, mode, dtype=np.int64),
             active=np.zeros(batch, dtype=np.bool_),
             episodes_left=np.zeros(batch, dtype=np.int64),
             stop_cycle=np.zeros(batch, dtype=np.int64),
@@ -437,6 +542,55 @@ class BatchedArenas:
     @property
     def batch(self) -> int:
         return self.world.batch
+
+    @property
+    def keepers(self) -> int:
+        return self.world.n_keepers
+
+    def _need_learning(self) -> None:
+        if not self.learning:
+            raise ValueError("this batch has no Pass learners (pass_policy is not 'learned')")
+
+    def set_pass_mode(self, mode: str) -> None:
+        """Every arena's keepers switch to Sarsa ``mode`` ("learn", "greedy" or "explore") at the start of
+        the arena's next episode (at once in arenas that have not played a cycle yet): an episode never
+        changes mode midway. After ``run(episodes_per_arena=...)`` every arena is at an episode end, so
+        the next run plays entirely in the new mode."""
+        self._need_learning()
+        code = _policy_code(PASS_MODES, mode, "Sarsa mode")
+        self.book.pass_mode[:] = code
+        self.sarsa.mode.reshape(self.batch, self.keepers)[self.world.time == 0] = code
+
+    def pass_policy_arrays(self) -> list[list[dict[str, np.ndarray]]]:
+        """Every keeper's learned Pass policy, ``[arena][keeper]``, as policy-file arrays
+        (``agents.sarsa.policy_arrays``; save one with ``agents.policy_file.save_policy(path,
+        pass_arrays=..., config={"sarsa": dataclasses.asdict(self.sarsa_config), ...})`` for a player
+        process). Episodes that have ended have had their terminal updates."""
+        self._need_learning()
+        k = self.keepers
+        return [[policy_arrays(self.sarsa, b * k + i) for i in range(k)] for b in range(self.batch)]
+
+    def load_pass_arrays(
+        self, arrays: dict[str, np.ndarray] | list[dict[str, np.ndarray]] | list[list[dict[str, np.ndarray]]]
+    ) -> None:
+        """Load Pass policies (``pass_policy_arrays`` entries or a policy file's ``pass_arrays``, of this
+        batch's table size): one for every keeper of every arena, a list with one per keeper (the same
+        team in every arena), or ``[arena][keeper]``. Traces and open decisions are cleared (as
+        ``agents.sarsa.load_policy_arrays``); a keeper in mid-episode starts a fresh SMDP episode at its
+        next decision."""
+        self._need_learning()
+        k = self.keepers
+        if isinstance(arrays, dict):
+            grid = [[arrays] * k for _ in range(self.batch)]
+        elif len(arrays) == k and all(isinstance(a, dict) for a in arrays):
+            grid = [list(arrays)] * self.batch
+        elif len(arrays) == self.batch and all(len(row) == k for row in arrays):
+            grid = arrays
+        else:
+            raise ValueError(f"give one policy, {k} (one per keeper) or [{self.batch}][{k}]")
+        for b, row in enumerate(grid):
+            for i, policy in enumerate(row):
+                load_policy_arrays(self.sarsa, b * k + i, policy)
 
     def run(self, episodes_per_arena: int | None = None, total_episodes: int | None = None,
             max_cycles: int | None = None, progress: Callable[[int], None] | None = None) -> EpisodeTable:
@@ -478,7 +632,8 @@ class BatchedArenas:
         """One chunk of every arena; thread k steps arenas k, k + threads, ... (finished arenas are
         spread evenly)."""
         args = (CHUNK_CYCLES, self.world, self.commands, self.referee, self.theta, self.kp, self.cfg,
-                self.players, self.see_out, self.body_out, self.book, self.see_period_ms, self.cone)
+                self.players, self.sarsa, self.sarsa_params, self.see_out, self.body_out, self.book,
+                self.see_period_ms, self.cone)
         if self.threads == 1:
             run_chunk(0, 1, *args)
             return
@@ -498,15 +653,20 @@ class BatchedArenas:
 
 
 __all__ = [
+    "BATCHED_SARSA",
     "BatchedArenas",
     "Decisions",
     "EpisodeTable",
     "GETOPEN_POLICIES",
+    "PASS_MODES",
     "PASS_POLICIES",
     "Players",
     "agent_seed",
     "arena_cycle",
     "arena_seed",
+    "end_pass_episodes",
+    "learn_pass",
+    "learner_seed",
     "run_chunk",
     "see_due",
     "see_to_model_row",

@@ -1,0 +1,81 @@
+"""The coach process: its arena endpoint runs episodes for a trainer, relays advice, and stops the arena."""
+
+from __future__ import annotations
+
+import re
+import signal
+import subprocess
+import time
+
+import zmq
+
+from conftest import keepaway_command
+from protocol import encode
+from protocol import messages as m
+from protocol.arena import EpisodesDone, RunEpisodes, StopArena, decode_for_trainer
+
+
+def start_arena(processes, tmp_path, *player_args: str):
+    srv = processes.start_server(tmp_path)
+    coach = processes.popen(keepaway_command("coach", "--server", srv.coach_endpoint, "--arena-port", "0"),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    line = coach.stdout.readline().decode()
+    arena = re.search(r"arena=(tcp://\S+)", line).group(1)
+    players = [processes.popen(keepaway_command("player", "--team", team, "--server", srv.players_endpoint,
+                                                *player_args), stderr=subprocess.PIPE)
+               for team in ["keepers"] * 3 + ["takers"] * 2]
+    return srv, coach, arena, players
+
+
+def test_trainer_runs_episodes_through_the_arena_endpoint_and_stops_the_arena(processes, tmp_path):
+    srv, coach, arena, players = start_arena(processes, tmp_path, "--getopen", "learned")
+    trainer = zmq.Context.instance().socket(zmq.DEALER)
+    trainer.setsockopt(zmq.LINGER, 0)
+    trainer.connect(arena)
+    try:
+        trainer.send(encode(RunEpisodes(episodes=3, advice={"kind": "policy", "getopen_theta": [0.1] * 91})))
+        assert trainer.poll(180_000), "no answer from the arena"
+        done = decode_for_trainer(trainer.recv())
+        assert isinstance(done, EpisodesDone)
+        assert [e[0] for e in done.episodes] == [1, 2, 3]
+        for episode, start, end, cause in done.episodes:
+            assert end > start and cause in ("out", "taken")
+        trainer.send(encode(RunEpisodes(episodes=2)))
+        assert trainer.poll(180_000)
+        assert [e[0] for e in decode_for_trainer(trainer.recv()).episodes] == [4, 5]
+        trainer.send(encode(StopArena()))
+        assert srv.wait(60) == 0
+        assert coach.wait(60) == 0
+        assert all(p.wait(60) == 0 for p in players)
+    finally:
+        trainer.close(linger=0)
+    kwy = [l for l in (srv.log_dir / "keepaway.kwy").read_text().splitlines() if l and l[0] != "#"]
+    assert len(kwy) >= 5
+
+
+def test_a_second_request_while_busy_is_refused(processes, tmp_path):
+    srv, coach, arena, players = start_arena(processes, tmp_path)
+    ctx = zmq.Context.instance()
+    first, second = ctx.socket(zmq.DEALER), ctx.socket(zmq.DEALER)
+    for sock in (first, second):
+        sock.setsockopt(zmq.LINGER, 0)
+        sock.connect(arena)
+    try:
+        first.send(encode(RunEpisodes(episodes=1000)))
+        time.sleep(0.5)
+        second.send(encode(RunEpisodes(episodes=1)))
+        assert second.poll(60_000)
+        refused = decode_for_trainer(second.recv())
+        assert isinstance(refused, m.Error) and refused.code == "busy"
+        second.send(b"\x93garbage")
+        assert second.poll(60_000)
+        assert decode_for_trainer(second.recv()).code == "malformed"
+        srv.proc.send_signal(signal.SIGTERM)
+        assert srv.wait(60) == 0
+        assert first.poll(60_000)  # the pending run is answered when the arena stops
+        stopped = decode_for_trainer(first.recv())
+        assert isinstance(stopped, m.Error) and stopped.code == "arena_stopped"
+        assert coach.wait(60) == 0
+    finally:
+        first.close(linger=0)
+        second.close(linger=0)
