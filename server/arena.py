@@ -65,15 +65,14 @@ class PlayerSlot:
     fullstate: bool = False
     synch_see: bool = False
     view_width: str = "normal"
-    view_quality: str = "high"
     see_phase_ms: float = 0.0  # virtual time of this player's first see (connect time, as rcssserver)
     main_taken: bool = False
     neck_taken: bool = False
     hears: list = field(default_factory=list)
 
     def see_period_ms(self, send_step_ms: float) -> float:
-        """Asynchronous see period: send_step x width factor x (0.5 for low quality) (spec 4)."""
-        return send_step_ms * VIEW_WIDTHS[self.view_width] * (0.5 if self.view_quality == "low" else 1.0)
+        """Asynchronous see period: send_step x width factor (spec 4; high quality only)."""
+        return send_step_ms * VIEW_WIDTHS[self.view_width]
 
 
 class Arena:
@@ -203,8 +202,8 @@ class Arena:
             elif name == "change_view":
                 self.world.counts[0, obj, COUNT_CHANGE_VIEW] += 1
                 s.view_width = args[0]
-                if len(args) > 1:
-                    s.view_quality = args[1]
+                if len(args) > 1 and args[1] == "low":  # its content (directions only) is not modelled
+                    warnings.append("change_view: low quality is not supported; the view stays high")
         return warnings
 
     def step(self) -> EpisodeRecord | None:
@@ -298,7 +297,7 @@ class Arena:
 
     def sense_body_message(self, s: PlayerSlot) -> m.SenseBody:
         perception.sense_body_arena(0, self.world, s.obj, self.body_out)
-        payload = perception.sense_body_payload(self.body_out, 0, s.obj, s.view_quality, s.view_width)
+        payload = perception.sense_body_payload(self.body_out, 0, s.obj, "high", s.view_width)
         return m.SenseBody(cycle=self.cycle, **payload)
 
     def fullstate_payload(self) -> dict:

@@ -288,3 +288,30 @@ def test_coach_look_advice_and_start(processes, tmp_path):
                 break
     assert ("referee", "play_on") in heard
     assert ("coach", {"kind": "policy", "getopen_theta": [0.5] * 91}) in heard
+
+
+def test_change_view_narrows_the_cone_and_refuses_low_quality(processes, tmp_path):
+    srv = processes.start_server(tmp_path, "--keepers", "1", "--takers", "1", "--max-cycles", "8",
+                                 "--param", "visible_angle=90")
+    keeper = ScriptedPlayer(srv.players_endpoint)
+    keeper.init("keepers")
+    taker = ScriptedPlayer(srv.players_endpoint)
+    taker.init("takers")
+    flags_seen = {}
+    for _ in range(7):
+        for p in (keeper, taker):
+            while True:
+                msg = p.recv()
+                if p is keeper and isinstance(msg, m.See):
+                    flags_seen[msg.cycle] = sum(f[0] is not None for f in msg.flags)
+                if isinstance(msg, m.Think):
+                    if p is keeper and msg.cycle == 0:
+                        p.answer(0, ("change_view", "narrow", "low"))
+                    else:
+                        p.answer(msg.cycle)
+                    break
+    assert any(isinstance(x, m.Error) and x.code == "dropped" and "low quality" in x.message
+               for x in keeper.received)
+    # narrow (45 deg) sees fewer named flags than normal (90 deg); narrow also sees twice as often
+    assert flags_seen[0] > max(flags_seen[c] for c in flags_seen if c > 0)
+    assert len([c for c in flags_seen if c > 0]) >= 5
