@@ -132,6 +132,8 @@ def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop
                     log.info("joined as %s %d (%s mode)", agent.team, agent.unum, agent.mode)
                 if command is not None:
                     send(command)
+                for report in agent.pending_reports():
+                    send(report)
     finally:
         sock.close(linger=linger_ms)
         ctx.term()
@@ -141,7 +143,8 @@ def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop
 @click.option("--team", type=click.Choice(["keepers", "takers"]), required=True, help="The team to join.")
 @click.option("--pass", "pass_policy", type=click.Choice(["random", "handcoded", "learned", "hold"]),
               default="handcoded", show_default=True,
-              help="Keepers' Pass policy (learned: greedy on the policy file's Pass weights).")
+              help="Keepers' Pass policy (learned: SMDP Sarsa from the policy file's Pass weights, or zeros "
+                   "without one; greedy until the coach's pass_mode advice).")
 @click.option("--getopen", "getopen_policy",
               type=click.Choice(["random", "handcoded", "handcoded-cone", "learned"]), default="handcoded",
               show_default=True,

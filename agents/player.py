@@ -17,8 +17,14 @@ atomic commands ``[main, turn_neck]``; the world model is told what was sent so 
 cycle. The per-cycle arrays are allocated once, at ``init_ok``.
 
 With ``--pass learned`` the keeper's Pass decisions go to a :class:`PassLearner` (spec
-`keepaway-agents.md` 5: ``start``/``step``/``end``): by default the policy file's SMDP Sarsa weights,
-frozen (:func:`greedy_pass_factory`); a learning Sarsa learner plugs in through ``pass_learner``.
+`keepaway-agents.md` 5: ``start``/``step``/``end``): by default an SMDP Sarsa learner
+(:func:`sarsa_pass_factory`) starting from the policy file's Pass weights, or from zeros without one, in
+greedy mode (the frozen policy of evaluations). The coach switches it with the advice ``{"kind":
+"pass_mode", "mode": "learn" | "greedy" | "explore"}``, taken up at the next episode boundary (or kick-off)
+like the GetOpen advice. The learner reports to the coach on request, ``{"kind": "report", "what":
+"transitions" | "snapshot"}``: its SMDP transitions since the last such report, or its non-zero weights
+(:meth:`PlayerAgent.pending_reports`, sent by the socket loop as ``report`` messages, each below
+:data:`REPORT_BYTES`; :func:`report_arrays` decodes one).
 """
 
 from __future__ import annotations
@@ -33,7 +39,7 @@ import numpy as np
 from agents.belief import forget_episode, new_memory
 from agents.keeper import NO_PASS_DECISION, PASS_DECISION_START, execute_pass_action, keeper_decide
 from agents.policy_file import Policy, PolicyFileError, as_getopen_theta, getopen_theta_size
-from agents.sarsa import MODE_GREEDY, SarsaConfig, SarsaLearner
+from agents.sarsa import MODE_EXPLORE, MODE_GREEDY, MODE_LEARN, SarsaConfig, SarsaLearner
 from agents.skills import (
     GETOPEN_HANDCODED,
     GETOPEN_HANDCODED_CONE,
@@ -66,6 +72,20 @@ EPISODE_MESSAGE = "training Keepaway 1"
 KICK_OFF_MESSAGE = "play_on"
 # The coach's policy advice: {"kind": "policy", "getopen_theta": [...] or float64 little-endian bytes}.
 POLICY_ADVICE_KIND = "policy"
+# The coach's Pass learning advice: {"kind": "pass_mode", "mode": one of PASS_MODES}.
+PASS_MODE_ADVICE_KIND = "pass_mode"
+PASS_MODES = {"learn": MODE_LEARN, "greedy": MODE_GREEDY, "explore": MODE_EXPLORE}
+# The coach's report request: {"kind": "report", "what": REPORT_TRANSITIONS or REPORT_SNAPSHOT}.
+REPORT_ADVICE_KIND = "report"
+REPORT_TRANSITIONS = "transitions"
+REPORT_SNAPSHOT = "snapshot"
+# Payload bytes per report message: well below the server's 4 MiB message limit (protocol.endpoints
+# DEFAULT_MAX_MESSAGE_BYTES) once msgpack framing and the server's player_report envelope are added;
+# longer reports are sent in chunks.
+REPORT_BYTES = 1 << 20
+# Wire dtypes of the report arrays (little-endian; actions fit in int8, weight indices in uint32).
+_REPORT_DTYPES = {"state": "<f8", "action": "<i1", "reward": "<f8", "next_action": "<i1", "terminal": "<u1",
+                  "index": "<u4", "value": "<f8"}
 # Arena size when init_ok's config does not give it (spec `keepaway-task.md` 1: 3 keepers vs 2 takers).
 DEFAULT_KEEPERS = 3
 DEFAULT_TAKERS = 2
@@ -99,17 +119,28 @@ def sarsa_config(policy: Policy) -> SarsaConfig:
         raise PolicyFileError(f"{policy.path}: bad config.sarsa: {exc}") from None
 
 
-def greedy_pass_factory(policy: Policy | None) -> PassLearnerFactory:
-    """The ``--pass learned`` learner of a player process: the policy file's SMDP Sarsa weights, frozen
-    (greedy actions, no updates: spec `keepaway-agents.md` 5, evaluation mode). Raises
-    :class:`PolicyFileError` at once (before any game) when the file has no usable Pass weights."""
+def sarsa_pass_factory(
+    policy: Policy | None,
+    mode: int = MODE_GREEDY,
+    config: SarsaConfig | None = None,
+    n_keepers: int = DEFAULT_KEEPERS,
+    n_takers: int = DEFAULT_TAKERS,
+) -> PassLearnerFactory:
+    """The ``--pass learned`` learner of a player process: an SMDP Sarsa learner (spec
+    `keepaway-agents.md` 5) in ``mode`` starting from the policy file's Pass weights (its sizes and
+    ``config.sarsa``), or without a file from zero weights for ``n_keepers`` vs ``n_takers`` with
+    ``config`` (default ``SarsaConfig()``). Its exploration stream is seeded by the first word of the
+    keeper's seed sequence. Raises :class:`PolicyFileError` at once (before any game) when the file has
+    no usable Pass weights."""
     if policy is None:
-        raise PolicyFileError("--pass learned needs a policy file with Pass weights (--policy FILE)")
+        config = config or SarsaConfig()
+        return lambda seq: SarsaLearner(n_keepers, n_takers, config, int(seq.generate_state(1, np.uint64)[0]),
+                                        mode)
     if policy.pass_weights is None:
         raise PolicyFileError(f"{policy.path}: this policy file has no Pass weights")
     config = sarsa_config(policy)
     arrays = policy.pass_arrays
-    probe = SarsaLearner(policy.n_keepers, policy.n_takers, config, 0, MODE_GREEDY)
+    probe = SarsaLearner(policy.n_keepers, policy.n_takers, config, 0, mode)
     try:
         probe.load(arrays)
     except (KeyError, ValueError) as exc:
@@ -117,11 +148,52 @@ def greedy_pass_factory(policy: Policy | None) -> PassLearnerFactory:
 
     def build(seq: np.random.SeedSequence) -> PassLearner:
         learner = SarsaLearner(policy.n_keepers, policy.n_takers, config,
-                               int(seq.generate_state(1, np.uint64)[0]), MODE_GREEDY)
+                               int(seq.generate_state(1, np.uint64)[0]), mode)
         learner.load(arrays)
         return learner
 
     return build
+
+
+def greedy_pass_factory(policy: Policy | None) -> PassLearnerFactory:
+    """The policy file's SMDP Sarsa weights, frozen (greedy actions, no updates: spec
+    `keepaway-agents.md` 5, evaluation mode); a file with Pass weights is required."""
+    if policy is None:
+        raise PolicyFileError("--pass learned needs a policy file with Pass weights (--policy FILE)")
+    return sarsa_pass_factory(policy, MODE_GREEDY)
+
+
+def _chunks(n: int, entry_bytes: int) -> list[slice]:
+    """Slices of ``n`` entries of ``entry_bytes`` each, at most :data:`REPORT_BYTES` per slice (one
+    empty slice when ``n`` is 0)."""
+    per_chunk = max(1, REPORT_BYTES // max(1, entry_bytes))
+    return [slice(i, min(i + per_chunk, n)) for i in range(0, n, per_chunk)] or [slice(0, 0)]
+
+
+def _report_payloads(head: dict[str, Any], arrays: dict[str, np.ndarray], n: int,
+                     first: int = 0) -> list[dict[str, Any]]:
+    """``arrays`` (``n`` entries each along the first axis, numbered from ``first``) as report payloads
+    of at most :data:`REPORT_BYTES` array bytes: ``head`` plus ``chunk``/``chunks``, ``first``/``count``
+    (the chunk's entries) and each array as little-endian bytes (:data:`_REPORT_DTYPES`)."""
+    wire = {name: np.ascontiguousarray(a, dtype=_REPORT_DTYPES[name]) for name, a in arrays.items()}
+    entry_bytes = sum(a.nbytes // max(1, n) for a in wire.values())
+    parts = _chunks(n, entry_bytes)
+    return [{**head, "chunk": i, "chunks": len(parts), "first": first + part.start,
+             "count": part.stop - part.start, **{name: a[part].tobytes() for name, a in wire.items()}}
+            for i, part in enumerate(parts)]
+
+
+def report_arrays(payload: dict[str, Any]) -> dict[str, Any]:
+    """A report payload of :meth:`PlayerAgent.pending_reports` with its byte fields as numpy arrays
+    (transition states reshaped to (count, n_vars)); the other fields unchanged."""
+    out = dict(payload)
+    for name, dtype in _REPORT_DTYPES.items():
+        if name in out:
+            out[name] = np.frombuffer(out[name], dtype=dtype)
+    if "state" in out:
+        out["state"] = out["state"].reshape(payload["count"], payload["n_vars"])
+        out["terminal"] = out["terminal"].astype(bool)
+    return out
 
 
 class _Fields:
@@ -144,7 +216,8 @@ class PlayerAgent:
     weights); ``seed`` with the side and uniform number seeds the agent's own random stream
     (``SeedSequence([seed, side, unum])``, side 0 = keepers), so every player of a run is reproducible;
     ``fullstate`` uses the exact ``fullstate`` percepts (the player must ask for them in ``init``).
-    ``pass_learner`` replaces the ``--pass learned`` learner (the future Sarsa learner plugs in here).
+    ``pass_learner`` replaces the ``--pass learned`` learner (default: :func:`sarsa_pass_factory` on
+    ``policy``, greedy until the coach's ``pass_mode`` advice).
     Raises :class:`PolicyFileError` when the policy cannot serve the chosen policies, ValueError for
     unknown names.
     """
@@ -178,7 +251,8 @@ class PlayerAgent:
         external = self.is_keeper and pass_policy == "learned"
         if pass_learner is not None and not external:
             raise ValueError("a Pass learner is only used by keepers with the 'learned' Pass policy")
-        self._learner_factory = pass_learner or (greedy_pass_factory(policy) if external else None)
+        self._external = external
+        self._learner_factory = pass_learner or (sarsa_pass_factory(policy) if external and policy else None)
         if self.is_keeper and getopen_policy == "learned" and policy is not None and policy.getopen_theta is None:
             raise PolicyFileError(f"{policy.path}: this policy file has no GetOpen weights (getopen_theta)")
         self.learner: PassLearner | None = None
@@ -187,6 +261,9 @@ class PlayerAgent:
         self.mode: str | None = None
         self.episodes = 0  # episode boundaries heard
         self._pending_theta: np.ndarray | None = None
+        self._pending_pass_mode: int | None = None
+        self._reports: list[m.Report] = []
+        self._reported = 0  # sequence number of the next transition to report
         self._started = False
         self._fields = _Fields()
         self._decide_on: type | None = None
@@ -239,8 +316,11 @@ class PlayerAgent:
         self._out_a1 = np.zeros(1)
         self._out_a2 = np.zeros(1)
         self._out_neck = np.zeros(1)
-        if self._learner_factory is not None:
-            self.learner = self._learner_factory(seq.spawn(1)[0])
+        factory = self._learner_factory
+        if factory is None and self._external:
+            factory = sarsa_pass_factory(None, n_keepers=n_keepers, n_takers=n_takers)
+        if factory is not None:
+            self.learner = factory(seq.spawn(1)[0])
         self.n_keepers, self.n_takers, self.mode = n_keepers, n_takers, mode
         self.side, self.unum = msg.side, msg.unum
         self._started = msg.play_mode == KICK_OFF_MESSAGE
@@ -279,7 +359,7 @@ class PlayerAgent:
                 self._started = True
                 self._apply_pending_policy()
         elif msg.sender == "coach":
-            self._on_advice(msg.message)
+            self._on_advice(msg.message, msg.cycle)
 
     # -- episodes and advice -----------------------------------------------------------------------
     def _episode_boundary(self, cycle: int) -> None:
@@ -293,11 +373,69 @@ class PlayerAgent:
         self._apply_pending_policy()
         self.episodes += 1
 
-    def _on_advice(self, payload: Any) -> None:
-        """Keep the coach's GetOpen parameters for the next episode boundary (or kick-off); anything
-        else the coach says is not for this agent. Bad parameters are logged and ignored."""
-        if not self.is_keeper or type(payload) is not dict or payload.get("kind") != POLICY_ADVICE_KIND:
+    def _on_advice(self, payload: Any, cycle: int) -> None:
+        """Keep the coach's GetOpen parameters or Pass learning mode for the next episode boundary (or
+        kick-off), queue the reports it asks for; anything else the coach says is not for this agent. Bad
+        advice is logged and ignored."""
+        if not self.is_keeper or type(payload) is not dict:
             return
+        kind = payload.get("kind")
+        if kind == PASS_MODE_ADVICE_KIND:
+            self._on_pass_mode_advice(payload.get("mode"))
+        elif kind == REPORT_ADVICE_KIND:
+            self._on_report_advice(payload.get("what"), cycle)
+        elif kind == POLICY_ADVICE_KIND:
+            self._on_policy_advice(payload)
+
+    def _sarsa(self, what: str) -> bool:
+        """Whether this keeper's Pass learner can serve ``what`` (a Sarsa learner's modes and reports);
+        advice to a keeper without a learner is not for it, to one with another learner is logged."""
+        if self.learner is None:
+            return False
+        if not isinstance(self.learner, SarsaLearner):
+            log.warning("ignored the coach's %s advice: the Pass learner is not a Sarsa learner", what)
+            return False
+        return True
+
+    def _on_pass_mode_advice(self, mode: Any) -> None:
+        if mode not in PASS_MODES:
+            log.warning("ignored the coach's pass_mode advice: mode %r is not one of %s", mode, list(PASS_MODES))
+        elif self._sarsa("pass_mode"):
+            self._pending_pass_mode = PASS_MODES[mode]
+
+    def _on_report_advice(self, what: Any, cycle: int) -> None:
+        """Queue the requested report at once (a report changes nothing in the game)."""
+        if what not in (REPORT_TRANSITIONS, REPORT_SNAPSHOT):
+            log.warning("ignored the coach's report request: %r is not %r or %r", what, REPORT_TRANSITIONS,
+                        REPORT_SNAPSHOT)
+        elif self._sarsa("report"):
+            payloads = self._transition_payloads() if what == REPORT_TRANSITIONS else self._snapshot_payloads()
+            self._reports += [m.Report(cycle=cycle, payload=p) for p in payloads]
+
+    def _transition_payloads(self) -> list[dict[str, Any]]:
+        """The learner's SMDP transitions since the last transitions report (``first`` = sequence number;
+        ``dropped``: transitions lost from its ring buffer since then)."""
+        logged = self.learner.transitions(self._reported)
+        sequence = logged.pop("sequence")
+        first = int(sequence[0]) if len(sequence) else int(self.learner.memory.log_count[0])
+        head = {"kind": "pass_transitions", "episode": self.episodes, "dropped": first - self._reported,
+                "n_vars": self.pass_state.size}
+        self._reported = first + len(sequence)
+        return _report_payloads(head, logged, len(sequence), first)
+
+    def _snapshot_payloads(self) -> list[dict[str, Any]]:
+        """The learner's non-zero weights, (index, value) pairs in index order."""
+        index, value = self.learner.snapshot()
+        head = {"kind": "pass_snapshot", "episode": self.episodes, "table_size": self.learner.config.table_size,
+                "nonzero": len(index)}
+        return _report_payloads(head, {"index": index, "value": value}, len(index))
+
+    def pending_reports(self) -> list[m.Report]:
+        """The ``report`` messages queued for the coach since the last call (the socket loop sends them)."""
+        reports, self._reports = self._reports, []
+        return reports
+
+    def _on_policy_advice(self, payload: dict) -> None:
         values = payload.get("getopen_theta")
         if values is None:
             return
@@ -312,6 +450,9 @@ class PlayerAgent:
         if self._pending_theta is not None:
             self.theta[:] = self._pending_theta
             self._pending_theta = None
+        if self._pending_pass_mode is not None:
+            self.learner.mode = self._pending_pass_mode
+            self._pending_pass_mode = None
 
     # -- deciding ----------------------------------------------------------------------------------
     def _decide(self, cycle: int) -> m.Command:
@@ -373,11 +514,15 @@ def compile_kernels() -> None:
 __all__ = [
     "EPISODE_MESSAGE",
     "GETOPEN_POLICIES",
+    "PASS_MODES",
     "PASS_POLICIES",
+    "REPORT_BYTES",
     "PassLearner",
     "PassLearnerFactory",
     "PlayerAgent",
     "compile_kernels",
     "greedy_pass_factory",
+    "report_arrays",
     "sarsa_config",
+    "sarsa_pass_factory",
 ]

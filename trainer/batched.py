@@ -393,7 +393,7 @@ def run_chunk(first: int, stride: int, n_cycles: int, w: World, c: Commands, ref
     at each end (module docstring). Arenas share no state, so disjoint sets of them run on parallel
     threads (the GIL is released)."""
     learning = int(cfg.pass_policy) == PASS_EXTERNAL
-    k = w.n_keepers
+    n_keepers = w.n_keepers
     for b in range(first, w.pos.shape[0], stride):
         book.stepped[b] = 0
         book.n_ended[b] = 0
@@ -401,7 +401,7 @@ def run_chunk(first: int, stride: int, n_cycles: int, w: World, c: Commands, ref
             if not book.active[b]:
                 break
             if learning and book.episode_message[b]:
-                sarsa.mode[b * k:(b + 1) * k] = book.pass_mode[b]
+                sarsa.mode[b * n_keepers:(b + 1) * n_keepers] = book.pass_mode[b]
             cause = arena_cycle(b, w, c, ref, theta[b], kp, cfg, pl, sarsa, sp, see_out, body_out,
                                 book.episode_message[b], see_period_ms, cone)
             book.stepped[b] += 1
@@ -584,7 +584,7 @@ class BatchedArenas:
             grid = [[arrays] * k for _ in range(self.batch)]
         elif len(arrays) == k and all(isinstance(a, dict) for a in arrays):
             grid = [list(arrays)] * self.batch
-        elif len(arrays) == self.batch and all(len(row) == k for row in arrays):
+        elif len(arrays) == self.batch and all(not isinstance(row, dict) and len(row) == k for row in arrays):
             grid = arrays
         else:
             raise ValueError(f"give one policy, {k} (one per keeper) or [{self.batch}][{k}]")

@@ -1,0 +1,178 @@
+"""Pass learning in the batched mode (trainer/batched.py, ``pass_policy="learned"``).
+
+Spec `keepaway-agents.md` 1 and 5, `keepaway-task.md` 5: each keeper of each arena learns its own SMDP
+Sarsa Pass policy; rewards are cycles between its decisions, the terminal reward runs to the new
+episode's first cycle; the mode changes only between episodes. The reference is the embedded game of
+``tests/test_batched.py`` with learning player agents (``agents.player.sarsa_pass_factory``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from agents.player import sarsa_pass_factory
+from agents.sarsa import MODE_EXPLORE, MODE_GREEDY, MODE_LEARN, NO_ACTION, SarsaConfig
+from protocol.params import parameter_set
+from trainer.batched import BATCHED_SARSA, BatchedArenas
+from test_batched import EmbeddedGame, table_rows, wire
+
+PARAMS = parameter_set("classic")
+K, T = 3, 2
+SMALL = SarsaConfig(table_size=1 << 15, max_traces=1024, transition_log_size=256)
+
+
+def learning(batch: int, seed: int, **kw) -> BatchedArenas:
+    kw.setdefault("sarsa", SMALL)
+    return BatchedArenas(PARAMS, batch, seed, pass_policy="learned", threads=kw.pop("threads", 1), **kw)
+
+
+def test_a_learning_arena_learns_the_weights_of_the_embedded_game_with_learning_players():
+    # Batched arena 0 seeded 4 and the embedded game seeded 4 whose keepers run Sarsa in learn mode from
+    # zero weights: the same episodes, the same transitions and, once the keepers have heard the
+    # boundary of the third episode (their terminal update), the same weights and collision tables.
+    factory = sarsa_pass_factory(None, MODE_LEARN, SMALL)
+    game = EmbeddedGame(4, pass_policy="learned", pass_learner=factory)
+    batched = learning(1, 4)
+    records = []
+    while len(records) < 3:
+        record = game.cycle()
+        if record is not None:
+            records.append(record)
+    table = batched.run(episodes_per_arena=3)
+    assert table_rows(table)[:, :3].tolist() == [[r.episode, r.start_cycle, r.end_cycle] for r in records]
+    for slot, agent in game.players:  # the next cycle's percepts carry the referee's episode message
+        for msg in game.arena.cycle_percepts(slot, game.arena.see_due(slot, game.arena.cycle)):
+            agent.on_message(wire(msg))
+    decided = 0
+    for k in range(K):
+        mem = game.players[k][1].learner.memory
+        for name in ("weights", "hash_check", "log_count", "log_action", "log_reward", "log_terminal"):
+            np.testing.assert_array_equal(getattr(batched.sarsa, name)[k], getattr(mem, name)[0], err_msg=name)
+        assert batched.sarsa.last_action[k] == NO_ACTION  # every episode closed
+        decided += int(mem.log_count[0] > 0)
+    assert decided >= 2 and np.any(batched.sarsa.weights != 0.0)
+
+
+def test_rewards_are_cycles_and_the_terminal_reward_reaches_the_next_episodes_first_cycle():
+    # Episode by episode (batch 1), each keeper's new transitions: whole cycles >= 1, the last one
+    # terminal (next action none) and no other; the rewards telescope from its first decision d >=
+    # start to the next episode's first cycle = end, so they sum to end - d <= end - start.
+    arenas = learning(1, 8)
+    seen = np.zeros(K, dtype=np.int64)
+    closed = 0
+    for _ in range(6):
+        table = arenas.run(episodes_per_arena=1)
+        length = int(table.hold_cycles[0])
+        for k in range(K):
+            new = slice(int(seen[k]), int(arenas.sarsa.log_count[k]))
+            seen[k] = arenas.sarsa.log_count[k]
+            reward, terminal = arenas.sarsa.log_reward[k, new], arenas.sarsa.log_terminal[k, new]
+            if len(reward) == 0:
+                continue  # never had the ball: no update
+            closed += 1
+            assert np.all(reward >= 1.0) and np.all(reward == np.round(reward))
+            assert terminal.tolist() == [False] * (len(reward) - 1) + [True]
+            assert arenas.sarsa.log_next_action[k, new][-1] == NO_ACTION
+            assert reward.sum() <= length
+    assert closed >= 6
+
+
+def test_same_seed_learns_the_same_weights_whatever_the_threads():
+    runs = [learning(3, 2, threads=threads) for threads in (1, 2)]
+    tables = [r.run(episodes_per_arena=3) for r in runs]
+    np.testing.assert_array_equal(table_rows(tables[0]), table_rows(tables[1]))
+    np.testing.assert_array_equal(runs[0].sarsa.weights, runs[1].sarsa.weights)
+    assert np.any(runs[0].sarsa.weights != 0.0)
+    other = learning(3, 3)
+    other.run(episodes_per_arena=3)
+    assert not np.array_equal(other.sarsa.weights, runs[0].sarsa.weights)
+    # each keeper its own weights: no two rows equal
+    rows = runs[0].sarsa.weights
+    assert len({rows[i].tobytes() for i in range(len(rows))}) == len(rows)
+
+
+def test_modes_change_only_at_an_episode_start_and_only_learn_updates():
+    arenas = learning(2, 5)
+    arenas.run(max_cycles=30)  # mid-episode
+    arenas.set_pass_mode("greedy")
+    assert np.all(arenas.sarsa.mode == MODE_LEARN)  # the running episodes finish learning
+    first = arenas.run(total_episodes=2)  # one episode per arena: the one under way
+    assert np.all(arenas.sarsa.mode == MODE_LEARN) and len(first) == 2
+    weights = arenas.sarsa.weights.copy()
+    logged = arenas.sarsa.log_count.copy()
+    arenas.run(episodes_per_arena=3)
+    assert np.all(arenas.sarsa.mode == MODE_GREEDY)
+    np.testing.assert_array_equal(arenas.sarsa.weights, weights)  # greedy: no updates
+    assert np.all(arenas.sarsa.log_count >= logged) and arenas.sarsa.log_count.sum() > logged.sum()
+    arenas.set_pass_mode("explore")
+    arenas.run(episodes_per_arena=3)
+    assert np.all(arenas.sarsa.mode == MODE_EXPLORE)
+    np.testing.assert_array_equal(arenas.sarsa.weights, weights)  # explore: no updates either
+    arenas.set_pass_mode("learn")
+    arenas.run(episodes_per_arena=3)
+    assert not np.array_equal(arenas.sarsa.weights, weights)
+
+
+def test_a_mode_set_before_the_first_cycle_applies_at_once():
+    arenas = learning(1, 5)
+    arenas.set_pass_mode("greedy")
+    assert np.all(arenas.sarsa.mode == MODE_GREEDY)
+    arenas.run(episodes_per_arena=2)
+    np.testing.assert_array_equal(arenas.sarsa.weights, 0.0)
+    assert BatchedArenas(PARAMS, 1, 0, pass_policy="learned", pass_mode="explore",
+                         sarsa=SMALL).sarsa.mode.tolist() == [MODE_EXPLORE] * K
+
+
+def test_policies_export_and_import_per_keeper_or_shared():
+    trained = learning(2, 6)
+    trained.run(episodes_per_arena=3)
+    grid = trained.pass_policy_arrays()
+    assert len(grid) == 2 and all(len(row) == K for row in grid)
+    np.testing.assert_array_equal(grid[1][2]["pass_weights"], trained.sarsa.weights[1 * K + 2])
+    fresh = learning(2, 9)
+    fresh.load_pass_arrays(grid[0][1])  # one policy for every keeper of every arena
+    assert all(np.array_equal(w, grid[0][1]["pass_weights"]) for w in fresh.sarsa.weights)
+    fresh.load_pass_arrays(grid[1])  # one team, the same in every arena
+    for b in range(2):
+        for k in range(K):
+            np.testing.assert_array_equal(fresh.sarsa.hash_check[b * K + k], grid[1][k]["pass_hash_check"])
+    fresh.load_pass_arrays(grid)
+    np.testing.assert_array_equal(fresh.sarsa.weights, trained.sarsa.weights)
+    with pytest.raises(ValueError, match="give one policy"):
+        fresh.load_pass_arrays(grid[0][:2])
+    with pytest.raises(ValueError, match="shape"):
+        fresh.load_pass_arrays({"pass_weights": np.zeros(8), "pass_hash_check": np.zeros(8, np.int32),
+                                "pass_hash_counts": np.zeros(3, np.int64)})
+    with pytest.raises(ValueError, match="no Pass learners"):
+        BatchedArenas(PARAMS, 1, 0).set_pass_mode("greedy")
+
+
+def test_the_batched_default_table_is_small_and_holds_a_keepers_tiles():
+    # 2^16 slots: 16 B per slot (weight 8, check 4, trace slot 4) = 1 MiB per keeper, against 16 MiB at
+    # the original 2^20 (trainer/batched.py docstring).
+    assert BATCHED_SARSA.table_size == 1 << 16
+    arenas = BatchedArenas(PARAMS, 1, 1, pass_policy="learned")
+    per_row = sum(a[0].nbytes for a in (arenas.sarsa.weights, arenas.sarsa.hash_check, arenas.sarsa.trace_slot))
+    assert per_row == (1 << 16) * 16
+    arenas.run(episodes_per_arena=20)
+    used = (arenas.sarsa.hash_check != -1).sum(axis=1)
+    assert np.all(used < (1 << 16) // 4)
+
+
+@pytest.mark.slow
+def test_learned_pass_holds_the_ball_longer_than_the_untrained_policy():
+    # P:L-GO:HC: 4 arenas learn for 4 x 800 = 3,200 episodes; then their greedy policies and the
+    # untrained ones (zero weights, greedy = uniform ties, i.e. random passing) play 208 episodes each;
+    # Welch t-test on the hold times. Experience per learner is what counts (arenas learn
+    # independently): 16 arenas x 100 episodes show no gain, 4 x 750 about 10 cycles (p ~ 1e-7).
+    trained = learning(4, 0, sarsa=BATCHED_SARSA)
+    trained.run(episodes_per_arena=800)
+    trained.set_pass_mode("greedy")
+    learned = trained.run(episodes_per_arena=52).hold_cycles
+    untrained = learning(16, 1000, sarsa=BATCHED_SARSA, pass_mode="greedy").run(episodes_per_arena=13).hold_cycles
+    test = stats.ttest_ind(learned, untrained, equal_var=False)
+    print(f"P:L {learned.mean():.1f} cycles, untrained {untrained.mean():.1f} cycles, Welch p = {test.pvalue:.2g}")
+    assert learned.mean() > untrained.mean()
+    assert test.pvalue < 0.05
