@@ -127,7 +127,7 @@ _NO_LEARNERS = SarsaConfig(table_size=2, max_traces=1, transition_log_size=1)
 GETOPEN_POLICIES: dict[str, int] = {
     "random": GETOPEN_RANDOM,
     "handcoded": GETOPEN_HANDCODED,
-    "handcoded_cone": GETOPEN_HANDCODED_CONE,
+    "handcoded-cone": GETOPEN_HANDCODED_CONE,  # the players' --getopen name
     "learned": GETOPEN_LEARNED,
 }
 # Cycles per compiled call: Python collects the ended episodes and checks the stop rules in between.

@@ -147,6 +147,7 @@ def distributed_episodes(opts: RunOptions, processes: ArenaProcesses) -> Iterato
 def batched_episodes(opts: RunOptions) -> Iterator[tuple[EpisodeRecord, int]]:
     """Step ``opts.batch`` arenas in one process; yield episodes in the order they end."""
     from trainer.batched import BatchedArenas
+    from trainer.train import episode_records
 
     spec = opts.spec
     theta = spec.policy.getopen_theta if spec.policy is not None else None
@@ -154,11 +155,8 @@ def batched_episodes(opts: RunOptions) -> Iterator[tuple[EpisodeRecord, int]]:
                            pass_policy=spec.pass_policy, getopen_policy=spec.getopen_policy,
                            getopen_theta=theta)
     table = arenas.run(total_episodes=opts.episodes)
-    step_ms = spec.params.simulator_step_ms
-    for i in range(min(opts.episodes, len(table))):
-        end = "out" if table.end[i] == 1 else "taken"
-        yield EpisodeRecord(i + 1, int(table.start_cycle[i]), int(table.end_cycle[i]), end,
-                            simulator_step_ms=step_ms), int(table.cycles)
+    for record in episode_records(table, spec.params.simulator_step_ms):
+        yield record, int(table.cycles)
 
 
 def run(opts: RunOptions, progress: bool = True) -> RunResult:

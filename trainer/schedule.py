@@ -14,6 +14,7 @@ GETOPEN = "getopen"
 PASS = "pass"
 BEHAVIOURS = (GETOPEN, PASS)
 LEARNED = "learned"
+POLICY_NAMES = ("random", "handcoded", LEARNED)  # what train and evaluate offer for Pass and for GetOpen
 TRAINING_EPISODES = 30_000  # keepaway-task.md 8: training length
 
 
@@ -105,6 +106,7 @@ __all__ = [
     "GETOPEN",
     "LEARNED",
     "PASS",
+    "POLICY_NAMES",
     "TRAINING_EPISODES",
     "Phase",
     "check_generations",

@@ -1,0 +1,559 @@
+"""``keepaway train``: learn GetOpen (CEM), Pass (Sarsa) or both (Algorithm 3) in the batched mode.
+
+Spec `keepaway-task.md` 6-8. A training is ``trials`` independent trials of one configuration, each a
+walk through the schedule (:mod:`trainer.schedule`) in steps:
+
+* a GetOpen phase advances one CEM generation per step: every candidate plays
+  ``episodes_per_candidate`` episodes with Pass fixed and frozen; all candidates of a generation play
+  arenas with the same seeds (common random numbers), so their fitness differs by the policy, not by
+  the luck of the draw;
+* a Pass phase runs Sarsa in one arena (each keeper learns its own Pass policy from its own experience,
+  `keepaway-task.md` 5) up to the next evaluation point or the phase's end, GetOpen fixed at the best
+  candidate so far;
+* at 0, every ``eval_every`` episodes and the end, learning is frozen and both policies play
+  ``eval_episodes`` episodes; their mean hold time and standard error form the learning curve.
+
+A learned behaviour that has not learned yet plays: in Algorithm 3 its random policy (P:R, GO:R: "start
+from P:R and GO:R", section 7); alone, GO:L a net drawn from U[-0.5, 0.5] (section 6) and P:L fresh
+Sarsa learners (weights 0). The GetOpen policy a trial hands on (to Pass phases, evaluations and its
+policy file) is the CEM's best candidate so far; the CEM's distribution carries over from one GetOpen
+phase to the next.
+
+Every random stream is derived from ``(seed, trial, stream, index)``, and each step starts fresh arenas
+from such a seed; so a step's outcome depends only on the trial's state before it. After every step the
+trial's state is written atomically to ``checkpoint.npz`` and the outputs are derived from it; a killed
+training resumed from the last checkpoint (``resume=True``) therefore ends exactly as an uninterrupted
+one.
+
+Output directory: ``config.json``, ``summary.json``, ``curves.png`` and per trial ``trial_NNN/`` with
+``curve.csv`` (episodes trained, mean hold time, standard error), ``trace.jsonl`` (one line per
+generation / Pass block: CEM fitness values, training hold times), ``policy.npz`` (the learned policies,
+``agents.policy_file`` format) and ``checkpoint.npz``.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agents.policy_file import getopen_theta_size, save_policy
+from agents.sarsa import SarsaConfig
+from protocol.params import ServerParams, parameter_set
+from server.episode_log import EpisodeRecord
+from server.referee import END_OUT
+from trainer.batched import BATCHED_SARSA, BatchedArenas
+from trainer.cem import CEM, CEMConfig
+from trainer.curves import CurvePoint, mean_curve, plot_curves, write_atomic, write_curve_csv
+from trainer.run import RunResult
+from trainer.schedule import (
+    GETOPEN,
+    LEARNED,
+    PASS,
+    POLICY_NAMES,
+    TRAINING_EPISODES,
+    Phase,
+    check_generations,
+    evaluation_points,
+    format_schedule,
+    parse_schedule,
+)
+
+CHECKPOINT_VERSION = 1
+LEARN = "learn"  # Sarsa modes of trainer.batched.PASS_MODES
+GREEDY = "greedy"  # the frozen Pass policy: greedy actions, no updates (keepaway-agents.md 5)
+INITIAL_NET_RANGE = 0.5  # keepaway-task.md 6: a random-initialised GO:L net draws from U[-0.5, 0.5]
+# Random streams of a trial: derive_seed(seed, trial, stream, index).
+STREAM_CEM = 0
+STREAM_GENERATION = 1  # index: generation
+STREAM_PASS_BLOCK = 2  # index: episodes trained when the block starts
+STREAM_EVALUATION = 3  # index: episodes trained at the evaluation
+STREAM_INITIAL_NET = 4
+
+
+def derive_seed(seed: int, *path: int) -> int:
+    """An arena or CEM seed below 2^31 for the random stream ``path`` of the training seeded ``seed``."""
+    return int(np.random.SeedSequence([int(seed), *path]).generate_state(1, dtype=np.uint32)[0] >> 1)
+
+
+@dataclass(frozen=True)
+class Game:
+    """What an arena of the batched mode is built from, besides the policies."""
+
+    params: ServerParams
+    keepers: int = 3
+    takers: int = 2
+    sarsa: SarsaConfig = BATCHED_SARSA
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """Everything a training's results depend on (thread counts and progress bars do not)."""
+
+    pass_policy: str = "random"
+    getopen_policy: str = LEARNED
+    schedule: tuple[Phase, ...] = (Phase(GETOPEN, TRAINING_EPISODES),)
+    trials: int = 1
+    eval_every: int = 2_500  # keepaway-task.md 8
+    eval_episodes: int = 500  # keepaway-task.md 8
+    arenas: int = 25  # arenas per candidate evaluation and per frozen evaluation (ours)
+    seed: int = 0
+    keepers: int = 3
+    takers: int = 2
+    field_size: float = 20.0
+    parameter_set: str = "classic"
+    cem: CEMConfig = CEMConfig()
+    sarsa: SarsaConfig = BATCHED_SARSA  # the batched mode's table size (trainer/batched.py)
+
+    def __post_init__(self) -> None:
+        if self.pass_policy not in POLICY_NAMES or self.getopen_policy not in POLICY_NAMES:
+            raise ValueError(f"Pass and GetOpen must each be one of {', '.join(POLICY_NAMES)}")
+        learned = {GETOPEN: self.getopen_policy == LEARNED, PASS: self.pass_policy == LEARNED}
+        if not self.schedule or not all(learned[p.behaviour] for p in self.schedule):
+            raise ValueError(f"the schedule {format_schedule(self.schedule)!r} must train learned behaviours only")
+        if min(self.trials, self.eval_episodes, self.arenas) < 1:
+            raise ValueError("trials, eval_episodes and arenas must be at least 1")
+        if self.cem.n_params != getopen_theta_size(self.keepers, self.takers):
+            raise ValueError(f"the CEM searches {self.cem.n_params} parameters; the GetOpen net of "
+                             f"{self.keepers}v{self.takers} has {getopen_theta_size(self.keepers, self.takers)}")
+        check_generations(self.schedule, self.eval_every, self.generation_episodes)
+        self.params()
+
+    @property
+    def generation_episodes(self) -> int:
+        return self.cem.population * self.cem.episodes_per_candidate
+
+    @property
+    def total_episodes(self) -> int:
+        return sum(p.episodes for p in self.schedule)
+
+    @property
+    def name(self) -> str:
+        """The configuration's name in the paper's notation, e.g. ``P:R-GO:L`` (keepaway-task.md 8)."""
+        short = {"random": "R", "handcoded": "HC", LEARNED: "L"}
+        return f"P:{short[self.pass_policy]}-GO:{short[self.getopen_policy]}"
+
+    def params(self) -> ServerParams:
+        return parameter_set(self.parameter_set, keepaway_length=self.field_size, keepaway_width=self.field_size)
+
+    def game(self) -> Game:
+        return Game(self.params(), self.keepers, self.takers, self.sarsa)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain JSON values; :meth:`from_dict` inverts it."""
+        out = asdict(self)
+        out["schedule"] = format_schedule(self.schedule)
+        return out
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> TrainConfig:
+        values = dict(data)
+        values["schedule"] = parse_schedule(values["schedule"])
+        values["cem"] = CEMConfig(**values["cem"])
+        values["sarsa"] = SarsaConfig(**values["sarsa"])
+        return cls(**values)
+
+
+@dataclass
+class Behaviours:
+    """The policies the keepers play now: a policy name each, with the learned parameters if any:
+    ``pass_arrays`` holds every keeper's own Pass policy (``agents.sarsa.policy_arrays``), None with Pass
+    learned means fresh learners."""
+
+    pass_policy: str
+    getopen_policy: str
+    getopen_theta: np.ndarray | None = None
+    pass_arrays: list[dict[str, np.ndarray]] | None = None
+
+    @classmethod
+    def initial(cls, config: TrainConfig, trial: int) -> Behaviours:
+        """What a trial plays before it has learned anything (module docstring)."""
+        both = config.pass_policy == LEARNED and config.getopen_policy == LEARNED
+        if both:
+            return cls("random", "random")
+        theta = None
+        if config.getopen_policy == LEARNED:
+            rng = np.random.default_rng(derive_seed(config.seed, trial, STREAM_INITIAL_NET))
+            theta = rng.uniform(-INITIAL_NET_RANGE, INITIAL_NET_RANGE, config.cem.n_params)
+        return cls(config.pass_policy, config.getopen_policy, theta)
+
+
+@dataclass
+class TrialState:
+    """A trial's progress: everything its next step and its outputs need (module docstring)."""
+
+    trial: int
+    behaviours: Behaviours
+    episodes: int = 0  # training episodes played
+    curve: list[CurvePoint] = field(default_factory=list)
+    trace: list[dict[str, Any]] = field(default_factory=list)
+    cem: CEM | None = None
+
+    def finished(self, config: TrainConfig) -> bool:
+        return len(self.curve) == len(evaluation_points(config.schedule, config.eval_every))
+
+
+Progress = Callable[[int], None]  # called with the number of episodes just played
+
+
+# -- Pass policies in files ---------------------------------------------------------------------------
+def pack_pass_arrays(keepers: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    """Every keeper's Pass policy as ``pass_*`` arrays of one policy file: keeper 1's under the plain
+    names (``pass_weights``, ...: what a player process loads), keeper k's as ``pass_keeper<k>_*``."""
+    out = dict(keepers[0])
+    for k, arrays in enumerate(keepers[1:], start=2):
+        out.update({f"pass_keeper{k}_{name.removeprefix('pass_')}": value for name, value in arrays.items()})
+    return out
+
+
+def unpack_pass_arrays(arrays: dict[str, np.ndarray], keepers: int) -> list[dict[str, np.ndarray]]:
+    """The inverse of :func:`pack_pass_arrays`; a file with the plain names only gives every keeper the
+    same policy."""
+    plain = {name: value for name, value in arrays.items() if not name.startswith("pass_keeper")}
+    out = [plain]
+    for k in range(2, keepers + 1):
+        prefix = f"pass_keeper{k}_"
+        own = {"pass_" + name.removeprefix(prefix): v for name, v in arrays.items() if name.startswith(prefix)}
+        out.append(own or plain)
+    return out
+
+
+# -- playing -----------------------------------------------------------------------------------------
+def episode_records(table: Any, simulator_step_ms: float) -> list[EpisodeRecord]:
+    """A batched run's episodes (``trainer.batched.EpisodeTable``) as records, numbered from 1 in the
+    order they ended."""
+    return [EpisodeRecord(i + 1, int(s), int(e), "out" if end == END_OUT else "taken",
+                          simulator_step_ms=simulator_step_ms)
+            for i, (s, e, end) in enumerate(zip(table.start_cycle, table.end_cycle, table.end))]
+
+
+def play(game: Game, behaviours: Behaviours, seed: int, episodes: int, batch: int,
+         pass_mode: str = GREEDY, threads: int | None = None,
+         progress: Progress | None = None) -> tuple[RunResult, list[dict[str, np.ndarray]] | None]:
+    """``episodes`` episodes of ``behaviours`` in ``min(batch, episodes)`` fresh arenas seeded ``seed``
+    (arena b: ``seed + b``), every arena's keepers starting from ``behaviours.pass_arrays``; the learned
+    Pass policy in Sarsa mode ``pass_mode`` (frozen: greedy). Returns the result and, when Pass learned
+    (mode learn), the first arena's keepers' new Pass policies."""
+    params = game.params
+    extra: dict[str, Any] = {}
+    if behaviours.pass_policy == LEARNED:
+        extra = {"sarsa": game.sarsa, "pass_mode": pass_mode}
+    arenas = BatchedArenas(params, min(batch, episodes), seed, keepers=game.keepers, takers=game.takers,
+                           pass_policy=behaviours.pass_policy, getopen_policy=behaviours.getopen_policy,
+                           getopen_theta=behaviours.getopen_theta, threads=threads, **extra)
+    if behaviours.pass_arrays is not None:
+        arenas.load_pass_arrays(behaviours.pass_arrays)
+    done = 0
+
+    def report(collected: int) -> None:
+        nonlocal done
+        if progress is not None:
+            progress(collected - done)
+        done = collected
+
+    start = time.perf_counter()
+    table = arenas.run(total_episodes=episodes, progress=report)
+    result = RunResult("batched", seed, episode_records(table, params.simulator_step_ms),
+                       time.perf_counter() - start, table.cycles, len(table))
+    learned = arenas.pass_policy_arrays()[0] if behaviours.pass_policy == LEARNED and pass_mode == LEARN else None
+    return result, learned
+
+
+def evaluate(game: Game, behaviours: Behaviours, seed: int, episodes: int, arenas: int,
+             threads: int | None = None, progress: Progress | None = None) -> RunResult:
+    """The frozen policies (no learning, greedy Pass) over ``episodes`` episodes in up to ``arenas``
+    arenas (keepaway-task.md 8)."""
+    return play(game, behaviours, seed, episodes, arenas, GREEDY, threads, progress)[0]
+
+
+def _point(episodes: int, result: RunResult) -> CurvePoint:
+    summary = result.summary()
+    return CurvePoint(episodes, summary["mean_hold_time_s"], summary["stderr_hold_time_s"])
+
+
+# -- one step of a trial -----------------------------------------------------------------------------
+def phase_at(schedule: tuple[Phase, ...], episodes: int) -> tuple[Phase, int]:
+    """The phase under way after ``episodes`` training episodes, and the episode it ends at."""
+    end = 0
+    for phase in schedule:
+        end += phase.episodes
+        if episodes < end:
+            return phase, end
+    raise ValueError(f"episode {episodes} is past the schedule's end ({end})")
+
+
+def step(config: TrainConfig, state: TrialState, threads: int | None = None,
+         progress: Progress | None = None) -> str:
+    """Advance ``state`` by one step (an evaluation, a CEM generation or a Pass block); returns what it
+    was, for the progress display."""
+    points = evaluation_points(config.schedule, config.eval_every)
+    seed, trial = config.seed, state.trial
+    if state.episodes == points[len(state.curve)]:
+        result = evaluate(config.game(), state.behaviours,
+                          derive_seed(seed, trial, STREAM_EVALUATION, state.episodes), config.eval_episodes,
+                          config.arenas, threads, progress)
+        state.curve.append(_point(state.episodes, result))
+        return f"evaluation at {state.episodes}"
+    phase, phase_end = phase_at(config.schedule, state.episodes)
+    if phase.behaviour == GETOPEN:
+        return _cem_generation(config, state, threads, progress)
+    return _pass_block(config, state, min(phase_end, points[len(state.curve)]) - state.episodes, threads,
+                       progress)
+
+
+def _cem_generation(config: TrainConfig, state: TrialState, threads: int | None,
+                    progress: Progress | None) -> str:
+    """One CEM generation (keepaway-task.md 6): every candidate plays the same arena seeds with the
+    current Pass policy frozen."""
+    if state.cem is None:
+        state.cem = CEM(config.cem, seed=derive_seed(config.seed, state.trial, STREAM_CEM))
+    cem = state.cem
+    generation = cem.generation
+    seed = derive_seed(config.seed, state.trial, STREAM_GENERATION, generation)
+    fitness = []
+    for theta in cem.ask():
+        candidate = replace(state.behaviours, getopen_policy=LEARNED, getopen_theta=theta)
+        result, _ = play(config.game(), candidate, seed, config.cem.episodes_per_candidate, config.arenas,
+                         GREEDY, threads, progress)
+        fitness.append(result.summary()["mean_hold_time_s"])
+    cem.tell(np.array(fitness))
+    assert cem.best_params is not None
+    state.behaviours.getopen_policy = LEARNED
+    state.behaviours.getopen_theta = cem.best_params.copy()
+    state.episodes += config.generation_episodes
+    state.trace.append({"phase": GETOPEN, "generation": generation, "episodes": state.episodes,
+                        "fitness": fitness, "best_fitness": cem.best_fitness,
+                        "mean_variance": float(cem.variance.mean())})
+    return f"GetOpen generation {generation + 1}"
+
+
+def _pass_block(config: TrainConfig, state: TrialState, episodes: int, threads: int | None,
+                progress: Progress | None) -> str:
+    """Sarsa learns Pass for ``episodes`` episodes in one fresh arena, GetOpen fixed (keepaway-task.md 5, 7)."""
+    learner = replace(state.behaviours, pass_policy=LEARNED)
+    seed = derive_seed(config.seed, state.trial, STREAM_PASS_BLOCK, state.episodes)
+    result, arrays = play(config.game(), learner, seed, episodes, 1, LEARN, threads, progress)
+    state.behaviours.pass_policy = LEARNED
+    state.behaviours.pass_arrays = arrays
+    state.episodes += episodes
+    summary = result.summary()
+    state.trace.append({"phase": PASS, "episodes": state.episodes, "block_episodes": episodes,
+                        "mean_hold_time_s": summary["mean_hold_time_s"],
+                        "stderr_hold_time_s": summary["stderr_hold_time_s"]})
+    return f"Pass block to {state.episodes}"
+
+
+# -- checkpoints and outputs -------------------------------------------------------------------------
+def trial_dir(out: Path, trial: int) -> Path:
+    return out / f"trial_{trial:03d}"
+
+
+def save_checkpoint(out: Path, state: TrialState) -> None:
+    """The trial's state as one ``checkpoint.npz`` (a JSON header and the arrays), written atomically."""
+    b = state.behaviours
+    header: dict[str, Any] = {
+        "version": CHECKPOINT_VERSION, "trial": state.trial, "episodes": state.episodes,
+        "keepers": len(b.pass_arrays) if b.pass_arrays is not None else None,
+        "curve": [asdict(p) for p in state.curve], "trace": state.trace,
+        "pass_policy": b.pass_policy, "getopen_policy": b.getopen_policy, "cem": None,
+    }
+    arrays: dict[str, np.ndarray] = {}
+    if b.getopen_theta is not None:
+        arrays["getopen_theta"] = b.getopen_theta
+    if b.pass_arrays is not None:
+        arrays.update({f"behaviour_{name}": v for name, v in pack_pass_arrays(b.pass_arrays).items()})
+    if state.cem is not None:
+        cem = state.cem.state_dict()
+        for name in ("mean", "variance", "best_params"):
+            if cem[name] is not None:
+                arrays[f"cem_{name}"] = cem.pop(name)
+        header["cem"] = {k: v for k, v in cem.items() if k not in ("mean", "variance", "best_params")}
+    arrays["header"] = np.frombuffer(json.dumps(header).encode(), dtype=np.uint8)
+    buffer = io.BytesIO()
+    np.savez(buffer, **arrays)
+    write_atomic(trial_dir(out, state.trial) / "checkpoint.npz", buffer.getvalue())
+
+
+def load_checkpoint(out: Path, trial: int) -> TrialState | None:
+    """The trial's last checkpoint, or None if it has none."""
+    path = trial_dir(out, trial) / "checkpoint.npz"
+    if not path.is_file():
+        return None
+    with np.load(path, allow_pickle=False) as data:
+        arrays = {name: data[name] for name in data.files}
+    header = json.loads(arrays.pop("header").tobytes().decode())
+    if header.get("version") != CHECKPOINT_VERSION or header.get("trial") != trial:
+        raise ValueError(f"{path}: not a version {CHECKPOINT_VERSION} checkpoint of trial {trial}")
+    packed = {k.removeprefix("behaviour_"): v for k, v in arrays.items() if k.startswith("behaviour_")}
+    behaviours = Behaviours(header["pass_policy"], header["getopen_policy"], arrays.get("getopen_theta"),
+                            unpack_pass_arrays(packed, header["keepers"]) if packed else None)
+    cem = None
+    if header["cem"] is not None:
+        cem = CEM.from_state_dict({**header["cem"], "mean": arrays["cem_mean"], "variance": arrays["cem_variance"],
+                                   "best_params": arrays.get("cem_best_params")})
+    return TrialState(trial, behaviours, header["episodes"], [CurvePoint(**p) for p in header["curve"]],
+                      header["trace"], cem)
+
+
+def write_trial_outputs(config: TrainConfig, out: Path, state: TrialState) -> None:
+    """``curve.csv``, ``trace.jsonl`` and (once something is learned) ``policy.npz`` of a trial, each
+    derived from its state and written atomically."""
+    where = trial_dir(out, state.trial)
+    write_curve_csv(where / "curve.csv", state.curve)
+    write_atomic(where / "trace.jsonl", "".join(json.dumps(t) + "\n" for t in state.trace).encode())
+    b = state.behaviours
+    learned_getopen = config.getopen_policy == LEARNED and b.getopen_policy == LEARNED
+    learned_pass = config.pass_policy == LEARNED and b.pass_arrays is not None
+    if not (learned_getopen or learned_pass):
+        return
+    header = {"keepers": config.keepers, "takers": config.takers, "pass": b.pass_policy,
+              "getopen": b.getopen_policy, "field_size": config.field_size,
+              "parameter_set": config.parameter_set, "sarsa": asdict(config.sarsa), "trial": state.trial,
+              "episodes": state.episodes, "train": config.to_dict()}
+    tmp = where / ".policy.tmp.npz"
+    save_policy(tmp, getopen_theta=b.getopen_theta if learned_getopen else None,
+                pass_arrays=pack_pass_arrays(b.pass_arrays) if learned_pass else None, config=header,
+                seed=config.seed)
+    os.replace(tmp, where / "policy.npz")
+
+
+def summarise(config: TrainConfig, states: list[TrialState]) -> dict[str, Any]:
+    """``summary.json``: the configuration, every trial's curve and the curve over trials."""
+    curve = mean_curve([s.curve for s in states])
+    final = curve[-1] if curve else None
+    return {
+        "name": config.name,
+        "config": config.to_dict(),
+        "trials": [{"trial": s.trial, "episodes": s.episodes, "finished": s.finished(config),
+                    "curve": [asdict(p) for p in s.curve],
+                    "best_fitness": None if s.cem is None else s.cem.best_fitness} for s in states],
+        "curve": [asdict(p) for p in curve],
+        "final_mean_hold_time_s": None if final is None else final.mean_hold_time_s,
+        "final_stderr_hold_time_s": None if final is None else final.stderr_hold_time_s,
+    }
+
+
+def write_summary(config: TrainConfig, out: Path, states: list[TrialState]) -> dict[str, Any]:
+    """``summary.json`` and ``curves.png`` over the trials so far."""
+    summary = summarise(config, states)
+    write_atomic(out / "summary.json", json.dumps(summary, indent=1, allow_nan=True).encode())
+    label = f"{config.name} ({len(states)} trial{'s' if len(states) > 1 else ''})"
+    plot_curves(out / "curves.png", {label: mean_curve([s.curve for s in states])},
+                f"Keepaway {config.keepers}v{config.takers}: {config.name}")
+    return summary
+
+
+# -- the training ------------------------------------------------------------------------------------
+def write_config(config: TrainConfig, out: Path) -> None:
+    """Start a training in ``out`` (created): its ``config.json``. Refuses a directory that already holds
+    a training (continue that with ``resume``)."""
+    out.mkdir(parents=True, exist_ok=True)
+    if (out / "config.json").exists():
+        raise FileExistsError(f"{out} already holds a training; continue it with --resume {out}")
+    write_atomic(out / "config.json", json.dumps(config.to_dict(), indent=1).encode())
+
+
+def read_config(out: Path) -> TrainConfig:
+    """The configuration of the training in ``out``."""
+    path = out / "config.json"
+    if not path.is_file():
+        raise FileNotFoundError(f"{out} holds no training (no config.json)")
+    return TrainConfig.from_dict(json.loads(path.read_text()))
+
+
+def run_trials(config: TrainConfig, out: Path, threads: int | None = None,
+               steps: Callable[[int, int], Progress] | None = None,
+               on_step: Callable[[TrialState, str], None] | None = None) -> Iterator[TrialState]:
+    """Train every trial of the training in ``out`` (begun by :func:`write_config`), continuing each
+    from its last checkpoint; yield each trial's final state. ``steps(trial, done)`` gives the progress
+    callback of a trial that has ``done`` of its episodes behind it; ``on_step`` hears of every step."""
+    for trial in range(config.trials):
+        trial_dir(out, trial).mkdir(exist_ok=True)
+        state = load_checkpoint(out, trial) or TrialState(trial, Behaviours.initial(config, trial))
+        progress = None if steps is None else steps(trial, played_episodes(config, state))
+        while not state.finished(config):
+            what = step(config, state, threads, progress)
+            save_checkpoint(out, state)
+            write_trial_outputs(config, out, state)
+            if on_step is not None:
+                on_step(state, what)
+        write_trial_outputs(config, out, state)
+        yield state
+
+
+def played_episodes(config: TrainConfig, state: TrialState) -> int:
+    """Episodes a trial has played so far, training and evaluation (for progress bars)."""
+    return state.episodes + len(state.curve) * config.eval_episodes
+
+
+def planned_episodes(config: TrainConfig) -> int:
+    """Episodes a trial plays in all, training and evaluation."""
+    return config.total_episodes + len(evaluation_points(config.schedule, config.eval_every)) * config.eval_episodes
+
+
+def train(config: TrainConfig, out: Path, resume: bool = False, threads: int | None = None,
+          progress: bool = True) -> dict[str, Any]:
+    """Run (or with ``resume`` continue) the training ``config`` in ``out``; returns the summary.
+    With ``resume`` the configuration is the one stored in ``out``."""
+    from tqdm import tqdm
+
+    if resume:
+        config = read_config(out)
+    else:
+        write_config(config, out)
+    bar: Any = None
+
+    def steps(trial: int, done: int) -> Progress:
+        nonlocal bar
+        if bar is not None:
+            bar.close()
+        bar = tqdm(total=planned_episodes(config), initial=done, unit="ep", dynamic_ncols=True,
+                   desc=f"{config.name} trial {trial + 1}/{config.trials}", disable=not progress)
+        return bar.update
+
+    def on_step(state: TrialState, what: str) -> None:
+        last = state.curve[-1] if state.curve else None
+        done = f"{what} done"
+        bar.set_postfix_str(f"{done}; last eval {last.mean_hold_time_s:.2f} s at {last.episodes}" if last else done)
+
+    states: list[TrialState] = []
+    try:
+        for state in run_trials(config, out, threads, steps, on_step):
+            states.append(state)
+            write_summary(config, out, states)
+    finally:
+        if bar is not None:
+            bar.close()
+    return summarise(config, states)
+
+
+__all__ = [
+    "Behaviours",
+    "Game",
+    "TrainConfig",
+    "TrialState",
+    "derive_seed",
+    "episode_records",
+    "evaluate",
+    "load_checkpoint",
+    "pack_pass_arrays",
+    "phase_at",
+    "play",
+    "read_config",
+    "run_trials",
+    "save_checkpoint",
+    "step",
+    "summarise",
+    "train",
+    "unpack_pass_arrays",
+    "write_config",
+    "write_summary",
+    "write_trial_outputs",
+]

@@ -1,0 +1,170 @@
+"""``keepaway train`` and ``keepaway evaluate``: learning runs and frozen evaluations of their policies
+(spec `keepaway-task.md` 6-8; :mod:`trainer.train`)."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import click
+
+from trainer.schedule import POLICY_NAMES
+
+POLICY_CHOICES = click.Choice(POLICY_NAMES)
+# Options that define a training; with --resume the stored configuration is used and these must not be given.
+CONFIG_OPTIONS = ("pass_policy", "getopen_policy", "episodes", "schedule", "trials", "eval_every", "eval_episodes",
+                  "arenas", "seed", "population", "elite", "candidate_episodes", "keepers", "takers",
+                  "field_size", "parameter_set")
+
+
+@click.command("train")
+@click.option("--pass", "pass_policy", type=POLICY_CHOICES, default="random", show_default=True,
+              help="Keepers' Pass policy (learned: SMDP Sarsa).")
+@click.option("--getopen", "getopen_policy", type=POLICY_CHOICES, default="learned", show_default=True,
+              help="Keepers' GetOpen policy (learned: CEM).")
+@click.option("--episodes", type=int, default=None,
+              help="Training episodes [30,000; with both learned: the schedule's length].")
+@click.option("--schedule", default=None, metavar="B:N,...",
+              help="Phases, e.g. getopen:5000,pass:5000,getopen:15000,pass:5000 (Algorithm 3, the default "
+                   "when both learn).")
+@click.option("--trials", type=int, default=1, show_default=True, help="Independent trials.")
+@click.option("--eval-every", type=int, default=2500, show_default=True,
+              help="Training episodes between frozen evaluations.")
+@click.option("--eval-episodes", type=int, default=500, show_default=True, help="Episodes per evaluation.")
+@click.option("--arenas", type=int, default=25, show_default=True,
+              help="Arenas per CEM candidate and per evaluation (a Pass block learns in one arena).")
+@click.option("--mode", type=click.Choice(["batched", "distributed"]), default="batched", show_default=True)
+@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the whole training.")
+@click.option("--population", type=int, default=20, show_default=True, help="CEM candidates per generation.")
+@click.option("--elite", type=int, default=5, show_default=True, help="CEM candidates refitted to.")
+@click.option("--candidate-episodes", type=int, default=125, show_default=True,
+              help="Episodes per CEM candidate.")
+@click.option("--keepers", type=int, default=3, show_default=True)
+@click.option("--takers", type=int, default=2, show_default=True)
+@click.option("--field-size", type=float, default=20.0, show_default=True, help="Side of the square region (m).")
+@click.option("--params", "parameter_set", type=click.Choice(["classic", "current"]), default="classic",
+              show_default=True, help="Server parameter set.")
+@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=Path("train_out"),
+              show_default=True, help="Directory for curves, policies, traces and the summary.")
+@click.option("--resume", type=click.Path(file_okay=False, exists=True, path_type=Path), default=None,
+              help="Continue the training in this directory from its last checkpoint.")
+@click.option("--threads", type=int, default=None, help="Threads stepping arenas [numba's thread count].")
+@click.option("--no-progress", is_flag=True, help="No progress bars.")
+def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, schedule: str | None, trials: int,
+                  eval_every: int, eval_episodes: int, arenas: int, mode: str, seed: int, population: int,
+                  elite: int, candidate_episodes: int, keepers: int, takers: int, field_size: float,
+                  parameter_set: str, out: Path, resume: Path | None, threads: int | None,
+                  no_progress: bool) -> None:
+    """Learn GetOpen (CEM), Pass (Sarsa) or both (Algorithm 3) with frozen evaluations along the way."""
+    from agents.policy_file import getopen_theta_size
+    from trainer.cem import CEMConfig
+    from trainer.schedule import parse_schedule, training_schedule
+    from trainer.train import TrainConfig, train
+
+    if mode == "distributed":
+        raise click.UsageError("keepaway train runs in --mode batched only for now (distributed: not yet)")
+    ctx = click.get_current_context()
+    if resume is not None:
+        given = [f"--{name.replace('_', '-')}" for name in CONFIG_OPTIONS
+                 if ctx.get_parameter_source(name) is not click.core.ParameterSource.DEFAULT]
+        if given:
+            raise click.UsageError(f"--resume uses the stored configuration; drop {', '.join(given)}")
+        config = None
+    else:
+        try:
+            phases = training_schedule(pass_policy, getopen_policy, episodes,
+                                       parse_schedule(schedule) if schedule else None)
+            cem = CEMConfig(n_params=getopen_theta_size(keepers, takers), population=population, elite=elite,
+                            episodes_per_candidate=candidate_episodes)
+            config = TrainConfig(pass_policy, getopen_policy, phases, trials, eval_every, eval_episodes, arenas,
+                                 seed, keepers, takers, field_size, parameter_set, cem)
+        except ValueError as exc:
+            raise click.UsageError(str(exc)) from None
+    try:
+        summary = train(config, resume or out, resume=resume is not None, threads=threads,  # type: ignore[arg-type]
+                        progress=not no_progress)
+    except (FileExistsError, FileNotFoundError) as exc:
+        raise click.UsageError(str(exc)) from None
+    except KeyboardInterrupt:
+        click.echo(f"keepaway train: interrupted; continue with --resume {resume or out}", err=True)
+        sys.exit(130)
+    click.echo(f"{summary['name']}: {len(summary['trials'])} trial(s); final evaluation "
+               f"{summary['final_mean_hold_time_s']:.2f} s +- {summary['final_stderr_hold_time_s']:.2f} (s.e.) "
+               f"-> {resume or out}")
+
+
+def _policy_files(path: Path) -> list[Path]:
+    """The policy file ``path``, or those of a training directory (``trial_*/policy.npz``), or every
+    ``.npz`` directly in a directory."""
+    if path.is_file():
+        return [path]
+    files = sorted(path.glob("trial_*/policy.npz")) or sorted(path.glob("*.npz"))
+    if not files:
+        raise click.UsageError(f"{path}: no policy files (trial_*/policy.npz or *.npz)")
+    return files
+
+
+@click.command("evaluate")
+@click.option("--policy", "policy_path", type=click.Path(exists=True, path_type=Path), required=True,
+              help="A policy file, or a training directory (each trial's policy).")
+@click.option("--episodes", type=int, default=500, show_default=True, help="Episodes per policy.")
+@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--pass", "pass_policy", type=POLICY_CHOICES, default=None,
+              help="Pass policy to play [the one the file was trained with].")
+@click.option("--getopen", "getopen_policy", type=POLICY_CHOICES, default=None,
+              help="GetOpen policy to play [the one the file was trained with].")
+@click.option("--arenas", type=int, default=25, show_default=True, help="Arenas stepped at once.")
+@click.option("--threads", type=int, default=None, help="Threads stepping arenas [numba's thread count].")
+@click.option("--json", "as_json", is_flag=True, help="Print machine-readable summaries.")
+@click.option("--no-progress", is_flag=True, help="No progress bar.")
+def evaluate_command(policy_path: Path, episodes: int, seed: int, pass_policy: str | None,
+                     getopen_policy: str | None, arenas: int, threads: int | None, as_json: bool,
+                     no_progress: bool) -> None:
+    """Play saved policies frozen (greedy Pass, no learning) for --episodes episodes each; print the summary."""
+    from tqdm import tqdm
+
+    from agents.player import sarsa_config
+    from agents.policy_file import PolicyFileError, load_policy
+    from protocol.params import parameter_set
+    from trainer.run import dump_json, summary_table
+    from trainer.train import Behaviours, Game, evaluate, unpack_pass_arrays
+
+    if episodes < 1 or arenas < 1:
+        raise click.UsageError("--episodes and --arenas must be at least 1")
+    results = []
+    for path in _policy_files(policy_path):
+        try:
+            policy = load_policy(path)
+            config = policy.config
+            params = parameter_set(config.get("parameter_set", "classic"),
+                                   keepaway_length=config.get("field_size", 20.0),
+                                   keepaway_width=config.get("field_size", 20.0))
+            game = Game(params, policy.n_keepers, policy.n_takers, sarsa_config(policy))
+        except (PolicyFileError, ValueError) as exc:
+            raise click.UsageError(str(exc)) from None
+        behaviours = Behaviours(pass_policy or config.get("pass", "handcoded"),
+                                getopen_policy or config.get("getopen", "handcoded"),
+                                policy.getopen_theta,
+                                unpack_pass_arrays(policy.pass_arrays, policy.n_keepers) if policy.pass_arrays else None)
+        if behaviours.getopen_policy == "learned" and behaviours.getopen_theta is None:
+            raise click.UsageError(f"{path}: --getopen learned needs GetOpen parameters; the file has none")
+        if behaviours.pass_policy == "learned" and behaviours.pass_arrays is None:
+            raise click.UsageError(f"{path}: --pass learned needs Pass weights; the file has no Pass weights")
+        with tqdm(total=episodes, unit="ep", desc=str(path), disable=no_progress or as_json,
+                  dynamic_ncols=True) as bar:
+            try:
+                result = evaluate(game, behaviours, seed, episodes, arenas, threads, bar.update)
+            except ValueError as exc:  # Pass weights that do not fit the batched learners
+                raise click.UsageError(f"{path}: {exc}") from None
+        summary = {"policy": str(path), "pass": behaviours.pass_policy, "getopen": behaviours.getopen_policy,
+                   **result.summary()}
+        results.append(summary)
+        if not as_json:
+            click.echo(f"{path}  (Pass {behaviours.pass_policy}, GetOpen {behaviours.getopen_policy})")
+            click.echo(summary_table(summary) + "\n")
+    if as_json:
+        click.echo(dump_json(results[0]) if len(results) == 1 else json.dumps(results, allow_nan=True))
+
+
+commands = [train_command, evaluate_command]
