@@ -1,0 +1,255 @@
+"""``keepaway experiment figure3`` / ``table2`` (trainer/experiments.py, trainer/experiment_cli.py).
+
+Spec `keepaway-task.md` 8: the nine Pass x GetOpen configurations with learning curves (mean and standard
+error over trials), the specialisation cross-tests with Welch's t-test. The experiment here is tiny
+(48 training episodes, CEM generations of 4 candidates x 2 episodes, evaluations of 4 episodes, 2 trials),
+run once per module and copied where a test changes it.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from scipy import stats
+
+import trainer.experiments as experiments
+import trainer.train as train_module
+from keepaway.cli import main
+from trainer.cem import CEMConfig
+from trainer.curves import read_curve_csv, write_curve_csv
+from trainer.experiments import (
+    Cell,
+    CrossTable,
+    ExperimentConfig,
+    configuration_dir,
+    regularized_beta,
+    table_cells,
+    welch_p_value,
+    with_counterpart,
+)
+from trainer.schedule import GETOPEN, LEARNED, PASS, Phase
+from trainer.train import Behaviours
+
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+# Evaluations at 0, 8, ..., 48 (7 points); Algorithm 3 scaled to 48: getopen 8, pass 8, getopen 24, pass 8.
+TINY = ["--trials", "2", "--episodes", "48", "--eval-every", "8", "--eval-episodes", "4", "--arenas", "4",
+        "--population", "4", "--elite", "2", "--candidate-episodes", "2", "--seed", "3", "--threads", "1",
+        "--no-progress"]
+POINTS = [0, 8, 16, 24, 32, 40, 48]
+NAMES = [f"P:{p}-GO:{g}" for p in ("R", "HC", "L") for g in ("R", "HC", "L")]
+
+
+def invoke(command: str, out: Path, *extra: str):
+    return CliRunner().invoke(main, ["experiment", command, *TINY, *extra, "--out", str(out)])
+
+
+@pytest.fixture(scope="module")
+def finished(tmp_path_factory) -> Path:
+    """An experiment directory after figure3 and then table2 ran in it."""
+    out = tmp_path_factory.mktemp("experiment")
+    for command in ("figure3", "table2"):
+        result = invoke(command, out)
+        assert result.exit_code == 0, result.output + repr(result.exception)
+    return out
+
+
+@pytest.fixture
+def copy(finished, tmp_path) -> Path:
+    shutil.copytree(finished, tmp_path / "experiment")
+    return tmp_path / "experiment"
+
+
+def forbid_playing(monkeypatch) -> None:
+    """Make every episode a failure: what finished work must not need."""
+    def refuse(*args, **kwargs):
+        raise AssertionError("played episodes although the work was finished")
+
+    monkeypatch.setattr(train_module, "play", refuse)
+    monkeypatch.setattr(experiments, "evaluate", refuse)
+
+
+# -- statistics --------------------------------------------------------------------------------------
+def test_regularized_beta_matches_closed_forms():
+    # I_x(a, 1) = x^a; I_x(1, b) = 1 - (1 - x)^b: 0.3^2.5 = 0.049295..., 1 - 0.7^3 = 0.657.
+    assert regularized_beta(0.3, 2.5, 1.0) == pytest.approx(0.3 ** 2.5, rel=1e-12)
+    assert regularized_beta(0.3, 1.0, 3.0) == pytest.approx(0.657, rel=1e-12)
+    assert regularized_beta(0.9, 1.0, 3.0) == pytest.approx(0.999, rel=1e-12)  # the other side of the switch
+    assert regularized_beta(0.0, 2.0, 0.5) == 0.0 and regularized_beta(1.0, 2.0, 0.5) == 1.0
+
+
+def test_welch_p_value_by_hand_and_against_scipy():
+    # a = 1, 2, 3 and b = 4, 5, 6: means 2 and 5, sample variances 1, squared standard errors 1/3 each;
+    # t = -3 / sqrt(2/3) = -3.674; df = (2/3)^2 / (2 (1/3)^2 / 2) = 4; p = I_{4 / (4 + 13.5)}(2, 1/2).
+    assert welch_p_value([1, 2, 3], [4, 5, 6]) == pytest.approx(regularized_beta(4 / 17.5, 2.0, 0.5), rel=1e-12)
+    rng = np.random.default_rng(7)
+    for n1, n2, shift in ((3, 3, 0.0), (5, 12, 1.0), (20, 20, 0.3), (2, 9, 4.0)):
+        a, b = rng.normal(0.0, 1.0, n1), rng.normal(shift, 2.0, n2)
+        expected = stats.ttest_ind(a, b, equal_var=False).pvalue
+        assert welch_p_value(list(a), list(b)) == pytest.approx(expected, rel=1e-9, abs=1e-14)
+
+
+def test_welch_p_value_is_undefined_for_single_values_and_no_spread():
+    assert math.isnan(welch_p_value([1.0], [2.0, 3.0]))
+    assert math.isnan(welch_p_value([1.0, 1.0], [2.0, 2.0]))
+
+
+def test_entries_that_differ_from_their_columns_best_are_marked():
+    # Column 0: row 0 (mean 10) is best; row 1 (mean 5, tiny spread) differs, row 2 (mean 9.9) does not.
+    # Column 1: row 2 is best (mean 7); nothing else is far enough from it to be told apart.
+    values = [[[10.0, 10.1, 9.9], [5.0, 6.0, 7.0]],
+              [[5.0, 5.1, 4.9], [6.5, 5.5, 7.5]],
+              [[9.0, 10.7, 10.0], [7.0, 6.0, 8.0]]]
+    cells = table_cells(values)
+    assert [[c.best for c in row] for row in cells] == [[True, False], [False, False], [False, True]]
+    assert [[c.significant for c in row] for row in cells] == [[False, False], [True, False], [False, False]]
+    assert math.isnan(cells[0][0].p_value)
+    # Row 1, column 0: mean 5, s.e. sqrt(0.01 / 3) = 0.0577.
+    assert cells[1][0].text() == "5.00 +- 0.06*"
+    assert cells[0][0].text() == "**10.00 +- 0.06**"
+
+
+def test_a_cross_table_prints_three_by_three_with_marks():
+    far, near = (10.0, 10.2, 9.8), (1.0, 1.1, 0.9)
+    # Diagonal far above the rest: every column's best is the policy trained with that counterpart.
+    values = [[list(far if r == c else near) for c in range(3)] for r in range(3)]
+    table = CrossTable(PASS, table_cells(values))
+    lines = table.markdown().splitlines()
+    rows = [line for line in lines if line.startswith("| GO:")]
+    assert len(rows) == 3 and all(row.count("|") == 5 for row in rows)
+    assert all(row.count("*") == 4 + 2 for row in rows)  # its bold best (**..**) and two marked entries
+    assert table.best_on_diagonal() == [True, True, True]
+    data = table.to_dict()
+    assert data["rows"] == data["columns"] == ["GO:R", "GO:HC", "GO:L"]
+    assert [[c["significant"] for c in row] for row in data["cells"]] == [[r != c for c in range(3)] for r in range(3)]
+
+
+# -- configurations ----------------------------------------------------------------------------------
+def test_algorithm_3_is_scaled_to_the_experiments_length():
+    exp = ExperimentConfig(episodes=48, eval_every=8, cem=CEMConfig(population=4, elite=2, episodes_per_candidate=2))
+    # 5,000 / 5,000 / 15,000 / 5,000 of 30,000 -> 8 / 8 / 24 / 8 of 48.
+    assert exp.schedule(LEARNED, LEARNED) == (Phase(GETOPEN, 8), Phase(PASS, 8), Phase(GETOPEN, 24), Phase(PASS, 8))
+    assert exp.schedule(LEARNED, "handcoded") == (Phase(PASS, 48),)
+    assert exp.points() == POINTS
+    with pytest.raises(ValueError, match="multiple of 6"):
+        ExperimentConfig(episodes=50).schedule(LEARNED, LEARNED)
+
+
+def test_a_learned_policy_meets_a_learned_counterpart_from_the_partner_run():
+    theta, other = np.zeros(91), np.ones(91)
+    pass_arrays = [{"pass_weights": np.ones(3)}]
+    trained = Behaviours(LEARNED, "handcoded", None, pass_arrays)
+    partner = Behaviours(LEARNED, LEARNED, other, [{"pass_weights": np.zeros(3)}])
+    tested = with_counterpart(trained, PASS, LEARNED, partner)
+    assert tested.getopen_policy == LEARNED and tested.getopen_theta is other and tested.pass_arrays is pass_arrays
+    getopen_trained = Behaviours("random", LEARNED, theta)
+    assert with_counterpart(getopen_trained, GETOPEN, "handcoded", partner) == Behaviours("handcoded", LEARNED, theta)
+    assert with_counterpart(getopen_trained, GETOPEN, LEARNED, partner).pass_arrays is partner.pass_arrays
+
+
+# -- the commands ------------------------------------------------------------------------------------
+def test_figure3_writes_a_png_and_final_evaluations_of_nine_configurations(finished):
+    assert (finished / "figure3.png").read_bytes().startswith(PNG_MAGIC)
+    with open(finished / "figure3.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert [r["name"] for r in rows] == NAMES
+    assert all(r["trials"] == "2" and r["episodes"] == "48" for r in rows)
+    data = json.loads((finished / "figure3.json").read_text())
+    for row, configuration in zip(rows, data["configurations"]):
+        assert [p["episodes"] for p in configuration["curve"]] == POINTS
+        assert float(row["final_mean_hold_time_s"]) == configuration["curve"][-1]["mean_hold_time_s"] > 0.0
+        assert math.isfinite(float(row["final_stderr_hold_time_s"]))
+    # Hand-coded keepers hold the ball far longer than random ones (keepaway-task.md 8).
+    finals = {r["name"]: float(r["final_mean_hold_time_s"]) for r in rows}
+    assert finals["P:HC-GO:HC"] > 2 * finals["P:R-GO:R"]
+
+
+def test_a_configuration_without_learning_is_measured_at_every_evaluation_point(finished):
+    for trial in range(2):
+        curve = read_curve_csv(configuration_dir(finished, "handcoded", "random") / f"trial_{trial:03d}" / "curve.csv")
+        assert [p.episodes for p in curve] == POINTS
+        assert len({p.mean_hold_time_s for p in curve}) > 1  # measured at each point, not copied
+
+
+def test_table2_writes_two_three_by_three_tables(finished):
+    data = json.loads((finished / "table2.json").read_text())
+    tables = {t["study"]: t for t in data["tables"]}
+    assert set(tables) == {PASS, GETOPEN}
+    for table in tables.values():
+        assert len(table["cells"]) == 3 and all(len(row) == 3 for row in table["cells"])
+        assert all(len(cell["values"]) == 2 for row in table["cells"] for cell in row)
+        for column in range(3):
+            assert sum(row[column]["best"] for row in table["cells"]) == 1
+    # Pass learned with GO:L tested with GO:L and GetOpen learned with P:L tested with P:L are the same
+    # pair of policies (P:L-GO:L's) on the same seeds.
+    assert tables[PASS]["cells"][2][2]["values"] == tables[GETOPEN]["cells"][2][2]["values"]
+    markdown = (finished / "table2.md").read_text()
+    assert markdown.count("| GO:") == 3 and markdown.count("| P:") == 3
+
+
+def test_running_again_skips_finished_work(copy, monkeypatch):
+    checkpoint = configuration_dir(copy, LEARNED, LEARNED) / "trial_001" / "checkpoint.npz"
+    before = checkpoint.stat().st_mtime_ns
+    (configuration_dir(copy, LEARNED, LEARNED) / "summary.json").unlink()  # resumed through the train API
+    forbid_playing(monkeypatch)
+    skipped = []
+    for command in ("figure3", "table2"):
+        result = invoke(command, copy)
+        assert result.exit_code == 0, result.output + repr(result.exception)
+        skipped.append(result.output.count("finished before, skipped"))
+    assert skipped == [8, 5]  # figure3 resumed P:L-GO:L (no summary) without playing; table2 needs 5
+    assert checkpoint.stat().st_mtime_ns == before
+    assert (configuration_dir(copy, LEARNED, LEARNED) / "summary.json").is_file()
+
+
+def test_an_unfinished_evaluation_continues_where_it_stopped(copy, monkeypatch):
+    where = configuration_dir(copy, "handcoded", "handcoded")
+    path = where / "trial_001" / "curve.csv"
+    complete = read_curve_csv(path)
+    write_curve_csv(path, complete[:-2])
+    played = []
+    original = experiments.evaluate
+
+    def counting(*args, **kwargs):
+        played.append(args[2])
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(experiments, "evaluate", counting)
+    run = experiments.run_configuration(ExperimentConfig(trials=2, episodes=48, eval_every=8, eval_episodes=4,
+                                                         arenas=4, seed=3), "handcoded", "handcoded", copy,
+                                        threads=1, progress=False)
+    assert len(played) == 2 and not run.skipped
+    assert read_curve_csv(path) == complete  # the same seeds give the same evaluations
+
+
+def test_a_directory_of_other_settings_is_refused(copy):
+    result = CliRunner().invoke(main, ["experiment", "figure3", *TINY, "--eval-episodes", "6", "--out", str(copy)])
+    assert result.exit_code == 2 and "holds a different" in result.output
+
+
+def test_settings_that_cannot_be_trained_are_usage_errors(tmp_path):
+    # Generations of 2 x 1 episodes fit 50 episodes of GO:L, but Algorithm 3's proportions do not.
+    result = CliRunner().invoke(main, ["experiment", "table2", *TINY, "--episodes", "50", "--population", "2",
+                                       "--candidate-episodes", "1", "--out", str(tmp_path)])
+    assert result.exit_code == 2 and "multiple of 6" in result.output
+    assert not any(tmp_path.iterdir())
+
+
+def test_every_cell_of_a_table_reports_its_trials():
+    cell = Cell((4.0, 6.0), best=False, p_value=0.2)
+    # mean 5, sample standard deviation sqrt(2), s.e. sqrt(2) / sqrt(2) = 1.
+    assert (cell.mean, cell.stderr, cell.significant) == (5.0, 1.0, False)
+
+
+def test_configurations_are_seeded_independently():
+    exp = ExperimentConfig(seed=3)
+    seeds = {exp.train_config(p, g).seed for p, g in (("random", LEARNED), (LEARNED, LEARNED), (LEARNED, "random"))}
+    seeds.add(exp.fixed_record("random", "random")["seed"])
+    assert len(seeds) == 4
+    assert exp.train_config(LEARNED, LEARNED).seed == ExperimentConfig(seed=3).train_config(LEARNED, LEARNED).seed

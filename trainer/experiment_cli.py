@@ -1,0 +1,114 @@
+"""``keepaway experiment figure3`` and ``keepaway experiment table2``: the paper's experiments in the
+batched mode (spec `keepaway-task.md` 8; :mod:`trainer.experiments`)."""
+
+from __future__ import annotations
+
+import functools
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import click
+
+Command = Callable[..., None]
+
+
+def experiment_options(command: Command) -> Command:
+    """The options both experiments share: the size of the run (a short version fits on a laptop) and
+    where it goes."""
+    options = [
+        click.option("--trials", type=int, default=20, show_default=True,
+                     help="Independent trials per configuration."),
+        click.option("--episodes", type=int, default=30_000, show_default=True,
+                     help="Training episodes per trial (Algorithm 3 is scaled to it: a multiple of 6)."),
+        click.option("--eval-every", type=int, default=None,
+                     help="Training episodes between frozen evaluations [--episodes / 12: the paper's 2,500]."),
+        click.option("--eval-episodes", type=int, default=500, show_default=True, help="Episodes per evaluation."),
+        click.option("--arenas", type=int, default=25, show_default=True,
+                     help="Arenas per CEM candidate and per evaluation."),
+        click.option("--population", type=int, default=20, show_default=True, help="CEM candidates per generation."),
+        click.option("--elite", type=int, default=5, show_default=True, help="CEM candidates refitted to."),
+        click.option("--candidate-episodes", type=int, default=125, show_default=True,
+                     help="Episodes per CEM candidate."),
+        click.option("--seed", type=int, default=0, show_default=True, help="Seed of the whole experiment."),
+        click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=Path("experiment_out"),
+                     show_default=True, help="Directory of the experiment: one subdirectory per configuration; "
+                                             "running again continues it."),
+        click.option("--threads", type=int, default=None, help="Threads stepping arenas [numba's thread count]."),
+        click.option("--no-progress", is_flag=True, help="No progress bars."),
+    ]
+    return functools.reduce(lambda f, option: option(f), reversed(options), command)
+
+
+def _experiment(trials: int, episodes: int, eval_every: int | None, eval_episodes: int, arenas: int,
+                population: int, elite: int, candidate_episodes: int, seed: int) -> Any:
+    from trainer.cem import CEMConfig
+    from trainer.experiments import ExperimentConfig, default_eval_every
+
+    try:
+        cem = CEMConfig(population=population, elite=elite, episodes_per_candidate=candidate_episodes)
+        exp = ExperimentConfig(trials, episodes, default_eval_every(episodes) if eval_every is None else eval_every,
+                               eval_episodes, arenas, seed, cem)
+        exp.check()
+    except ValueError as exc:
+        raise click.UsageError(str(exc)) from None
+    return exp
+
+
+def _report(run: Any) -> None:
+    final = run.final()
+    state = "finished before, skipped" if run.skipped else "done"
+    click.echo(f"{run.name}: {state}; final evaluation {final.mean_hold_time_s:.2f} s +- "
+               f"{final.stderr_hold_time_s:.2f} (s.e., {len(run.curves)} trials)")
+
+
+def _run(what: Callable[..., Any], exp: Any, out: Path, threads: int | None, no_progress: bool) -> Any:
+    try:
+        return what(exp, out, threads=threads, progress=not no_progress, on_configuration=_report)
+    except ValueError as exc:
+        raise click.UsageError(str(exc)) from None
+    except KeyboardInterrupt:
+        click.echo(f"keepaway experiment: interrupted; run the same command again to continue in {out}", err=True)
+        sys.exit(130)
+
+
+@click.group("experiment")
+def experiment_group() -> None:
+    """The paper's experiments: Figure 3's learning curves and Table 2's specialisation cross-tests."""
+
+
+@experiment_group.command("figure3")
+@experiment_options
+def figure3_command(trials: int, episodes: int, eval_every: int | None, eval_episodes: int, arenas: int,
+                    population: int, elite: int, candidate_episodes: int, seed: int, out: Path,
+                    threads: int | None, no_progress: bool) -> None:
+    """Train the nine Pass x GetOpen configurations and plot them grouped by Pass and by GetOpen."""
+    from trainer.experiments import figure3
+
+    exp = _experiment(trials, episodes, eval_every, eval_episodes, arenas, population, elite, candidate_episodes,
+                      seed)
+    _run(figure3, exp, out, threads, no_progress)
+    click.echo(f"figure: {out / 'figure3.png'}; final evaluations: {out / 'figure3.csv'}, {out / 'figure3.json'}")
+
+
+@experiment_group.command("table2")
+@experiment_options
+def table2_command(trials: int, episodes: int, eval_every: int | None, eval_episodes: int, arenas: int,
+                   population: int, elite: int, candidate_episodes: int, seed: int, out: Path,
+                   threads: int | None, no_progress: bool) -> None:
+    """Test each learned Pass policy with every GetOpen and each learned GetOpen with every Pass."""
+    from trainer.experiments import table2
+
+    exp = _experiment(trials, episodes, eval_every, eval_episodes, arenas, population, elite, candidate_episodes,
+                      seed)
+    tables = _run(table2, exp, out, threads, no_progress)
+    click.echo("")
+    for table in tables:
+        click.echo(table.markdown())
+        hits = sum(table.best_on_diagonal())
+        click.echo(f"best entry from the policy trained with the same counterpart in {hits} of 3 columns\n")
+    click.echo(f"tables: {out / 'table2.md'}, {out / 'table2.json'}")
+
+
+commands = [experiment_group]

@@ -1,0 +1,559 @@
+"""The paper's experiments (spec `keepaway-task.md` 8): Figure 3's nine configurations and Table 2's
+specialisation cross-tests, built on :mod:`trainer.train`.
+
+Figure 3: Pass in {R, HC, L} x GetOpen in {R, HC, L}, each configuration (``P:HC-GO:L``) in its own
+directory of the experiment's output. A configuration that learns is a :func:`trainer.train.train`
+training (one learned behaviour: one phase; both: Algorithm 3, scaled to the experiment's length); one
+that learns nothing is evaluated at the same evaluation points with the same arena seeds, so its curve is
+flat but measured. Every directory records its configuration; running the experiment again skips the
+finished configurations, continues the unfinished ones from their checkpoints and refuses a directory
+that holds a different configuration.
+
+Table 2: a Pass policy learned with GetOpen X (``P:L-GO:X``) is tested with GetOpen Y, and a GetOpen
+policy learned with Pass X (``P:X-GO:L``) with Pass Y, for X, Y in {R, HC, L}. A learned counterpart Y is
+the one learned in ``P:L-GO:L``'s trial of the same number. Each entry is the mean over trials of the
+trials' mean hold times with its standard error; an entry marked ``*`` differs from its column's best
+(Welch's t-test over trials, p < 0.05). The paper expects each column's best on the diagonal.
+
+Every configuration has its own seed, derived from the experiment's and the configuration's place in
+the 3 x 3 grid, so configurations are independent samples as the significance tests assume (with one
+shared seed, P:R-GO:L and P:L-GO:L would play identical first CEM generations). Table 2's tests of a
+trial all play the same arena seeds (common random numbers).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path
+from typing import Any
+
+from trainer.cem import CEMConfig
+from trainer.curves import CurvePoint, mean_curve, read_curve_csv, write_atomic, write_curve_csv
+from trainer.schedule import (
+    ALGORITHM_3,
+    GETOPEN,
+    LEARNED,
+    PASS,
+    TRAINING_EPISODES,
+    Phase,
+    evaluation_points,
+    training_schedule,
+)
+from trainer.train import (
+    STREAM_EVALUATION,
+    Behaviours,
+    Game,
+    Progress,
+    TrainConfig,
+    derive_seed,
+    evaluate,
+    load_checkpoint,
+    read_config,
+    train,
+    trial_dir,
+)
+
+POLICIES = ("random", "handcoded", LEARNED)  # the paper's R, HC, L, in its order
+SHORT = {"random": "R", "handcoded": "HC", LEARNED: "L"}
+SIGNIFICANCE = 0.05  # keepaway-task.md 8 / the issue: Welch's t-test, p < 0.05
+STREAM_CROSS_TEST = 5  # a trial's random stream for Table 2's tests (after trainer.train's streams 0-4)
+INTERVALS = 12  # keepaway-task.md 8: an evaluation every 2,500 of 30,000 episodes
+FIXED_RECORD = "fixed.json"  # a configuration that learns nothing records itself here (a training: config.json)
+
+
+def configuration_name(pass_policy: str, getopen_policy: str) -> str:
+    """``P:HC-GO:L`` (keepaway-task.md 8)."""
+    return f"P:{SHORT[pass_policy]}-GO:{SHORT[getopen_policy]}"
+
+
+def configuration_dir(out: Path, pass_policy: str, getopen_policy: str) -> Path:
+    """The configuration's directory: its name without colons (``P_HC-GO_L``), which some file systems refuse."""
+    return out / configuration_name(pass_policy, getopen_policy).replace(":", "_")
+
+
+def default_eval_every(episodes: int) -> int:
+    """The paper's evaluation interval scaled to a training of ``episodes``: 12 intervals (at least one episode)."""
+    return max(1, episodes // INTERVALS)
+
+
+@dataclass(frozen=True)
+class ExperimentConfig:
+    """What every configuration of an experiment shares (keepaway-task.md 8 unless noted)."""
+
+    trials: int = 20  # "at least 20 independent trials"
+    episodes: int = TRAINING_EPISODES
+    eval_every: int = 2_500
+    eval_episodes: int = 500
+    arenas: int = 25  # ours: arenas per CEM candidate and per evaluation (trainer.train)
+    seed: int = 0
+    cem: CEMConfig = CEMConfig()
+
+    def schedule(self, pass_policy: str, getopen_policy: str) -> tuple[Phase, ...]:
+        """The phases of a learning configuration: one phase of ``episodes``, or with both behaviours
+        learned Algorithm 3 (keepaway-task.md 7) scaled to ``episodes``, which must keep its proportions
+        exact (a multiple of 6)."""
+        schedule = None
+        if pass_policy == LEARNED and getopen_policy == LEARNED:
+            if any(self.episodes * p.episodes % TRAINING_EPISODES for p in ALGORITHM_3):
+                raise ValueError(f"Algorithm 3 scaled to {self.episodes} episodes has fractional phases; "
+                                 f"choose --episodes a multiple of 6")
+            schedule = tuple(Phase(p.behaviour, self.episodes * p.episodes // TRAINING_EPISODES) for p in ALGORITHM_3)
+        return training_schedule(pass_policy, getopen_policy, self.episodes, schedule)
+
+    def configuration_seed(self, pass_policy: str, getopen_policy: str) -> int:
+        """The seed of one configuration (module docstring)."""
+        return derive_seed(self.seed, POLICIES.index(pass_policy), POLICIES.index(getopen_policy))
+
+    def train_config(self, pass_policy: str, getopen_policy: str) -> TrainConfig:
+        """The training of a configuration in which at least one behaviour learns."""
+        return TrainConfig(pass_policy, getopen_policy, self.schedule(pass_policy, getopen_policy), self.trials,
+                           self.eval_every, self.eval_episodes, self.arenas,
+                           self.configuration_seed(pass_policy, getopen_policy), cem=self.cem)
+
+    def points(self) -> list[int]:
+        """Episodes trained at each evaluation: the same for every configuration."""
+        return evaluation_points((Phase(PASS, self.episodes),), self.eval_every)
+
+    def fixed_record(self, pass_policy: str, getopen_policy: str) -> dict[str, Any]:
+        """What the curve of a configuration that learns nothing depends on (its ``fixed.json``)."""
+        return {"name": configuration_name(pass_policy, getopen_policy), "pass_policy": pass_policy,
+                "getopen_policy": getopen_policy, "trials": self.trials, "points": self.points(),
+                "eval_episodes": self.eval_episodes, "arenas": self.arenas,
+                "seed": self.configuration_seed(pass_policy, getopen_policy)}
+
+    def check(self) -> None:
+        """ValueError (one line) unless every configuration of Figure 3 can be built."""
+        for p in POLICIES:
+            for g in POLICIES:
+                if LEARNED in (p, g):
+                    self.train_config(p, g)
+        if min(self.trials, self.episodes, self.eval_every, self.eval_episodes, self.arenas) < 1:
+            raise ValueError("trials, episodes, eval_every, eval_episodes and arenas must be at least 1")
+
+
+def experiment_game() -> Game:
+    """The game every configuration plays: :class:`TrainConfig`'s default (3v2 on 20 m x 20 m, classic
+    parameters), which the experiments do not change."""
+    return TrainConfig().game()
+
+
+@dataclass(frozen=True)
+class ConfigurationRun:
+    """A configuration's learning curves, one per trial, and whether this run found it already finished."""
+
+    name: str
+    pass_policy: str
+    getopen_policy: str
+    curves: list[list[CurvePoint]]
+    skipped: bool
+
+    def mean_curve(self) -> list[CurvePoint]:
+        return mean_curve(self.curves)
+
+    def final(self) -> CurvePoint:
+        """The last evaluation: mean over trials and its standard error."""
+        return self.mean_curve()[-1]
+
+
+def _read_json(path: Path) -> Any:
+    return json.loads(path.read_text()) if path.is_file() else None
+
+
+def _trial_curves(summary: dict[str, Any]) -> list[list[CurvePoint]]:
+    return [[CurvePoint(**p) for p in t["curve"]] for t in summary["trials"]]
+
+
+def _finished(summary: dict[str, Any] | None, trials: int) -> bool:
+    return summary is not None and len(summary["trials"]) == trials and all(t["finished"] for t in summary["trials"])
+
+
+def run_configuration(exp: ExperimentConfig, pass_policy: str, getopen_policy: str, out: Path,
+                      threads: int | None = None, progress: bool = True) -> ConfigurationRun:
+    """Train (or evaluate) one configuration in its directory of ``out``, skipping it when finished and
+    continuing it when not; ValueError if the directory holds a different configuration."""
+    where = configuration_dir(out, pass_policy, getopen_policy)
+    name = configuration_name(pass_policy, getopen_policy)
+    if LEARNED not in (pass_policy, getopen_policy):
+        return _run_fixed(exp, pass_policy, getopen_policy, where, threads, progress)
+    config = exp.train_config(pass_policy, getopen_policy)
+    started = (where / "config.json").is_file()
+    if started and read_config(where) != config:
+        raise ValueError(f"{where} holds a different training of {name}; use another --out or the same settings")
+    summary = _read_json(where / "summary.json") if started else None
+    skipped = _finished(summary, config.trials)
+    if not skipped:
+        summary = train(config, where, resume=started, threads=threads, progress=progress)
+    return ConfigurationRun(name, pass_policy, getopen_policy, _trial_curves(summary), skipped)
+
+
+def _run_fixed(exp: ExperimentConfig, pass_policy: str, getopen_policy: str, where: Path, threads: int | None,
+               progress: bool) -> ConfigurationRun:
+    """A configuration that learns nothing: its policies evaluated at every evaluation point of the
+    trainings, with the seeds a training of its seed would evaluate with; a trial's ``curve.csv`` grows
+    point by point, so a killed run continues where it stopped."""
+    from tqdm import tqdm
+
+    record = exp.fixed_record(pass_policy, getopen_policy)
+    name = record["name"]
+    where.mkdir(parents=True, exist_ok=True)
+    stored = _read_json(where / FIXED_RECORD)
+    if stored is not None and stored != record:
+        raise ValueError(f"{where} holds a different evaluation of {name}; use another --out or the same settings")
+    write_atomic(where / FIXED_RECORD, json.dumps(record, indent=1).encode())
+    points = record["points"]
+    curves = []
+    for trial in range(exp.trials):
+        path = trial_dir(where, trial) / "curve.csv"
+        curves.append(read_curve_csv(path) if path.is_file() else [])
+    skipped = all(len(c) == len(points) for c in curves)
+    with tqdm(total=exp.trials * len(points) * exp.eval_episodes, unit="ep", dynamic_ncols=True, desc=name,
+              initial=sum(len(c) for c in curves) * exp.eval_episodes, disable=not progress or skipped) as bar:
+        for trial, curve in enumerate(curves):
+            trial_dir(where, trial).mkdir(exist_ok=True)
+            for episodes in points[len(curve):]:
+                seed = derive_seed(record["seed"], trial, STREAM_EVALUATION, episodes)
+                result = evaluate(experiment_game(), Behaviours(pass_policy, getopen_policy), seed,
+                                  exp.eval_episodes, exp.arenas, threads, bar.update)
+                summary = result.summary()
+                curve.append(CurvePoint(episodes, summary["mean_hold_time_s"], summary["stderr_hold_time_s"]))
+                write_curve_csv(trial_dir(where, trial) / "curve.csv", curve)
+    trials = [{"trial": t, "episodes": exp.episodes, "finished": True, "curve": [asdict(p) for p in c]}
+              for t, c in enumerate(curves)]
+    final = mean_curve(curves)[-1]
+    write_atomic(where / "summary.json", json.dumps(
+        {"name": name, "config": record, "trials": trials, "curve": [asdict(p) for p in mean_curve(curves)],
+         "final_mean_hold_time_s": final.mean_hold_time_s, "final_stderr_hold_time_s": final.stderr_hold_time_s},
+        indent=1, allow_nan=True).encode())
+    return ConfigurationRun(name, pass_policy, getopen_policy, curves, skipped)
+
+
+
+# -- Figure 3 ----------------------------------------------------------------------------------------
+def figure3(exp: ExperimentConfig, out: Path, threads: int | None = None, progress: bool = True,
+            on_configuration: Callable[[ConfigurationRun], None] | None = None) -> list[ConfigurationRun]:
+    """Run the nine configurations in ``out`` (each skipped when finished), then write ``figure3.png``
+    (:func:`plot_figure3`), ``figure3.csv`` and ``figure3.json`` (final evaluations); returns the runs
+    in the order P:R-GO:R, P:R-GO:HC, ..., P:L-GO:L."""
+    exp.check()
+    out.mkdir(parents=True, exist_ok=True)
+    runs = []
+    for pass_policy in POLICIES:
+        for getopen_policy in POLICIES:
+            run = run_configuration(exp, pass_policy, getopen_policy, out, threads, progress)
+            runs.append(run)
+            if on_configuration is not None:
+                on_configuration(run)
+    plot_figure3(out / "figure3.png", runs)
+    write_final_evaluations(out, exp, runs)
+    return runs
+
+
+def _draw_curve(ax: Any, label: str, points: Sequence[CurvePoint]) -> None:
+    """A mean curve with its standard-error band where it is defined (as :func:`trainer.curves.plot_curves`)."""
+    x = [p.episodes for p in points]
+    y = [p.mean_hold_time_s for p in points]
+    se = [0.0 if math.isnan(p.stderr_hold_time_s) else p.stderr_hold_time_s for p in points]
+    (line,) = ax.plot(x, y, marker="o", markersize=3, label=label)
+    ax.fill_between(x, [a - b for a, b in zip(y, se)], [a + b for a, b in zip(y, se)], color=line.get_color(),
+                    alpha=0.25, linewidth=0)
+
+
+def plot_figure3(path: Path, runs: Sequence[ConfigurationRun]) -> None:
+    """The paper's two-column layout as one PNG, written atomically: left, one panel per Pass policy with
+    its three GetOpen curves; right, one panel per GetOpen policy with its three Pass curves. All panels
+    share the axes, so heights compare across them."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(11.0, 10.0), dpi=100, layout="constrained")
+    axes = fig.subplots(len(POLICIES), 2, sharex=True, sharey=True)
+    trials = sorted({len(r.curves) for r in runs})
+    fig.suptitle(f"Keepaway 3v2: mean hold time over {'/'.join(map(str, trials))} trials (band: standard error)")
+    for row, policy in enumerate(POLICIES):
+        for column, (panel, grouped_by, other) in enumerate((("Pass", "pass_policy", "GO"),
+                                                            ("GetOpen", "getopen_policy", "P"))):
+            ax = axes[row, column]
+            for run in runs:
+                if getattr(run, grouped_by) == policy:
+                    counterpart = run.getopen_policy if grouped_by == "pass_policy" else run.pass_policy
+                    _draw_curve(ax, f"{other}:{SHORT[counterpart]}", run.mean_curve())
+            ax.set_title(f"{panel}: {SHORT[policy]}")
+            ax.grid(True, alpha=0.3)
+            ax.legend(loc="best", fontsize="small")
+            if row == len(POLICIES) - 1:
+                ax.set_xlabel("training episodes")
+            if column == 0:
+                ax.set_ylabel("mean hold time (s)")
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png")
+    write_atomic(path, buffer.getvalue())
+
+
+FINAL_HEADER = ("name", "pass", "getopen", "trials", "episodes", "final_mean_hold_time_s", "final_stderr_hold_time_s")
+
+
+def write_final_evaluations(out: Path, exp: ExperimentConfig, runs: Sequence[ConfigurationRun]) -> None:
+    """``figure3.csv`` (one row per configuration: its last evaluation, mean over trials and standard
+    error) and ``figure3.json`` (the same with the experiment's settings and every mean curve)."""
+    rows = []
+    for run in runs:
+        final = run.final()
+        rows.append({"name": run.name, "pass": SHORT[run.pass_policy], "getopen": SHORT[run.getopen_policy],
+                     "trials": len(run.curves), "episodes": final.episodes,
+                     "final_mean_hold_time_s": final.mean_hold_time_s,
+                     "final_stderr_hold_time_s": final.stderr_hold_time_s})
+    text = io.StringIO()
+    writer = csv.DictWriter(text, FINAL_HEADER, lineterminator="\n")
+    writer.writeheader()
+    writer.writerows(rows)
+    write_atomic(out / "figure3.csv", text.getvalue().encode())
+    configurations = [{**row, "curve": [asdict(p) for p in run.mean_curve()]} for row, run in zip(rows, runs)]
+    write_atomic(out / "figure3.json", json.dumps({"experiment": asdict(exp), "configurations": configurations},
+                                                  indent=1, allow_nan=True).encode())
+
+
+# -- Table 2 -----------------------------------------------------------------------------------------
+STUDIES = (PASS, GETOPEN)  # the learned behaviour under test
+
+
+def trained_configuration(study: str, counterpart: str) -> tuple[str, str]:
+    """(Pass, GetOpen) of the configuration in which ``study`` learned with ``counterpart``."""
+    return (LEARNED, counterpart) if study == PASS else (counterpart, LEARNED)
+
+
+def with_counterpart(trained: Behaviours, study: str, counterpart: str, partner: Behaviours) -> Behaviours:
+    """``trained``'s learned ``study`` behaviour played with the other behaviour ``counterpart``; a learned
+    counterpart is ``partner``'s (the same trial of P:L-GO:L)."""
+    if study == PASS:
+        return replace(trained, getopen_policy=counterpart,
+                       getopen_theta=partner.getopen_theta if counterpart == LEARNED else None)
+    return replace(trained, pass_policy=counterpart,
+                   pass_arrays=partner.pass_arrays if counterpart == LEARNED else None)
+
+
+def _behaviours(out: Path, pass_policy: str, getopen_policy: str, trial: int) -> Behaviours:
+    state = load_checkpoint(configuration_dir(out, pass_policy, getopen_policy), trial)
+    if state is None:
+        raise ValueError(f"{configuration_name(pass_policy, getopen_policy)} has no trial {trial} in {out}")
+    return state.behaviours
+
+
+def cross_test_trial(exp: ExperimentConfig, out: Path, trial: int, threads: int | None = None,
+                     progress: Progress | None = None) -> dict[str, list[list[float]]]:
+    """Trial ``trial``'s mean hold times of Table 2: for each study, [trained with X][tested with Y].
+    Every test plays the same arena seeds (common random numbers)."""
+    game = experiment_game()
+    partner = _behaviours(out, LEARNED, LEARNED, trial)
+    seed = derive_seed(exp.seed, trial, STREAM_CROSS_TEST)
+    values: dict[str, list[list[float]]] = {}
+    for study in STUDIES:
+        values[study] = []
+        for trained_with in POLICIES:
+            trained = _behaviours(out, *trained_configuration(study, trained_with), trial)
+            values[study].append([
+                evaluate(game, with_counterpart(trained, study, tested_with, partner), seed, exp.eval_episodes,
+                         exp.arenas, threads, progress).summary()["mean_hold_time_s"]
+                for tested_with in POLICIES])
+    return values
+
+
+def welch_p_value(a: Sequence[float], b: Sequence[float]) -> float:
+    """Two-sided p-value of Welch's t-test of equal means (unequal variances); NaN when it is undefined
+    (fewer than two values in a sample, or both samples without spread)."""
+    n1, n2 = len(a), len(b)
+    if n1 < 2 or n2 < 2:
+        return float("nan")
+    m1, m2 = sum(a) / n1, sum(b) / n2
+    v1 = sum((x - m1) ** 2 for x in a) / (n1 - 1) / n1
+    v2 = sum((x - m2) ** 2 for x in b) / (n2 - 1) / n2
+    if v1 + v2 == 0.0:
+        return float("nan")
+    t = (m1 - m2) / math.sqrt(v1 + v2)
+    df = (v1 + v2) ** 2 / (v1 ** 2 / (n1 - 1) + v2 ** 2 / (n2 - 1))
+    return regularized_beta(df / (df + t * t), df / 2.0, 0.5)
+
+
+BETA_ITERATIONS = 500  # continued-fraction terms; it converges in far fewer for the t-test's arguments
+BETA_EPSILON = 1e-15  # relative change of a term at convergence
+BETA_TINY = 1e-300  # Lentz's guard against division by zero
+
+
+def regularized_beta(x: float, a: float, b: float) -> float:
+    """The regularised incomplete beta function I_x(a, b), the Student t distribution's tail (Numerical
+    Recipes 6.4: Lentz's continued fraction, on the side of x where it converges fast). Ours, so that
+    Table 2 needs no scipy at run time."""
+    if x <= 0.0 or x >= 1.0:
+        return 0.0 if x <= 0.0 else 1.0
+    if x > (a + 1.0) / (a + b + 2.0):
+        return 1.0 - regularized_beta(1.0 - x, b, a)
+    log_front = math.lgamma(a + b) - math.lgamma(a) - math.lgamma(b) + a * math.log(x) + b * math.log1p(-x)
+    c, d = 1.0, 1.0 - (a + b) * x / (a + 1.0)
+    d = 1.0 / (d if abs(d) > BETA_TINY else BETA_TINY)
+    fraction = d
+    for m in range(1, BETA_ITERATIONS + 1):
+        for numerator in (m * (b - m) * x / ((a + 2 * m - 1) * (a + 2 * m)),
+                          -(a + m) * (a + b + m) * x / ((a + 2 * m) * (a + 2 * m + 1))):
+            d = 1.0 + numerator * d
+            d = 1.0 / (d if abs(d) > BETA_TINY else BETA_TINY)
+            c = 1.0 + numerator / c
+            c = c if abs(c) > BETA_TINY else BETA_TINY
+            fraction *= c * d
+        if abs(c * d - 1.0) < BETA_EPSILON:
+            break
+    return math.exp(log_front) * fraction / a
+
+
+@dataclass(frozen=True)
+class Cell:
+    """One entry of Table 2: the trials' mean hold times, whether it is its column's best, and the p-value
+    of Welch's test against that best (NaN for the best itself)."""
+
+    values: tuple[float, ...]
+    best: bool
+    p_value: float
+
+    @property
+    def mean(self) -> float:
+        return self._over_trials().mean_hold_time_s
+
+    @property
+    def stderr(self) -> float:
+        return self._over_trials().stderr_hold_time_s
+
+    def _over_trials(self) -> CurvePoint:
+        """Mean and standard error over trials, the statistic of a learning curve's point (trainer.curves)."""
+        return mean_curve([[CurvePoint(0, v, math.nan)] for v in self.values])[0]
+
+    @property
+    def significant(self) -> bool:
+        """Differs from the column's best at p < 0.05."""
+        return self.p_value < SIGNIFICANCE
+
+    def text(self) -> str:
+        entry = f"{self.mean:.2f} +- {self.stderr:.2f}{'*' if self.significant else ''}"
+        return f"**{entry}**" if self.best else entry
+
+
+def table_cells(values: Sequence[Sequence[Sequence[float]]]) -> list[list[Cell]]:
+    """Cells of a table from its values [row][column][trial]: each column's best is the highest mean,
+    every entry tested against it."""
+    rows, columns = len(values), len(values[0])
+    cells: list[list[Cell | None]] = [[None] * columns for _ in range(rows)]
+    for c in range(columns):
+        column = [values[r][c] for r in range(rows)]
+        best = max(range(rows), key=lambda r: sum(column[r]) / len(column[r]))
+        for r in range(rows):
+            p = math.nan if r == best else welch_p_value(column[r], column[best])
+            cells[r][c] = Cell(tuple(column[r]), r == best, p)
+    return cells  # type: ignore[return-value]
+
+
+@dataclass(frozen=True)
+class CrossTable:
+    """Table 2's half for one study: the policy learned with counterpart X (row) tested with Y (column)."""
+
+    study: str
+    cells: list[list[Cell]]
+
+    @property
+    def counterpart_prefix(self) -> str:
+        return "GO" if self.study == PASS else "P"
+
+    def best_on_diagonal(self) -> list[bool]:
+        """Per column: is its best the policy trained with that very counterpart (the paper's expectation)?"""
+        return [self.cells[c][c].best for c in range(len(POLICIES))]
+
+    def markdown(self) -> str:
+        learned = "Pass" if self.study == PASS else "GetOpen"
+        other = "GetOpen" if self.study == PASS else "Pass"
+        prefix = self.counterpart_prefix
+        trials = len(self.cells[0][0].values)
+        lines = [f"### {learned} learned with {other} X (rows), tested with {other} Y (columns)", "",
+                 f"Mean hold time (s) +- standard error over {trials} trial{'s' if trials > 1 else ''}; bold: "
+                 f"the column's best; `*`: differs from it (Welch's t-test, p < {SIGNIFICANCE}).", "",
+                 f"| {learned} trained with | " + " | ".join(f"tested with {prefix}:{SHORT[p]}" for p in POLICIES)
+                 + " |",
+                 "|---|" + "---:|" * len(POLICIES)]
+        for policy, row in zip(POLICIES, self.cells):
+            lines.append(f"| {prefix}:{SHORT[policy]} | " + " | ".join(cell.text() for cell in row) + " |")
+        return "\n".join(lines) + "\n"
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"study": self.study, "rows": [f"{self.counterpart_prefix}:{SHORT[p]}" for p in POLICIES],
+                "columns": [f"{self.counterpart_prefix}:{SHORT[p]}" for p in POLICIES],
+                "best_on_diagonal": self.best_on_diagonal(),
+                "cells": [[{"mean_hold_time_s": c.mean, "stderr_hold_time_s": c.stderr, "trials": len(c.values),
+                            "best": c.best, "p_value": c.p_value, "significant": c.significant,
+                            "values": list(c.values)} for c in row] for row in self.cells]}
+
+
+def table2(exp: ExperimentConfig, out: Path, threads: int | None = None, progress: bool = True,
+           on_configuration: Callable[[ConfigurationRun], None] | None = None) -> list[CrossTable]:
+    """Train the five configurations Table 2 needs (as :func:`figure3` would, in the same directories),
+    cross-test every trial's learned policies (cached per trial in ``table2_tests/``, so a re-run only
+    plays what is missing), and write ``table2.json`` and ``table2.md``; returns the Pass and GetOpen
+    tables."""
+    from tqdm import tqdm
+
+    exp.check()
+    out.mkdir(parents=True, exist_ok=True)
+    needed = {trained_configuration(s, p) for s in STUDIES for p in POLICIES}
+    for pass_policy, getopen_policy in sorted(needed, key=lambda c: (POLICIES.index(c[0]), POLICIES.index(c[1]))):
+        run = run_configuration(exp, pass_policy, getopen_policy, out, threads, progress)
+        if on_configuration is not None:
+            on_configuration(run)
+    tests = out / "table2_tests"
+    tests.mkdir(exist_ok=True)
+    settings = asdict(exp)
+    per_trial = []
+    cells_per_trial = len(STUDIES) * len(POLICIES) ** 2
+    with tqdm(total=exp.trials * cells_per_trial * exp.eval_episodes, unit="ep", dynamic_ncols=True,
+              desc="Table 2 tests", disable=not progress) as bar:
+        for trial in range(exp.trials):
+            path = tests / f"trial_{trial:03d}.json"
+            stored = _read_json(path)
+            if stored is None or stored["experiment"] != settings:
+                stored = {"experiment": settings, "trial": trial,
+                          "values": cross_test_trial(exp, out, trial, threads, bar.update)}
+                write_atomic(path, json.dumps(stored, allow_nan=True).encode())
+            else:
+                bar.update(cells_per_trial * exp.eval_episodes)
+            per_trial.append(stored["values"])
+    tables = [CrossTable(study, table_cells([[[v[study][r][c] for v in per_trial] for c in range(len(POLICIES))]
+                                             for r in range(len(POLICIES))]))
+              for study in STUDIES]
+    write_atomic(out / "table2.json", json.dumps({"experiment": settings, "tables": [t.to_dict() for t in tables]},
+                                                 indent=1, allow_nan=True).encode())
+    write_atomic(out / "table2.md", "\n".join(t.markdown() for t in tables).encode())
+    return tables
+
+
+__all__ = [
+    "Cell",
+    "ConfigurationRun",
+    "CrossTable",
+    "ExperimentConfig",
+    "POLICIES",
+    "configuration_dir",
+    "configuration_name",
+    "cross_test_trial",
+    "default_eval_every",
+    "experiment_game",
+    "figure3",
+    "plot_figure3",
+    "regularized_beta",
+    "run_configuration",
+    "table2",
+    "table_cells",
+    "trained_configuration",
+    "welch_p_value",
+    "with_counterpart",
+    "write_final_evaluations",
+]
