@@ -101,8 +101,8 @@ def dash_power_for(
     dash_power_rate * effort, clipped to the power range."""
     rad = math.radians(body)
     n = max(1.0, cycles)
-    return dash_power_along(dx, dy, math.cos(rad), math.sin(rad), vx, vy, effort, geometric_sum(kp.player_decay, n),
-                            kp)
+    decay_sum = geometric_sum(kp.player_decay, n)
+    return dash_power_along(dx, dy, math.cos(rad), math.sin(rad), vx, vy, effort, decay_sum, kp)
 
 
 @njit(cache=True)

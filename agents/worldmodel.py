@@ -314,14 +314,22 @@ def localise_row(r: int, s: ModelState, see: SeeBuffer, flag_pos: np.ndarray, kp
     if n == 0:
         return
     me = s.me[r]
+    # each flag's weight, distance and direction cosines, computed once for both sums
+    wdcs = np.empty((n, 4))
     sw = mqx = mqy = mfx = mfy = 0.0
     for i in range(n):
         d = see.flag_obs[r, i, 0]
         a = math.radians(see.flag_obs[r, i, 1])
         w = _flag_weight(d, kp)
+        ca = math.cos(a)
+        sa = math.sin(a)
+        wdcs[i, 0] = w
+        wdcs[i, 1] = d
+        wdcs[i, 2] = ca
+        wdcs[i, 3] = sa
         sw += w
-        mqx += w * d * math.cos(a)
-        mqy += w * d * math.sin(a)
+        mqx += w * d * ca
+        mqy += w * d * sa
         mfx += w * flag_pos[see.flag_id[r, i], 0]
         mfy += w * flag_pos[see.flag_id[r, i], 1]
     mqx /= sw
@@ -331,11 +339,10 @@ def localise_row(r: int, s: ModelState, see: SeeBuffer, flag_pos: np.ndarray, kp
     if n >= 2:
         dot = cross = 0.0
         for i in range(n):
-            d = see.flag_obs[r, i, 0]
-            a = math.radians(see.flag_obs[r, i, 1])
-            w = _flag_weight(d, kp)
-            qx = d * math.cos(a) - mqx
-            qy = d * math.sin(a) - mqy
+            w = wdcs[i, 0]
+            d = wdcs[i, 1]
+            qx = d * wdcs[i, 2] - mqx
+            qy = d * wdcs[i, 3] - mqy
             fx = flag_pos[see.flag_id[r, i], 0] - mfx
             fy = flag_pos[see.flag_id[r, i], 1] - mfy
             dot += w * (qx * fx + qy * fy)

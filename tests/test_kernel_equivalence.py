@@ -1,0 +1,353 @@
+"""The optimised decision and world-model kernels decide exactly as the straightforward code they replaced.
+
+``agents/skills.py`` fuses the interception travel simulation (decay sums from a table, the body's cosine
+and sine kept between turns, an early stop once the target is provably out of reach), a keeper reuses its
+``fastest_to_ball`` result in ``interception_point``, and ``agents/worldmodel.py`` computes each flag's
+trigonometry once in ``localise_row``. None of this may change a decision or a belief by one bit. The
+references below are the pre-optimisation kernels kept verbatim as plain step-by-step code (spec
+`keepaway-agents.md` 1 step 4, 2.1 step 2; the Procrustes fit of ``localise_row``), compiled by numba
+without caching so their floating-point arithmetic is the kernels' (Python's own ``math.hypot`` rounds
+differently). They are compared on hand-built beliefs and on every belief row of a short batched game.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from numba import njit
+
+from agents.belief import AgentMemory, belief_from_truth, new_memory
+from agents.geometry import direction, distance, final_position, normalize_angle, rolled_out
+from agents.skills import AgentConfig, fastest_to_ball, interception_point
+from agents.worldmodel import ModelState, SeeBuffer, localise_row
+from protocol.landmarks import FLAG_POSITIONS
+from protocol.params import parameter_set
+from server.rng import seed_streams
+from server.world import CMD_DASH, CMD_TURN
+from trainer.batched import BatchedArenas
+
+PARAMS = parameter_set("classic")
+KP = PARAMS.kernel()
+CFG = AgentConfig().kernel()
+K, T = 3, 2
+N = 1 + K + T
+
+
+# ---------------------------------------------------------------------------------------- references
+
+
+@njit
+def _ref_geometric_sum(decay, n):
+    return (1.0 - decay**n) / (1.0 - decay)
+
+
+@njit
+def _ref_rolled_out(px, py, vx, vy, n, decay):
+    f = _ref_geometric_sum(decay, n)
+    return px + vx * f, py + vy * f
+
+
+@njit
+def _ref_turn_moment(angle, speed, kp):
+    m = angle * (1.0 + kp.inertia_moment * speed)
+    return min(kp.max_moment, max(kp.min_moment, m))
+
+
+@njit
+def _ref_dash_power_for(dx, dy, body, vx, vy, effort, cycles, kp):
+    rad = math.radians(body)
+    cs, sn = math.cos(rad), math.sin(rad)
+    forward = dx * cs + dy * sn
+    n = max(1.0, cycles)
+    speed = forward / _ref_geometric_sum(kp.player_decay, n)
+    speed = min(speed, kp.player_speed_max)
+    speed -= vx * cs + vy * sn
+    power = speed / (kp.dash_power_rate * effort)
+    return min(kp.max_dash_power, max(kp.min_dash_power, power))
+
+
+@njit
+def _ref_player_step(px, py, vx, vy, body, effort, cmd, a1, kp):
+    if cmd == CMD_DASH:
+        power = min(kp.max_dash_power, max(kp.min_dash_power, a1))
+        acc = effort * power * kp.dash_power_rate
+        acc = min(acc, kp.player_accel_max) if acc > 0.0 else max(acc, -kp.player_accel_max)
+        rad = math.radians(body)
+        vx += acc * math.cos(rad)
+        vy += acc * math.sin(rad)
+        speed = math.hypot(vx, vy)
+        if speed > kp.player_speed_max:
+            vx *= kp.player_speed_max / speed
+            vy *= kp.player_speed_max / speed
+    elif cmd == CMD_TURN:
+        m = min(kp.max_moment, max(kp.min_moment, a1))
+        body = normalize_angle(body + m / (1.0 + kp.inertia_moment * math.hypot(vx, vy)))
+    px += vx
+    py += vy
+    return px, py, vx * kp.player_decay, vy * kp.player_decay, body
+
+
+@njit
+def _ref_intercept_move(px, py, vx, vy, body, effort, tx, ty, cycles, kp, cfg):
+    qx, qy = _ref_rolled_out(px, py, vx, vy, min(cycles, cfg.intercept_roll_cycles), kp.player_decay)
+    angle = normalize_angle(direction(tx - qx, ty - qy) - body)
+    ahead = distance(qx, qy, tx, ty)
+    far = distance(px, py, tx, ty)
+    if far > cfg.turn_far_distance:
+        ratio = cfg.turn_ratio_far
+    elif far > cfg.turn_mid_distance:
+        ratio = cfg.turn_ratio_mid
+    else:
+        ratio = cfg.turn_ratio_near
+    off_line = ahead * abs(math.sin(math.radians(angle)))
+    behind = ahead > cfg.intercept_back_distance and abs(angle) > 90.0
+    kickable = kp.player_size + kp.kickable_margin + kp.ball_size
+    if off_line > ratio * kickable or behind:
+        return CMD_TURN, _ref_turn_moment(angle, math.hypot(vx, vy), kp)
+    return CMD_DASH, _ref_dash_power_for(tx - px, ty - py, body, vx, vy, effort, cycles, kp)
+
+
+@njit
+def _ref_travel(px, py, vx, vy, body, effort, tx, ty, radius, n, kp, cfg):
+    """Every one of the n moves simulated (no early stop but the original one before the loop)."""
+    reached = n + 1
+    if distance(px, py, tx, ty) - radius > n * max(kp.player_speed_max, math.hypot(vx, vy)):
+        return reached, math.inf
+    for c in range(n + 1):
+        if reached > n and distance(px, py, tx, ty) < radius:
+            reached = c
+        if c == n:
+            break
+        code, a1 = _ref_intercept_move(px, py, vx, vy, body, effort, tx, ty, n - c, kp, cfg)
+        px, py, vx, vy, body = _ref_player_step(px, py, vx, vy, body, effort, code, a1, kp)
+    return reached, distance(px, py, tx, ty)
+
+
+@njit
+def _ref_player_travel(pos, vel, body, effort, me, obj, tx, ty, n, kp, cfg):
+    eff = effort if obj == me else kp.effort_init
+    kickable = kp.player_size + kp.kickable_margin + kp.ball_size
+    return _ref_travel(pos[obj, 0], pos[obj, 1], vel[obj, 0], vel[obj, 1], body[obj], eff, tx, ty, kickable,
+                       n, kp, cfg)
+
+
+@njit
+def _ref_ball_plan(pos, vel, n, still, kp):
+    if still:
+        return pos[0, 0], pos[0, 1]
+    return rolled_out(pos[0, 0], pos[0, 1], vel[0, 0], vel[0, 1], n, kp.ball_decay)
+
+
+@njit
+def _ref_interception_point(pos, vel, body, effort, me, time, still, last_x, last_y, last_time, kp, cfg):
+    """Returns (i, x, y): every candidate cycle's travel simulated in full."""
+    fx, fy = final_position(pos[me, 0], pos[me, 1], vel[me, 0], vel[me, 1], kp.player_decay)
+    kickable = kp.player_size + kp.kickable_margin + kp.ball_size
+    ball_speed = 0.0 if still else math.hypot(vel[0, 0], vel[0, 1])
+    recent = last_time >= 0 and time - last_time <= cfg.stability_window
+    first, stable = -1, -1
+    for i in range(int(cfg.intercept_horizon) + 1):
+        if first >= 0 and i > first + cfg.stability_window:
+            break
+        bx, by = _ref_ball_plan(pos, vel, i, still, kp)
+        if abs(bx) > kp.pitch_length / 2.0 or abs(by) > kp.pitch_width / 2.0:
+            break
+        if distance(fx, fy, bx, by) / kp.player_speed_max > i + kickable:
+            continue
+        reached, end = _ref_player_travel(pos, vel, body, effort, me, me, bx, by, i, kp, cfg)
+        if reached > i:
+            continue
+        if first < 0:
+            first = i
+            if not recent:
+                break
+        if (
+            stable < 0
+            and i <= first + cfg.stability_window
+            and distance(bx, by, last_x, last_y) < cfg.stability_radius
+            and end < cfg.stability_margin * kickable
+            and ball_speed * kp.ball_decay**i > cfg.stability_ball_speed
+        ):
+            stable = i
+    chosen = stable if stable >= 0 else first
+    if chosen < 0:
+        return -1, pos[0, 0], pos[0, 1]
+    x, y = _ref_ball_plan(pos, vel, chosen, still, kp)
+    return chosen, x, y
+
+
+@njit
+def _ref_fastest_to_ball(pos, vel, body, effort, conf, me, first, last, kp, cfg):
+    horizon = int(cfg.intercept_horizon)
+    for i in range(horizon + 1):
+        bx, by = rolled_out(pos[0, 0], pos[0, 1], vel[0, 0], vel[0, 1], i, kp.ball_decay)
+        best, best_c = -1, i + 1
+        for j in range(first, last + 1):
+            if j != me and conf[j] < cfg.player_conf_threshold:
+                continue
+            c, _ = _ref_player_travel(pos, vel, body, effort, me, j, bx, by, i, kp, cfg)
+            if c < best_c:
+                best, best_c = j, c
+        if best >= 0:
+            return best, i
+    return -1, horizon + 1
+
+
+@njit
+def _ref_localise(flag_obs, flag_id, n, flag_pos, body, neck, kp):
+    """(x, y, body) of ``localise_row`` as first written: the trigonometry evaluated in both sums."""
+    rel = (kp.quantize_step_l ** 2 + math.radians(1.0) ** 2) / 12.0
+    sw = mqx = mqy = mfx = mfy = 0.0
+    for i in range(n):
+        d = flag_obs[i, 0]
+        a = math.radians(flag_obs[i, 1])
+        w = 1.0 / (d * d * rel + 0.1 ** 2 / 12.0)
+        sw += w
+        mqx += w * d * math.cos(a)
+        mqy += w * d * math.sin(a)
+        mfx += w * flag_pos[flag_id[i], 0]
+        mfy += w * flag_pos[flag_id[i], 1]
+    mqx /= sw
+    mqy /= sw
+    mfx /= sw
+    mfy /= sw
+    if n >= 2:
+        dot = cross = 0.0
+        for i in range(n):
+            d = flag_obs[i, 0]
+            a = math.radians(flag_obs[i, 1])
+            w = 1.0 / (d * d * rel + 0.1 ** 2 / 12.0)
+            qx = d * math.cos(a) - mqx
+            qy = d * math.sin(a) - mqy
+            fx = flag_pos[flag_id[i], 0] - mfx
+            fy = flag_pos[flag_id[i], 1] - mfy
+            dot += w * (qx * fx + qy * fy)
+            cross += w * (qx * fy - qy * fx)
+        head = math.degrees(math.atan2(cross, dot))
+    else:
+        head = body + neck
+    h = math.radians(head)
+    c = math.cos(h)
+    sn = math.sin(h)
+    return mfx - (c * mqx - sn * mqy), mfy - (sn * mqx + c * mqy), normalize_angle(head - neck)
+
+
+# ------------------------------------------------------------------------------------------ helpers
+
+
+def _memory(last_point: tuple[float, float] | None, last_time: int) -> AgentMemory:
+    mem = new_memory(1, seed_streams(0, 1))
+    if last_point is not None:
+        mem.intercept_point[0] = last_point
+        mem.intercept_time[0] = last_time
+    return mem
+
+
+def _check_interception(bel, r: int, still: bool, last_point, last_time: int) -> None:
+    """The kernel's interception point of row ``r`` equals the reference's, bit for bit."""
+    me, time = int(bel.me[r]), int(bel.time[r])
+    lx, ly = last_point if last_point is not None else (0.0, 0.0)
+    ref = _ref_interception_point(bel.pos[r], bel.vel[r], bel.body[r], bel.effort[r], me, time, still, lx, ly,
+                                  last_time if last_point is not None else -1, KP, CFG)
+    one = belief_from_truth(bel.pos[r], bel.vel[r], bel.body[r], bel.neck[r], me, time, K, T, bel.effort[r])
+    one.conf[0] = bel.conf[r]
+    got = interception_point(one, 0, _memory(last_point, last_time), still, KP, CFG)
+    assert got == ref
+
+
+def _random_beliefs(count: int, seed: int):
+    """Beliefs of a 3v2 game in a 20 m region: players anywhere near it, slow; the ball fast or slow."""
+    rng = np.random.default_rng(seed)
+    pos = rng.uniform(-12.0, 12.0, (count, N, 2))
+    vel = rng.uniform(-0.3, 0.3, (count, N, 2))
+    vel[:, 0] = rng.uniform(-2.2, 2.2, (count, 2)) * rng.uniform(0.0, 1.0, (count, 1))
+    body = rng.uniform(-180.0, 180.0, (count, N))
+    me = rng.integers(1, N, count)
+    effort = rng.uniform(0.6, 1.0, count)
+    return belief_from_truth(pos, vel, body, np.zeros((count, N)), me, 100, K, T, effort)
+
+
+# -------------------------------------------------------------------------------------------- tests
+
+
+def test_interception_of_a_ball_rolling_towards_me_matches_the_reference():
+    # the case of test_skills: ball from (-10, 0) at 1.5 m/cycle towards me at (0, 0) facing it -> i = 5
+    pos = np.array([[-10.0, 0.0], [0.0, 0.0], [9.0, 0.0], [0.0, 9.0], [-20.0, -20.0], [-20.0, 20.0]])
+    vel = np.zeros((N, 2))
+    vel[0] = (1.5, 0.0)
+    bel = belief_from_truth(pos, vel, [0, 180, 0, 0, 0, 0], np.zeros(N), 1, 50, K, T)
+    ref = _ref_interception_point(pos, vel, bel.body[0], 1.0, 1, 50, False, 0.0, 0.0, -1, KP, CFG)
+    assert ref[0] == 5
+    _check_interception(bel, 0, False, None, -1)
+    # chosen last cycle near x_6 = -10 + 25 (1 - 0.94^6) = -2.25: the stability rule may prefer it
+    _check_interception(bel, 0, False, (-2.25, 0.0), 49)
+
+
+@pytest.mark.parametrize("still", [False, True])
+def test_interception_point_matches_the_reference_on_random_beliefs(still):
+    bel = _random_beliefs(150, seed=11 + still)
+    for r in range(bel.batch):
+        _check_interception(bel, r, still, None, -1)
+        # recently intercepted near the ball's position 3 cycles ahead: the stability scan runs
+        bx, by = rolled_out(bel.pos[r, 0, 0], bel.pos[r, 0, 1], bel.vel[r, 0, 0], bel.vel[r, 0, 1], 3.0,
+                            KP.ball_decay)
+        _check_interception(bel, r, still, (bx, by), int(bel.time[r]) - 1)
+
+
+def test_fastest_to_ball_matches_the_reference_on_random_beliefs():
+    bel = _random_beliefs(150, seed=5)
+    bel.conf[:, 2] = np.where(np.arange(bel.batch) % 3 == 0, 0.5, 1.0)  # keeper 2 sometimes unusable
+    for r in range(bel.batch):
+        ref = _ref_fastest_to_ball(bel.pos[r], bel.vel[r], bel.body[r], bel.effort[r], bel.conf[r],
+                                   int(bel.me[r]), 1, K, KP, CFG)
+        assert fastest_to_ball(bel, r, 1, K, KP, CFG) == ref
+
+
+def test_every_belief_of_a_batched_game_decides_as_the_reference():
+    """Beliefs of real play (noisy world models, held and passed balls): the interception point with and
+    without the keeper's ``fastest_to_ball`` hint, and ``fastest_to_ball`` itself, equal the reference."""
+    arenas = BatchedArenas(PARAMS, batch=4, seed=7, threads=1)
+    checked = hinted = 0
+    for _ in range(20):
+        arenas.run(max_cycles=15)
+        bel, mem = arenas.players.belief, arenas.players.memory
+        for r in range(bel.batch):
+            if bel.conf[r, 0] < CFG.ball_conf_threshold:
+                continue
+            me, last = int(bel.me[r]), (float(mem.intercept_point[r, 0]), float(mem.intercept_point[r, 1]))
+            for still in (False, True):
+                _check_interception(bel, r, still, last, int(mem.intercept_time[r]))
+            fastest = fastest_to_ball(bel, r, 1, K, KP, CFG)
+            assert fastest == _ref_fastest_to_ball(bel.pos[r], bel.vel[r], bel.body[r], bel.effort[r],
+                                                   bel.conf[r], me, 1, K, KP, CFG)
+            checked += 1
+            if fastest[0] == me:
+                for last_time in (int(mem.intercept_time[r]), -1):
+                    plain, hint = _memory(last, last_time), _memory(last, last_time)
+                    one = belief_from_truth(bel.pos[r], bel.vel[r], bel.body[r], bel.neck[r], me, bel.time[r],
+                                            K, T, bel.effort[r])
+                    assert (interception_point(one, 0, hint, False, KP, CFG, fastest[1])
+                            == interception_point(one, 0, plain, False, KP, CFG))
+                    assert np.array_equal(hint.intercept_point, plain.intercept_point)
+                hinted += 1
+    assert checked > 300 and hinted > 40  # the game gave the kernels something to decide (400 and 80)
+
+
+def test_localisation_matches_the_reference_on_real_sees():
+    """Every see row of a short batched game localises as the two-pass reference."""
+    arenas = BatchedArenas(PARAMS, batch=4, seed=2, threads=1)
+    arenas.run(max_cycles=30)
+    see, model = arenas.players.see, arenas.players.model
+    state = ModelState(*[a.copy() for a in model])
+    for r in range(see.cycle.shape[0]):
+        for n in (int(see.n_flags[r]), 2, 1):
+            one = SeeBuffer(*[a.copy() for a in see])
+            one.n_flags[r] = n
+            me = state.me[r]
+            ref = _ref_localise(one.flag_obs[r], one.flag_id[r], n, FLAG_POSITIONS, state.body[r, me],
+                                state.neck[r, me], KP)
+            s = ModelState(*[a.copy() for a in state])
+            localise_row(r, s, one, FLAG_POSITIONS, KP)
+            assert (s.pos[r, me, 0], s.pos[r, me, 1], s.body[r, me]) == ref
