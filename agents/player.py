@@ -39,16 +39,10 @@ import numpy as np
 from agents.belief import forget_episode, new_memory
 from agents.keeper import NO_PASS_DECISION, PASS_DECISION_START, execute_pass_action, keeper_decide
 from agents.policy_file import Policy, PolicyFileError, as_getopen_theta, getopen_theta_size
-from agents.sarsa import MODE_EXPLORE, MODE_GREEDY, MODE_LEARN, SarsaConfig, SarsaLearner
+from agents.sarsa import MODE_GREEDY, MODE_NAMES, SarsaConfig, SarsaLearner
 from agents.skills import (
-    GETOPEN_HANDCODED,
-    GETOPEN_HANDCODED_CONE,
-    GETOPEN_LEARNED,
-    GETOPEN_RANDOM,
-    PASS_EXTERNAL,
-    PASS_HANDCODED,
-    PASS_HOLD,
-    PASS_RANDOM,
+    GETOPEN_POLICIES,
+    PASS_POLICIES,
     AgentConfig,
 )
 from agents.state_vars import pass_state_size
@@ -62,10 +56,6 @@ from server.world import CMD_DASH, CMD_KICK, CMD_TURN
 log = logging.getLogger("keepaway.player")
 
 TEAMS = ("keepers", "takers")
-PASS_POLICIES = {"random": PASS_RANDOM, "handcoded": PASS_HANDCODED, "learned": PASS_EXTERNAL,
-                 "hold": PASS_HOLD}
-GETOPEN_POLICIES = {"random": GETOPEN_RANDOM, "handcoded": GETOPEN_HANDCODED,
-                    "handcoded-cone": GETOPEN_HANDCODED_CONE, "learned": GETOPEN_LEARNED}
 TIMING_MODES = ("sync", "realtime")
 # Referee messages (spec `keepaway-agents.md` 1 step 1 and 6; docs/protocol.md 6 "hear").
 EPISODE_MESSAGE = "training Keepaway 1"
@@ -74,7 +64,7 @@ KICK_OFF_MESSAGE = "play_on"
 POLICY_ADVICE_KIND = "policy"
 # The coach's Pass learning advice: {"kind": "pass_mode", "mode": one of PASS_MODES}.
 PASS_MODE_ADVICE_KIND = "pass_mode"
-PASS_MODES = {"learn": MODE_LEARN, "greedy": MODE_GREEDY, "explore": MODE_EXPLORE}
+PASS_MODES = MODE_NAMES
 # The coach's report request: {"kind": "report", "what": REPORT_TRANSITIONS or REPORT_SNAPSHOT}.
 REPORT_ADVICE_KIND = "report"
 REPORT_TRANSITIONS = "transitions"

@@ -34,6 +34,7 @@ from server.rng import randint, seed_streams, uniform
 MODE_LEARN = 0  # epsilon-greedy actions, weight updates (player -e 1)
 MODE_GREEDY = 1  # greedy actions, no updates: the frozen policy of evaluations (player -e 0)
 MODE_EXPLORE = 2  # epsilon-greedy actions, no updates: training behaviour with frozen weights
+MODE_NAMES = {"learn": MODE_LEARN, "greedy": MODE_GREEDY, "explore": MODE_EXPLORE}
 NO_ACTION = -1
 
 # tiles2.cc / tiles2.h constants of the UNH hash.

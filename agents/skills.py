@@ -46,6 +46,11 @@ GETOPEN_RANDOM = 0
 GETOPEN_HANDCODED = 1
 GETOPEN_HANDCODED_CONE = 2
 GETOPEN_LEARNED = 3
+# The policies' names on the command line and in configurations, shared by every mode.
+PASS_POLICIES = {"random": PASS_RANDOM, "handcoded": PASS_HANDCODED, "learned": PASS_EXTERNAL,
+                 "hold": PASS_HOLD}
+GETOPEN_POLICIES = {"random": GETOPEN_RANDOM, "handcoded": GETOPEN_HANDCODED,
+                    "handcoded-cone": GETOPEN_HANDCODED_CONE, "learned": GETOPEN_LEARNED}
 
 
 @dataclass(frozen=True)

@@ -61,9 +61,7 @@ from agents.belief import AgentMemory, Belief, empty_belief, forget_episode, new
 from agents.getopen import net_size
 from agents.keeper import NO_PASS_DECISION, PASS_DECISION_START, execute_pass_action, keeper_decide
 from agents.sarsa import (
-    MODE_EXPLORE,
-    MODE_GREEDY,
-    MODE_LEARN,
+    MODE_NAMES,
     SarsaConfig,
     SarsaMemory,
     end_episode,
@@ -74,14 +72,9 @@ from agents.sarsa import (
     step as sarsa_step,
 )
 from agents.skills import (
-    GETOPEN_HANDCODED,
-    GETOPEN_HANDCODED_CONE,
-    GETOPEN_LEARNED,
-    GETOPEN_RANDOM,
+    GETOPEN_POLICIES,
+    PASS_POLICIES,
     PASS_EXTERNAL,
-    PASS_HANDCODED,
-    PASS_HOLD,
-    PASS_RANDOM,
     AgentConfig,
 )
 from agents.state_vars import getopen_state_size, pass_state_size
@@ -116,20 +109,12 @@ from server.rng import seed_streams
 from server.simulation import step_arena
 from server.world import BALL, CMD_KICK, CMD_NONE, Commands, World, new_world
 
-PASS_POLICIES: dict[str, int] = {"random": PASS_RANDOM, "handcoded": PASS_HANDCODED, "hold": PASS_HOLD,
-                                 "learned": PASS_EXTERNAL}
-PASS_MODES: dict[str, int] = {"learn": MODE_LEARN, "greedy": MODE_GREEDY, "explore": MODE_EXPLORE}
+PASS_MODES = MODE_NAMES
 # The batched mode's Sarsa sizes (module docstring): a 2^16 weight table per keeper; 4,096 live traces
 # are ample for lambda = 0 (one action's 416 tiles at a time); the transition log is not reported here.
 BATCHED_SARSA = SarsaConfig(table_size=1 << 16, max_traces=4096, transition_log_size=64)
 # The learner memory of arenas without Pass learning: no rows (kernels never touch it).
 _NO_LEARNERS = SarsaConfig(table_size=2, max_traces=1, transition_log_size=1)
-GETOPEN_POLICIES: dict[str, int] = {
-    "random": GETOPEN_RANDOM,
-    "handcoded": GETOPEN_HANDCODED,
-    "handcoded-cone": GETOPEN_HANDCODED_CONE,  # the players' --getopen name
-    "learned": GETOPEN_LEARNED,
-}
 # Cycles per compiled call: Python collects the ended episodes and checks the stop rules in between.
 CHUNK_CYCLES = 100
 # The view mode of the players (the server's default for a new connection, never changed by them).
