@@ -198,6 +198,12 @@ class _Fields:
         return getattr(self.msg, name)
 
 
+def agent_seed_sequence(seed: int, side_code: int, unum: int) -> np.random.SeedSequence:
+    """A player's own randomness, derived from the run seed, its side and its uniform number, so which
+    process connects first does not matter (architecture, Determinism); every mode derives it here."""
+    return np.random.SeedSequence([int(seed), side_code, unum])
+
+
 class PlayerAgent:
     """One keeper or taker, driven by decoded protocol messages (module docstring).
 
@@ -296,7 +302,7 @@ class PlayerAgent:
         self.wm = WorldModel(params, msg.side, msg.unum, n_keepers, n_takers, msg.landmarks["flags"])
         self.kp = self.wm.kp
         self.cfg = self.config.kernel()
-        seq = np.random.SeedSequence([self.seed, SIDE_CODES[msg.side], msg.unum])
+        seq = agent_seed_sequence(self.seed, SIDE_CODES[msg.side], msg.unum)
         self.memory = new_memory(1, seq.generate_state(1, np.uint64))
         self.theta = np.zeros(getopen_theta_size(n_keepers, n_takers))
         if self.is_keeper and policy is not None and policy.getopen_theta is not None:
@@ -510,6 +516,7 @@ __all__ = [
     "PassLearner",
     "PassLearnerFactory",
     "PlayerAgent",
+    "agent_seed_sequence",
     "compile_kernels",
     "greedy_pass_factory",
     "report_arrays",

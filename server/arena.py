@@ -279,15 +279,12 @@ class Arena:
 
     # -- percepts -----------------------------------------------------------------------------------
     def see_due(self, s: PlayerSlot, cycle: int) -> bool:
-        """Synchronous-mode see schedule in virtual time (spec 1): a see whose time falls in
-        ((cycle-1)*100, cycle*100] ms is sent with cycle's percepts (normal/high: 2 per 3 cycles)."""
+        """Synchronous-mode see schedule (:func:`server.perception.see_due`; synch-see: every 1/2/3
+        cycles for narrow/normal/wide)."""
         if s.synch_see:
             return cycle % SYNCH_SEE_PERIOD[s.view_width] == 0
-        step = self.params.simulator_step_ms
-        period = s.see_period_ms(self.params.send_step_ms)
-        hi = cycle * step - s.see_phase_ms
-        lo = hi - step
-        return math.floor(hi / period) > math.floor(lo / period) or (cycle == 0 and hi >= 0 and lo < 0)
+        return perception.see_due(cycle, self.params.simulator_step_ms,
+                                  s.see_period_ms(self.params.send_step_ms), s.see_phase_ms)
 
     def see_message(self, s: PlayerSlot) -> m.See:
         factor = perception.cone_factor(s.view_width, s.synch_see)

@@ -52,6 +52,15 @@ SYNCH_SEE_WIDTH_FACTOR: dict[str, float] = {"narrow": 2.0 / 3.0, "normal": 4.0 /
 COUNT_NAMES: tuple[str, ...] = ("kick", "dash", "turn", "catch", "move", "turn_neck", "change_view", "say")
 
 
+@njit(cache=True)
+def see_due(cycle: int, step_ms: float, period_ms: float, phase_ms: float) -> bool:
+    """Synchronous-mode see schedule in virtual time (spec 1): a see is due every ``period_ms`` from
+    ``phase_ms`` (the player's connection time), and one whose time falls in ((cycle - 1) step, cycle
+    step] comes with cycle's percepts (normal width: 2 sees per 3 cycles: 0, 2, 3, 5, 6, ...)."""
+    hi = cycle * step_ms - phase_ms
+    return math.floor(hi / period_ms) > math.floor((hi - step_ms) / period_ms)
+
+
 def cone_factor(view_width: str, synch_see: bool = False) -> float:
     """Factor on ``visible_angle`` giving the full view cone for a view width: asynchronous sees use
     narrow 0.5 / normal 1 / wide 2, synch-see (v18+ clients) 2/3, 4/3, 2 (spec 4 "View modes")."""

@@ -27,7 +27,8 @@ from server.arena import Arena
 from server.perception import CLOSE, FULL, NAMELESS, PARTIAL, UNSEEN, SeeBuffers, cone_factor, see_arena, see_payload
 from server.referee import END_OUT, END_TAKEN
 from server.world import new_world
-from trainer.batched import BatchedArenas, see_due, see_to_model_row
+from server.perception import see_due
+from trainer.batched import BatchedArenas, see_to_model_row
 
 PARAMS = parameter_set("classic")
 KP = PARAMS.kernel()
@@ -94,11 +95,11 @@ def welch_p_value(a: np.ndarray, b: np.ndarray) -> float:
 def test_see_schedule_is_the_distributed_servers():
     # send_step 150 ms, step 100 ms, phase 0: a see falls in (100 (t-1), 100 t] for t = 0 (0 ms), 2 (150),
     # 3 (300), 5 (450), 6 (600); none for t = 1 (0, 100] or t = 4 (300, 400].
-    assert [see_due(t, 100.0, 150.0) for t in range(7)] == [True, False, True, True, False, True, True]
+    assert [see_due(t, 100.0, 150.0, 0.0) for t in range(7)] == [True, False, True, True, False, True, True]
     arena = Arena(PARAMS, K, T, 0)
     slot = arena.connect("keepers")
     period = slot.see_period_ms(PARAMS.send_step_ms)
-    assert [see_due(t, PARAMS.simulator_step_ms, period) for t in range(300)] == \
+    assert [see_due(t, PARAMS.simulator_step_ms, period, 0.0) for t in range(300)] == \
         [arena.see_due(slot, t) for t in range(300)]
 
 

@@ -47,7 +47,6 @@ while 2^20 would cost 18 MB per keeper, 55 GB for 1024 arenas. At 2^16 a keeper 
 from __future__ import annotations
 
 import dataclasses
-import math
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -71,6 +70,7 @@ from agents.sarsa import (
     start_episode,
     step as sarsa_step,
 )
+from agents.player import agent_seed_sequence
 from agents.skills import (
     GETOPEN_POLICIES,
     PASS_POLICIES,
@@ -94,6 +94,7 @@ from protocol.landmarks import FLAG_POSITIONS, N_FLAGS
 from protocol.params import ServerParams
 from server.arena import PlayerSlot
 from server.perception import (
+    see_due,
     FULL,
     PARTIAL,
     UNSEEN,
@@ -136,14 +137,14 @@ def agent_seed(seed: int, obj: int, n_keepers: int) -> np.uint64:
     random policies; spec `architecture.md`, Determinism): the player process's own derivation
     (``agents/player.py``, ``SeedSequence([seed, side, unum])``, side 0 keepers, 1 takers)."""
     side, unum = (_SIDE_KEEPERS, obj) if obj <= n_keepers else (_SIDE_TAKERS, obj - n_keepers)
-    return np.random.SeedSequence([int(seed), side, unum]).generate_state(1, dtype=np.uint64)[0]
+    return agent_seed_sequence(seed, side, unum).generate_state(1, dtype=np.uint64)[0]
 
 
 def learner_seed(seed: int, keeper: int) -> int:
     """The seed of the Pass learner of keeper ``keeper`` (uniform number) in the arena seeded ``seed``: a
     player process's (``agents/player.py``: the first child of ``SeedSequence([seed, 0, unum])``, whose
     first word seeds its ``SarsaLearner``)."""
-    child = np.random.SeedSequence([int(seed), _SIDE_KEEPERS, keeper]).spawn(1)[0]
+    child = agent_seed_sequence(seed, _SIDE_KEEPERS, keeper).spawn(1)[0]
     return int(child.generate_state(1, dtype=np.uint64)[0])
 
 
@@ -208,16 +209,6 @@ class EpisodeTable:
 
 # --------------------------------------------------------------------------------------------------
 # kernels
-
-
-@njit(cache=True)
-def see_due(cycle: int, step_ms: float, period_ms: float) -> bool:
-    """``server.arena.Arena.see_due`` of an asynchronous player connected at time 0: a see whose
-    virtual time falls in ((cycle - 1) step, cycle step] comes with the cycle's percepts (spec
-    `server-physics.md` 1; normal width: cycles 0, 2, 3, 5, 6, ...)."""
-    hi = cycle * step_ms
-    lo = hi - step_ms
-    return math.floor(hi / period_ms) > math.floor(lo / period_ms) or (cycle == 0 and hi >= 0 and lo < 0)
 
 
 @njit(cache=True)
@@ -359,7 +350,7 @@ def arena_cycle(b: int, w: World, c: Commands, ref: RefereeState, theta: np.ndar
     """One synchronous cycle of arena ``b``: every player perceives, decides and sends its commands,
     then the step; returns the referee's end code (module docstring)."""
     n_players = w.pos.shape[1] - 1
-    with_see = see_due(w.time[b], kp.simulator_step_ms, see_period_ms)
+    with_see = see_due(w.time[b], kp.simulator_step_ms, see_period_ms, 0.0)
     for p in range(n_players):
         obs = p + 1
         row = b * n_players + p
@@ -653,6 +644,5 @@ __all__ = [
     "learn_pass",
     "learner_seed",
     "run_chunk",
-    "see_due",
     "see_to_model_row",
 ]
