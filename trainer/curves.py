@@ -8,6 +8,8 @@ killed training never leaves a half-written curve behind.
 
 from __future__ import annotations
 
+from typing import Any
+
 import csv
 import io
 import math
@@ -80,6 +82,16 @@ def mean_curve(trials: Sequence[Sequence[CurvePoint]]) -> list[CurvePoint]:
     return out
 
 
+def draw_curve(ax: Any, label: str, points: Sequence[CurvePoint]) -> None:
+    """One mean curve on matplotlib axes ``ax``, with its standard-error band where it is defined."""
+    x = [p.episodes for p in points]
+    y = [p.mean_hold_time_s for p in points]
+    se = [0.0 if math.isnan(p.stderr_hold_time_s) else p.stderr_hold_time_s for p in points]
+    (line,) = ax.plot(x, y, marker="o", markersize=3, label=label)
+    ax.fill_between(x, [a - b for a, b in zip(y, se)], [a + b for a, b in zip(y, se)],
+                    color=line.get_color(), alpha=0.25, linewidth=0)
+
+
 def plot_curves(path: Path, curves: dict[str, Sequence[CurvePoint]], title: str) -> None:
     """A PNG of learning curves (hold time against training episodes), each with its standard-error
     band where it is defined, written atomically."""
@@ -91,12 +103,7 @@ def plot_curves(path: Path, curves: dict[str, Sequence[CurvePoint]], title: str)
     fig = Figure(figsize=(7.0, 4.5), dpi=100)
     ax = fig.add_subplot()
     for label, points in curves.items():
-        x = [p.episodes for p in points]
-        y = [p.mean_hold_time_s for p in points]
-        se = [0.0 if math.isnan(p.stderr_hold_time_s) else p.stderr_hold_time_s for p in points]
-        (line,) = ax.plot(x, y, marker="o", markersize=3, label=label)
-        ax.fill_between(x, [a - b for a, b in zip(y, se)], [a + b for a, b in zip(y, se)],
-                        color=line.get_color(), alpha=0.25, linewidth=0)
+        draw_curve(ax, label, points)
     ax.set_xlabel("training episodes")
     ax.set_ylabel("mean hold time (s)")
     ax.set_title(title)
@@ -107,5 +114,5 @@ def plot_curves(path: Path, curves: dict[str, Sequence[CurvePoint]], title: str)
     write_atomic(path, buffer.getvalue())
 
 
-__all__ = ["CSV_HEADER", "CurvePoint", "mean_curve", "plot_curves", "read_curve_csv", "write_atomic",
+__all__ = ["CSV_HEADER", "CurvePoint", "draw_curve", "mean_curve", "plot_curves", "read_curve_csv", "write_atomic",
            "write_curve_csv"]

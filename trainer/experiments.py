@@ -33,7 +33,7 @@ from pathlib import Path
 from typing import Any
 
 from trainer.cem import CEMConfig
-from trainer.curves import CurvePoint, mean_curve, read_curve_csv, write_atomic, write_curve_csv
+from trainer.curves import CurvePoint, draw_curve, mean_curve, read_curve_csv, write_atomic, write_curve_csv
 from trainer.schedule import (
     ALGORITHM_3,
     GETOPEN,
@@ -253,16 +253,6 @@ def figure3(exp: ExperimentConfig, out: Path, threads: int | None = None, progre
     return runs
 
 
-def _draw_curve(ax: Any, label: str, points: Sequence[CurvePoint]) -> None:
-    """A mean curve with its standard-error band where it is defined (as :func:`trainer.curves.plot_curves`)."""
-    x = [p.episodes for p in points]
-    y = [p.mean_hold_time_s for p in points]
-    se = [0.0 if math.isnan(p.stderr_hold_time_s) else p.stderr_hold_time_s for p in points]
-    (line,) = ax.plot(x, y, marker="o", markersize=3, label=label)
-    ax.fill_between(x, [a - b for a, b in zip(y, se)], [a + b for a, b in zip(y, se)], color=line.get_color(),
-                    alpha=0.25, linewidth=0)
-
-
 def plot_figure3(path: Path, runs: Sequence[ConfigurationRun]) -> None:
     """The paper's two-column layout as one PNG, written atomically: left, one panel per Pass policy with
     its three GetOpen curves; right, one panel per GetOpen policy with its three Pass curves. All panels
@@ -283,7 +273,7 @@ def plot_figure3(path: Path, runs: Sequence[ConfigurationRun]) -> None:
             for run in runs:
                 if getattr(run, grouped_by) == policy:
                     counterpart = run.getopen_policy if grouped_by == "pass_policy" else run.pass_policy
-                    _draw_curve(ax, f"{other}:{SHORT[counterpart]}", run.mean_curve())
+                    draw_curve(ax, f"{other}:{SHORT[counterpart]}", run.mean_curve())
             ax.set_title(f"{panel}: {SHORT[policy]}")
             ax.grid(True, alpha=0.3)
             ax.legend(loc="best", fontsize="small")
