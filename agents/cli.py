@@ -143,8 +143,9 @@ def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop
 @click.option("--team", type=click.Choice(["keepers", "takers"]), required=True, help="The team to join.")
 @click.option("--pass", "pass_policy", type=click.Choice(["random", "handcoded", "learned", "hold"]),
               default="handcoded", show_default=True,
-              help="Keepers' Pass policy (learned: SMDP Sarsa from the policy file's Pass weights, or zeros "
-                   "without one; greedy until the coach's pass_mode advice).")
+              help="Keepers' Pass policy (learned: SMDP Sarsa from the policy file's Pass weights, the "
+                   "keeper's own pass_keeper<k>_* ones if the file has them, or zeros without a file; greedy "
+                   "until the coach's pass_mode advice).")
 @click.option("--getopen", "getopen_policy",
               type=click.Choice(["random", "handcoded", "handcoded-cone", "learned"]), default="handcoded",
               show_default=True,

@@ -7,8 +7,12 @@ and batched execution). Per message (docs/protocol.md 6, 9):
 * ``init_ok`` sets up the world model from the server's parameters, landmarks and arena config;
 * ``sense_body`` / ``see`` / ``fullstate`` update the world model;
 * ``hear`` from the referee ``training Keepaway 1`` is an episode boundary (spec `keepaway-agents.md` 1
-  step 1): the world model forgets, the decision memory is cleared, the Pass learner ends its episode and
-  GetOpen parameters advised by the coach take effect (so an episode never changes policy midway);
+  step 1): the Pass learner ends its episode (only if it decided in it, so several boundaries in a row,
+  as a paused server delivers them, are harmless), the coach's advice takes effect (so an episode never
+  changes policy midway), the world model forgets the objects and the decision memory is cleared;
+* ``hear`` from the coach is advice (docs/advice.md), kept for the next episode boundary (or the
+  kick-off, the referee's first ``play_on``) and applied there in the order policy switch, ``pass_load``,
+  ``pass_mode``, ``seed``; report requests are answered at once;
 * the decision runs on ``think`` in synchronous mode, and on the cycle's first percept burst in
   real-time mode (``sense_body``, or the ``fullstate`` that follows it when exact percepts are used).
 
@@ -18,27 +22,59 @@ cycle. The per-cycle arrays are allocated once, at ``init_ok``.
 
 With ``--pass learned`` the keeper's Pass decisions go to a :class:`PassLearner` (spec
 `keepaway-agents.md` 5: ``start``/``step``/``end``): by default an SMDP Sarsa learner
-(:func:`sarsa_pass_factory`) starting from the policy file's Pass weights, or from zeros without one, in
-greedy mode (the frozen policy of evaluations). The coach switches it with the advice ``{"kind":
-"pass_mode", "mode": "learn" | "greedy" | "explore"}``, taken up at the next episode boundary (or kick-off)
-like the GetOpen advice. The learner reports to the coach on request, ``{"kind": "report", "what":
-"transitions" | "snapshot"}``: its SMDP transitions since the last such report, or its non-zero weights
-(:meth:`PlayerAgent.pending_reports`, sent by the socket loop as ``report`` messages, each below
-:data:`REPORT_BYTES`; :func:`report_arrays` decodes one).
+(:func:`sarsa_pass_factory`) starting from the policy file's Pass weights (keeper k's own
+``pass_keeper<k>_*`` arrays when the file has them, else the plain ones), or from zeros without one, in
+greedy mode (the frozen policy of evaluations).
+
+The coach's advice (``hear`` with sender ``"coach"``, a map with ``kind``; docs/advice.md):
+
+* ``{"kind": "policy", "getopen_theta": ..., "pass": name, "getopen": name}`` (each optional): new GO:L
+  parameters, and a switch of the keeper's Pass / GetOpen policy (keys of :data:`PASS_POLICIES` /
+  :data:`GETOPEN_POLICIES`); a keeper switching to Pass ``learned`` without a learner gets a fresh Sarsa
+  learner (zero weights, ``SarsaConfig()``, greedy);
+* ``{"kind": "pass_mode", "mode": "learn" | "greedy" | "explore"}``: the Sarsa learner's mode;
+* ``{"kind": "pass_load", ...}``: a sparse Pass policy in chunks (``agents.pass_wire``); once complete, the
+  keeper's learner becomes a Sarsa learner with those weights and collision table, greedy unless a
+  ``pass_mode`` advice says otherwise;
+* ``{"kind": "seed", "seed": int}`` (takers too): every random stream of the agent restarts as if it had
+  been started with that seed, and the world model and decision memory start afresh (fed again with the
+  percepts of the current cycle), so its play from then on depends only on the seed, its policies and its
+  percepts;
+* ``{"kind": "report", "what": "transitions" | "snapshot"}``: every keeper answers
+  (:meth:`PlayerAgent.pending_reports`, sent by the socket loop as ``report`` messages of at most
+  ``REPORT_BYTES`` array bytes each): its Sarsa learner's SMDP transitions since the last such report,
+  or its whole Pass policy in the sparse form of ``pass_load``; a keeper without a Sarsa learner answers
+  one empty payload with ``"learner": false``.
+
+Bad advice is logged in one line and ignored; the agent keeps playing.
 """
 
 from __future__ import annotations
 
 import logging
 from collections.abc import Callable
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import Any, Protocol
 
 import numpy as np
 
 from agents.belief import forget_episode, new_memory
 from agents.keeper import NO_PASS_DECISION, PASS_DECISION_START, execute_pass_action, keeper_decide
-from agents.policy_file import Policy, PolicyFileError, as_getopen_theta, getopen_theta_size
+from agents.pass_wire import (
+    REPORT_BYTES,
+    chunk_position,
+    chunked_payloads,
+    pass_arrays_from_payloads,
+    report_arrays,
+    sparse_pass_payloads,
+)
+from agents.policy_file import (
+    Policy,
+    PolicyFileError,
+    as_getopen_theta,
+    getopen_theta_size,
+    keeper_pass_arrays,
+)
 from agents.sarsa import MODE_GREEDY, MODE_NAMES, SarsaConfig, SarsaLearner
 from agents.skills import (
     GETOPEN_POLICIES,
@@ -60,22 +96,17 @@ TIMING_MODES = ("sync", "realtime")
 # Referee messages (spec `keepaway-agents.md` 1 step 1 and 6; docs/protocol.md 6 "hear").
 EPISODE_MESSAGE = "training Keepaway 1"
 KICK_OFF_MESSAGE = "play_on"
-# The coach's policy advice: {"kind": "policy", "getopen_theta": [...] or float64 little-endian bytes}.
+# The coach's advice kinds (docs/advice.md).
 POLICY_ADVICE_KIND = "policy"
-# The coach's Pass learning advice: {"kind": "pass_mode", "mode": one of PASS_MODES}.
 PASS_MODE_ADVICE_KIND = "pass_mode"
-PASS_MODES = MODE_NAMES
-# The coach's report request: {"kind": "report", "what": REPORT_TRANSITIONS or REPORT_SNAPSHOT}.
+PASS_LOAD_ADVICE_KIND = "pass_load"
+SEED_ADVICE_KIND = "seed"
 REPORT_ADVICE_KIND = "report"
+PASS_MODES = MODE_NAMES
+LEARNED = "learned"  # the Pass policy name of the external learner
+# The coach's report request: {"kind": "report", "what": REPORT_TRANSITIONS or REPORT_SNAPSHOT}.
 REPORT_TRANSITIONS = "transitions"
 REPORT_SNAPSHOT = "snapshot"
-# Payload bytes per report message: well below the server's 4 MiB message limit (protocol.endpoints
-# DEFAULT_MAX_MESSAGE_BYTES) once msgpack framing and the server's player_report envelope are added;
-# longer reports are sent in chunks.
-REPORT_BYTES = 1 << 20
-# Wire dtypes of the report arrays (little-endian; actions fit in int8, weight indices in uint32).
-_REPORT_DTYPES = {"state": "<f8", "action": "<i1", "reward": "<f8", "next_action": "<i1", "terminal": "<u1",
-                  "index": "<u4", "value": "<f8"}
 # Arena size when init_ok's config does not give it (spec `keepaway-task.md` 1: 3 keepers vs 2 takers).
 DEFAULT_KEEPERS = 3
 DEFAULT_TAKERS = 2
@@ -95,8 +126,9 @@ class PassLearner(Protocol):
     def end(self, reward: float) -> None: ...
 
 
-PassLearnerFactory = Callable[[np.random.SeedSequence], PassLearner]
-"""Builds a keeper's learner once its uniform number is known, from its own seed sequence."""
+PassLearnerFactory = Callable[[np.random.SeedSequence, int], PassLearner]
+"""Builds a keeper's learner once its uniform number is known, from its own seed sequence and that
+number."""
 
 
 def sarsa_config(policy: Policy) -> SarsaConfig:
@@ -109,6 +141,22 @@ def sarsa_config(policy: Policy) -> SarsaConfig:
         raise PolicyFileError(f"{policy.path}: bad config.sarsa: {exc}") from None
 
 
+def learner_seed(seq: np.random.SeedSequence) -> int:
+    """The exploration seed of a Sarsa learner built from a keeper's learner seed sequence (the first
+    child of its own, :meth:`PlayerAgent.learner_seed_sequence`): the sequence's first word."""
+    return int(seq.generate_state(1, np.uint64)[0])
+
+
+def sarsa_learner(seq: np.random.SeedSequence, n_keepers: int, n_takers: int, config: SarsaConfig, mode: int,
+                  arrays: dict[str, np.ndarray] | None = None) -> SarsaLearner:
+    """A keeper's SMDP Sarsa learner seeded from ``seq`` (:func:`learner_seed`), in ``mode``, loaded with
+    ``arrays`` (``agents.sarsa.policy_arrays`` form) or from zero weights."""
+    learner = SarsaLearner(n_keepers, n_takers, config, learner_seed(seq), mode)
+    if arrays is not None:
+        learner.load(arrays)
+    return learner
+
+
 def sarsa_pass_factory(
     policy: Policy | None,
     mode: int = MODE_GREEDY,
@@ -117,32 +165,27 @@ def sarsa_pass_factory(
     n_takers: int = DEFAULT_TAKERS,
 ) -> PassLearnerFactory:
     """The ``--pass learned`` learner of a player process: an SMDP Sarsa learner (spec
-    `keepaway-agents.md` 5) in ``mode`` starting from the policy file's Pass weights (its sizes and
-    ``config.sarsa``), or without a file from zero weights for ``n_keepers`` vs ``n_takers`` with
-    ``config`` (default ``SarsaConfig()``). Its exploration stream is seeded by the first word of the
-    keeper's seed sequence. Raises :class:`PolicyFileError` at once (before any game) when the file has
-    no usable Pass weights."""
+    `keepaway-agents.md` 5) in ``mode`` starting from the policy file's Pass weights for its keeper (its
+    own ``pass_keeper<k>_*`` arrays, else the plain ones; the file's sizes and ``config.sarsa``), or
+    without a file from zero weights for ``n_keepers`` vs ``n_takers`` with ``config`` (default
+    ``SarsaConfig()``). Its exploration stream is seeded by :func:`learner_seed`. Raises
+    :class:`PolicyFileError` at once (before any game) when the file has no usable Pass weights for some
+    keeper."""
     if policy is None:
         config = config or SarsaConfig()
-        return lambda seq: SarsaLearner(n_keepers, n_takers, config, int(seq.generate_state(1, np.uint64)[0]),
-                                        mode)
+        return lambda seq, unum: sarsa_learner(seq, n_keepers, n_takers, config, mode)
     if policy.pass_weights is None:
         raise PolicyFileError(f"{policy.path}: this policy file has no Pass weights")
     config = sarsa_config(policy)
-    arrays = policy.pass_arrays
+    keepers = [keeper_pass_arrays(policy.pass_arrays, k) for k in range(1, policy.n_keepers + 1)]
     probe = SarsaLearner(policy.n_keepers, policy.n_takers, config, 0, mode)
-    try:
-        probe.load(arrays)
-    except (KeyError, ValueError) as exc:
-        raise PolicyFileError(f"{policy.path}: Pass weights do not fit the Sarsa learner: {exc}") from None
-
-    def build(seq: np.random.SeedSequence) -> PassLearner:
-        learner = SarsaLearner(policy.n_keepers, policy.n_takers, config,
-                               int(seq.generate_state(1, np.uint64)[0]), mode)
-        learner.load(arrays)
-        return learner
-
-    return build
+    for k, arrays in enumerate(keepers, start=1):
+        try:
+            probe.load(arrays)
+        except (KeyError, ValueError) as exc:
+            raise PolicyFileError(f"{policy.path}: keeper {k}'s Pass weights do not fit the Sarsa learner: "
+                                  f"{exc}") from None
+    return lambda seq, unum: sarsa_learner(seq, policy.n_keepers, policy.n_takers, config, mode, keepers[unum - 1])
 
 
 def greedy_pass_factory(policy: Policy | None) -> PassLearnerFactory:
@@ -151,39 +194,6 @@ def greedy_pass_factory(policy: Policy | None) -> PassLearnerFactory:
     if policy is None:
         raise PolicyFileError("--pass learned needs a policy file with Pass weights (--policy FILE)")
     return sarsa_pass_factory(policy, MODE_GREEDY)
-
-
-def _chunks(n: int, entry_bytes: int) -> list[slice]:
-    """Slices of ``n`` entries of ``entry_bytes`` each, at most :data:`REPORT_BYTES` per slice (one
-    empty slice when ``n`` is 0)."""
-    per_chunk = max(1, REPORT_BYTES // max(1, entry_bytes))
-    return [slice(i, min(i + per_chunk, n)) for i in range(0, n, per_chunk)] or [slice(0, 0)]
-
-
-def _report_payloads(head: dict[str, Any], arrays: dict[str, np.ndarray], n: int,
-                     first: int = 0) -> list[dict[str, Any]]:
-    """``arrays`` (``n`` entries each along the first axis, numbered from ``first``) as report payloads
-    of at most :data:`REPORT_BYTES` array bytes: ``head`` plus ``chunk``/``chunks``, ``first``/``count``
-    (the chunk's entries) and each array as little-endian bytes (:data:`_REPORT_DTYPES`)."""
-    wire = {name: np.ascontiguousarray(a, dtype=_REPORT_DTYPES[name]) for name, a in arrays.items()}
-    entry_bytes = sum(a.nbytes // max(1, n) for a in wire.values())
-    parts = _chunks(n, entry_bytes)
-    return [{**head, "chunk": i, "chunks": len(parts), "first": first + part.start,
-             "count": part.stop - part.start, **{name: a[part].tobytes() for name, a in wire.items()}}
-            for i, part in enumerate(parts)]
-
-
-def report_arrays(payload: dict[str, Any]) -> dict[str, Any]:
-    """A report payload of :meth:`PlayerAgent.pending_reports` with its byte fields as numpy arrays
-    (transition states reshaped to (count, n_vars)); the other fields unchanged."""
-    out = dict(payload)
-    for name, dtype in _REPORT_DTYPES.items():
-        if name in out:
-            out[name] = np.frombuffer(out[name], dtype=dtype)
-    if "state" in out:
-        out["state"] = out["state"].reshape(payload["count"], payload["n_vars"])
-        out["terminal"] = out["terminal"].astype(bool)
-    return out
 
 
 class _Fields:
@@ -202,6 +212,25 @@ def agent_seed_sequence(seed: int, side_code: int, unum: int) -> np.random.SeedS
     """A player's own randomness, derived from the run seed, its side and its uniform number, so which
     process connects first does not matter (architecture, Determinism); every mode derives it here."""
     return np.random.SeedSequence([int(seed), side_code, unum])
+
+
+@dataclass
+class _Advice:
+    """The coach's advice kept for the next episode boundary or kick-off (None: nothing advised)."""
+
+    theta: np.ndarray | None = None  # GO:L parameters
+    pass_policy: str | None = None  # a key of PASS_POLICIES
+    getopen_policy: str | None = None  # a key of GETOPEN_POLICIES
+    load: tuple[SarsaConfig, dict[str, np.ndarray]] | None = None  # a complete pass_load
+    pass_mode: int | None = None  # MODE_*
+    seed: int | None = None
+
+
+def _policy_name(value: Any, names: dict[str, int], what: str) -> str | None:
+    """An optional policy name of the policy advice; ValueError unless it is a key of ``names``."""
+    if value is not None and (type(value) is not str or value not in names):
+        raise ValueError(f"{what} policy {value!r} is not one of {list(names)}")
+    return value
 
 
 class PlayerAgent:
@@ -244,24 +273,28 @@ class PlayerAgent:
         self.fullstate = fullstate
         self.config = replace(config or AgentConfig(), pass_policy=PASS_POLICIES[pass_policy],
                               getopen_policy=GETOPEN_POLICIES[getopen_policy])
-        external = self.is_keeper and pass_policy == "learned"
+        external = self.is_keeper and pass_policy == LEARNED
         if pass_learner is not None and not external:
             raise ValueError("a Pass learner is only used by keepers with the 'learned' Pass policy")
         self._external = external
         self._learner_factory = pass_learner or (sarsa_pass_factory(policy) if external and policy else None)
-        if self.is_keeper and getopen_policy == "learned" and policy is not None and policy.getopen_theta is None:
+        if self.is_keeper and getopen_policy == LEARNED and policy is not None and policy.getopen_theta is None:
             raise PolicyFileError(f"{policy.path}: this policy file has no GetOpen weights (getopen_theta)")
         self.learner: PassLearner | None = None
         self.side: str | None = None
         self.unum: int | None = None
         self.mode: str | None = None
         self.episodes = 0  # episode boundaries heard
-        self._pending_theta: np.ndarray | None = None
-        self._pending_pass_mode: int | None = None
+        self._pending = _Advice()
+        self._load_parts: list[dict[str, Any]] = []  # pass_load chunks collected so far
         self._reports: list[m.Report] = []
         self._reported = 0  # sequence number of the next transition to report
         self._started = False
         self._fields = _Fields()
+        # What the world model was fed in the cycle of the last percept (percepts and own commands), to
+        # feed a fresh world model again at a seed advice.
+        self._cycle = -1
+        self._cycle_log: list[Any] = []
         self._decide_on: type | None = None
         self._handlers: dict[type, Callable[[Any], m.Command | None]] = {
             m.InitOk: self._on_init_ok, m.SenseBody: self._on_sense_body, m.See: self._on_see,
@@ -299,11 +332,13 @@ class PlayerAgent:
             raise PolicyFileError(f"{policy.path}: the policy is for {policy.n_keepers} keepers and "
                                   f"{policy.n_takers} takers, the server plays {n_keepers} vs {n_takers}")
         params = ServerParams.from_dict(msg.params)
-        self.wm = WorldModel(params, msg.side, msg.unum, n_keepers, n_takers, msg.landmarks["flags"])
+        self._world_args = (params, msg.side, msg.unum, n_keepers, n_takers, msg.landmarks["flags"])
+        self.wm = WorldModel(*self._world_args)
         self.kp = self.wm.kp
+        self.n_keepers, self.n_takers, self.mode = n_keepers, n_takers, mode
+        self.side, self.unum = msg.side, msg.unum
         self.cfg = self.config.kernel()
-        seq = agent_seed_sequence(self.seed, SIDE_CODES[msg.side], msg.unum)
-        self.memory = new_memory(1, seq.generate_state(1, np.uint64))
+        self.memory = self._new_memory()
         self.theta = np.zeros(getopen_theta_size(n_keepers, n_takers))
         if self.is_keeper and policy is not None and policy.getopen_theta is not None:
             self.theta[:] = policy.getopen_theta
@@ -316,9 +351,7 @@ class PlayerAgent:
         if factory is None and self._external:
             factory = sarsa_pass_factory(None, n_keepers=n_keepers, n_takers=n_takers)
         if factory is not None:
-            self.learner = factory(seq.spawn(1)[0])
-        self.n_keepers, self.n_takers, self.mode = n_keepers, n_takers, mode
-        self.side, self.unum = msg.side, msg.unum
+            self._set_learner(factory(self.learner_seed_sequence(), msg.unum))
         self._started = msg.play_mode == KICK_OFF_MESSAGE
         if mode == "sync":
             self._decide_on = m.Think
@@ -326,87 +359,219 @@ class PlayerAgent:
             self._decide_on = m.Fullstate if self.fullstate else m.SenseBody
         return None
 
+    def seed_sequence(self) -> np.random.SeedSequence:
+        """This agent's own randomness under its current seed (:func:`agent_seed_sequence`)."""
+        return agent_seed_sequence(self.seed, SIDE_CODES[self.side], self.unum)
+
+    def learner_seed_sequence(self) -> np.random.SeedSequence:
+        """The Pass learner's randomness: the first child of :meth:`seed_sequence`."""
+        return self.seed_sequence().spawn(1)[0]
+
+    def _new_memory(self) -> Any:
+        """A fresh decision memory whose random stream is the first word of :meth:`seed_sequence`."""
+        return new_memory(1, self.seed_sequence().generate_state(1, np.uint64))
+
+    def _set_learner(self, learner: PassLearner) -> None:
+        """A new Pass learner: its transition log starts at sequence number 0."""
+        self.learner = learner
+        self._reported = 0
+
     # -- percepts ----------------------------------------------------------------------------------
     def _view(self, msg: m.Message) -> _Fields:
         self._fields.msg = msg
         return self._fields
 
+    def _record(self, cycle: int, item: Any = None) -> None:
+        """Log what the world model was fed in ``cycle`` (a percept, or own commands as a tuple); any
+        message of a later cycle (``item`` None: a hear) starts a new log."""
+        if cycle != self._cycle:
+            self._cycle, self._cycle_log = cycle, []
+        if item is not None:
+            self._cycle_log.append(item)
+
     def _on_sense_body(self, msg: m.SenseBody) -> m.Command | None:
         self.wm.on_sense_body(self._view(msg))
+        self._record(msg.cycle, msg)
         return self._decide(msg.cycle) if self._decide_on is m.SenseBody else None
 
     def _on_see(self, msg: m.See) -> None:
         self.wm.on_see(self._view(msg))
+        self._record(msg.cycle, msg)
 
     def _on_fullstate(self, msg: m.Fullstate) -> m.Command | None:
         if not self.fullstate:
             return None
         self.wm.on_fullstate(self._view(msg))
+        self._record(msg.cycle, msg)
         return self._decide(msg.cycle) if self._decide_on is m.Fullstate else None
 
     def _on_think(self, msg: m.Think) -> m.Command | None:
         return self._decide(msg.cycle) if self._decide_on is m.Think else None
 
     def _on_hear(self, msg: m.Hear) -> None:
+        self._record(msg.cycle)  # a paused server's bare hears belong to a cycle without percepts yet
         if msg.sender == "referee":
             if msg.message == EPISODE_MESSAGE:
                 self._episode_boundary(msg.cycle)
             elif msg.message == KICK_OFF_MESSAGE and not self._started:
                 self._started = True
-                self._apply_pending_policy()
+                self._apply_advice()
         elif msg.sender == "coach":
             self._on_advice(msg.message, msg.cycle)
 
+    def _fresh_world_model(self) -> None:
+        """A world model that knows nothing, fed again with this cycle's percepts and own commands (those
+        before the current message), so it depends on them alone."""
+        self.wm = WorldModel(*self._world_args)
+        feed = {m.SenseBody: self.wm.on_sense_body, m.See: self.wm.on_see, m.Fullstate: self.wm.on_fullstate}
+        for item in self._cycle_log:
+            if type(item) is tuple:
+                self.wm.on_own_commands(*item)
+            else:
+                feed[type(item)](self._view(item))
+
     # -- episodes and advice -----------------------------------------------------------------------
     def _episode_boundary(self, cycle: int) -> None:
-        """Spec `keepaway-agents.md` 1 step 1: forget the objects, end the learner's episode with reward
-        now - t_last (only if it decided in this episode), clear the decision memory, take up advice."""
-        self.wm.forget()
+        """Spec `keepaway-agents.md` 1 step 1: end the learner's episode with reward now - t_last (only if
+        it decided in this episode), take up the advice, forget the objects, clear the decision memory."""
         t_last = int(self.memory.t_last[0])
         if self.learner is not None and t_last >= 0:
             self.learner.end(float(cycle - t_last))
+        self._apply_advice()
+        self.wm.forget()
         forget_episode(self.memory, 0)
-        self._apply_pending_policy()
         self.episodes += 1
 
+    def _apply_advice(self) -> None:
+        """The advice kept since the last boundary, in the order of docs/advice.md."""
+        advice, self._pending = self._pending, _Advice()
+        if advice.theta is not None:
+            self.theta[:] = advice.theta
+        if advice.pass_policy is not None or advice.getopen_policy is not None:
+            self._switch_policies(advice.pass_policy, advice.getopen_policy)
+        if advice.load is not None:
+            config, arrays = advice.load
+            self._set_learner(sarsa_learner(self.learner_seed_sequence(), self.n_keepers, self.n_takers, config,
+                                            MODE_GREEDY, arrays))
+        if advice.pass_mode is not None:
+            self._set_pass_mode(advice.pass_mode)
+        if advice.seed is not None:
+            self._reseed(advice.seed)
+
+    def _switch_policies(self, pass_policy: str | None, getopen_policy: str | None) -> None:
+        """The policy advice's switch; Pass ``learned`` without a learner brings a fresh Sarsa learner."""
+        changes = {}
+        if pass_policy is not None:
+            changes["pass_policy"] = PASS_POLICIES[pass_policy]
+        if getopen_policy is not None:
+            changes["getopen_policy"] = GETOPEN_POLICIES[getopen_policy]
+        self.config = replace(self.config, **changes)
+        self.cfg = self.config.kernel()
+        if pass_policy == LEARNED and self.learner is None:
+            factory = sarsa_pass_factory(None, n_keepers=self.n_keepers, n_takers=self.n_takers)
+            self._set_learner(factory(self.learner_seed_sequence(), self.unum))
+
+    def _set_pass_mode(self, mode: int) -> None:
+        """A keeper without a learner has no mode to set; another learner than Sarsa has none we know."""
+        if isinstance(self.learner, SarsaLearner):
+            self.learner.mode = mode
+        elif self.learner is not None:
+            log.warning("ignored the coach's pass_mode advice: the Pass learner is not a Sarsa learner")
+
+    def _reseed(self, seed: int) -> None:
+        """Restart every random stream as if the agent had been started with ``seed``, with a fresh
+        decision memory and world model (docs/advice.md, seed)."""
+        self.seed = seed
+        self.memory = self._new_memory()
+        self._fresh_world_model()
+        if isinstance(self.learner, SarsaLearner):
+            self.learner.reseed(learner_seed(self.learner_seed_sequence()))
+        elif self.learner is not None:
+            log.warning("the coach's seed advice cannot reseed the Pass learner: it is not a Sarsa learner")
+
     def _on_advice(self, payload: Any, cycle: int) -> None:
-        """Keep the coach's GetOpen parameters or Pass learning mode for the next episode boundary (or
-        kick-off), queue the reports it asks for; anything else the coach says is not for this agent. Bad
-        advice is logged and ignored."""
-        if not self.is_keeper or type(payload) is not dict:
+        """Keep the coach's advice for the next episode boundary (or kick-off), queue the reports it asks
+        for. Advice of another kind is not for this agent, nor is any but ``seed`` for a taker. Bad advice
+        is logged and ignored."""
+        if type(payload) is not dict:
             return
         kind = payload.get("kind")
-        if kind == PASS_MODE_ADVICE_KIND:
+        if kind == SEED_ADVICE_KIND:
+            self._on_seed_advice(payload.get("seed"))
+        elif not self.is_keeper:
+            return
+        elif kind == PASS_MODE_ADVICE_KIND:
             self._on_pass_mode_advice(payload.get("mode"))
         elif kind == REPORT_ADVICE_KIND:
             self._on_report_advice(payload.get("what"), cycle)
         elif kind == POLICY_ADVICE_KIND:
             self._on_policy_advice(payload)
+        elif kind == PASS_LOAD_ADVICE_KIND:
+            self._on_pass_load_advice(payload)
 
-    def _sarsa(self, what: str) -> bool:
-        """Whether this keeper's Pass learner can serve ``what`` (a Sarsa learner's modes and reports);
-        advice to a keeper without a learner is not for it, to one with another learner is logged."""
-        if self.learner is None:
-            return False
-        if not isinstance(self.learner, SarsaLearner):
-            log.warning("ignored the coach's %s advice: the Pass learner is not a Sarsa learner", what)
-            return False
-        return True
+    def _on_seed_advice(self, seed: Any) -> None:
+        if type(seed) is not int or seed < 0:
+            log.warning("ignored the coach's seed advice: seed %r is not an integer >= 0", seed)
+        else:
+            self._pending.seed = seed
 
     def _on_pass_mode_advice(self, mode: Any) -> None:
-        if mode not in PASS_MODES:
+        if type(mode) is not str or mode not in PASS_MODES:
             log.warning("ignored the coach's pass_mode advice: mode %r is not one of %s", mode, list(PASS_MODES))
-        elif self._sarsa("pass_mode"):
-            self._pending_pass_mode = PASS_MODES[mode]
+        else:
+            self._pending.pass_mode = PASS_MODES[mode]
+
+    def _on_policy_advice(self, payload: dict) -> None:
+        """GO:L parameters (a list of floats or float64 little-endian bytes) and policy names, all kept
+        or, if one is bad, none."""
+        try:
+            theta = payload.get("getopen_theta")
+            if theta is not None:
+                theta = as_getopen_theta(np.frombuffer(theta, dtype="<f8") if isinstance(theta, bytes) else theta,
+                                         self.theta.size)
+            pass_policy = _policy_name(payload.get("pass"), PASS_POLICIES, "Pass")
+            getopen_policy = _policy_name(payload.get("getopen"), GETOPEN_POLICIES, "GetOpen")
+        except ValueError as exc:
+            log.warning("ignored the coach's policy advice: %s", exc)
+            return
+        if theta is not None:
+            self._pending.theta = theta
+        if pass_policy is not None:
+            self._pending.pass_policy = pass_policy
+        if getopen_policy is not None:
+            self._pending.getopen_policy = getopen_policy
+
+    def _on_pass_load_advice(self, payload: dict) -> None:
+        """Collect the chunks of a sparse Pass policy (chunk 0 starts over); keep it once complete."""
+        try:
+            chunk, chunks = chunk_position(payload)
+            if chunk == 0:
+                self._load_parts = []
+            elif not self._load_parts:
+                raise ValueError(f"chunk {chunk} of {chunks} came without chunk 0")
+            self._load_parts.append(payload)
+            if len(self._load_parts) < self._load_parts[0]["chunks"]:
+                return
+            parts, self._load_parts = self._load_parts, []
+            self._pending.load = pass_arrays_from_payloads(parts)
+        except ValueError as exc:
+            log.warning("ignored the coach's pass_load advice: %s", exc)
 
     def _on_report_advice(self, what: Any, cycle: int) -> None:
         """Queue the requested report at once (a report changes nothing in the game)."""
         if what not in (REPORT_TRANSITIONS, REPORT_SNAPSHOT):
             log.warning("ignored the coach's report request: %r is not %r or %r", what, REPORT_TRANSITIONS,
                         REPORT_SNAPSHOT)
-        elif self._sarsa("report"):
-            payloads = self._transition_payloads() if what == REPORT_TRANSITIONS else self._snapshot_payloads()
-            self._reports += [m.Report(cycle=cycle, payload=p) for p in payloads]
+            return
+        if not isinstance(self.learner, SarsaLearner):
+            payloads = [{"kind": f"pass_{what}", "learner": False, "episode": self.episodes, "chunk": 0,
+                         "chunks": 1, "first": 0, "count": 0}]
+        elif what == REPORT_TRANSITIONS:
+            payloads = self._transition_payloads()
+        else:
+            payloads = sparse_pass_payloads(self.learner.save(), self.learner.config,
+                                            {"kind": "pass_snapshot", "episode": self.episodes, "learner": True})
+        self._reports += [m.Report(cycle=cycle, payload=p) for p in payloads]
 
     def _transition_payloads(self) -> list[dict[str, Any]]:
         """The learner's SMDP transitions since the last transitions report (``first`` = sequence number;
@@ -414,41 +579,15 @@ class PlayerAgent:
         logged = self.learner.transitions(self._reported)
         sequence = logged.pop("sequence")
         first = int(sequence[0]) if len(sequence) else int(self.learner.memory.log_count[0])
-        head = {"kind": "pass_transitions", "episode": self.episodes, "dropped": first - self._reported,
-                "n_vars": self.pass_state.size}
+        head = {"kind": "pass_transitions", "learner": True, "episode": self.episodes,
+                "dropped": first - self._reported, "n_vars": self.pass_state.size}
         self._reported = first + len(sequence)
-        return _report_payloads(head, logged, len(sequence), first)
-
-    def _snapshot_payloads(self) -> list[dict[str, Any]]:
-        """The learner's non-zero weights, (index, value) pairs in index order."""
-        index, value = self.learner.snapshot()
-        head = {"kind": "pass_snapshot", "episode": self.episodes, "table_size": self.learner.config.table_size,
-                "nonzero": len(index)}
-        return _report_payloads(head, {"index": index, "value": value}, len(index))
+        return chunked_payloads(head, logged, len(sequence), first)
 
     def pending_reports(self) -> list[m.Report]:
         """The ``report`` messages queued for the coach since the last call (the socket loop sends them)."""
         reports, self._reports = self._reports, []
         return reports
-
-    def _on_policy_advice(self, payload: dict) -> None:
-        values = payload.get("getopen_theta")
-        if values is None:
-            return
-        try:
-            if isinstance(values, bytes):
-                values = np.frombuffer(values, dtype="<f8")
-            self._pending_theta = as_getopen_theta(values, self.theta.size)
-        except ValueError as exc:
-            log.warning("ignored the coach's policy advice: %s", exc)
-
-    def _apply_pending_policy(self) -> None:
-        if self._pending_theta is not None:
-            self.theta[:] = self._pending_theta
-            self._pending_theta = None
-        if self._pending_pass_mode is not None:
-            self.learner.mode = self._pending_pass_mode
-            self._pending_pass_mode = None
 
     # -- deciding ----------------------------------------------------------------------------------
     def _decide(self, cycle: int) -> m.Command:
@@ -464,6 +603,7 @@ class PlayerAgent:
         main = int(self._out_main[0])
         a1, a2, neck = float(self._out_a1[0]), float(self._out_a2[0]), float(self._out_neck[0])
         self.wm.on_own_commands(main, a1, a2, neck)
+        self._record(cycle, (main, a1, a2, neck))
         commands = [m.AtomicCommand("turn_neck", (neck,))]
         spec = _MAIN_COMMANDS.get(main)
         if spec is not None:
@@ -519,7 +659,9 @@ __all__ = [
     "agent_seed_sequence",
     "compile_kernels",
     "greedy_pass_factory",
+    "learner_seed",
     "report_arrays",
     "sarsa_config",
+    "sarsa_learner",
     "sarsa_pass_factory",
 ]

@@ -9,7 +9,10 @@ One ``.npz`` archive holds a JSON header and the parameter arrays:
   spec `keepaway-task.md` 4, layout in ``agents.getopen.net_value``);
 * ``pass_weights`` (optional): the Pass learner's weights, and any further ``pass_*`` arrays of its
   state (e.g. a hash table's bookkeeping); their shapes belong to the Sarsa learner (spec
-  `keepaway-agents.md` 5), so they are only checked to be finite real numbers here.
+  `keepaway-agents.md` 5), so they are only checked to be finite real numbers here. Each keeper learns
+  its own Pass policy (spec `keepaway-agents.md` 5): keeper 1's arrays have the plain names, keeper k's
+  (k >= 2) the names ``pass_keeper<k>_*`` (:func:`pack_pass_arrays`); a keeper without its own arrays uses
+  the plain ones (:func:`keeper_pass_arrays`).
 
 The archive is read without pickle. Whatever is wrong with a file (missing, not an archive, corrupt,
 wrong header, wrong shape, NaN) is reported as one :class:`PolicyFileError` line naming the file.
@@ -35,6 +38,7 @@ POLICY_VERSION = 1
 DEFAULT_KEEPERS = 3
 DEFAULT_TAKERS = 2
 PASS_PREFIX = "pass_"  # the Pass learner's arrays
+KEEPER_PREFIX = "pass_keeper"  # keeper k's own Pass arrays: pass_keeper<k>_*
 PASS_WEIGHTS = "pass_weights"
 
 
@@ -111,6 +115,30 @@ def _pass_arrays(arrays: Mapping[str, Any]) -> dict[str, np.ndarray]:
             raise ValueError(f"{name} has shape {array.shape}, expected a non-empty array")
         out[name] = _finite(array, name)
     return out
+
+
+def pack_pass_arrays(keepers: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    """Every keeper's Pass policy as ``pass_*`` arrays of one policy file: keeper 1's under the plain
+    names (``pass_weights``, ...), keeper k's as ``pass_keeper<k>_*``."""
+    out = dict(keepers[0])
+    for k, arrays in enumerate(keepers[1:], start=2):
+        out.update({f"{KEEPER_PREFIX}{k}_{name.removeprefix(PASS_PREFIX)}": value for name, value in arrays.items()})
+    return out
+
+
+def keeper_pass_arrays(arrays: Mapping[str, np.ndarray], keeper: int) -> dict[str, np.ndarray]:
+    """Keeper ``keeper``'s (uniform number) Pass arrays of a file packed by :func:`pack_pass_arrays`:
+    its own ``pass_keeper<k>_*`` ones under the plain names, or the plain ones when it has none."""
+    plain = {name: value for name, value in arrays.items() if not name.startswith(KEEPER_PREFIX)}
+    prefix = f"{KEEPER_PREFIX}{keeper}_"
+    own = {PASS_PREFIX + name.removeprefix(prefix): v for name, v in arrays.items() if name.startswith(prefix)}
+    return own if keeper > 1 and own else plain
+
+
+def unpack_pass_arrays(arrays: dict[str, np.ndarray], keepers: int) -> list[dict[str, np.ndarray]]:
+    """The inverse of :func:`pack_pass_arrays`; a file with the plain names only gives every keeper the
+    same policy."""
+    return [keeper_pass_arrays(arrays, k) for k in range(1, keepers + 1)]
 
 
 def _team_size(config: dict, name: str, default: int) -> int:
@@ -225,6 +253,9 @@ __all__ = [
     "PolicyFileError",
     "as_getopen_theta",
     "getopen_theta_size",
+    "keeper_pass_arrays",
     "load_policy",
+    "pack_pass_arrays",
     "save_policy",
+    "unpack_pass_arrays",
 ]

@@ -545,6 +545,11 @@ class SarsaLearner:
             raise RuntimeError("the Sarsa mode can only change between episodes")
         self.memory.mode[0] = mode
 
+    def reseed(self, seed: int) -> None:
+        """Restart the exploration stream as a learner constructed with ``seed`` starts it (a coach's
+        ``seed`` advice, docs/advice.md); the weights, collision table and mode are kept."""
+        self.memory.rng[:] = seed_streams(seed, 1)
+
     def start(self, state: np.ndarray) -> int:
         return int(start_episode(self.memory, 0, np.asarray(state, dtype=np.float64), self.params))
 

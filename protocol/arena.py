@@ -1,38 +1,51 @@
 """The arena port: a trainer's requests to one arena's coach (architecture, "Channels": arena port).
 
-A trainer (DEALER) asks a coach (ROUTER) to run episodes, optionally first advising the keepers (a
-GetOpen net, a Pass learning mode); the coach answers with the ground-truth episode records and the
-players' reports collected meanwhile. Advice applies from the next episode boundary, so an arena's
-results depend only on its seed and the requests it was sent.
+A trainer (DEALER) asks a coach (ROUTER) to run episodes: the coach first delivers the request's advice
+(policies, Pass weights, a Sarsa mode, to keepers or to one keeper), restarts the episode (with a
+``seed``: as a fresh arena started with that seed would play, server and players reseeded), lets the
+server play exactly ``episodes`` episodes and pause at the boundary, asks the keepers for the
+``reports`` wanted (SMDP transitions, weight snapshots) and answers with the ground-truth episode
+records and those reports. A request with a seed therefore plays the same whatever the arena played
+before (docs/advice.md, docs/design.md "Distributed training").
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any, ClassVar
+from typing import ClassVar
 
-from protocol.codec import Message, decode, fixed, integer, message, optional, payload_value, sequence, wire, choice
-from protocol.endpoints import DEFAULT_MAX_MESSAGE_BYTES
-from protocol.messages import CYCLE, EPISODE_ENDS, MAX_CYCLE, Error, Shutdown, _by_type
+from protocol.codec import Message, choice, decode, fixed, integer, message, optional, payload_value, sequence, wire
+from protocol.messages import CYCLE, EPISODE_ENDS, MAX_CYCLE, Error, Shutdown, _advice_target, _by_type
 
 MAX_EPISODES_PER_REQUEST = 1_000_000
 MAX_RECORDS = 1_000_000
 EPISODE_RECORD = fixed(integer(1, MAX_CYCLE), CYCLE, CYCLE, choice(*EPISODE_ENDS))
+MAX_ADVICE = 1024
+# The arena port carries whole Pass policies one way and every keeper's reports the other: its frames
+# may be far larger than a player's (the trainer is trusted; ZeroMQ still enforces this bound).
+ARENA_MAX_MESSAGE_BYTES = 1 << 28
+MAX_SEED = 2**63 - 1
+# What a trainer can ask the keepers to report after a run (agents/player.py, docs/advice.md).
+REPORTS = ("transitions", "snapshot")
 
 
 @message
 class RunEpisodes(Message):
-    """Run ``episodes`` more episodes; ``advice`` (if any) goes to the keepers first."""
+    """Deliver ``advice`` (``[target, payload]`` pairs, targets as in ``advice``), restart the episode
+    (reseeded if ``seed`` is given), play ``episodes`` episodes, then collect ``reports`` from every
+    keeper."""
 
     TYPE: ClassVar[str] = "run_episodes"
     episodes: int = wire(integer(1, MAX_EPISODES_PER_REQUEST))
-    advice: Any = wire(optional(payload_value), default=None)
+    seed: int | None = wire(optional(integer(0, MAX_SEED)), default=None)
+    advice: tuple = wire(sequence(fixed(_advice_target, payload_value), MAX_ADVICE), default=())
+    reports: tuple = wire(sequence(choice(*REPORTS), len(REPORTS)), default=())
 
 
 @message
 class EpisodesDone(Message):
     """The answer to :class:`RunEpisodes`: ``[episode, start_cycle, end_cycle, end]`` per episode and the
-    players' reports (``[side, unum, payload]``) that arrived while they ran."""
+    keepers' reports (``[side, unum, payload]``, every chunk of every report asked for)."""
 
     TYPE: ClassVar[str] = "episodes_done"
     cycle: int = wire(CYCLE)
@@ -51,9 +64,9 @@ TRAINER_TO_COACH: Mapping[str, type[Message]] = _by_type(RunEpisodes, StopArena)
 COACH_TO_TRAINER: Mapping[str, type[Message]] = _by_type(EpisodesDone, Error, Shutdown)
 
 
-def decode_from_trainer(data: bytes, max_bytes: int = DEFAULT_MAX_MESSAGE_BYTES) -> Message:
+def decode_from_trainer(data: bytes, max_bytes: int = ARENA_MAX_MESSAGE_BYTES) -> Message:
     return decode(data, TRAINER_TO_COACH, max_bytes)
 
 
-def decode_for_trainer(data: bytes, max_bytes: int = DEFAULT_MAX_MESSAGE_BYTES) -> Message:
+def decode_for_trainer(data: bytes, max_bytes: int = ARENA_MAX_MESSAGE_BYTES) -> Message:
     return decode(data, COACH_TO_TRAINER, max_bytes)

@@ -400,17 +400,30 @@ class Advice(Message):
     payload: Any = wire(payload_value)
 
 
+# ``reset`` reseeds the arena's random stream with server.rng.seed_streams, which takes any int; the
+# wire allows msgpack's non-negative signed 64-bit ints.
+SEED = integer(0, 2**63 - 1)
+# Actions that take ``episodes_left``: stop or pause once that many more episodes have ended.
+COUNTDOWN_ACTIONS = ("stop", "pause")
+
+
 @message
 class EpisodeControl(Message):
-    """Reset the field, pause, resume, or stop (now, or after ``episodes_left`` more episodes)."""
+    """Reset the field (reseeding the arena with ``seed`` if given), pause (now, or once
+    ``episodes_left`` more episodes have ended), resume, or stop (now, or after ``episodes_left`` more
+    episodes). docs/protocol.md 7 and 12 "Coach"."""
 
     TYPE: ClassVar[str] = "episode_control"
     action: str = wire(choice(*EPISODE_ACTIONS))
     episodes_left: int | None = wire(optional(COUNT), default=None)
+    seed: int | None = wire(optional(SEED), default=None)
 
     def _check(self) -> None:
-        if self.episodes_left is not None and self.action != "stop":
-            raise Invalid("bad_value", f"episodes_left is only allowed with action 'stop', not {self.action!r}")
+        if self.episodes_left is not None and self.action not in COUNTDOWN_ACTIONS:
+            raise Invalid("bad_value",
+                          f"episodes_left is only allowed with action 'stop' or 'pause', not {self.action!r}")
+        if self.seed is not None and self.action != "reset":
+            raise Invalid("bad_value", f"seed is only allowed with action 'reset', not {self.action!r}")
 
 
 @message
@@ -438,11 +451,13 @@ class CoachInitOk(Message):
 
 @message
 class LookOk(Message):
-    """The noiseless state: ``ball``, ``players``, ``play_mode``, ``episode``, ``take_count``."""
+    """The noiseless state: ``ball``, ``players``, ``play_mode``, ``episode``, ``take_count``; ``paused``:
+    the game stands still between two cycles (a ``pause`` took effect; no command is pending)."""
 
     TYPE: ClassVar[str] = "look_ok"
     cycle: int = wire(CYCLE)
     state: dict = wire(STATE)
+    paused: bool = wire(boolean, default=False)  # standing still between two cycles
 
 
 @message

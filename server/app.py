@@ -3,6 +3,12 @@
 Socket handling lives here and only here (zguide style): one poller loop, explicit linger, every frame
 decoded and validated by ``protocol`` before the game (``server/arena.py``) sees it. A bad message gets
 a one-line ``error`` reply and a log line; it never stops the loop.
+
+Pausing (docs/protocol.md 12 "Coach"): the clock stands still between cycles, before any percept of the
+next cycle, so a pause that falls due at an episode's end (``pause`` with ``episodes_left``) holds the
+arena exactly at the boundary: no player sees or acts in the new episode before ``resume``. While paused
+the queued ``hear`` messages (the referee's episode message, the coach's advice) go out at once, bare, so
+the players take the boundary and the advice while the clock stands still.
 """
 
 from __future__ import annotations
@@ -31,6 +37,8 @@ log = logging.getLogger("keepaway.server")
 # Frames up to max_message_bytes are decoded; larger ones up to this factor are answered with a
 # ``too_large`` error; beyond it ZeroMQ (MAXMSGSIZE) disconnects the sender before reading the frame.
 HARD_LIMIT_FACTOR = 4
+# While paused, sockets are polled this often (ms): a hear queued meanwhile goes out within it.
+PAUSE_POLL_MS = 50
 
 
 @dataclass
@@ -83,6 +91,9 @@ class Server:
         self.jsonl: JsonlLog | None = None
         self.episodes_left: int | None = cfg.episodes
         self.paused = False
+        self.standing_still = False  # paused between two cycles, no command pending (look_ok.paused)
+        self.pause_after: int | None = None  # pause once this many more episodes have ended
+        self.next_see: dict[bytes, float] = {}  # real-time mode: each player's next see (monotonic s)
         self._t0 = time.monotonic()
 
     # -- lifecycle -----------------------------------------------------------------------------------
@@ -157,6 +168,9 @@ class Server:
         waiting, so a command that arrives after the step acts one cycle later (spec 1)."""
         cfg = self.config
         while self.stop_reason is None:
+            self._hold_while_paused(poller)
+            if self.stop_reason is not None:
+                break
             cycle = self.arena.cycle
             self._send_cycle_percepts(think=True)
             deadline = time.monotonic() + cfg.cycle_timeout_s
@@ -166,35 +180,56 @@ class Server:
                     self._missed_cycle(cycle)
                     break
                 self._poll(poller, max(1, int(remaining * 1000)))
-            while self.paused and self.stop_reason is None:
-                self._poll(poller, 50)
             if self.stop_reason is None:
                 self._step()
 
     def _run_realtime(self, poller: zmq.Poller) -> None:
         """Real-time mode: a step every simulator_step_ms of wall time; sense_body right after it; each
-        player's see on its own period from its connect time (asynchronous with the cycle, spec 1)."""
+        player's see on its own period from its connect time (asynchronous with the cycle, spec 1).
+        A pause stops the step and see timers; they go on from where they stood on resume."""
         step_s = self.config.params.simulator_step_ms / 1000.0
         next_step = time.monotonic() + step_s
-        self._send_cycle_percepts(think=False, see=False)
-        next_see = {ident: time.monotonic() for ident in self.conns}
+        sent_cycle = -1  # the last cycle whose sense_bodies went out
         while self.stop_reason is None:
+            if self.paused:
+                held = self._hold_while_paused(poller)
+                next_step += held
+                for ident in self.next_see:
+                    self.next_see[ident] += held
+                continue
+            if sent_cycle < self.arena.cycle:
+                sent_cycle = self.arena.cycle
+                self._send_cycle_percepts(think=False, see=False)
             now = time.monotonic()
             for ident, conn in list(self.conns.items()):
-                due = next_see.setdefault(ident, now)
+                due = self.next_see.setdefault(ident, now)  # a new player's (or a reset's) first see: now
                 if now >= due:
                     self._send(conn, self.arena.see_message(conn.slot))
-                    next_see[ident] = due + conn.slot.see_period_ms(self.config.params.send_step_ms) / 1000.0
-            wake = min([next_step] + list(next_see.values()))
+                    self.next_see[ident] = due + conn.slot.see_period_ms(self.config.params.send_step_ms) / 1000.0
+            wake = min([next_step] + list(self.next_see.values()))
             self._poll(poller, max(0, int((wake - time.monotonic()) * 1000)))
-            if time.monotonic() >= next_step:
-                if not self.paused:
-                    self._step()
-                    if self.stop_reason is None:
-                        self._send_cycle_percepts(think=False, see=False)
+            if not self.paused and time.monotonic() >= next_step:
+                self._step()
                 next_step += step_s
                 if next_step < time.monotonic():  # a slow cycle is not caught up (rcssserver)
                     next_step = time.monotonic() + step_s
+
+    def _hold_while_paused(self, poller: zmq.Poller) -> float:
+        """Stand still while paused (both modes): serve the sockets and send each player its queued
+        hears at once, bare (no sense_body, no think), until resume or stop; returns the seconds held.
+        Hears queued just before the resume still go out bare, so none waits for the next percepts."""
+        if not self.paused:
+            return 0.0
+        start = time.monotonic()
+        self.standing_still = True
+        try:
+            while True:
+                self._send_queued_hears()
+                if not self.paused or self.stop_reason is not None:
+                    return time.monotonic() - start
+                self._poll(poller, PAUSE_POLL_MS)
+        finally:
+            self.standing_still = False
 
     def _ready_to_start(self) -> bool:
         if self.config.start_on == "players":
@@ -255,6 +290,14 @@ class Server:
             self.episodes_left -= 1
             if self.episodes_left <= 0:
                 self.request_stop(f"{self.episodes_done} episodes done")
+        if self.pause_after is not None:
+            self.pause_after -= 1
+            self._pause_if_due()
+
+    def _send_queued_hears(self) -> None:
+        for conn in sorted(self.conns.values(), key=lambda c: c.slot.obj):
+            for msg in self.arena.take_hears(conn.slot):
+                self._send(conn, msg)
 
     def _send_cycle_percepts(self, think: bool, see: bool = True) -> None:
         arena = self.arena
@@ -413,8 +456,8 @@ class Server:
                 log.info("coach started the game")
                 self.arena.start()
         elif isinstance(msg, m.Look):
-            self._send_raw(self.coach, ident, encode(m.LookOk(cycle=self.arena.cycle,
-                                                              state=truth_state(self.arena))))
+            self._send_raw(self.coach, ident, encode(m.LookOk(cycle=self.arena.cycle, state=truth_state(self.arena),
+                                                              paused=self.standing_still)))
         elif isinstance(msg, m.Advice):
             self.arena.advise(self._targets(msg.target), msg.payload)
         elif isinstance(msg, m.EpisodeControl):
@@ -440,8 +483,29 @@ class Server:
             else:
                 self.episodes_left = msg.episodes_left
         elif msg.action == "pause":
-            self.paused = True
+            if msg.episodes_left is None:
+                self._pause_now()
+            else:
+                self.pause_after = msg.episodes_left  # replaces any countdown; 0 = now
+                self._pause_if_due()
         elif msg.action == "resume":
             self.paused = False
+            log.info("resumed at cycle %d", self.arena.cycle)
         elif msg.action == "reset":
-            self.arena.reset_episode()
+            self.arena.reset_episode(msg.seed, now_ms=self._virtual_ms())
+            if msg.seed is not None:
+                self.next_see.clear()  # real-time see timers restart as on connect, like the arena's
+            log.info("episode reset at cycle %d%s", self.arena.cycle,
+                     "" if msg.seed is None else f" with seed {msg.seed}")
+
+    def _pause_if_due(self) -> None:
+        """End a ``pause`` countdown that has reached 0: pause now."""
+        if self.pause_after is not None and self.pause_after <= 0:
+            self.pause_after = None
+            self._pause_now()
+
+    def _pause_now(self) -> None:
+        """Pause before the next cycle's percepts: the loops check ``paused`` there, so a pause that
+        falls due at an episode's end holds the arena exactly at the boundary."""
+        self.paused = True
+        log.info("paused at cycle %d", self.arena.cycle)

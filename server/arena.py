@@ -1,7 +1,9 @@
 """One arena's game without sockets: players, their command slots, the step, percepts and hearing.
 
 The distributed server (``server/app.py``) wraps it with ZeroMQ and timing; the embedded mode drives it
-directly. Everything here is deterministic given the seed and the commands submitted per cycle.
+directly. Everything here is deterministic given the seed and the commands submitted per cycle; the
+coach's ``reset`` with a seed (:meth:`Arena.reset_episode`) makes the rest of the game depend only on that
+seed and the commands that follow, whatever was played before (docs/protocol.md 12 "Coach").
 """
 
 from __future__ import annotations
@@ -10,6 +12,8 @@ import math
 import re
 from dataclasses import dataclass, field
 from typing import Any
+
+import numpy as np
 
 from protocol import PROTOCOL_VERSION
 from protocol import messages as m
@@ -40,9 +44,13 @@ TEAMS = {"keepers": "l", "takers": "r"}
 MAIN_SLOT = {"dash": CMD_DASH, "turn": CMD_TURN, "kick": CMD_KICK, "tackle": CMD_TACKLE, "move": CMD_MOVE,
              "catch": CMD_CATCH}
 VIEW_WIDTHS = {"narrow": 0.5, "normal": 1.0, "wide": 2.0}
+DEFAULT_VIEW_WIDTH = "normal"
 SYNCH_SEE_PERIOD = {"narrow": 1, "normal": 2, "wide": 3}
 SAY_ALLOWED = re.compile(r"^[-0-9a-zA-Z ().+*/?<>_]*$")
 REFEREE_EPISODE_MESSAGE = "training Keepaway 1"
+# World arrays a reseeding reset keeps: the clock, who is connected, and the command counters (they
+# count per connection in rcssserver and never go back; a client may compare successive sense_bodies).
+KEPT_ON_RESEED = ("time", "enabled", "counts")
 
 
 class ArenaError(Exception):
@@ -64,7 +72,7 @@ class PlayerSlot:
     connected: bool = False
     fullstate: bool = False
     synch_see: bool = False
-    view_width: str = "normal"
+    view_width: str = DEFAULT_VIEW_WIDTH
     see_phase_ms: float = 0.0  # virtual time of this player's first see (connect time, as rcssserver)
     main_taken: bool = False
     neck_taken: bool = False
@@ -224,12 +232,51 @@ class Arena:
         self._referee_says(REFEREE_EPISODE_MESSAGE)
         return record
 
-    def reset_episode(self) -> None:
-        """The coach's "reset": restart the episode now without logging it (the field is reset)."""
-        reset_field(0, self.world, self.kp)
-        self.referee.take_count[0] = 0
-        self.referee.start_cycle[0] = self.cycle
+    def reset_episode(self, seed: int | None = None, now_ms: float = 0.0) -> None:
+        """The coach's "reset" (docs/protocol.md 12 "Coach"): restart the episode now, not logged; the
+        episode and cycle counters go on and the players hear the referee's episode message.
+
+        Without ``seed`` the field is reset from the running stream; everything else goes on. With
+        ``seed`` the new episode plays exactly as the first episode of a fresh arena started with that
+        seed, relative to this cycle (common random numbers across a trainer's requests): the world
+        becomes a fresh one (:meth:`_restore_fresh`, ``now_ms`` being this cycle's virtual time for the
+        see timers), then the kick-off's reset (spec 5 Start) places the players from the new stream.
+        Exact only between cycles (the server pauses there, ``server/app.py``): percepts already sent
+        for this cycle described the old episode. Before the kick-off the arena is only reseeded and
+        the kick-off places the players.
+        """
+        if seed is None:
+            reset_field(0, self.world, self.kp)
+            self.referee.take_count[0] = 0
+            self.referee.start_cycle[0] = self.cycle
+        else:
+            self._restore_fresh(seed, now_ms)
+            if not self.started:
+                return
+            episode = int(self.referee.episode[0])
+            start_game(0, self.world, self.referee, self.kp)
+            self.referee.episode[0] = episode  # start_game numbers a fresh game's episode 1
         self._referee_says(REFEREE_EPISODE_MESSAGE)
+
+    def _restore_fresh(self, seed: int, now_ms: float) -> None:
+        """Everything a fresh arena with ``seed`` has at its kick-off but the clock, the connections and
+        the command counters (``KEPT_ON_RESEED``): the random stream (``seed_streams(seed, 1)``), the
+        ball at the centre, parked players, body and neck angles, stamina, effort, recovery, capacity,
+        collision and kick flags; no pending commands or says; every view normal, and every see timer
+        restarted at ``now_ms`` as if the player connected now (spec 1: a see is due every period from
+        the connection time). Queued hears (the coach's advice) stay.
+        """
+        w = self.world
+        fresh = new_world(self.params, w.n_keepers, w.n_takers, batch=1, seed=seed)
+        for name, value in zip(World._fields, fresh):
+            if isinstance(value, np.ndarray) and name not in KEPT_ON_RESEED:
+                getattr(w, name)[...] = value
+        self.commands.clear()
+        self.pending_says.clear()
+        for s in self.slots:
+            s.main_taken = s.neck_taken = False
+            s.view_width = DEFAULT_VIEW_WIDTH
+            s.see_phase_ms = now_ms
 
     def _referee_says(self, *messages: str) -> None:
         """Referee messages are heard at once, in this cycle's percepts (spec 4 Hearing)."""
@@ -239,6 +286,12 @@ class Arena:
                                       message=text))
 
     # -- hearing ------------------------------------------------------------------------------------
+    def take_hears(self, s: PlayerSlot) -> list:
+        """The hears queued for ``s``, now delivered: in its next percepts, or at once while the server
+        is paused (docs/protocol.md 12 "Coach")."""
+        out, s.hears = s.hears, []
+        return out
+
     def advise(self, objs: list[int], payload: Any) -> None:
         """Coach advice, heard by ``objs`` in their next percepts."""
         for obj in objs:
@@ -309,8 +362,7 @@ class Arena:
         out: list = [self.sense_body_message(s)]
         if s.fullstate:
             out.append(m.Fullstate(cycle=self.cycle, **self.fullstate_payload()))
-        out.extend(s.hears)
-        s.hears.clear()
+        out.extend(self.take_hears(s))
         if with_see:
             out.append(self.see_message(s))
         return out

@@ -33,7 +33,7 @@ def test_trainer_runs_episodes_through_the_arena_endpoint_and_stops_the_arena(pr
     trainer.setsockopt(zmq.LINGER, 0)
     trainer.connect(arena)
     try:
-        trainer.send(encode(RunEpisodes(episodes=3, advice={"kind": "policy", "getopen_theta": [0.1] * 91})))
+        trainer.send(encode(RunEpisodes(episodes=3, advice=(("keepers", {"kind": "policy", "getopen_theta": [0.1] * 91}),))))
         assert trainer.poll(180_000), "no answer from the arena"
         done = decode_for_trainer(trainer.recv())
         assert isinstance(done, EpisodesDone)

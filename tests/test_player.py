@@ -12,8 +12,17 @@ import math
 import numpy as np
 import pytest
 
-from agents.player import PlayerAgent, greedy_pass_factory
-from agents.policy_file import PolicyFileError, getopen_theta_size, load_policy, save_policy
+from agents.player import PlayerAgent, agent_seed_sequence, greedy_pass_factory
+from agents.skills import GETOPEN_POLICIES, PASS_POLICIES
+from agents.policy_file import (
+    PolicyFileError,
+    getopen_theta_size,
+    keeper_pass_arrays,
+    load_policy,
+    pack_pass_arrays,
+    save_policy,
+    unpack_pass_arrays,
+)
 from protocol import PROTOCOL_VERSION, encode
 from protocol import messages as m
 from protocol.messages import decode_for_player, decode_from_player
@@ -215,6 +224,112 @@ def test_advice_before_kick_off_applies_at_kick_off():
     np.testing.assert_array_equal(game.agent(1).theta, 0.25)
 
 
+def hear_coach(cycle, payload):
+    return wire(m.Hear(cycle=cycle, sender="coach", direction=None, unum=None, message=payload))
+
+
+def test_policy_advice_switches_the_pass_and_getopen_policies_at_the_next_boundary():
+    game = Game()
+    game.cycle()
+    game.arena.advise([1, 2], {"kind": "policy", "pass": "hold", "getopen": "random"})
+    game.arena.advise([3], {"kind": "policy", "getopen": "learned", "getopen_theta": [0.5] * THETA_SIZE})
+    game.percepts()
+    handcoded = (PASS_POLICIES["handcoded"], GETOPEN_POLICIES["handcoded"])
+    assert {(a.cfg.pass_policy, a.cfg.getopen_policy) for _, a in game.players} == {handcoded}
+    game.arena.reset_episode()
+    game.percepts()
+    hold_random = (PASS_POLICIES["hold"], GETOPEN_POLICIES["random"])
+    assert [(game.agent(o).cfg.pass_policy, game.agent(o).cfg.getopen_policy) for o in (1, 2)] == [hold_random] * 2
+    three = game.agent(3)
+    assert three.cfg.pass_policy == PASS_POLICIES["handcoded"]
+    assert three.cfg.getopen_policy == GETOPEN_POLICIES["learned"]
+    np.testing.assert_array_equal(three.theta, 0.5)
+    assert game.agent(1).learner is None  # only the learned Pass policy needs a learner
+
+
+def test_bad_policy_advice_is_ignored_whole_with_one_line(caplog):
+    game = Game(keeper_kw={"getopen_policy": "learned"})
+    game.arena.advise([1], {"kind": "policy", "pass": "telepathy", "getopen_theta": [0.5] * THETA_SIZE})
+    game.arena.advise([2], {"kind": "policy", "getopen": ["random"]})
+    game.arena.reset_episode()
+    game.percepts()
+    np.testing.assert_array_equal(game.agent(1).theta, 0.0)
+    assert game.agent(1).cfg.pass_policy == PASS_POLICIES["handcoded"]
+    assert game.agent(2).cfg.getopen_policy == GETOPEN_POLICIES["learned"]
+    lines = [r.getMessage() for r in caplog.records if "ignored the coach's policy advice" in r.getMessage()]
+    assert len(lines) == 2 and "Pass policy 'telepathy' is not one of" in lines[0] and "['random']" in lines[1]
+
+
+def test_seed_advice_restarts_every_players_stream_at_the_boundary(caplog):
+    game = Game(seed=3, keeper_kw={"pass_policy": "random", "getopen_policy": "random"})
+    for _ in range(10):
+        game.cycle()
+    game.arena.advise([1, 2, 3, 4, 5], {"kind": "seed", "seed": 11})
+    game.percepts()
+    assert {a.seed for _, a in game.players} == {3}  # kept for the boundary
+    game.arena.reset_episode()
+    game.percepts()
+    for slot, agent in game.players:
+        side = 0 if slot.side == "l" else 1
+        assert agent.seed == 11
+        # as a player started with --seed 11: the first word of SeedSequence([11, side, unum])
+        assert agent.memory.rng[0] == agent_seed_sequence(11, side, slot.unum).generate_state(1, np.uint64)[0]
+    for bad in (-1, "11", True, 1.5, None):
+        game.arena.advise([4], {"kind": "seed", "seed": bad})
+    game.arena.reset_episode()
+    game.percepts()
+    assert game.agent(4).seed == 11
+    assert sum("ignored the coach's seed advice" in r.getMessage() for r in caplog.records) == 5
+
+
+def play_keeper_one(game, agents, cycles):
+    """``cycles`` cycles of ``game`` in which every agent of ``agents`` hears keeper 1's percepts and
+    ``agents[0]`` plays it; each agent's commands, cycle by cycle."""
+    slot_one = game.players[0][0]
+    out = [[] for _ in agents]
+    for _ in range(cycles):
+        cycle = game.arena.cycle
+        for slot, agent in game.players:
+            for msg in game.arena.cycle_percepts(slot, game.arena.see_due(slot, cycle)):
+                for listener in agents if slot is slot_one else [agent]:
+                    listener.on_message(wire(msg))
+        for slot, agent in game.players:
+            if slot is slot_one:
+                commands = [a.on_message(wire(m.Think(cycle=cycle))) for a in agents]
+                for seen, cmd in zip(out, commands):
+                    seen.append(cmd.commands)
+                game.arena.submit(slot.obj, decode_from_player(encode(commands[0])).commands)
+            else:
+                game.arena.submit(slot.obj, game.think(slot, agent).commands)
+        game.arena.step()
+    return out
+
+
+@pytest.mark.parametrize("advised", [True, False])
+def test_after_seed_advice_play_depends_only_on_the_seed_and_the_percepts(advised):
+    # Two keepers 1 with different pasts (other arenas, other seeds, other lengths) hear the same seed
+    # advice, then the same percepts from the boundary on: they send the same commands. Without the
+    # advice their streams, decision memories and world models differ, and so do their commands.
+    kw = {"pass_policy": "random", "getopen_policy": "random"}
+
+    def veteran(seed, cycles):
+        game = Game(seed=seed, keeper_kw=kw)
+        for _ in range(cycles):
+            game.cycle()
+        return game.agent(1)
+
+    agents = [veteran(1, 40), veteran(2, 75)]
+    game = Game(seed=5, keeper_kw=kw)
+    for _ in range(100):
+        game.cycle()
+    if advised:
+        for agent in agents:
+            agent.on_message(hear_coach(game.arena.cycle, {"kind": "seed", "seed": 9}))
+    game.arena.reset_episode()
+    first, second = play_keeper_one(game, agents, 80)
+    assert (first == second) == advised
+
+
 # ---------------------------------------------------------------------------------- Pass learner hook
 
 
@@ -238,7 +353,7 @@ class RecordingLearner:
 
 def test_learned_pass_asks_the_learner_at_each_decision_and_ends_its_episode():
     learner = RecordingLearner()
-    game = Game(fullstate=True, keeper_kw={"pass_policy": "learned", "pass_learner": lambda seq: learner})
+    game = Game(fullstate=True, keeper_kw={"pass_policy": "learned", "pass_learner": lambda seq, unum: learner})
     w = game.arena.world
     keeper, slot_agent = 1, game.players[0]
     # Keeper 1 has the ball 0.6 m to its side in three successive cycles; the learner holds each time.
@@ -277,13 +392,13 @@ def test_learned_pass_plays_the_policy_files_sarsa_weights_greedily(tmp_path):
     path = save_policy(tmp_path / "pass.npz", pass_arrays=arrays,
                        config={"keepers": K, "takers": T, "sarsa": {"table_size": 2**14}})
     factory = greedy_pass_factory(load_policy(path))
-    learner = factory(np.random.SeedSequence(5))
+    learner = factory(np.random.SeedSequence(5), 1)
     assert learner.start(state) in (0, 1, 2)  # all equal: a uniform tie-break
     hold_tiles = teacher.memory.tiles[0, 0].copy()  # the 416 tiles of HoldBall in this state
     arrays["pass_weights"][hold_tiles] = 1.0
     path = save_policy(tmp_path / "hold.npz", pass_arrays=arrays,
                        config={"keepers": K, "takers": T, "sarsa": {"table_size": 2**14}})
-    learner = greedy_pass_factory(load_policy(path))(np.random.SeedSequence(5))
+    learner = greedy_pass_factory(load_policy(path))(np.random.SeedSequence(5), 1)
     assert learner.start(state) == 0
     assert learner.step(1.0, state) == 0
 
@@ -395,3 +510,47 @@ def test_save_policy_refuses_what_load_policy_would_refuse(tmp_path):
     with pytest.raises(ValueError, match="must be named pass_"):
         save_policy(tmp_path / "names.npz", pass_arrays={"pass_weights": np.zeros(3), "weights": np.zeros(3)})
     assert not list(tmp_path.iterdir())
+
+
+def test_pass_arrays_pack_per_keeper_and_unpack_with_the_plain_ones_as_fallback():
+    keepers = [{"pass_weights": np.full(4, float(k)), "pass_hash_check": np.full(4, k, dtype=np.int32)}
+               for k in (1, 2, 3)]
+    packed = pack_pass_arrays(keepers)
+    assert sorted(packed) == ["pass_hash_check", "pass_keeper2_hash_check", "pass_keeper2_weights",
+                              "pass_keeper3_hash_check", "pass_keeper3_weights", "pass_weights"]
+    for back, original in zip(unpack_pass_arrays(packed, 3), keepers):
+        assert sorted(back) == sorted(original)
+        for name in original:
+            np.testing.assert_array_equal(back[name], original[name])
+    two = pack_pass_arrays(keepers[:2])  # no keeper 3 arrays: keeper 3 uses the plain (keeper 1's) ones
+    assert keeper_pass_arrays(two, 3)["pass_weights"][0] == 1.0 and keeper_pass_arrays(two, 2)["pass_weights"][0] == 2.0
+    assert [a["pass_weights"][0] for a in unpack_pass_arrays(keepers[0], 3)] == [1.0, 1.0, 1.0]
+
+
+def test_a_learned_pass_keeper_loads_its_own_arrays_from_a_per_keeper_file(tmp_path):
+    from agents.sarsa import SarsaConfig, SarsaLearner
+
+    small = SarsaConfig(table_size=2**12)
+    own = []
+    for k in (1, 2):  # keepers 1 and 2 have their own policies, keeper 3 none: it takes keeper 1's
+        arrays = SarsaLearner(K, T, small).save()
+        arrays["pass_weights"][:] = k / 10.0
+        arrays["pass_hash_check"][k] = 100 + k
+        own.append(arrays)
+    path = save_policy(tmp_path / "team.npz", pass_arrays=pack_pass_arrays(own),
+                       config={"keepers": K, "takers": T, "sarsa": {"table_size": 2**12}})
+    game = Game(keeper_kw={"pass_policy": "learned", "policy": load_policy(path)})
+    for unum, source in ((1, own[0]), (2, own[1]), (3, own[0])):
+        saved = game.agent(unum).learner.save()
+        for name in source:
+            np.testing.assert_array_equal(saved[name], source[name], err_msg=f"keeper {unum} {name}")
+
+
+def test_a_keepers_own_pass_arrays_of_the_wrong_size_are_a_one_line_error(tmp_path):
+    from agents.sarsa import SarsaConfig, SarsaLearner
+
+    good = SarsaLearner(K, T, SarsaConfig(table_size=2**12)).save()
+    path = save_policy(tmp_path / "odd.npz", pass_arrays=pack_pass_arrays([good, {"pass_weights": np.zeros(4)}]),
+                       config={"keepers": K, "takers": T, "sarsa": {"table_size": 2**12}})
+    with pytest.raises(PolicyFileError, match="keeper 2's Pass weights do not fit the Sarsa learner"):
+        PlayerAgent("keepers", pass_policy="learned", policy=load_policy(path))

@@ -32,16 +32,15 @@ from trainer.schedule import (
     parse_schedule,
     training_schedule,
 )
+from agents.policy_file import pack_pass_arrays, unpack_pass_arrays
 from trainer.train import (
     Behaviours,
     TrainConfig,
     TrialState,
     load_checkpoint,
-    pack_pass_arrays,
     read_config,
     step,
     train,
-    unpack_pass_arrays,
 )
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"

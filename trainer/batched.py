@@ -70,7 +70,7 @@ from agents.sarsa import (
     start_episode,
     step as sarsa_step,
 )
-from agents.player import agent_seed_sequence
+from agents.player import agent_seed_sequence, learner_seed as player_learner_seed
 from agents.skills import (
     GETOPEN_POLICIES,
     PASS_POLICIES,
@@ -144,8 +144,7 @@ def learner_seed(seed: int, keeper: int) -> int:
     """The seed of the Pass learner of keeper ``keeper`` (uniform number) in the arena seeded ``seed``: a
     player process's (``agents/player.py``: the first child of ``SeedSequence([seed, 0, unum])``, whose
     first word seeds its ``SarsaLearner``)."""
-    child = agent_seed_sequence(seed, _SIDE_KEEPERS, keeper).spawn(1)[0]
-    return int(child.generate_state(1, dtype=np.uint64)[0])
+    return player_learner_seed(agent_seed_sequence(seed, _SIDE_KEEPERS, keeper).spawn(1)[0])
 
 
 class Decisions(NamedTuple):

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 LISTEN_RE = re.compile(r"players=(tcp://\S+) coach=(tcp://\S+) monitor=(tcp://\S+)")
+ARENA_RE = re.compile(r"arena=(tcp://\S+)")
 
 
 class ArenaFailure(RuntimeError):
@@ -38,6 +39,16 @@ class Member:
 def keepaway_argv(*args: str) -> list[str]:
     """Run the ``keepaway`` CLI with this interpreter (no dependence on PATH)."""
     return [sys.executable, "-m", "keepaway", *args]
+
+
+@dataclass(frozen=True)
+class ArenaEndpoints:
+    """Where an arena's server listens, and its coach's arena port if it serves trainers."""
+
+    players: str
+    coach: str
+    monitor: str
+    arena: str | None = None
 
 
 @dataclass
@@ -64,20 +75,47 @@ class ArenaProcesses:
         self.members.append(member)
         return member
 
+    def member(self, name: str) -> Member:
+        return next(member for member in self.members if member.name == name)
+
     def start_server(self, server_args: list[str], timeout_s: float = 120.0) -> tuple[Member, str, str, str]:
         """Start ``keepaway server`` on free ports and return it with its three endpoints."""
         member = self.start("server", keepaway_argv("server", "--players-port", "0", "--coach-port", "0",
                                                     "--monitor-port", "0", *server_args), capture_stdout=True)
+        match = self._announced(member, LISTEN_RE, timeout_s)
+        return member, match.group(1), match.group(2), match.group(3)
+
+    def start_arena(self, server_args: list[str], player_args: list[str], keepers: int, takers: int,
+                    arena_host: str | None = None) -> ArenaEndpoints:
+        """A whole arena: the server on free ports, its coach (serving trainers on a free port of
+        ``arena_host`` if given) and ``keepers`` + ``takers`` players, each with ``player_args``."""
+        _, players, coach, monitor = self.start_server(server_args)
+        arena = None
+        if arena_host is None:
+            self.start("coach", keepaway_argv("coach", "--server", coach))
+        else:
+            member = self.start("coach", keepaway_argv("coach", "--server", coach, "--arena-port", "0",
+                                                       "--host", arena_host), capture_stdout=True)
+            arena = self._announced(member, ARENA_RE, 120.0).group(1)
+        for team, count in (("keepers", keepers), ("takers", takers)):
+            for i in range(1, count + 1):
+                self.start(f"{team[:-1]} {i}", keepaway_argv("player", "--team", team, "--server", players,
+                                                             *player_args))
+        return ArenaEndpoints(players, coach, monitor, arena)
+
+    def _announced(self, member: Member, pattern: re.Pattern, timeout_s: float) -> re.Match:
+        """The first line of ``member``'s stdout matching ``pattern`` (its endpoints)."""
         deadline = time.monotonic() + timeout_s
         while time.monotonic() < deadline:
             line = member.proc.stdout.readline().decode()
-            match = LISTEN_RE.search(line)
+            match = pattern.search(line)
             if match:
-                return member, match.group(1), match.group(2), match.group(3)
+                return match
             if not line and member.proc.poll() is not None:
                 break
         member.proc.poll()
-        raise ArenaFailure(f"the server did not start: {member.describe_exit()}; see {self.log_dir / 'server.log'}")
+        log = self.log_dir / f"{member.name}.log"
+        raise ArenaFailure(f"the {member.name} did not start: {member.describe_exit()}; see {log}")
 
     def first_death(self, grace_s: float = 5.0) -> Member | None:
         """A member that died: any non-zero exit, or a clean exit while the server keeps running for

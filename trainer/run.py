@@ -101,21 +101,17 @@ def distributed_episodes(opts: RunOptions, processes: ArenaProcesses) -> Iterato
                    "--params", opts.parameter_set, "--log-dir", str(opts.out), "--kwy-name", "keepaway"]
     if opts.realtime:
         server_args += ["--mode", "realtime"]
-    server, players_ep, coach_ep, monitor_ep = processes.start_server(server_args)
+    player_args = ["--seed", str(spec.seed), "--pass", spec.pass_policy, "--getopen", spec.getopen_policy]
+    if opts.policy_path is not None:
+        player_args += ["--policy", str(opts.policy_path)]
+    endpoints = processes.start_arena(server_args, player_args, spec.keepers, spec.takers)
+    server = processes.member("server")
     ctx = zmq.Context.instance()
     monitor = ctx.socket(zmq.SUB)
     monitor.setsockopt(zmq.LINGER, 0)
     monitor.setsockopt(zmq.SUBSCRIBE, MONITOR_EPISODE_TOPIC)
-    monitor.connect(monitor_ep)
+    monitor.connect(endpoints.monitor)
     try:
-        processes.start("coach", keepaway_argv("coach", "--server", coach_ep))
-        player_args = ["--server", players_ep, "--seed", str(spec.seed), "--pass", spec.pass_policy,
-                       "--getopen", spec.getopen_policy]
-        if opts.policy_path is not None:
-            player_args += ["--policy", str(opts.policy_path)]
-        for team, count in (("keepers", spec.keepers), ("takers", spec.takers)):
-            for i in range(1, count + 1):
-                processes.start(f"{team[:-1]} {i}", keepaway_argv("player", "--team", team, *player_args))
         yielded: set[int] = set()
         while server.proc.poll() is None:
             if monitor.poll(200):

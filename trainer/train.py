@@ -1,4 +1,4 @@
-"""``keepaway train``: learn GetOpen (CEM), Pass (Sarsa) or both (Algorithm 3) in the batched mode.
+"""``keepaway train``: learn GetOpen (CEM), Pass (Sarsa) or both (Algorithm 3).
 
 Spec `keepaway-task.md` 6-8. A training is ``trials`` independent trials of one configuration, each a
 walk through the schedule (:mod:`trainer.schedule`) in steps:
@@ -19,8 +19,14 @@ Sarsa learners (weights 0). The GetOpen policy a trial hands on (to Pass phases,
 policy file) is the CEM's best candidate so far; the CEM's distribution carries over from one GetOpen
 phase to the next.
 
+The steps are played by a backend: :class:`BatchedBackend` steps in-process arenas
+(``trainer.batched``), ``trainer.distributed.DistributedBackend`` drives arenas of separate processes
+through their coaches (``mode`` "distributed"); both offer ``play`` (one job, possibly learning Pass)
+and ``play_candidates`` (a CEM generation's frozen candidates on common seeds).
+
 Every random stream is derived from ``(seed, trial, stream, index)``, and each step starts fresh arenas
-from such a seed; so a step's outcome depends only on the trial's state before it. After every step the
+(or, distributed, arenas restarted) from such a seed; so a step's outcome depends only on the trial's
+state before it. After every step the
 trial's state is written atomically to ``checkpoint.npz`` and the outputs are derived from it; a killed
 training resumed from the last checkpoint (``resume=True``) therefore ends exactly as an uninterrupted
 one.
@@ -28,7 +34,10 @@ one.
 Output directory: ``config.json``, ``summary.json``, ``curves.png`` and per trial ``trial_NNN/`` with
 ``curve.csv`` (episodes trained, mean hold time, standard error), ``trace.jsonl`` (one line per
 generation / Pass block: CEM fitness values, training hold times), ``policy.npz`` (the learned policies,
-``agents.policy_file`` format) and ``checkpoint.npz``.
+``agents.policy_file`` format) and ``checkpoint.npz``; in the distributed mode also
+``transitions/pass_to_NNNNNN.npz``, the SMDP transitions every keeper reported during the Pass block that
+ended at that many episodes (``keeper<k>_state``, ``_action``, ``_reward``, ``_next_action``,
+``_terminal``, ``_dropped``).
 """
 
 from __future__ import annotations
@@ -44,7 +53,7 @@ from typing import Any
 
 import numpy as np
 
-from agents.policy_file import getopen_theta_size, save_policy
+from agents.policy_file import getopen_theta_size, pack_pass_arrays, save_policy, unpack_pass_arrays
 from agents.sarsa import SarsaConfig
 from protocol.params import ServerParams, parameter_set
 from server.episode_log import EpisodeRecord
@@ -76,6 +85,7 @@ STREAM_GENERATION = 1  # index: generation
 STREAM_PASS_BLOCK = 2  # index: episodes trained when the block starts
 STREAM_EVALUATION = 3  # index: episodes trained at the evaluation
 STREAM_INITIAL_NET = 4
+MODES = ("batched", "distributed")
 
 
 def derive_seed(seed: int, *path: int) -> int:
@@ -103,14 +113,15 @@ class TrainConfig:
     trials: int = 1
     eval_every: int = 2_500  # keepaway-task.md 8
     eval_episodes: int = 500  # keepaway-task.md 8
-    arenas: int = 25  # arenas per candidate evaluation and per frozen evaluation (ours)
+    arenas: int = 25  # batched: arenas per candidate and per evaluation; distributed: arenas of processes
     seed: int = 0
     keepers: int = 3
     takers: int = 2
     field_size: float = 20.0
     parameter_set: str = "classic"
     cem: CEMConfig = CEMConfig()
-    sarsa: SarsaConfig = BATCHED_SARSA  # the batched mode's table size (trainer/batched.py)
+    sarsa: SarsaConfig = BATCHED_SARSA  # the batched mode's table size (trainer/batched.py), in both modes
+    mode: str = "batched"  # MODES
 
     def __post_init__(self) -> None:
         if self.pass_policy not in POLICY_NAMES or self.getopen_policy not in POLICY_NAMES:
@@ -118,6 +129,8 @@ class TrainConfig:
         learned = {GETOPEN: self.getopen_policy == LEARNED, PASS: self.pass_policy == LEARNED}
         if not self.schedule or not all(learned[p.behaviour] for p in self.schedule):
             raise ValueError(f"the schedule {format_schedule(self.schedule)!r} must train learned behaviours only")
+        if self.mode not in MODES:
+            raise ValueError(f"mode must be one of {', '.join(MODES)}, not {self.mode!r}")
         if min(self.trials, self.eval_episodes, self.arenas) < 1:
             raise ValueError("trials, eval_episodes and arenas must be at least 1")
         if self.cem.n_params != getopen_theta_size(self.keepers, self.takers):
@@ -195,34 +208,15 @@ class TrialState:
     curve: list[CurvePoint] = field(default_factory=list)
     trace: list[dict[str, Any]] = field(default_factory=list)
     cem: CEM | None = None
+    # the last Pass block's keeper transitions (distributed mode), until written; not checkpointed
+    transitions: dict[int, dict[str, np.ndarray]] | None = field(default=None, repr=False)
 
     def finished(self, config: TrainConfig) -> bool:
         return len(self.curve) == len(evaluation_points(config.schedule, config.eval_every))
 
 
 Progress = Callable[[int], None]  # called with the number of episodes just played
-
-
-# -- Pass policies in files ---------------------------------------------------------------------------
-def pack_pass_arrays(keepers: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
-    """Every keeper's Pass policy as ``pass_*`` arrays of one policy file: keeper 1's under the plain
-    names (``pass_weights``, ...: what a player process loads), keeper k's as ``pass_keeper<k>_*``."""
-    out = dict(keepers[0])
-    for k, arrays in enumerate(keepers[1:], start=2):
-        out.update({f"pass_keeper{k}_{name.removeprefix('pass_')}": value for name, value in arrays.items()})
-    return out
-
-
-def unpack_pass_arrays(arrays: dict[str, np.ndarray], keepers: int) -> list[dict[str, np.ndarray]]:
-    """The inverse of :func:`pack_pass_arrays`; a file with the plain names only gives every keeper the
-    same policy."""
-    plain = {name: value for name, value in arrays.items() if not name.startswith("pass_keeper")}
-    out = [plain]
-    for k in range(2, keepers + 1):
-        prefix = f"pass_keeper{k}_"
-        own = {"pass_" + name.removeprefix(prefix): v for name, v in arrays.items() if name.startswith(prefix)}
-        out.append(own or plain)
-    return out
+Played = tuple[RunResult, list[dict[str, np.ndarray]] | None, dict[int, dict[str, np.ndarray]] | None]
 
 
 # -- playing -----------------------------------------------------------------------------------------
@@ -273,6 +267,43 @@ def evaluate(game: Game, behaviours: Behaviours, seed: int, episodes: int, arena
     return play(game, behaviours, seed, episodes, arenas, GREEDY, threads, progress)[0]
 
 
+class BatchedBackend:
+    """Plays a training's steps in in-process arenas (:func:`play`); transitions are not reported."""
+
+    def __init__(self, game: Game, threads: int | None = None) -> None:
+        self.game = game
+        self.threads = threads
+
+    def play(self, behaviours: Behaviours, seed: int, episodes: int, arenas: int, pass_mode: str,
+             progress: Progress | None = None) -> Played:
+        result, learned = play(self.game, behaviours, seed, episodes, arenas, pass_mode, self.threads, progress)
+        return result, learned, None
+
+    def play_candidates(self, candidates: list[Behaviours], seed: int, episodes: int, arenas: int,
+                        progress: Progress | None = None) -> list[RunResult]:
+        """Each candidate frozen in fresh arenas with the same seeds (common random numbers)."""
+        return [self.play(c, seed, episodes, arenas, GREEDY, progress)[0] for c in candidates]
+
+    def close(self) -> None:
+        pass
+
+
+def open_backend(config: TrainConfig, out: Path, threads: int | None = None,
+                 attach: list[str] | None = None, launcher: Callable[..., Any] | None = None) -> Any:
+    """The backend of ``config.mode``: batched with ``threads``; distributed on arenas started here
+    (``config.arenas`` of them, logs under ``out/arenas``), by ``launcher(config)`` (e.g. on a Ray
+    cluster: ``trainer.ray_backend``), or attached to running ones at the ``attach`` endpoints."""
+    if config.mode == "batched":
+        return BatchedBackend(config.game(), threads)
+    from trainer.distributed import DistributedBackend
+
+    if attach:
+        return DistributedBackend.attach(config.game(), attach)
+    if launcher is not None:
+        return launcher(config)
+    return DistributedBackend.start_local(config.game(), config.arenas, out / "arenas", config.parameter_set)
+
+
 def _point(episodes: int, result: RunResult) -> CurvePoint:
     summary = result.summary()
     return CurvePoint(episodes, summary["mean_hold_time_s"], summary["stderr_hold_time_s"])
@@ -289,27 +320,25 @@ def phase_at(schedule: tuple[Phase, ...], episodes: int) -> tuple[Phase, int]:
     raise ValueError(f"episode {episodes} is past the schedule's end ({end})")
 
 
-def step(config: TrainConfig, state: TrialState, threads: int | None = None,
-         progress: Progress | None = None) -> str:
-    """Advance ``state`` by one step (an evaluation, a CEM generation or a Pass block); returns what it
-    was, for the progress display."""
+def step(config: TrainConfig, state: TrialState, backend: Any = None, progress: Progress | None = None) -> str:
+    """Advance ``state`` by one step (an evaluation, a CEM generation or a Pass block) on ``backend``
+    (default: :class:`BatchedBackend`); returns what it was, for the progress display."""
+    backend = backend or BatchedBackend(config.game())
     points = evaluation_points(config.schedule, config.eval_every)
     seed, trial = config.seed, state.trial
     if state.episodes == points[len(state.curve)]:
-        result = evaluate(config.game(), state.behaviours,
-                          derive_seed(seed, trial, STREAM_EVALUATION, state.episodes), config.eval_episodes,
-                          config.arenas, threads, progress)
+        result, _, _ = backend.play(state.behaviours, derive_seed(seed, trial, STREAM_EVALUATION, state.episodes),
+                                    config.eval_episodes, config.arenas, GREEDY, progress)
         state.curve.append(_point(state.episodes, result))
         return f"evaluation at {state.episodes}"
     phase, phase_end = phase_at(config.schedule, state.episodes)
     if phase.behaviour == GETOPEN:
-        return _cem_generation(config, state, threads, progress)
-    return _pass_block(config, state, min(phase_end, points[len(state.curve)]) - state.episodes, threads,
+        return _cem_generation(config, state, backend, progress)
+    return _pass_block(config, state, min(phase_end, points[len(state.curve)]) - state.episodes, backend,
                        progress)
 
 
-def _cem_generation(config: TrainConfig, state: TrialState, threads: int | None,
-                    progress: Progress | None) -> str:
+def _cem_generation(config: TrainConfig, state: TrialState, backend: Any, progress: Progress | None) -> str:
     """One CEM generation (keepaway-task.md 6): every candidate plays the same arena seeds with the
     current Pass policy frozen."""
     if state.cem is None:
@@ -317,12 +346,9 @@ def _cem_generation(config: TrainConfig, state: TrialState, threads: int | None,
     cem = state.cem
     generation = cem.generation
     seed = derive_seed(config.seed, state.trial, STREAM_GENERATION, generation)
-    fitness = []
-    for theta in cem.ask():
-        candidate = replace(state.behaviours, getopen_policy=LEARNED, getopen_theta=theta)
-        result, _ = play(config.game(), candidate, seed, config.cem.episodes_per_candidate, config.arenas,
-                         GREEDY, threads, progress)
-        fitness.append(result.summary()["mean_hold_time_s"])
+    candidates = [replace(state.behaviours, getopen_policy=LEARNED, getopen_theta=theta) for theta in cem.ask()]
+    results = backend.play_candidates(candidates, seed, config.cem.episodes_per_candidate, config.arenas, progress)
+    fitness = [result.summary()["mean_hold_time_s"] for result in results]
     cem.tell(np.array(fitness))
     assert cem.best_params is not None
     state.behaviours.getopen_policy = LEARNED
@@ -334,14 +360,15 @@ def _cem_generation(config: TrainConfig, state: TrialState, threads: int | None,
     return f"GetOpen generation {generation + 1}"
 
 
-def _pass_block(config: TrainConfig, state: TrialState, episodes: int, threads: int | None,
+def _pass_block(config: TrainConfig, state: TrialState, episodes: int, backend: Any,
                 progress: Progress | None) -> str:
     """Sarsa learns Pass for ``episodes`` episodes in one fresh arena, GetOpen fixed (keepaway-task.md 5, 7)."""
     learner = replace(state.behaviours, pass_policy=LEARNED)
     seed = derive_seed(config.seed, state.trial, STREAM_PASS_BLOCK, state.episodes)
-    result, arrays = play(config.game(), learner, seed, episodes, 1, LEARN, threads, progress)
+    result, arrays, transitions = backend.play(learner, seed, episodes, 1, LEARN, progress)
     state.behaviours.pass_policy = LEARNED
     state.behaviours.pass_arrays = arrays
+    state.transitions = transitions
     state.episodes += episodes
     summary = result.summary()
     state.trace.append({"phase": PASS, "episodes": state.episodes, "block_episodes": episodes,
@@ -400,6 +427,21 @@ def load_checkpoint(out: Path, trial: int) -> TrialState | None:
                                    "best_params": arrays.get("cem_best_params")})
     return TrialState(trial, behaviours, header["episodes"], [CurvePoint(**p) for p in header["curve"]],
                       header["trace"], cem)
+
+
+def write_transitions(out: Path, state: TrialState) -> None:
+    """The last Pass block's keeper transitions (if any) as ``transitions/pass_to_NNNNNN.npz``, written
+    atomically; then they are dropped from the state."""
+    if state.transitions is None:
+        return
+    arrays = {f"keeper{unum}_{name}": value for unum, keeper in state.transitions.items()
+              for name, value in keeper.items()}
+    buffer = io.BytesIO()
+    np.savez_compressed(buffer, **arrays)
+    where = trial_dir(out, state.trial) / "transitions"
+    where.mkdir(exist_ok=True)
+    write_atomic(where / f"pass_to_{state.episodes:06d}.npz", buffer.getvalue())
+    state.transitions = None
 
 
 def write_trial_outputs(config: TrainConfig, out: Path, state: TrialState) -> None:
@@ -468,18 +510,20 @@ def read_config(out: Path) -> TrainConfig:
     return TrainConfig.from_dict(json.loads(path.read_text()))
 
 
-def run_trials(config: TrainConfig, out: Path, threads: int | None = None,
+def run_trials(config: TrainConfig, out: Path, backend: Any = None,
                steps: Callable[[int, int], Progress] | None = None,
                on_step: Callable[[TrialState, str], None] | None = None) -> Iterator[TrialState]:
-    """Train every trial of the training in ``out`` (begun by :func:`write_config`), continuing each
-    from its last checkpoint; yield each trial's final state. ``steps(trial, done)`` gives the progress
-    callback of a trial that has ``done`` of its episodes behind it; ``on_step`` hears of every step."""
+    """Train every trial of the training in ``out`` (begun by :func:`write_config`) on ``backend``
+    (default: batched), continuing each from its last checkpoint; yield each trial's final state.
+    ``steps(trial, done)`` gives the progress callback of a trial that has ``done`` of its episodes
+    behind it; ``on_step`` hears of every step."""
     for trial in range(config.trials):
         trial_dir(out, trial).mkdir(exist_ok=True)
         state = load_checkpoint(out, trial) or TrialState(trial, Behaviours.initial(config, trial))
         progress = None if steps is None else steps(trial, played_episodes(config, state))
         while not state.finished(config):
-            what = step(config, state, threads, progress)
+            what = step(config, state, backend, progress)
+            write_transitions(out, state)
             save_checkpoint(out, state)
             write_trial_outputs(config, out, state)
             if on_step is not None:
@@ -499,9 +543,11 @@ def planned_episodes(config: TrainConfig) -> int:
 
 
 def train(config: TrainConfig, out: Path, resume: bool = False, threads: int | None = None,
-          progress: bool = True) -> dict[str, Any]:
+          progress: bool = True, attach: list[str] | None = None,
+          launcher: Callable[..., Any] | None = None) -> dict[str, Any]:
     """Run (or with ``resume`` continue) the training ``config`` in ``out``; returns the summary.
-    With ``resume`` the configuration is the one stored in ``out``."""
+    With ``resume`` the configuration is the one stored in ``out``. ``threads``, ``attach`` and
+    ``launcher`` choose where the arenas run (:func:`open_backend`)."""
     from tqdm import tqdm
 
     if resume:
@@ -524,17 +570,20 @@ def train(config: TrainConfig, out: Path, resume: bool = False, threads: int | N
         bar.set_postfix_str(f"{done}; last eval {last.mean_hold_time_s:.2f} s at {last.episodes}" if last else done)
 
     states: list[TrialState] = []
+    backend = open_backend(config, out, threads, attach, launcher)
     try:
-        for state in run_trials(config, out, threads, steps, on_step):
+        for state in run_trials(config, out, backend, steps, on_step):
             states.append(state)
             write_summary(config, out, states)
     finally:
+        backend.close()
         if bar is not None:
             bar.close()
     return summarise(config, states)
 
 
 __all__ = [
+    "BatchedBackend",
     "Behaviours",
     "Game",
     "TrainConfig",
@@ -543,7 +592,7 @@ __all__ = [
     "episode_records",
     "evaluate",
     "load_checkpoint",
-    "pack_pass_arrays",
+    "open_backend",
     "phase_at",
     "play",
     "read_config",
@@ -552,7 +601,6 @@ __all__ = [
     "step",
     "summarise",
     "train",
-    "unpack_pass_arrays",
     "write_config",
     "write_summary",
     "write_trial_outputs",

@@ -32,9 +32,18 @@ CONFIG_OPTIONS = ("pass_policy", "getopen_policy", "episodes", "schedule", "tria
 @click.option("--eval-every", type=int, default=2500, show_default=True,
               help="Training episodes between frozen evaluations.")
 @click.option("--eval-episodes", type=int, default=500, show_default=True, help="Episodes per evaluation.")
-@click.option("--arenas", type=int, default=25, show_default=True,
-              help="Arenas per CEM candidate and per evaluation (a Pass block learns in one arena).")
-@click.option("--mode", type=click.Choice(["batched", "distributed"]), default="batched", show_default=True)
+@click.option("--arenas", type=int, default=None,
+              help="batched: arenas stepped at once per CEM candidate and per evaluation [25]; distributed: "
+                   "arenas of processes started [2] (a Pass block learns in one arena).")
+@click.option("--mode", type=click.Choice(["batched", "distributed"]), default="batched", show_default=True,
+              help="batched: in-process arenas; distributed: arenas of server, coach and player processes.")
+@click.option("--arena", "attach", multiple=True, metavar="ENDPOINT",
+              help="distributed: drive this running arena (a coach's arena endpoint, e.g. tcp://host:6003) "
+                   "instead of starting arenas; repeat for more.")
+@click.option("--backend", type=click.Choice(["local", "ray"]), default="local", show_default=True,
+              help="distributed: start the arenas on this machine, or on a Ray cluster (pip install "
+                   "'keepaway[ray]'; see --ray-address).")
+@click.option("--ray-address", default=None, help="Ray cluster to join [RAY_ADDRESS, or a local Ray].")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the whole training.")
 @click.option("--population", type=int, default=20, show_default=True, help="CEM candidates per generation.")
 @click.option("--elite", type=int, default=5, show_default=True, help="CEM candidates refitted to.")
@@ -52,7 +61,8 @@ CONFIG_OPTIONS = ("pass_policy", "getopen_policy", "episodes", "schedule", "tria
 @click.option("--threads", type=int, default=None, help="Threads stepping arenas [numba's thread count].")
 @click.option("--no-progress", is_flag=True, help="No progress bars.")
 def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, schedule: str | None, trials: int,
-                  eval_every: int, eval_episodes: int, arenas: int, mode: str, seed: int, population: int,
+                  eval_every: int, eval_episodes: int, arenas: int | None, mode: str, attach: tuple[str, ...],
+                  backend: str, ray_address: str | None, seed: int, population: int,
                   elite: int, candidate_episodes: int, keepers: int, takers: int, field_size: float,
                   parameter_set: str, out: Path, resume: Path | None, threads: int | None,
                   no_progress: bool) -> None:
@@ -60,11 +70,14 @@ def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, s
     from agents.policy_file import getopen_theta_size
     from trainer.cem import CEMConfig
     from trainer.schedule import parse_schedule, training_schedule
+    from trainer.launch import ArenaFailure
     from trainer.train import TrainConfig, train
 
-    if mode == "distributed":
-        raise click.UsageError("keepaway train runs in --mode batched only for now (distributed: not yet)")
     ctx = click.get_current_context()
+    if (attach or backend != "local") and mode != "distributed" and resume is None:
+        raise click.UsageError("--arena and --backend choose where a distributed training runs: add --mode distributed")
+    if attach and backend != "local":
+        raise click.UsageError("--arena attaches to running arenas; --backend ray starts its own: choose one")
     if resume is not None:
         given = [f"--{name.replace('_', '-')}" for name in CONFIG_OPTIONS
                  if ctx.get_parameter_source(name) is not click.core.ParameterSource.DEFAULT]
@@ -77,15 +90,28 @@ def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, s
                                        parse_schedule(schedule) if schedule else None)
             cem = CEMConfig(n_params=getopen_theta_size(keepers, takers), population=population, elite=elite,
                             episodes_per_candidate=candidate_episodes)
+            if arenas is None:
+                arenas = len(attach) or (2 if mode == "distributed" else 25)
             config = TrainConfig(pass_policy, getopen_policy, phases, trials, eval_every, eval_episodes, arenas,
-                                 seed, keepers, takers, field_size, parameter_set, cem)
+                                 seed, keepers, takers, field_size, parameter_set, cem, mode=mode)
         except ValueError as exc:
+            raise click.UsageError(str(exc)) from None
+    launcher = None
+    if backend == "ray":
+        from trainer.ray_backend import ray_launcher
+
+        try:
+            launcher = ray_launcher(ray_address)
+        except RuntimeError as exc:
             raise click.UsageError(str(exc)) from None
     try:
         summary = train(config, resume or out, resume=resume is not None, threads=threads,  # type: ignore[arg-type]
-                        progress=not no_progress)
+                        progress=not no_progress, attach=list(attach) or None, launcher=launcher)
     except (FileExistsError, FileNotFoundError) as exc:
         raise click.UsageError(str(exc)) from None
+    except ArenaFailure as exc:
+        click.echo(f"keepaway train: an arena failed: {exc}; continue with --resume {resume or out}", err=True)
+        sys.exit(1)
     except KeyboardInterrupt:
         click.echo(f"keepaway train: interrupted; continue with --resume {resume or out}", err=True)
         sys.exit(130)
@@ -128,7 +154,8 @@ def evaluate_command(policy_path: Path, episodes: int, seed: int, pass_policy: s
     from agents.policy_file import PolicyFileError, load_policy
     from protocol.params import parameter_set
     from trainer.run import dump_json, summary_table
-    from trainer.train import Behaviours, Game, evaluate, unpack_pass_arrays
+    from agents.policy_file import unpack_pass_arrays
+    from trainer.train import Behaviours, Game, evaluate
 
     if episodes < 1 or arenas < 1:
         raise click.UsageError("--episodes and --arenas must be at least 1")

@@ -1,0 +1,89 @@
+"""`keepaway train --mode distributed`: arenas of real server, coach and player processes driven through
+the coaches' arena ports (trainer/distributed.py)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+
+import numpy as np
+import pytest
+
+from agents.policy_file import load_policy
+from conftest import keepaway_command
+from trainer.cem import CEMConfig
+from trainer.distributed import DistributedBackend, chunk_seeds
+from trainer.schedule import PASS, Phase
+from trainer.train import Behaviours, TrainConfig, train
+
+pytestmark = pytest.mark.timeout(600)
+
+
+def test_chunks_cover_a_job_with_their_own_seeds():
+    plan = chunk_seeds(7, 60, 25)
+    assert [n for n, _ in plan] == [25, 25, 10]
+    assert len({s for _, s in plan}) == 3
+    assert chunk_seeds(7, 60, 25) == plan  # a pure function of the job
+
+
+def test_a_chunk_plays_the_same_in_any_arena_whatever_it_played_before(tmp_path):
+    # Random Pass and GetOpen draw from the players' own streams, so this checks the players' reseeding
+    # as well as the server's. Two arenas split the job's chunks; then one arena that has played
+    # something else meanwhile plays every chunk alone: the episodes must be the same.
+    game = TrainConfig().game()
+    job = Behaviours("random", "random")
+    with DistributedBackend.start_local(game, 2, tmp_path, "classic", chunk_episodes=2) as backend:
+        split = backend.play(job, 11, 6, 2, "greedy")[0]
+        backend.play(Behaviours("handcoded", "handcoded"), 5, 3, 1, "greedy")
+        alone = DistributedBackend(game, backend.arenas[1:], chunk_episodes=2).play(job, 11, 6, 1, "greedy")[0]
+        other_seed = backend.play(job, 12, 6, 2, "greedy")[0]
+    durations = [(e.end_cycle - e.start_cycle, e.end) for e in split.episodes]
+    assert len(durations) == 6
+    assert durations == [(e.end_cycle - e.start_cycle, e.end) for e in alone.episodes]
+    assert durations != [(e.end_cycle - e.start_cycle, e.end) for e in other_seed.episodes]
+
+
+def test_pass_learns_in_distributed_arenas_and_the_policy_reloads_and_plays(tmp_path):
+    # P:L-GO:HC for 60 episodes in two Pass blocks of 30 (chunks of 25 + 5), evaluations of 6 episodes
+    # at 0, 30 and 60, on two arenas of processes.
+    config = TrainConfig(pass_policy="learned", getopen_policy="handcoded", schedule=(Phase(PASS, 60),),
+                         eval_every=30, eval_episodes=6, arenas=2, seed=3, mode="distributed", cem=CEMConfig())
+    out = tmp_path / "train"
+    summary = train(config, out, progress=False)
+    assert [p["episodes"] for p in summary["curve"]] == [0, 30, 60]
+    assert all(p["mean_hold_time_s"] > 0 for p in summary["curve"])
+    trial = out / "trial_000"
+    trace = [json.loads(line) for line in (trial / "trace.jsonl").read_text().splitlines()]
+    assert [(t["phase"], t["episodes"]) for t in trace] == [(PASS, 30), (PASS, 60)]
+
+    # the traces: every keeper's SMDP transitions of each block, none lost
+    terminal = 0
+    for block in ("pass_to_000030.npz", "pass_to_000060.npz"):
+        with np.load(trial / "transitions" / block) as data:
+            for k in (1, 2, 3):
+                state, action = data[f"keeper{k}_state"], data[f"keeper{k}_action"]
+                assert state.ndim == 2 and state.shape[1] == 13 and len(action) == len(state)
+                assert set(np.unique(action)) <= {0, 1, 2}
+                assert (data[f"keeper{k}_reward"] >= 0).all()
+                assert int(data[f"keeper{k}_dropped"]) == 0
+                terminal += int(data[f"keeper{k}_terminal"].sum())
+    # an episode ends a learning episode for every keeper that decided in it (at least the first holder)
+    assert terminal >= 30
+
+    # the snapshots: each keeper's own learned weights, in the policy file
+    policy = load_policy(trial / "policy.npz")
+    weights = [policy.pass_arrays["pass_weights"]] + [policy.pass_arrays[f"pass_keeper{k}_weights"] for k in (2, 3)]
+    assert all(np.count_nonzero(w) > 0 for w in weights)
+    assert not np.array_equal(weights[0], weights[1])
+
+    # the saved policy plays again, in player processes and in the batched mode
+    played = subprocess.run(keepaway_command("run", "--mode", "distributed", "--pass", "learned", "--getopen",
+                                             "handcoded", "--policy", str(trial / "policy.npz"), "--episodes", "3",
+                                             "--out", str(tmp_path / "replay"), "--json", "--no-progress"),
+                            capture_output=True, text=True, timeout=300)
+    assert played.returncode == 0, played.stderr
+    assert len(json.loads(played.stdout)["episodes"]) == 3
+    evaluated = subprocess.run(keepaway_command("evaluate", "--policy", str(out), "--episodes", "6", "--arenas", "3",
+                                                "--json", "--no-progress"), capture_output=True, text=True, timeout=300)
+    assert evaluated.returncode == 0, evaluated.stderr
+    assert json.loads(evaluated.stdout)["pass"] == "learned"
