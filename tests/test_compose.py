@@ -31,6 +31,13 @@ def test_service_command_is_a_valid_keepaway_invocation(name):
     command.make_context(argv[0], list(argv[1:]))  # raises click.UsageError on a bad option
 
 
+def test_the_trainer_drives_the_compose_arena_through_its_coach():
+    argv = SERVICES["trainer"]["command"]
+    coach = SERVICES["coach"]["command"]
+    assert argv[argv.index("--mode") + 1] == "distributed"
+    assert argv[argv.index("--arena") + 1] == f"tcp://coach:{coach[coach.index('--arena-port') + 1]}"
+
+
 @pytest.mark.parametrize("name", ["coach", "keeper1", "taker2"])
 def test_clients_reach_the_server_by_service_name(name):
     argv = SERVICES[name]["command"]
