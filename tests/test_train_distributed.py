@@ -4,7 +4,11 @@ the coaches' arena ports (trainer/distributed.py)."""
 from __future__ import annotations
 
 import json
+import os
+import signal
 import subprocess
+import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -43,13 +47,55 @@ def test_a_chunk_plays_the_same_in_any_arena_whatever_it_played_before(tmp_path)
     assert durations != [(e.end_cycle - e.start_cycle, e.end) for e in other_seed.episodes]
 
 
-def test_pass_learns_in_distributed_arenas_and_the_policy_reloads_and_plays(tmp_path):
-    # P:L-GO:HC for 60 episodes in two Pass blocks of 30 (chunks of 25 + 5), evaluations of 6 episodes
-    # at 0, 30 and 60, on two arenas of processes.
+# P:L-GO:HC for 60 episodes in two Pass blocks of 30 (chunks of 25 + 5), evaluations of 6 episodes at 0,
+# 30 and 60.
+TRAIN_ARGS = ["train", "--mode", "distributed", "--pass", "learned", "--getopen", "handcoded", "--episodes", "60",
+              "--eval-every", "30", "--eval-episodes", "6", "--seed", "3", "--no-progress"]
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory) -> Path:
+    """The training of TRAIN_ARGS on two arenas of processes, run in this process."""
     config = TrainConfig(pass_policy="learned", getopen_policy="handcoded", schedule=(Phase(PASS, 60),),
                          eval_every=30, eval_episodes=6, arenas=2, seed=3, mode="distributed", cem=CEMConfig())
-    out = tmp_path / "train"
-    summary = train(config, out, progress=False)
+    out = tmp_path_factory.mktemp("distributed") / "train"
+    train(config, out, progress=False)
+    return out
+
+
+def live_processes() -> dict[int, int]:
+    """Every live (not zombie) process: pid -> parent pid."""
+    out = {}
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            state, ppid = (entry / "stat").read_text().rsplit(") ", 1)[1].split()[:2]
+        except (OSError, ValueError, IndexError):
+            continue
+        if state != "Z":
+            out[int(entry.name)] = int(ppid)
+    return out
+
+
+def children(pid: int) -> set[int]:
+    return {child for child, parent in live_processes().items() if parent == pid}
+
+
+def alive(pids: set[int]) -> set[int]:
+    return pids & set(live_processes())
+
+
+def wait_for(condition, timeout: float, what: str) -> None:
+    deadline = time.monotonic() + timeout
+    while not condition():
+        assert time.monotonic() < deadline, f"timed out waiting for {what}"
+        time.sleep(0.2)
+
+
+def test_pass_learns_in_distributed_arenas_and_the_policy_reloads_and_plays(trained, tmp_path):
+    out = trained
+    summary = json.loads((out / "summary.json").read_text())
     assert [p["episodes"] for p in summary["curve"]] == [0, 30, 60]
     assert all(p["mean_hold_time_s"] > 0 for p in summary["curve"])
     trial = out / "trial_000"
@@ -87,3 +133,37 @@ def test_pass_learns_in_distributed_arenas_and_the_policy_reloads_and_plays(tmp_
                                                 "--json", "--no-progress"), capture_output=True, text=True, timeout=300)
     assert evaluated.returncode == 0, evaluated.stderr
     assert json.loads(evaluated.stdout)["pass"] == "learned"
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="finds the arena processes through /proc")
+def test_a_terminated_training_stops_its_arenas_and_resumes_to_the_same_result_on_one_arena(trained, tmp_path,
+                                                                                             processes):
+    out = tmp_path / "one_arena"
+    trainer = processes.popen(keepaway_command(*TRAIN_ARGS, "--arenas", "1", "--out", str(out)),
+                              stderr=subprocess.PIPE)
+    wait_for(lambda: (out / "trial_000" / "checkpoint.npz").exists(), 300, "the first checkpoint")
+    arena = children(trainer.pid)
+    assert len(arena) == 7  # server, coach, 3 keepers, 2 takers
+    trainer.send_signal(signal.SIGTERM)
+    assert trainer.wait(60) == 130
+    assert "--resume" in trainer.stderr.read().decode()
+    assert not alive(arena)
+    resumed = subprocess.run(keepaway_command("train", "--resume", str(out), "--no-progress"), capture_output=True,
+                             text=True, timeout=600)
+    assert resumed.returncode == 0, resumed.stderr
+    # chunks restart their arena from their own seeds: one arena, interrupted, gives what two gave
+    assert (out / "trial_000" / "curve.csv").read_text() == (trained / "trial_000" / "curve.csv").read_text()
+    mine, theirs = load_policy(out / "trial_000" / "policy.npz"), load_policy(trained / "trial_000" / "policy.npz")
+    assert all(np.array_equal(mine.pass_arrays[k], theirs.pass_arrays[k]) for k in theirs.pass_arrays)
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="finds the arena processes through /proc")
+def test_a_killed_trainer_leaves_no_arena_process_behind(tmp_path, processes):
+    out = tmp_path / "killed"
+    trainer = processes.popen(keepaway_command(*TRAIN_ARGS, "--arenas", "2", "--out", str(out)))
+    wait_for(lambda: (out / "trial_000").exists(), 300, "the arenas to play")
+    arenas = children(trainer.pid)
+    assert len(arenas) == 14  # two arenas of seven processes
+    os.kill(trainer.pid, signal.SIGKILL)
+    trainer.wait(30)
+    wait_for(lambda: not alive(arenas), 30, "the orphaned arena processes to end")

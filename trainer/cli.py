@@ -39,7 +39,7 @@ def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str,
     from agents.policy_file import PolicyFileError, load_policy
     from protocol.params import parameter_set as make_params
     from trainer.embedded import ArenaSpec
-    from trainer.launch import ArenaFailure
+    from trainer.launch import ArenaFailure, interrupt_on_sigterm
     from trainer.run import RunOptions, dump_json, run, summary_table
 
     if episodes < 1:
@@ -55,6 +55,7 @@ def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str,
         raise click.UsageError(str(exc)) from None
     spec = ArenaSpec(params, keepers, takers, seed, pass_policy, getopen_policy, policy)
     opts = RunOptions(spec, episodes, mode, batch, realtime, out, policy_path, parameter_set)
+    interrupt_on_sigterm()
     try:
         result = run(opts, progress=not no_progress and not as_json)
     except ArenaFailure as exc:

@@ -1,11 +1,13 @@
 """Starting a whole distributed arena (server, coach, keepers, takers) as separate processes.
 
 Every process gets its own session so the whole arena can be stopped at once; a process that dies is
-named in one line; nothing is left running whatever happens (architecture, "Processes").
+named in one line; nothing is left running whatever happens (architecture, "Processes"): on Linux each
+process also gets SIGTERM when the process that started it dies, even by SIGKILL.
 """
 
 from __future__ import annotations
 
+import ctypes
 import os
 import re
 import signal
@@ -17,6 +19,7 @@ from pathlib import Path
 
 LISTEN_RE = re.compile(r"players=(tcp://\S+) coach=(tcp://\S+) monitor=(tcp://\S+)")
 ARENA_RE = re.compile(r"arena=(tcp://\S+)")
+PR_SET_PDEATHSIG = 1  # linux/prctl.h
 
 
 class ArenaFailure(RuntimeError):
@@ -69,7 +72,8 @@ class ArenaProcesses:
     def start(self, name: str, argv: list[str], capture_stdout: bool = False) -> Member:
         stderr = open(self.log_dir / f"{name.replace(' ', '_')}.log", "wb")
         proc = subprocess.Popen(argv, stdout=subprocess.PIPE if capture_stdout else subprocess.DEVNULL,
-                                stderr=stderr, start_new_session=True)
+                                stderr=stderr, start_new_session=True,
+                                preexec_fn=_die_with_parent if sys.platform == "linux" else None)
         stderr.close()
         member = Member(name, proc)
         self.members.append(member)
@@ -161,6 +165,17 @@ class ArenaProcesses:
                 member.proc.wait()
             if member.proc.stdout is not None:
                 member.proc.stdout.close()
+
+
+def _die_with_parent() -> None:
+    """In the child, before exec: ask Linux for SIGTERM when the parent dies."""
+    ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
+
+
+def interrupt_on_sigterm() -> None:
+    """Treat SIGTERM like Ctrl-C (KeyboardInterrupt), so a terminated run or training stops its arenas
+    and keeps what it has written."""
+    signal.signal(signal.SIGTERM, signal.default_int_handler)
 
 
 def _signal_group(proc: subprocess.Popen, sig: signal.Signals) -> None:

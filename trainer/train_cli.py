@@ -70,7 +70,7 @@ def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, s
     from agents.policy_file import getopen_theta_size
     from trainer.cem import CEMConfig
     from trainer.schedule import parse_schedule, training_schedule
-    from trainer.launch import ArenaFailure
+    from trainer.launch import ArenaFailure, interrupt_on_sigterm
     from trainer.train import TrainConfig, train
 
     ctx = click.get_current_context()
@@ -104,6 +104,7 @@ def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, s
             launcher = ray_launcher(ray_address)
         except RuntimeError as exc:
             raise click.UsageError(str(exc)) from None
+    interrupt_on_sigterm()
     try:
         summary = train(config, resume or out, resume=resume is not None, threads=threads,  # type: ignore[arg-type]
                         progress=not no_progress, attach=list(attach) or None, launcher=launcher)
