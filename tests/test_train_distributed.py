@@ -7,16 +7,23 @@ import json
 import os
 import signal
 import subprocess
+import threading
 import time
 from pathlib import Path
 
 import numpy as np
 import pytest
+import zmq
 
 from agents.policy_file import load_policy
 from conftest import keepaway_command
+from protocol import encode
+from protocol import messages as m
+from protocol.arena import RunEpisodes, decode_from_trainer
+from trainer import distributed
 from trainer.cem import CEMConfig
 from trainer.distributed import DistributedBackend, chunk_seeds
+from trainer.launch import ArenaFailure
 from trainer.schedule import PASS, Phase
 from trainer.train import Behaviours, TrainConfig, train
 
@@ -28,6 +35,45 @@ def test_chunks_cover_a_job_with_their_own_seeds():
     assert [n for n, _ in plan] == [25, 25, 10]
     assert len({s for _, s in plan}) == 3
     assert chunk_seeds(7, 60, 25) == plan  # a pure function of the job
+
+
+@pytest.fixture
+def fake_coach():
+    """A ROUTER on a free loopback port standing in for a coach's arena port."""
+    sock = zmq.Context.instance().socket(zmq.ROUTER)
+    sock.setsockopt(zmq.LINGER, 0)
+    port = sock.bind_to_random_port("tcp://127.0.0.1")
+    yield sock, f"tcp://127.0.0.1:{port}"
+    sock.close(linger=0)
+
+
+def test_an_attached_arena_that_never_answers_is_given_up_in_one_line(fake_coach, monkeypatch):
+    monkeypatch.setattr(distributed, "ATTACHED_TIMEOUT_S", 0.5)
+    _, endpoint = fake_coach
+    backend = DistributedBackend.attach(TrainConfig().game(), [endpoint])
+    try:
+        with pytest.raises(ArenaFailure, match=r"arena 0 \(tcp://127.0.0.1:\d+\): no answer for \d+ s"):
+            backend.play(Behaviours("handcoded", "handcoded"), 1, 3, 1, "greedy")
+    finally:
+        backend.close()
+
+
+def test_a_refused_run_is_named_with_the_coach_error(fake_coach):
+    sock, endpoint = fake_coach
+    backend = DistributedBackend.attach(TrainConfig().game(), [endpoint])
+    try:
+        def refuse():
+            ident, data = sock.recv_multipart()
+            assert isinstance(decode_from_trainer(data), RunEpisodes)
+            sock.send_multipart([ident, encode(m.Error(cycle=0, code="reports_missing", message="keeper 2's snapshot"))])
+
+        thread = threading.Thread(target=refuse)
+        thread.start()
+        with pytest.raises(ArenaFailure, match="the coach refused a run: reports_missing: keeper 2's snapshot"):
+            backend.play(Behaviours("handcoded", "handcoded"), 1, 3, 1, "greedy")
+        thread.join()
+    finally:
+        backend.close()
 
 
 def test_a_chunk_plays_the_same_in_any_arena_whatever_it_played_before(tmp_path):

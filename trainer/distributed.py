@@ -44,6 +44,9 @@ CHUNK_EPISODES = 25  # episodes per request: progress granularity vs. per-reques
 TRANSITION_LOG = 1 << 14
 LEARNED = "learned"
 POLL_MS = 200
+# An arena this trainer did not start cannot be watched for dead processes: one that has not answered a
+# chunk after this long is given up (a chunk takes seconds to a minute).
+ATTACHED_TIMEOUT_S = 900.0
 STOP_TIMEOUT_S = 10.0
 
 Progress = Callable[[int], None]
@@ -72,12 +75,15 @@ class Arena:
     socket: zmq.Socket
     processes: ArenaProcesses | None = None
 
-    def check(self) -> None:
-        """Raise ArenaFailure naming the first dead process of an arena this trainer started."""
+    def check(self, waited_s: float) -> None:
+        """Raise ArenaFailure naming the first dead process of an arena this trainer started, or for an
+        attached arena that has not answered for :data:`ATTACHED_TIMEOUT_S`."""
         if self.processes is not None:
             dead = self.processes.first_death()
             if dead is not None:
                 raise ArenaFailure(f"{self.name}: {dead.describe_exit()}; logs in {self.processes.log_dir}")
+        elif waited_s > ATTACHED_TIMEOUT_S:
+            raise ArenaFailure(f"{self.name}: no answer for {waited_s:.0f} s; is its coach still running?")
 
 
 def chunk_seeds(seed: int, episodes: int, chunk_episodes: int) -> list[tuple[int, int]]:
@@ -244,6 +250,7 @@ class DistributedBackend:
         answers: list[EpisodesDone | None] = [None] * len(chunks)
         queue = list(range(len(chunks)))
         busy: dict[int, int] = {}  # arena index -> chunk index
+        since: dict[int, float] = {}  # arena index -> when its chunk was sent
         poller = zmq.Poller()
         for arena in arenas:
             poller.register(arena.socket, zmq.POLLIN)
@@ -251,6 +258,7 @@ class DistributedBackend:
             for a, arena in enumerate(arenas):
                 if a not in busy and queue:
                     busy[a] = queue.pop(0)
+                    since[a] = time.monotonic()
                     arena.socket.send(encode(chunks[busy[a]].request()))
             events = dict(poller.poll(POLL_MS))
             for a, arena in enumerate(arenas):
@@ -260,7 +268,7 @@ class DistributedBackend:
                     if progress is not None:
                         progress(chunks[index].episodes)
                 elif a in busy:
-                    arena.check()
+                    arena.check(time.monotonic() - since[a])
         return answers  # type: ignore[return-value]
 
     @staticmethod
