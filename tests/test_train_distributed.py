@@ -213,3 +213,22 @@ def test_a_killed_trainer_leaves_no_arena_process_behind(tmp_path, processes):
     os.kill(trainer.pid, signal.SIGKILL)
     trainer.wait(30)
     wait_for(lambda: not alive(arenas), 30, "the orphaned arena processes to end")
+
+
+def test_where_a_training_runs_is_checked_against_its_mode(tmp_path):
+    from click.testing import CliRunner
+
+    from keepaway.cli import main
+
+    runner = CliRunner()
+    done = runner.invoke(main, ["train", "--arena", "tcp://127.0.0.1:6003", "--out", str(tmp_path / "a")])
+    assert done.exit_code == 2 and "add --mode distributed" in done.output
+    done = runner.invoke(main, ["train", "--mode", "distributed", "--arena", "tcp://127.0.0.1:6003", "--backend",
+                                "ray", "--out", str(tmp_path / "b")])
+    assert done.exit_code == 2 and "choose one" in done.output
+    batched = tmp_path / "batched"
+    batched.mkdir()
+    (batched / "config.json").write_text(json.dumps(TrainConfig().to_dict()))
+    done = runner.invoke(main, ["train", "--resume", str(batched), "--arena", "tcp://127.0.0.1:6003"])
+    assert done.exit_code == 2 and "this training is batched" in done.output
+    assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()

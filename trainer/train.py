@@ -294,6 +294,9 @@ def open_backend(config: TrainConfig, out: Path, threads: int | None = None,
     (``config.arenas`` of them, logs under ``out/arenas``), by ``launcher(config)`` (e.g. on a Ray
     cluster: ``trainer.ray_backend``), or attached to running ones at the ``attach`` endpoints."""
     if config.mode == "batched":
+        if attach or launcher is not None:
+            raise ValueError("running arenas (--arena) and --backend ray are for distributed trainings; "
+                             "this one is batched")
         return BatchedBackend(config.game(), threads)
     from trainer.distributed import DistributedBackend
 

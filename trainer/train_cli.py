@@ -71,11 +71,17 @@ def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, s
     from trainer.cem import CEMConfig
     from trainer.schedule import parse_schedule, training_schedule
     from trainer.launch import ArenaFailure, interrupt_on_sigterm
-    from trainer.train import TrainConfig, train
+    from trainer.train import TrainConfig, read_config, train
 
     ctx = click.get_current_context()
-    if (attach or backend != "local") and mode != "distributed" and resume is None:
-        raise click.UsageError("--arena and --backend choose where a distributed training runs: add --mode distributed")
+    if resume is not None:
+        try:
+            mode = read_config(resume).mode
+        except (FileNotFoundError, ValueError, TypeError, KeyError) as exc:
+            raise click.UsageError(f"{resume}: not a training to resume: {exc}") from None
+    if (attach or backend != "local") and mode != "distributed":
+        raise click.UsageError("--arena and --backend choose where a distributed training runs; "
+                               + ("this training is batched" if resume else "add --mode distributed"))
     if attach and backend != "local":
         raise click.UsageError("--arena attaches to running arenas; --backend ray starts its own: choose one")
     if resume is not None:
