@@ -44,6 +44,7 @@ CHUNK_EPISODES = 25  # episodes per request: progress granularity vs. per-reques
 TRANSITION_LOG = 1 << 14
 LEARNED = "learned"
 POLL_MS = 200
+ARENA_CYCLE_TIMEOUT_S = 60.0
 # An arena this trainer did not start cannot be watched for dead processes: one that has not answered a
 # chunk after this long is given up (a chunk takes seconds to a minute).
 ATTACHED_TIMEOUT_S = 900.0
@@ -293,9 +294,13 @@ class DistributedBackend:
 
 
 def arena_server_args(game: Any, parameter_set: str, log_dir: Path) -> list[str]:
-    """``keepaway server`` options of a training arena (sync mode, no episode limit: the coach paces it)."""
+    """``keepaway server`` options of a training arena: sync mode, no episode limit (the coach paces
+    it), and a player that misses a cycle stops the arena rather than letting it go on without that
+    player's command, which would change the game (:data:`ARENA_CYCLE_TIMEOUT_S` is far beyond any
+    cycle of a loaded machine; a dead player is noticed at once anyway)."""
     return ["--keepers", str(game.keepers), "--takers", str(game.takers),
             "--field-size", str(game.params.keepaway_length), "--params", parameter_set,
+            "--cycle-timeout", str(ARENA_CYCLE_TIMEOUT_S), "--max-missed", "1", "--on-hang", "stop",
             "--log-dir", str(log_dir), "--kwy-name", "keepaway"]
 
 
