@@ -208,6 +208,7 @@ class TrialState:
     curve: list[CurvePoint] = field(default_factory=list)
     trace: list[dict[str, Any]] = field(default_factory=list)
     cem: CEM | None = None
+    wall_s: float = 0.0  # wall-clock seconds its steps took (a resumed trial adds up its runs)
     # the last Pass block's keeper transitions (distributed mode), until written; not checkpointed
     transitions: dict[int, dict[str, np.ndarray]] | None = field(default=None, repr=False)
 
@@ -392,7 +393,7 @@ def save_checkpoint(out: Path, state: TrialState) -> None:
         "version": CHECKPOINT_VERSION, "trial": state.trial, "episodes": state.episodes,
         "keepers": len(b.pass_arrays) if b.pass_arrays is not None else None,
         "curve": [asdict(p) for p in state.curve], "trace": state.trace,
-        "pass_policy": b.pass_policy, "getopen_policy": b.getopen_policy, "cem": None,
+        "pass_policy": b.pass_policy, "getopen_policy": b.getopen_policy, "cem": None, "wall_s": state.wall_s,
     }
     arrays: dict[str, np.ndarray] = {}
     if b.getopen_theta is not None:
@@ -429,7 +430,7 @@ def load_checkpoint(out: Path, trial: int) -> TrialState | None:
         cem = CEM.from_state_dict({**header["cem"], "mean": arrays["cem_mean"], "variance": arrays["cem_variance"],
                                    "best_params": arrays.get("cem_best_params")})
     return TrialState(trial, behaviours, header["episodes"], [CurvePoint(**p) for p in header["curve"]],
-                      header["trace"], cem)
+                      header["trace"], cem, wall_s=header.get("wall_s", 0.0))
 
 
 def write_transitions(out: Path, state: TrialState) -> None:
@@ -476,7 +477,7 @@ def summarise(config: TrainConfig, states: list[TrialState]) -> dict[str, Any]:
     return {
         "name": config.name,
         "config": config.to_dict(),
-        "trials": [{"trial": s.trial, "episodes": s.episodes, "finished": s.finished(config),
+        "trials": [{"trial": s.trial, "episodes": s.episodes, "finished": s.finished(config), "wall_s": s.wall_s,
                     "curve": [asdict(p) for p in s.curve],
                     "best_fitness": None if s.cem is None else s.cem.best_fitness} for s in states],
         "curve": [asdict(p) for p in curve],
@@ -525,7 +526,9 @@ def run_trials(config: TrainConfig, out: Path, backend: Any = None,
         state = load_checkpoint(out, trial) or TrialState(trial, Behaviours.initial(config, trial))
         progress = None if steps is None else steps(trial, played_episodes(config, state))
         while not state.finished(config):
+            start = time.perf_counter()
             what = step(config, state, backend, progress)
+            state.wall_s += time.perf_counter() - start
             write_transitions(out, state)
             save_checkpoint(out, state)
             write_trial_outputs(config, out, state)
