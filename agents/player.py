@@ -75,7 +75,7 @@ from agents.policy_file import (
     getopen_theta_size,
     keeper_pass_arrays,
 )
-from agents.sarsa import MODE_GREEDY, MODE_NAMES, SarsaConfig, SarsaLearner
+from agents.sarsa import MODE_GREEDY, MODE_LEARN, MODE_NAMES, SarsaConfig, SarsaLearner
 from agents.skills import (
     GETOPEN_POLICIES,
     PASS_POLICIES,
@@ -645,6 +645,12 @@ def compile_kernels() -> None:
         if agent.is_keeper:
             execute_pass_action(agent.wm.belief(), 0, agent.memory, 0, agent.kp, agent.cfg, agent._out_main,
                                 agent._out_a1, agent._out_a2, agent._out_neck)
+    # the Sarsa learner's kernels: a keeper may become a learner at any episode boundary (docs/advice.md)
+    learner = SarsaLearner(DEFAULT_KEEPERS, DEFAULT_TAKERS, SarsaConfig(table_size=1 << 16), 0, MODE_LEARN)
+    state = np.zeros(pass_state_size(DEFAULT_KEEPERS, DEFAULT_TAKERS))
+    learner.start(state)
+    learner.step(1.0, state)
+    learner.end(1.0)
 
 
 __all__ = [

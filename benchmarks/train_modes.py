@@ -25,6 +25,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from trainer.distributed import DistributedBackend  # noqa: E402
+from trainer.schedule import PASS, Phase  # noqa: E402
 from trainer.train import BatchedBackend, Behaviours, TrainConfig  # noqa: E402
 
 DEFAULT_HOLD_S = 14.0
@@ -63,18 +64,22 @@ def main() -> None:
     parser.add_argument("--arenas", type=int, default=2, help="distributed arenas (batched: 25 per evaluation)")
     parser.add_argument("--from-training", type=Path, default=None)
     opts = parser.parse_args()
-    config = TrainConfig(pass_policy="learned", getopen_policy="handcoded", mode="distributed", arenas=opts.arenas)
+    config = TrainConfig(pass_policy="learned", getopen_policy="handcoded", schedule=(Phase(PASS, TRIAL_EPISODES),),
+                         mode="distributed", arenas=opts.arenas)
     learn = Behaviours("learned", "handcoded")
     frozen = Behaviours("handcoded", "handcoded")
-    batched = BatchedBackend(config.game(), threads=None)
-    rate(batched, frozen, 25, 25, "greedy")  # compile / load every kernel once
-    rows = {"batched (baseline)": (rate(batched, learn, opts.episodes, 1, "learn"),
-                                   rate(batched, frozen, opts.episodes * 4, 25, "greedy"))}
+    rows = {}
+    # the distributed mode first: numba's worker threads of the batched mode may keep spinning afterwards
     with tempfile.TemporaryDirectory() as logs:
         with DistributedBackend.start_local(config.game(), opts.arenas, Path(logs), "classic") as distributed:
             rate(distributed, frozen, opts.arenas, opts.arenas, "greedy")  # processes up and warm
-            rows[f"distributed, {opts.arenas} arenas"] = (rate(distributed, learn, opts.episodes, 1, "learn"),
-                                                          rate(distributed, frozen, opts.episodes, opts.arenas, "greedy"))
+            distributed_rates = (rate(distributed, learn, opts.episodes, 1, "learn"),
+                                 rate(distributed, frozen, opts.episodes, opts.arenas, "greedy"))
+    batched = BatchedBackend(config.game(), threads=None)
+    rate(batched, frozen, 25, 25, "greedy")  # compile / load every kernel once
+    rows["batched (baseline)"] = (rate(batched, learn, opts.episodes, 1, "learn"),
+                                  rate(batched, frozen, opts.episodes * 4, 25, "greedy"))
+    rows[f"distributed, {opts.arenas} arenas"] = distributed_rates
     learning, frozen_cycles, source = trial_cycles(opts.from_training)
     print(f"3v2 on 20 m, classic parameters; one trial = {source}: "
           f"{learning:,.0f} learning + {frozen_cycles:,.0f} frozen cycles")

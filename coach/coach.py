@@ -2,7 +2,8 @@
 
 It keeps the ground-truth episode record (from the server's ``episode_end`` events) and may serve one
 arena endpoint (ZeroMQ ROUTER) on which a trainer asks it to run episodes (``protocol.arena``). The game
-plays freely until the first request; then it stands still, paused, between requests. A request is
+plays freely until the first request (paused from the start with ``idle``: a trainer's own arenas, which
+would otherwise burn CPU until their first request); then it stands still, paused, between requests. A request is
 served in three steps:
 
 1. the server is paused (if it is not yet: ``pause``, then ``look`` until it reports ``paused``, which
@@ -86,6 +87,7 @@ class Coach:
     host: str = "127.0.0.1"
     arena_port: int | None = None  # None: no arena endpoint; 0: a free port
     stop_after: int | None = None  # stop the server after this many episodes
+    idle: bool = False  # with an arena endpoint: paused until the first request (module docstring)
     connect_timeout_s: float = 60.0
     episodes: list = field(default_factory=list)  # ground truth: (episode, start, end, end cause)
     stop_reason: str | None = None
@@ -113,6 +115,8 @@ class Coach:
         if not isinstance(reply, m.CoachInitOk):
             raise ConnectionError(f"unexpected answer to init: {reply.TYPE}")
         self.keepers = int(reply.config.get("keepers", 0))
+        if self.arena_port is not None and self.idle:
+            self.server.send(encode(m.EpisodeControl(action="pause")))
         if self.arena_port is not None:
             self.arena = self.ctx.socket(zmq.ROUTER)
             configure(self.arena, ARENA_MAX_MESSAGE_BYTES)

@@ -13,11 +13,13 @@ from conftest import keepaway_command
 from protocol import encode
 from protocol import messages as m
 from protocol.arena import EpisodesDone, RunEpisodes, StopArena, decode_for_trainer
+from scripted import ScriptedCoach
 
 
-def start_arena(processes, tmp_path, *player_args: str):
+def start_arena(processes, tmp_path, *player_args: str, coach_args: tuple[str, ...] = ()):
     srv = processes.start_server(tmp_path)
-    coach = processes.popen(keepaway_command("coach", "--server", srv.coach_endpoint, "--arena-port", "0"),
+    coach = processes.popen(keepaway_command("coach", "--server", srv.coach_endpoint, "--arena-port", "0",
+                                             *coach_args),
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     line = coach.stdout.readline().decode()
     arena = re.search(r"arena=(tcp://\S+)", line).group(1)
@@ -79,3 +81,33 @@ def test_a_second_request_while_busy_is_refused(processes, tmp_path):
     finally:
         first.close(linger=0)
         second.close(linger=0)
+
+
+def test_an_idle_arena_waits_paused_for_its_first_request(processes, tmp_path):
+    srv, coach, arena, players = start_arena(processes, tmp_path, coach_args=("--idle",))
+    watcher = ScriptedCoach(srv.coach_endpoint)
+    watcher.init()
+
+    def look() -> m.LookOk:
+        watcher.send(m.Look())
+        return watcher.recv_until(m.LookOk)
+
+    deadline = time.monotonic() + 180
+    while not (looked := look()).paused:  # standing still once every player has connected
+        assert time.monotonic() < deadline, "the idle arena never stood still"
+        time.sleep(0.2)
+    time.sleep(1.0)
+    again = look()
+    assert again.paused and again.cycle == looked.cycle and again.state["episode"] == 1
+    trainer = zmq.Context.instance().socket(zmq.DEALER)
+    trainer.setsockopt(zmq.LINGER, 0)
+    trainer.connect(arena)
+    try:
+        trainer.send(encode(RunEpisodes(episodes=1, seed=4)))
+        assert trainer.poll(180_000), "no answer from the arena"
+        done = decode_for_trainer(trainer.recv())
+        assert isinstance(done, EpisodesDone) and [e[0] for e in done.episodes] == [1]
+        assert done.episodes[0][1] == looked.cycle  # the episode restarted where the game stood
+    finally:
+        trainer.close(linger=0)
+        watcher.close()

@@ -92,14 +92,15 @@ class ArenaProcesses:
     def start_arena(self, server_args: list[str], player_args: list[str], keepers: int, takers: int,
                     arena_host: str | None = None) -> ArenaEndpoints:
         """A whole arena: the server on free ports, its coach (serving trainers on a free port of
-        ``arena_host`` if given) and ``keepers`` + ``takers`` players, each with ``player_args``."""
+        ``arena_host`` if given, the game paused until the first request) and ``keepers`` + ``takers``
+        players, each with ``player_args``."""
         _, players, coach, monitor = self.start_server(server_args)
         arena = None
         if arena_host is None:
             self.start("coach", keepaway_argv("coach", "--server", coach))
         else:
             member = self.start("coach", keepaway_argv("coach", "--server", coach, "--arena-port", "0",
-                                                       "--host", arena_host), capture_stdout=True)
+                                                       "--host", arena_host, "--idle"), capture_stdout=True)
             arena = self._announced(member, ARENA_RE, 120.0).group(1)
         for team, count in (("keepers", keepers), ("takers", takers)):
             for i in range(1, count + 1):
