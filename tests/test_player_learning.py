@@ -48,6 +48,20 @@ def keepers(game: Game) -> list[PlayerAgent]:
     return [game.agent(obj) for obj in range(1, K + 1)]
 
 
+def busiest_learner(game: Game) -> tuple[PlayerAgent, int]:
+    """The keeper whose learner logged the most transitions, and how many."""
+    agent = max(keepers(game), key=lambda a: int(a.learner.memory.log_count[0]))
+    return agent, int(agent.learner.memory.log_count[0])
+
+
+def transitions_report(game: Game, agent: PlayerAgent):
+    """``agent``'s one answer to the coach's transitions report request."""
+    game.arena.advise([agent.unum], {"kind": "report", "what": "transitions"})
+    game.percepts()
+    (report,) = agent.pending_reports()
+    return report
+
+
 def test_without_a_policy_file_the_learner_starts_from_zeros_in_greedy_mode():
     game = Game(keeper_kw={"pass_policy": "learned"})
     for agent in keepers(game):
@@ -103,12 +117,9 @@ def test_transition_reports_carry_the_transitions_since_the_last_report():
     game = Game(keeper_kw={"pass_policy": "learned",
                            "pass_learner": sarsa_pass_factory(None, MODE_LEARN, SMALL)})
     play_episodes(game, 2)
-    agent = max(keepers(game), key=lambda a: int(a.learner.memory.log_count[0]))
-    logged = int(agent.learner.memory.log_count[0])
+    agent, logged = busiest_learner(game)
     assert logged > 0
-    game.arena.advise([agent.unum], {"kind": "report", "what": "transitions"})
-    game.percepts()
-    (report,) = agent.pending_reports()
+    report = transitions_report(game, agent)
     assert agent.pending_reports() == []  # handed out once
     payload = report_arrays(report.payload)
     assert payload["kind"] == "pass_transitions" and payload["first"] == 0 and payload["count"] == logged
@@ -216,12 +227,9 @@ def test_transitions_lost_from_the_ring_buffer_are_counted_as_dropped():
     config = SarsaConfig(table_size=1 << 15, transition_log_size=4)
     game = Game(keeper_kw={"pass_policy": "learned", "pass_learner": sarsa_pass_factory(None, MODE_LEARN, config)})
     play_episodes(game, 3)
-    agent = max(keepers(game), key=lambda a: int(a.learner.memory.log_count[0]))
-    logged = int(agent.learner.memory.log_count[0])
+    agent, logged = busiest_learner(game)
     assert logged > 4
-    game.arena.advise([agent.unum], {"kind": "report", "what": "transitions"})
-    game.percepts()
-    (report,) = agent.pending_reports()
+    report = transitions_report(game, agent)
     assert (report.payload["first"], report.payload["count"], report.payload["dropped"]) == (logged - 4, 4, logged - 4)
 
 

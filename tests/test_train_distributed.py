@@ -93,6 +93,21 @@ def test_a_chunk_plays_the_same_in_any_arena_whatever_it_played_before(tmp_path)
     assert durations != [(e.end_cycle - e.start_cycle, e.end) for e in other_seed.episodes]
 
 
+def test_cem_candidates_share_their_chunk_seeds_across_arenas(tmp_path):
+    # Three GO:L candidates with a learned (fresh) Pass, frozen; the first and the last are the same net:
+    # on common seeds they must play the same episodes, whichever arena ran their chunks.
+    game = TrainConfig().game()
+    rng = np.random.default_rng(1)
+    nets = [rng.normal(size=91), rng.normal(size=91)]
+    candidates = [Behaviours("learned", "learned", theta) for theta in (nets[0], nets[1], nets[0])]
+    with DistributedBackend.start_local(game, 2, tmp_path, "classic", chunk_episodes=2) as backend:
+        results = backend.play_candidates(candidates, 9, 4, 2)
+    durations = [[(e.end_cycle - e.start_cycle, e.end) for e in r.episodes] for r in results]
+    assert [len(d) for d in durations] == [4, 4, 4]
+    assert durations[0] == durations[2]
+    assert durations[0] != durations[1]
+
+
 # P:L-GO:HC for 60 episodes in two Pass blocks of 30 (chunks of 25 + 5), evaluations of 6 episodes at 0,
 # 30 and 60.
 TRAIN_ARGS = ["train", "--mode", "distributed", "--pass", "learned", "--getopen", "handcoded", "--episodes", "60",

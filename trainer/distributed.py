@@ -96,19 +96,29 @@ def chunk_seeds(seed: int, episodes: int, chunk_episodes: int) -> list[tuple[int
 
 
 def behaviour_advice(game: Any, behaviours: Any, pass_mode: str) -> tuple:
-    """The advice that makes an arena's keepers play ``behaviours`` (``trainer.train.Behaviours``): the
-    policy names and GetOpen net to every keeper; with Pass learned, each keeper's own Pass policy (fresh
-    learners: zero weights) and the Sarsa mode."""
+    """The advice that makes an arena's keepers play ``behaviours`` (``trainer.train.Behaviours``):
+    :func:`policy_advice`, then with Pass learned :func:`pass_load_advice`."""
+    learned = behaviours.pass_policy == LEARNED
+    return policy_advice(behaviours) + (pass_load_advice(game, behaviours, pass_mode) if learned else ())
+
+
+def policy_advice(behaviours: Any) -> tuple:
+    """The policy names and the GetOpen net, to every keeper."""
     policy: dict[str, Any] = {"kind": "policy", "pass": behaviours.pass_policy, "getopen": behaviours.getopen_policy}
     if behaviours.getopen_theta is not None:
         policy["getopen_theta"] = np.ascontiguousarray(behaviours.getopen_theta, dtype="<f8").tobytes()
-    advice: list = [("keepers", policy)]
-    if behaviours.pass_policy == LEARNED:
-        config = replace(game.sarsa, transition_log_size=TRANSITION_LOG)
-        keepers = behaviours.pass_arrays or [SarsaLearner(game.keepers, game.takers, game.sarsa).save()] * game.keepers
-        for unum, arrays in enumerate(keepers, start=1):
-            advice += [(("l", unum), p) for p in sparse_pass_payloads(arrays, config, {"kind": "pass_load"})]
-        advice.append(("keepers", {"kind": "pass_mode", "mode": pass_mode}))
+    return (("keepers", policy),)
+
+
+def pass_load_advice(game: Any, behaviours: Any, pass_mode: str) -> tuple:
+    """Each keeper's own Pass policy (fresh learners: zero weights) as ``pass_load`` chunks, and the Sarsa
+    mode."""
+    config = replace(game.sarsa, transition_log_size=TRANSITION_LOG)
+    keepers = behaviours.pass_arrays or [SarsaLearner(game.keepers, game.takers, game.sarsa).save()] * game.keepers
+    advice: list = []
+    for unum, arrays in enumerate(keepers, start=1):
+        advice += [(("l", unum), p) for p in sparse_pass_payloads(arrays, config, {"kind": "pass_load"})]
+    advice.append(("keepers", {"kind": "pass_mode", "mode": pass_mode}))
     return tuple(advice)
 
 
@@ -234,10 +244,13 @@ class DistributedBackend:
     def play_candidates(self, candidates: list[Any], seed: int, episodes: int, arenas: int,
                         progress: Progress | None = None) -> list[RunResult]:
         """Every candidate frozen on the same chunk seeds (common random numbers), all chunks of all
-        candidates spread over the arenas at once."""
+        candidates spread over the arenas at once. The candidates differ in GetOpen only: their Pass
+        policies are encoded once."""
         start = time.perf_counter()
         plan = chunk_seeds(seed, episodes, self.chunk_episodes)
-        chunks = [Chunk(n, s, behaviour_advice(self.game, c, "greedy")) for c in candidates for n, s in plan]
+        learned = candidates[0].pass_policy == LEARNED
+        shared = pass_load_advice(self.game, candidates[0], "greedy") if learned else ()
+        chunks = [Chunk(n, s, policy_advice(c) + shared) for c in candidates for n, s in plan]
         done = self._run(chunks, progress)
         per, share = len(plan), (time.perf_counter() - start) / max(1, len(candidates))
         return [self._result(seed, done[i * per:(i + 1) * per], share) for i in range(len(candidates))]
@@ -311,4 +324,4 @@ def _socket(ctx: zmq.Context) -> zmq.Socket:
 
 
 __all__ = ["CHUNK_EPISODES", "Arena", "Chunk", "DistributedBackend", "arena_server_args", "behaviour_advice",
-           "chunk_seeds", "keeper_reports", "transitions_by_keeper"]
+           "chunk_seeds", "keeper_reports", "pass_load_advice", "policy_advice", "transitions_by_keeper"]
