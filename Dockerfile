@@ -4,10 +4,11 @@ WORKDIR /keepaway
 COPY pyproject.toml README.md ./
 COPY keepaway ./keepaway
 COPY protocol ./protocol
+COPY core ./core
 COPY server ./server
 COPY agents ./agents
 COPY coach ./coach
 COPY trainer ./trainer
-RUN pip install --no-cache-dir . \
-    && python -c "from agents.player import compile_kernels; compile_kernels()"
+# every kernel compiled once into the image's cache: containers start playing at once
+RUN pip install --no-cache-dir . && keepaway compile
 ENTRYPOINT ["keepaway"]

@@ -20,7 +20,7 @@ _EXPORTS = {
     "agents.skills": ("AgentConfig", "GETOPEN_HANDCODED", "GETOPEN_HANDCODED_CONE", "GETOPEN_LEARNED",
                       "GETOPEN_RANDOM", "PASS_EXTERNAL", "PASS_HANDCODED", "PASS_HOLD", "PASS_RANDOM"),
     "agents.state_vars": ("getopen_state", "getopen_state_size", "pass_state", "pass_state_size"),
-    "agents.getopen": ("net_size", "net_value"),
+    "agents.getopen": ("GetOpenScaling", "InputScaling", "net_size", "net_value"),
     "agents.keeper": ("NO_PASS_DECISION", "PASS_DECISION_START", "PASS_DECISION_STEP", "execute_pass_action",
                       "handcoded_pass", "keeper_decide", "keepers_decide"),
     "agents.taker": ("taker_decide", "takers_decide"),

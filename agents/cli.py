@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Any
 
 import click
 
+from protocol.arena import MAX_SEED
 from protocol.endpoints import DEFAULT_PORTS, parse_endpoint
 
 EXIT_OK = 0
@@ -155,10 +156,10 @@ def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop
               help="Policy file (.npz) with the learned parameters.")
 @click.option("--server", "endpoint", default=DEFAULT_SERVER, show_default=True,
               help="The server's players endpoint, tcp://HOST:PORT.")
-@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
+@click.option("--seed", type=click.IntRange(0, MAX_SEED), default=0, show_default=True,
               help="Seed of the player's own randomness (combined with its side and uniform number).")
 @click.option("--fullstate", is_flag=True, help="Use the exact fullstate percepts instead of seeing.")
-@click.option("--connect-timeout", "connect_timeout_s", type=click.FloatRange(min=0.0), default=60.0,
+@click.option("--connect-timeout", "connect_timeout_s", type=click.FloatRange(min=0.0, min_open=True), default=60.0,
               show_default=True, help="Seconds to wait for the server's init_ok before giving up (exit 2).")
 @click.option("-v", "--verbose", count=True, help="More log output (-v info, -vv debug).")
 def player_command(team: str, pass_policy: str, getopen_policy: str, policy_path: Path | None, endpoint: str,

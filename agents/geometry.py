@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
+from core.jit import njit
 
 from server.world import CMD_DASH, CMD_TURN
 

@@ -4,15 +4,19 @@
 Candidate targets are a grid over the region. The policies differ only in how a target is chosen:
 GO:R keeps a random grid point until reached, GO:HC takes the least congested point whose passing lane
 from predictedBallPos is open (the paper's 18.4 deg rule, or the framework's cone as an option), GO:L
-takes the argmax of a 10-5-5-1 net over each point's state variables. The movement is shared.
+takes the argmax of a 10-5-5-1 net over each point's state variables, seen through the policy's input
+scaling (:class:`InputScaling`, by default :class:`GetOpenScaling`; docs/design.md, GetOpen inputs), and
+breaks exact ties towards the point nearest the keeper. The movement is shared.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
-from numba import njit
+from core.jit import njit
 
 from agents.belief import AgentMemory, Belief
 from agents.geometry import distance, in_cone, vertex_angle
@@ -25,7 +29,7 @@ from agents.skills import (
     go_to_point,
     turn_to_point,
 )
-from agents.state_vars import getopen_state, getopen_state_size
+from agents.state_vars import getopen_state, getopen_state_kinds, getopen_state_size
 from server.rng import randint
 
 NET_HIDDEN = 5  # keepaway-task.md 4: two hidden layers of 5 units
@@ -61,6 +65,112 @@ def net_value(theta, x) -> float:
             z += theta[w2 + u * NET_HIDDEN + i] * h1[i]
         out += theta[w3 + u] * SCALED_TANH_A * math.tanh(SCALED_TANH_B * z)
     return out
+
+
+@dataclass(frozen=True)
+class InputScaling:
+    """The affine scaling of a GO:L net's inputs, part of the policy: the net sees (x - mean) / scale for
+    the raw state variables x (metres, degrees). A policy file stores it with the net's parameters, so a
+    saved policy plays as trained; the identity is the paper's unscaled net (docs/design.md)."""
+
+    mean: tuple[float, ...]
+    scale: tuple[float, ...]
+
+    def __post_init__(self) -> None:
+        mean, scale = np.asarray(self.mean, dtype=np.float64), np.asarray(self.scale, dtype=np.float64)
+        if mean.ndim != 1 or mean.shape != scale.shape or mean.size == 0:
+            raise ValueError(f"input scaling needs as many means as scales, got {mean.shape} and {scale.shape}")
+        if not (np.all(np.isfinite(mean)) and np.all(np.isfinite(scale)) and np.all(scale > 0.0)):
+            raise ValueError("input scaling needs finite means and finite positive scales")
+        object.__setattr__(self, "mean", tuple(float(v) for v in mean))
+        object.__setattr__(self, "scale", tuple(float(v) for v in scale))
+
+    @classmethod
+    def identity(cls, n_inputs: int) -> InputScaling:
+        """No scaling: the net sees the raw variables (policy files written before scaling existed)."""
+        return cls((0.0,) * n_inputs, (1.0,) * n_inputs)
+
+    @property
+    def n_inputs(self) -> int:
+        return len(self.mean)
+
+    def standardise(self, x: np.ndarray) -> np.ndarray:
+        """(x - mean) / scale, over the last axis."""
+        return (np.asarray(x, dtype=np.float64) - np.array(self.mean)) / np.array(self.scale)
+
+    def fold(self, theta: np.ndarray) -> np.ndarray:
+        """The parameters of the same net on the raw variables, the form :func:`net_value` and every kernel
+        take: W1' = W1 / scale (per input), b1' = b1 - W1 (mean / scale); the rest unchanged. So
+        ``net_value(fold(theta), x) == net_value(theta, standardise(x))`` up to rounding (docs/design.md
+        has the measured error); the identity returns ``theta`` bit for bit."""
+        theta = np.asarray(theta, dtype=np.float64)
+        n = self.n_inputs
+        if theta.shape != (net_size(n),):
+            raise ValueError(f"a net on {n} inputs has {net_size(n)} parameters, not shape {theta.shape}")
+        w1 = theta[:NET_HIDDEN * n].reshape(NET_HIDDEN, n)
+        scale = np.array(self.scale)
+        out = theta.copy()
+        out[:NET_HIDDEN * n] = (w1 / scale).ravel()
+        out[NET_HIDDEN * n:NET_HIDDEN * (n + 1)] -= w1 @ (np.array(self.mean) / scale)
+        return out
+
+    def to_json(self) -> dict[str, list[float]]:
+        return {"mean": list(self.mean), "scale": list(self.scale)}
+
+    @classmethod
+    def from_json(cls, data: Any, n_inputs: int) -> InputScaling:
+        """The scaling of :meth:`to_json` for a net on ``n_inputs`` inputs; ValueError (one line) if it is
+        not that."""
+        if type(data) is not dict or set(data) != {"mean", "scale"}:
+            raise ValueError("getopen_inputs must be a map with exactly mean and scale")
+        values = [data["mean"], data["scale"]]
+        if any(type(v) is not list or len(v) != n_inputs or any(type(e) not in (int, float) for e in v)
+               for v in values):
+            raise ValueError(f"getopen_inputs mean and scale must be lists of {n_inputs} numbers")
+        return cls(tuple(values[0]), tuple(values[1]))
+
+
+@dataclass(frozen=True)
+class GetOpenScaling:
+    """The rule that scales GO:L's inputs (ours: the paper states none; docs/design.md, GetOpen inputs).
+    Each kind of variable (``agents.state_vars.GETOPEN_KINDS``) has a (mean, standard deviation): for
+    distances as fractions of the region's side, for angles in degrees, so every K, T and field size gets
+    a scaling (:meth:`inputs`). The defaults are the pooled means and standard deviations, per kind, of
+    the GetOpen states of every grid point of every GetOpen decision the keepers took in P:HC-GO:HC play,
+    3v2 on 20 m, classic parameters: ``benchmarks/getopen_scaling.py --episodes 1000`` (seed 0, 50
+    arenas, every 5th cycle: 65,307 decisions x 25 points = 1,632,675 states), rounded to 3 digits."""
+
+    teammate_distance: tuple[float, float] = (0.475, 0.224)  # dist(K1', Ki'), 3v2 on 20 m: 9.50 +- 4.48 m
+    taker_distance: tuple[float, float] = (0.400, 0.187)  # dist(K1', Tj'): 8.00 +- 3.74 m
+    teammate_taker_distance: tuple[float, float] = (0.398, 0.231)  # min_j dist(Ki', Tj'): 7.96 +- 4.62 m
+    teammate_taker_angle: tuple[float, float] = (51.1, 44.4)  # min_j ang(Ki', K1', Tj'), degrees
+    pass_distance: tuple[float, float] = (0.470, 0.220)  # dist(K1, K1'): 9.40 +- 4.40 m
+    lane_angle: tuple[float, float] = (44.1, 38.0)  # min_j ang(K1', K1, Tj), degrees
+
+    def inputs(self, n_keepers: int, n_takers: int, region_size: float) -> InputScaling:
+        """The scaling of the 3K + T - 1 GetOpen variables on a square region of side ``region_size`` m."""
+        pairs = []
+        for kind in getopen_state_kinds(n_keepers, n_takers):
+            mean, sd = getattr(self, kind)
+            unit = region_size if kind.endswith("distance") else 1.0
+            pairs.append((mean * unit, sd * unit))
+        return InputScaling(*(tuple(v) for v in zip(*pairs)))
+
+
+# A training's choice of GO:L input scaling (``trainer.train.TrainConfig.getopen_inputs``).
+SCALED_INPUTS = "scaled"  # GetOpenScaling() for the game's K, T and field size
+RAW_INPUTS = "raw"  # the identity: the paper's literal net on metres and degrees
+GETOPEN_INPUTS = (SCALED_INPUTS, RAW_INPUTS)
+
+
+def getopen_input_scaling(name: str, n_keepers: int, n_takers: int, region_size: float) -> InputScaling:
+    """The input scaling named ``name`` (:data:`GETOPEN_INPUTS`) for a game of K keepers, T takers on a
+    square region of side ``region_size`` m."""
+    if name == SCALED_INPUTS:
+        return GetOpenScaling().inputs(n_keepers, n_takers, region_size)
+    if name == RAW_INPUTS:
+        return InputScaling.identity(getopen_state_size(n_keepers, n_takers))
+    raise ValueError(f"GetOpen inputs must be one of {', '.join(GETOPEN_INPUTS)}, not {name!r}")
 
 
 @njit(cache=True)
@@ -138,20 +248,38 @@ def handcoded_target(bel: Belief, r: int, ball_cycles: int, cone: bool, kp, cfg)
 
 
 @njit(cache=True)
-def learned_target(bel: Belief, r: int, theta, kp, cfg) -> tuple:
-    """GO:L: the grid point with the highest net value of its GetOpen state (first wins ties)
-    (spec `keepaway-task.md` 4)."""
+def lane_origin(bel: Belief, r: int, ball_cycles: int, kp, cfg) -> tuple:
+    """Where GO:L's variables 9-10 measure the pass from: the keeper now closest to the ball (K1, spec
+    `keepaway-task.md` 4; myself if no keeper is usable), or with
+    ``cfg.getopen_lane_from_predicted_ball`` predictedBallPos, as GO:HC's lane test."""
+    if cfg.getopen_lane_from_predicted_ball:
+        return predicted_ball_pos(bel, r, ball_cycles, kp, cfg)
     k1 = closest_to_ball(bel, r, 1, bel.n_keepers, -1, cfg)
     if k1 < 0:
         k1 = bel.me[r]
+    return bel.pos[r, k1, 0], bel.pos[r, k1, 1]
+
+
+@njit(cache=True)
+def learned_target(bel: Belief, r: int, theta, ball_cycles: int, kp, cfg) -> tuple:
+    """GO:L: the grid point with the highest net value of its GetOpen state (spec `keepaway-task.md` 4).
+    Exact ties (a saturated net gives many points the very same value) go to the tied point nearest to
+    me, not to the first in scan order (a corner): a keeper heading for that point stays nearest to it,
+    so re-evaluating every cycle does not make it switch targets (docs/design.md, GetOpen inputs).
+    ``theta`` takes the raw state variables (a scaling folded in: ``InputScaling.fold``);
+    ``ball_cycles``: the fastest keeper's interception time (``fastest_to_ball``)."""
+    ox, oy = lane_origin(bel, r, ball_cycles, kp, cfg)
+    me = bel.me[r]
+    mx, my = bel.pos[r, me, 0], bel.pos[r, me, 1]
     x = np.empty(getopen_state_size(bel.n_keepers, bel.n_takers))
-    best_x, best_y, best = 0.0, 0.0, -math.inf
+    best_x, best_y, best, best_d = 0.0, 0.0, -math.inf, math.inf
     for k in range(grid_size(cfg)):
         px, py = grid_point(k, kp, cfg)
-        getopen_state(bel, r, px, py, k1, x)
+        getopen_state(bel, r, px, py, ox, oy, x)
         v = net_value(theta, x)
-        if v > best:
-            best_x, best_y, best = px, py, v
+        d = distance(mx, my, px, py)
+        if v > best or (v == best and d < best_d):
+            best_x, best_y, best, best_d = px, py, v, d
     return best_x, best_y
 
 
@@ -189,7 +317,7 @@ def getopen(bel: Belief, r: int, mem: AgentMemory, theta, ball_cycles: int, kp, 
     if policy == GETOPEN_RANDOM:
         px, py = random_target(bel, r, mem, kp, cfg)
     elif policy == GETOPEN_LEARNED:
-        px, py = learned_target(bel, r, theta, kp, cfg)
+        px, py = learned_target(bel, r, theta, ball_cycles, kp, cfg)
     else:
         px, py = handcoded_target(bel, r, ball_cycles, policy == GETOPEN_HANDCODED_CONE, kp, cfg)
     return move_to_spot(bel, r, px, py, kp, cfg)

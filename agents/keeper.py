@@ -13,7 +13,7 @@ always hold) decide and act inside the kernel and return the same codes for info
 
 from __future__ import annotations
 
-from numba import njit
+from core.jit import njit
 
 from agents.belief import AgentMemory, Belief
 from agents.getopen import getopen

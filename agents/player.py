@@ -341,7 +341,7 @@ class PlayerAgent:
         self.memory = self._new_memory()
         self.theta = np.zeros(getopen_theta_size(n_keepers, n_takers))
         if self.is_keeper and policy is not None and policy.getopen_theta is not None:
-            self.theta[:] = policy.getopen_theta
+            self.theta[:] = policy.getopen_net  # the file's input scaling folded in
         self.pass_state = np.zeros(pass_state_size(n_keepers, n_takers))
         self._out_main = np.zeros(1, dtype=np.int8)
         self._out_a1 = np.zeros(1)

@@ -3,10 +3,15 @@
 One ``.npz`` archive holds a JSON header and the parameter arrays:
 
 * ``header``: UTF-8 JSON stored as a uint8 array (a str array is read too), ``{"format":
-  "keepaway-policy", "version": 1, "config": {...}, "seed": ..., "created": ...}``; ``config`` is a free
-  map in which ``keepers`` and ``takers`` (default 3 and 2) size the nets;
+  "keepaway-policy", "version": 2, "config": {...}, "seed": ..., "created": ..., "getopen_inputs": ...}``
+  (version 1 is read too); ``config`` is a free map in which ``keepers`` and ``takers`` (default 3 and 2;
+  2-11 and 1-11) size the nets;
 * ``getopen_theta`` (optional): the GO:L net parameters, ``net_size(3K + T - 1)`` floats (91 for 3v2;
-  spec `keepaway-task.md` 4, layout in ``agents.getopen.net_value``);
+  spec `keepaway-task.md` 4, layout in ``agents.getopen.net_value``), of the net on the inputs scaled by
+  the header's ``getopen_inputs`` (version 2: ``{"mean": [...], "scale": [...]}``, one per input, the net
+  sees (x - mean) / scale; ``agents.getopen.InputScaling``). A version 1 file has none: its net is on the
+  raw variables (the identity), and plays as it did. :attr:`Policy.getopen_net` is the net with the
+  scaling folded in, the form the kernels and the coach's advice take;
 * ``pass_weights`` (optional): the Pass learner's weights, and any further ``pass_*`` arrays of its
   state (e.g. a hash table's bookkeeping); their shapes belong to the Sarsa learner (spec
   `keepaway-agents.md` 5), so they are only checked to be finite real numbers here. Each keeper learns
@@ -30,13 +35,17 @@ from typing import Any
 
 import numpy as np
 
-from agents.getopen import net_size
+from agents.getopen import InputScaling, net_size
 from agents.state_vars import getopen_state_size
+from protocol.params import KEEPAWAY_KEEPERS, KEEPAWAY_TAKERS
 
 POLICY_FORMAT = "keepaway-policy"
-POLICY_VERSION = 1
+POLICY_VERSION = 2  # 2: the header records getopen_inputs
+READABLE_VERSIONS = (1, 2)  # 1: GO:L nets on raw inputs
 DEFAULT_KEEPERS = 3
 DEFAULT_TAKERS = 2
+TEAM_SIZES = {"keepers": KEEPAWAY_KEEPERS, "takers": KEEPAWAY_TAKERS}
+NPY_MAGIC = b"\x93NUMPY"
 PASS_PREFIX = "pass_"  # the Pass learner's arrays
 KEEPER_PREFIX = "pass_keeper"  # keeper k's own Pass arrays: pass_keeper<k>_*
 PASS_WEIGHTS = "pass_weights"
@@ -56,6 +65,14 @@ class Policy:
     created: str | None = None
     getopen_theta: np.ndarray | None = None
     pass_arrays: dict[str, np.ndarray] = field(default_factory=dict)
+    getopen_inputs: InputScaling | None = None  # the scaling getopen_theta's net sees its inputs through
+
+    @property
+    def getopen_net(self) -> np.ndarray | None:
+        """The GO:L parameters on the raw state variables (the scaling folded in), what plays."""
+        if self.getopen_theta is None or self.getopen_inputs is None:
+            return self.getopen_theta
+        return self.getopen_inputs.fold(self.getopen_theta)
 
     @property
     def pass_weights(self) -> np.ndarray | None:
@@ -143,8 +160,8 @@ def unpack_pass_arrays(arrays: dict[str, np.ndarray], keepers: int) -> list[dict
 
 def _team_size(config: dict, name: str, default: int) -> int:
     value = config.get(name, default)
-    if type(value) is not int or value < 1:
-        raise ValueError(f"config.{name} must be a positive integer, not {value!r}")
+    if type(value) is not int or value not in TEAM_SIZES[name]:
+        raise ValueError(f"config.{name} must be an integer in {TEAM_SIZES[name]}, not {value!r}")
     return value
 
 
@@ -156,14 +173,17 @@ def _header(raw: np.ndarray) -> dict:
         text = str(raw[()])
     else:
         raise ValueError(f"header is a {raw.dtype} array of shape {raw.shape}, expected uint8 JSON bytes")
-    header = json.loads(text)
+    try:
+        header = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"header is not JSON ({exc})") from None
     if type(header) is not dict:
         raise ValueError("header is not a JSON object")
     if header.get("format") != POLICY_FORMAT:
         raise ValueError(f"header format is {header.get('format')!r}, expected {POLICY_FORMAT!r}")
-    if header.get("version") != POLICY_VERSION:
+    if header.get("version") not in READABLE_VERSIONS:
         raise ValueError(f"policy file version {header.get('version')!r} is not supported "
-                         f"(this program reads version {POLICY_VERSION})")
+                         f"(this program reads versions {', '.join(map(str, READABLE_VERSIONS))})")
     config = header.get("config", {})
     if type(config) is not dict:
         raise ValueError("header config is not a JSON object")
@@ -173,32 +193,41 @@ def _header(raw: np.ndarray) -> dict:
     return header
 
 
-def _read_arrays(path: Path) -> dict[str, np.ndarray]:
-    """Every array of the archive, read eagerly (a corrupt member fails here, not later)."""
-    loaded = np.load(path, allow_pickle=False)
-    if not isinstance(loaded, np.lib.npyio.NpzFile):
-        raise ValueError("not an .npz archive (a single .npy array)")
-    with loaded:
-        return {name: loaded[name] for name in loaded.files}
+def read_npz(path: Path) -> dict[str, np.ndarray]:
+    """Every array of the ``.npz`` archive ``path``, read eagerly and without pickle (a corrupt member
+    fails here, not later). Anything else (another kind of file, a truncated or damaged archive, object
+    arrays) is a ValueError saying why in one line, without the path; OSError if it cannot be read."""
+    if not zipfile.is_zipfile(path):
+        with open(path, "rb") as fh:
+            single = fh.read(len(NPY_MAGIC)) == NPY_MAGIC
+        raise ValueError("a single .npy array, not an .npz archive" if single
+                         else "not an .npz archive: another kind of file, or a truncated one")
+    try:
+        with np.load(path, allow_pickle=False) as loaded:
+            return {name: loaded[name] for name in loaded.files}
+    except (ValueError, EOFError, zipfile.BadZipFile, KeyError) as exc:
+        raise ValueError(" ".join(str(exc).split()) or type(exc).__name__) from None
 
 
 def load_policy(path: str | Path) -> Policy:
     """Read and check a policy file; raises :class:`PolicyFileError` (one line) for any problem."""
     where = str(path)
     file = Path(path)
+    if file.is_dir():
+        raise PolicyFileError(f"{where}: a directory, not a policy file")
     if not file.is_file():
         raise PolicyFileError(f"{where}: no such policy file")
     try:
-        arrays = _read_arrays(file)
-    except (OSError, ValueError, EOFError, zipfile.BadZipFile, KeyError) as exc:
-        reason = " ".join(str(exc).split()) or type(exc).__name__
-        raise PolicyFileError(f"{where}: not a readable policy archive ({reason})") from None
+        arrays = read_npz(file)
+    except (OSError, ValueError) as exc:
+        raise PolicyFileError(f"{where}: not a readable policy archive ({' '.join(str(exc).split())})") from None
     try:
+        if "header" not in arrays:
+            held = ", ".join(sorted(arrays)) or "nothing"
+            raise ValueError(f"not a keepaway policy file: no header array (it holds {held})")
         unknown = sorted(n for n in arrays if n not in ("header", "getopen_theta") and not n.startswith(PASS_PREFIX))
         if unknown:
             raise ValueError(f"unexpected arrays {unknown} (expected header, getopen_theta, {PASS_PREFIX}*)")
-        if "header" not in arrays:
-            raise ValueError("no header array")
         header = _header(arrays["header"])
         config = header.get("config", {})
         keepers = _team_size(config, "keepers", DEFAULT_KEEPERS)
@@ -206,13 +235,30 @@ def load_policy(path: str | Path) -> Policy:
         theta = arrays.get("getopen_theta")
         if theta is not None:
             theta = as_getopen_theta(theta, getopen_theta_size(keepers, takers))
+        inputs = _getopen_inputs(header, getopen_state_size(keepers, takers), theta is not None)
         passes = {name: a for name, a in arrays.items() if name.startswith(PASS_PREFIX)}
         if passes:
             passes = _pass_arrays(passes)
     except (ValueError, UnicodeDecodeError) as exc:
         raise PolicyFileError(f"{where}: {' '.join(str(exc).split())}") from None
     return Policy(path=where, config=config, seed=header.get("seed"), created=header.get("created"),
-                  getopen_theta=theta, pass_arrays=passes)
+                  getopen_theta=theta, pass_arrays=passes, getopen_inputs=inputs)
+
+
+def _getopen_inputs(header: dict, n_inputs: int, has_net: bool) -> InputScaling | None:
+    """The input scaling of the file's GO:L net (None without one): the header's ``getopen_inputs``; in a
+    version 1 file, which has none, the identity (its net is on the raw variables)."""
+    data = header.get("getopen_inputs")
+    if not has_net:
+        if data is not None:
+            raise ValueError("header getopen_inputs without a getopen_theta array")
+        return None
+    if data is None:
+        if header["version"] != 1:
+            raise ValueError(f"header has no getopen_inputs for getopen_theta (version {header['version']} "
+                             "records the net's input scaling)")
+        return InputScaling.identity(n_inputs)
+    return InputScaling.from_json(data, n_inputs)
 
 
 def save_policy(
@@ -222,15 +268,26 @@ def save_policy(
     pass_arrays: Mapping[str, Any] | None = None,
     config: dict[str, Any] | None = None,
     seed: int | None = None,
+    getopen_inputs: InputScaling | None = None,
 ) -> Path:
     """Write a policy file that :func:`load_policy` accepts (the same checks run before writing, so a
     bad policy is refused here with ValueError). ``pass_arrays`` is the Pass learner's state, at least
-    ``{"pass_weights": ...}``. Returns the path written (``.npz`` appended if absent, as numpy does)."""
+    ``{"pass_weights": ...}``; ``getopen_inputs`` the scaling ``getopen_theta``'s net sees its inputs
+    through (default: the identity, a net on the raw variables). Returns the path written (``.npz``
+    appended if absent, as numpy does)."""
     config = dict(config or {})
     keepers = _team_size(config, "keepers", DEFAULT_KEEPERS)
     takers = _team_size(config, "takers", DEFAULT_TAKERS)
     header = {"format": POLICY_FORMAT, "version": POLICY_VERSION, "config": config, "seed": seed,
               "created": datetime.now(timezone.utc).isoformat(timespec="seconds")}
+    n_inputs = getopen_state_size(keepers, takers)
+    if getopen_theta is not None:
+        inputs = getopen_inputs or InputScaling.identity(n_inputs)
+        if inputs.n_inputs != n_inputs:
+            raise ValueError(f"getopen_inputs scale {inputs.n_inputs} inputs, the net has {n_inputs}")
+        header["getopen_inputs"] = inputs.to_json()
+    elif getopen_inputs is not None:
+        raise ValueError("getopen_inputs without getopen_theta")
     arrays: dict[str, np.ndarray] = {
         "header": np.frombuffer(json.dumps(header).encode("utf-8"), dtype=np.uint8)
     }
@@ -249,6 +306,7 @@ __all__ = [
     "PASS_WEIGHTS",
     "POLICY_FORMAT",
     "POLICY_VERSION",
+    "READABLE_VERSIONS",
     "Policy",
     "PolicyFileError",
     "as_getopen_theta",
@@ -256,6 +314,7 @@ __all__ = [
     "keeper_pass_arrays",
     "load_policy",
     "pack_pass_arrays",
+    "read_npz",
     "save_policy",
     "unpack_pass_arrays",
 ]

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
+from core.jit import njit
 
 from agents.keeper import PASS_DECISION_START, PASS_DECISION_STEP
 from server.rng import randint, seed_streams, uniform

@@ -15,7 +15,7 @@ from collections import namedtuple
 from dataclasses import dataclass, fields
 
 import numpy as np
-from numba import njit
+from core.jit import njit
 
 from agents.belief import AgentMemory, Belief
 from agents.geometry import (
@@ -115,6 +115,10 @@ class AgentConfig:
     # while a keeper controls it. With exact beliefs the framework rule locks a taker into turning back
     # and forth as HoldBall moves the ball around the keeper (see agents/taker.py).
     takers_plan_held_ball_still: bool = True
+    # Not in the spec (an option, off by default): GO:L's variables 9-10 measured from predictedBallPos
+    # (as GO:HC's lane test) instead of from the keeper now closest to the ball (keepaway-task.md 4);
+    # the measurements that kept the paper's definition are in docs/design.md.
+    getopen_lane_from_predicted_ball: bool = False
 
     def kernel(self) -> tuple:
         """The fields as a NamedTuple of floats, the form numba kernels take."""

@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from core.jit import njit
 
 from agents.belief import Belief
 from agents.geometry import distance, vertex_angle
@@ -31,6 +31,22 @@ def pass_state_size(n_keepers: int, n_takers: int) -> int:
 def getopen_state_size(n_keepers: int, n_takers: int) -> int:
     """3K + T - 1 (spec `keepaway-task.md` 4 generalised like the Pass variables)."""
     return 3 * n_keepers + n_takers - 1
+
+
+# The kinds of GetOpen variable, in the order of getopen_state; each kind has one input scaling rule
+# (agents.getopen.GetOpenScaling). Kinds ending in "distance" are in metres, the others in degrees.
+GETOPEN_KINDS = ("teammate_distance", "taker_distance", "teammate_taker_distance", "teammate_taker_angle",
+                 "pass_distance", "lane_angle")
+
+
+def getopen_state_kinds(n_keepers: int, n_takers: int) -> tuple[str, ...]:
+    """The kind of each GetOpen variable (:data:`GETOPEN_KINDS`): dist(K1', Ki') and min_j dist(Ki', Tj')
+    and min_j ang(Ki', K1', Tj') for the K - 1 other keepers, dist(K1', Tj') for the T takers, then the
+    pass distance and the lane angle (3v2: `keepaway-task.md` 4 variables 1-2, 3-4, 5-6, 7-8, 9, 10)."""
+    others = n_keepers - 1
+    return (("teammate_distance",) * others + ("taker_distance",) * n_takers
+            + ("teammate_taker_distance",) * others + ("teammate_taker_angle",) * others
+            + ("pass_distance", "lane_angle"))
 
 
 @njit(cache=True)
@@ -85,20 +101,20 @@ def pass_state(bel: Belief, r: int, cfg, out) -> bool:
 
 
 @njit(cache=True)
-def getopen_state(bel: Belief, r: int, px: float, py: float, k1: int, out) -> None:
+def getopen_state(bel: Belief, r: int, px: float, py: float, ox: float, oy: float, out) -> None:
     """The GetOpen variables of point P = (px, py) for the deciding keeper of row ``r`` into ``out``
     (length 3K + T - 1), `keepaway-task.md` 4 order: I imagine myself K1' at P; the other keepers and the
-    takers (positions unchanged) sorted by distance from P; then dist(K1, P) and min_j ang(P, K1, Tj),
-    where ``k1`` is the current keeper closest to the ball."""
+    takers (positions unchanged) sorted by distance from P; then dist(O, P) and min_j ang(P, O, Tj), where
+    the lane origin O = (ox, oy) is the position of K1, the current keeper closest to the ball (the
+    paper's variables 9-10), or another point the pass would start from (``agents.getopen.lane_origin``)."""
     k, t = bel.n_keepers, bel.n_takers
     keepers = np.empty(k, dtype=np.int64)
     takers = np.empty(t, dtype=np.int64)
     nk = sort_by_distance(bel, r, px, py, 1, k, bel.me[r], keepers)
     nt = sort_by_distance(bel, r, px, py, k + 1, k + t, -1, takers)
     at = _around_vertex(bel, r, px, py, keepers, nk, takers, nt, out, 0)
-    kx, ky = bel.pos[r, k1, 0], bel.pos[r, k1, 1]
-    out[at] = distance(kx, ky, px, py)
+    out[at] = distance(ox, oy, px, py)
     lane = math.inf
     for j in range(nt):
-        lane = min(lane, vertex_angle(px, py, kx, ky, bel.pos[r, takers[j], 0], bel.pos[r, takers[j], 1]))
+        lane = min(lane, vertex_angle(px, py, ox, oy, bel.pos[r, takers[j], 0], bel.pos[r, takers[j], 1]))
     out[at + 1] = lane

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
+from core.jit import njit
 
 from agents.belief import AgentMemory, Belief
 from agents.geometry import distance, in_cone

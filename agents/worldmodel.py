@@ -30,7 +30,7 @@ from collections.abc import Mapping, Sequence
 from typing import Any, NamedTuple
 
 import numpy as np
-from numba import njit
+from core.jit import njit
 
 from agents.belief import Belief, empty_belief
 from agents.geometry import kick_rate, normalize_angle, turn_effect

@@ -8,21 +8,24 @@ import sys
 
 import click
 
+from protocol.endpoints import parse_endpoint
+
 
 @click.command("coach")
 @click.option("--server", "server_endpoint", required=True, metavar="tcp://HOST:PORT",
               help="The server's coach port.")
-@click.option("--arena-port", type=int, default=None,
+@click.option("--arena-port", type=click.IntRange(0, 65535), default=None,
               help="Serve trainers on this port (0 = a free port, printed); default: no arena endpoint.")
 @click.option("--host", default="127.0.0.1", help="Bind address of the arena port.")
 @click.option("--idle", is_flag=True,
               help="With --arena-port: keep the game paused until a trainer's first request (default: it "
                    "plays freely until then).")
-@click.option("--episodes", "stop_after", type=int, default=None,
+@click.option("--episodes", "stop_after", type=click.IntRange(min=1), default=None,
               help="Stop the server after this many episodes.")
-@click.option("--connect-timeout", type=float, default=60.0, help="Seconds to wait for the server.")
+@click.option("--connect-timeout", type=click.FloatRange(min=0.0, min_open=True), default=60.0, show_default=True,
+              help="Seconds to wait for the server.")
 @click.option("--json", "as_json", is_flag=True, help="Print the episode record as JSON at the end.")
-@click.option("-v", "--verbose", count=True)
+@click.option("-v", "--verbose", count=True, help="More log output (-v info, -vv debug).")
 def coach_command(server_endpoint: str, arena_port: int | None, host: str, idle: bool, stop_after: int | None,
                   connect_timeout: float, as_json: bool, verbose: int) -> None:
     """Run an arena's online coach: the ground-truth episode record and the trainer's endpoint."""
@@ -32,6 +35,10 @@ def coach_command(server_endpoint: str, arena_port: int | None, host: str, idle:
                         format="%(asctime)s %(name)s %(levelname)s %(message)s", stream=sys.stderr)
     if idle and arena_port is None:
         raise click.UsageError("--idle keeps the game paused for a trainer: it needs --arena-port")
+    try:
+        parse_endpoint(server_endpoint)
+    except ValueError as exc:
+        raise click.BadParameter(str(exc), param_hint="--server") from None
     coach = Coach(server_endpoint, host=host, arena_port=arena_port, stop_after=stop_after,
                   connect_timeout_s=connect_timeout, idle=idle)
     coach.install_signal_handlers()

@@ -24,6 +24,47 @@ NOISE_POLAR = 1.0  # 12.0+: polar, length U(0, r), direction U(-pi, pi)
 
 
 @dataclass(frozen=True)
+class Range:
+    """The interval a setting's value must lie in; ``low_open``/``high_open`` exclude that bound."""
+
+    low: float = -math.inf
+    high: float = math.inf
+    low_open: bool = False
+    high_open: bool = False
+
+    def __contains__(self, value: float) -> bool:
+        above = value > self.low if self.low_open else value >= self.low
+        below = value < self.high if self.high_open else value <= self.high
+        return above and below
+
+    def __str__(self) -> str:
+        low, high = (str(b) if isinstance(b, int) else f"{b:g}" for b in (self.low, self.high))
+        return f"{'(' if self.low_open else '['}{low}, {high}{')' if self.high_open else ']'}"
+
+
+@dataclass(frozen=True)
+class OneOf:
+    """The values a setting may take."""
+
+    values: tuple
+
+    def __contains__(self, value: Any) -> bool:
+        return value in self.values
+
+    def __str__(self) -> str:
+        return "{" + ", ".join(v if isinstance(v, str) else f"{v:g}" for v in self.values) + "}"
+
+
+ANY = Range(low_open=True, high_open=True)
+POSITIVE = Range(0.0, low_open=True, high_open=True)
+NON_NEGATIVE = Range(0.0, high_open=True)
+FRACTION = Range(0.0, 1.0)
+ANGLE = Range(-180.0, 180.0)
+CYCLES = Range(1.0, high_open=True)
+FLAG = OneOf((0, 1))  # a bool parameter (False/True, or 0/1 from the command line)
+
+
+@dataclass(frozen=True)
 class ServerParams:
     """Every constant of the simulation, named as in rcssserver (units: m, m/cycle, deg, cycles, ms)."""
 
@@ -131,6 +172,19 @@ class ServerParams:
     ball_stuck_area: float = 3.0
     drop_ball_time: float = 200.0
 
+    def __post_init__(self) -> None:
+        """Refuse, in one line, a value outside its :data:`PARAMETER_RANGES` entry or a bound pair of
+        :data:`ORDERED_PARAMETERS` in the wrong order: every way of building a set is checked alike."""
+        if not isinstance(self.name, str):
+            raise ValueError(f"server parameter name={self.name!r} is not a string")
+        for key in PARAMETER_RANGES:
+            check_parameter(key, getattr(self, key))
+        for low, high, strict in ORDERED_PARAMETERS:
+            a, b = getattr(self, low), getattr(self, high)
+            if a > b or (strict and a == b):
+                raise ValueError(f"server parameter {low}={a!r} must {'be below' if strict else 'not exceed'} "
+                                 f"{high}={b!r}")
+
     # derived quantities
     @property
     def kickable_distance(self) -> float:
@@ -138,13 +192,11 @@ class ServerParams:
         return self.player_size + self.kickable_margin + self.ball_size
 
     def replace(self, **changes: Any) -> "ServerParams":
-        """A copy with some values changed; unknown names and non-finite values are a ValueError."""
-        known = {f.name: f for f in fields(self)}
-        for key, value in changes.items():
-            if key not in known:
+        """A copy with some values changed; unknown names and values outside :data:`PARAMETER_RANGES`
+        are a ValueError."""
+        for key in changes:
+            if key != "name" and key not in PARAMETER_RANGES:
                 raise ValueError(f"unknown server parameter {key!r}")
-            if key != "name" and not _finite_number(value):
-                raise ValueError(f"server parameter {key}={value!r} is not a finite number")
         return dataclasses.replace(self, **changes)
 
     def to_dict(self) -> dict[str, Any]:
@@ -164,10 +216,83 @@ class ServerParams:
         return KernelParams(*(float(getattr(self, n)) for n in KernelParams._fields))
 
 
-def _finite_number(value: Any) -> bool:
-    if isinstance(value, bool):
-        return True
-    return isinstance(value, (int, float)) and math.isfinite(value)
+NOISE_MODELS = OneOf((NOISE_AXIS, NOISE_POLAR))
+
+# The physically meaningful values of every parameter (spec `server-physics.md`): decays, rates and
+# noise amplitudes are fractions; sizes, steps and speeds are positive; angles lie in [-180, 180].
+PARAMETER_RANGES: dict[str, Range | OneOf] = {
+    # timing
+    "simulator_step_ms": POSITIVE, "sense_body_step_ms": POSITIVE, "send_step_ms": POSITIVE,
+    # field
+    "pitch_length": POSITIVE, "pitch_width": POSITIVE,
+    # ball
+    "ball_size": POSITIVE, "ball_decay": FRACTION, "ball_rand": FRACTION, "ball_speed_max": POSITIVE,
+    "ball_accel_max": POSITIVE,
+    # player type 0
+    "player_size": POSITIVE, "player_decay": FRACTION, "player_rand": FRACTION, "player_speed_max": POSITIVE,
+    "player_accel_max": POSITIVE, "inertia_moment": NON_NEGATIVE, "kickable_margin": POSITIVE,
+    "movement_noise": NOISE_MODELS,
+    # dash (dash_angle_step 0: any direction)
+    "dash_power_rate": POSITIVE, "min_dash_power": ANY, "max_dash_power": ANY, "min_dash_angle": ANGLE,
+    "max_dash_angle": ANGLE, "dash_angle_step": NON_NEGATIVE, "side_dash_rate": FRACTION,
+    "back_dash_rate": FRACTION,
+    # turn / neck
+    "min_moment": ANGLE, "max_moment": ANGLE, "min_neck_moment": ANGLE, "max_neck_moment": ANGLE,
+    "min_neck_angle": ANGLE, "max_neck_angle": ANGLE,
+    # kick
+    "min_power": ANY, "max_power": ANY, "kick_power_rate": POSITIVE, "kick_rand": FRACTION,
+    "kick_noise": NOISE_MODELS, "failed_kick_uses_slot": FLAG,
+    # stamina (stamina_capacity < 0: no capacity model)
+    "stamina_max": POSITIVE, "stamina_inc_max": NON_NEGATIVE, "extra_stamina": NON_NEGATIVE,
+    "stamina_capacity": ANY, "recover_dec_thr": FRACTION, "recover_dec": FRACTION, "recover_min": FRACTION,
+    "recover_init": FRACTION, "effort_dec_thr": FRACTION, "effort_dec": FRACTION, "effort_min": FRACTION,
+    "effort_max": FRACTION, "effort_inc_thr": FRACTION, "effort_inc": FRACTION, "effort_init": FRACTION,
+    "effort_inc_uses_dec_thr": FLAG,
+    # tackle
+    "tackle_cycles": NON_NEGATIVE,
+    # perception
+    "visible_angle": Range(0.0, 360.0, low_open=True), "visible_distance": NON_NEGATIVE,
+    "quantize_step": POSITIVE, "quantize_step_l": POSITIVE, "dir_chg_step": POSITIVE, "dist_chg_step": POSITIVE,
+    "unum_far_length": NON_NEGATIVE, "unum_too_far_length": NON_NEGATIVE, "team_far_length": NON_NEGATIVE,
+    "team_too_far_length": NON_NEGATIVE, "team_loss_probabilistic": FLAG, "see_behind_strict": FLAG,
+    # hearing
+    "audio_cut_dist": NON_NEGATIVE, "hear_max": NON_NEGATIVE, "hear_inc": NON_NEGATIVE,
+    "hear_decay": NON_NEGATIVE, "say_msg_size": NON_NEGATIVE,
+    # keepaway referee (ball_stuck_area or drop_ball_time 0: no BallStuck referee)
+    "keepaway_length": POSITIVE, "keepaway_width": POSITIVE, "take_cycles": CYCLES,
+    "reset_restores_stamina": FLAG, "ball_stuck_area": NON_NEGATIVE, "drop_ball_time": NON_NEGATIVE,
+}
+
+# Pairs (low, high, strict) whose values must be ordered: low <= high, or low < high if strict (the
+# far/too-far lengths divide by their difference); the Keepaway region lies within the pitch.
+ORDERED_PARAMETERS: tuple[tuple[str, str, bool], ...] = (
+    ("min_dash_power", "max_dash_power", False),
+    ("min_dash_angle", "max_dash_angle", False),
+    ("min_moment", "max_moment", False),
+    ("min_neck_moment", "max_neck_moment", False),
+    ("min_neck_angle", "max_neck_angle", False),
+    ("min_power", "max_power", False),
+    ("effort_min", "effort_max", False),
+    ("unum_far_length", "unum_too_far_length", True),
+    ("team_far_length", "team_too_far_length", True),
+    ("keepaway_length", "pitch_length", False),
+    ("keepaway_width", "pitch_width", False),
+)
+
+
+def check_parameter(name: str, value: Any) -> None:
+    """Raise ValueError (one line: the parameter, the value and what is allowed) unless ``value`` is a
+    finite number in :data:`PARAMETER_RANGES` ``[name]`` (true/false or 0/1 for a flag)."""
+    allowed = PARAMETER_RANGES.get(name)
+    if allowed is None:
+        raise ValueError(f"unknown server parameter {name!r}")
+    flag = allowed is FLAG
+    if type(value) not in ((bool, int, float) if flag else (int, float)):
+        raise ValueError(f"server parameter {name}={value!r} is not {'true/false' if flag else 'a number'}")
+    if not math.isfinite(value):
+        raise ValueError(f"server parameter {name}={value!r} is not a finite number")
+    if value not in allowed:
+        raise ValueError(f"server parameter {name}={value!r} is out of range: allowed {allowed}")
 
 
 KernelParams = namedtuple(
@@ -203,14 +328,20 @@ PARAMETER_SETS: dict[str, ServerParams] = {"classic": CLASSIC, "current": CURREN
 KEEPAWAY_LAUNCH: dict[str, float] = {"stamina_inc_max": 3500.0, "visible_angle": 360.0}
 
 
-def parameter_set(name: str, keepaway_launch: bool = True, **overrides: Any) -> ServerParams:
+# Team sizes (spec `keepaway-task.md` 1): uniform numbers run from 1 to 11 on each side. A server
+# simulates any such teams; the Keepaway task needs a keeper to pass to (Pass chooses HoldBall or
+# PassBall-k, k = 2..K) and a taker to end episodes.
+MAX_TEAM_SIZE = 11
+TEAM_SIZE = Range(1, MAX_TEAM_SIZE)
+KEEPAWAY_KEEPERS = Range(2, MAX_TEAM_SIZE)
+KEEPAWAY_TAKERS = Range(1, MAX_TEAM_SIZE)
+
+
+def parameter_set(name: str, /, keepaway_launch: bool = True, **overrides: Any) -> ServerParams:
     """The named set, with keepaway.sh's launch settings (unless disabled) and then ``overrides``."""
-    try:
-        base = PARAMETER_SETS[name]
-    except KeyError:
-        raise ValueError(
-            f"unknown parameter set {name!r}; choose one of {', '.join(PARAMETER_SETS)}"
-        ) from None
+    if not isinstance(name, str) or name not in PARAMETER_SETS:
+        raise ValueError(f"unknown parameter set {name!r}; choose one of {', '.join(PARAMETER_SETS)}")
+    base = PARAMETER_SETS[name]
     changes: dict[str, Any] = dict(KEEPAWAY_LAUNCH) if keepaway_launch else {}
     changes.update(overrides)
     return base.replace(**changes) if changes else base

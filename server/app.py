@@ -31,8 +31,12 @@ from protocol import PROTOCOL_VERSION
 from server.arena import Arena, ArenaError, PlayerSlot, compile_kernels, truth_state
 from server.config import ServerConfig
 from server.episode_log import EpisodeRecord, JsonlLog, KwyLog
+from server.log_limit import RepeatLimit
 
 log = logging.getLogger("keepaway.server")
+# A hung player's "missed cycle" would otherwise be logged every cycle timeout (server/log_limit.py).
+repeat_limit = RepeatLimit()
+log.addFilter(repeat_limit)
 
 # Frames up to max_message_bytes are decoded; larger ones up to this factor are answered with a
 # ``too_large`` error; beyond it ZeroMQ (MAXMSGSIZE) disconnects the sender before reading the frame.
@@ -160,6 +164,7 @@ class Server:
             sock.close(linger=0)
         self.ctx.term()
         log.info("stopped at cycle %d after %d episodes: %s", self.arena.cycle, self.episodes_done, reason)
+        repeat_limit.flush()
 
     # -- timing loops --------------------------------------------------------------------------------
     def _run_sync(self, poller: zmq.Poller) -> None:

@@ -9,8 +9,22 @@ from typing import Any
 
 import click
 
-from protocol.params import ServerParams, parameter_set
-from server.config import HANG_POLICIES, TIMING_MODES, ServerConfig, load_toml
+from protocol.params import TEAM_SIZE, ServerParams, parameter_set
+from server.config import (
+    AT_LEAST_ONE,
+    HANG_POLICIES,
+    PORT,
+    SEED,
+    START_ON,
+    TIMING_MODES,
+    ServerConfig,
+    load_toml,
+)
+
+PORT_TYPE = click.IntRange(PORT.low, PORT.high)
+TEAM_SIZE_TYPE = click.IntRange(TEAM_SIZE.low, TEAM_SIZE.high)
+COUNT_TYPE = click.IntRange(min=AT_LEAST_ONE.low)
+POSITIVE_TYPE = click.FloatRange(min=0.0, min_open=True)
 
 
 def _parse_overrides(pairs: tuple[str, ...]) -> dict[str, float]:
@@ -40,39 +54,38 @@ def build_config(config_file: Path | None, parameter_set_name: str | None, overr
     data.update({k: v for k, v in settings.items() if v is not None})
     if "log_dir" in data and data["log_dir"] is not None:
         data["log_dir"] = Path(data["log_dir"])
-    try:
-        return ServerConfig(params=params, **data)
-    except TypeError as exc:
-        raise ValueError(str(exc)) from None
+    return ServerConfig(params=params, **data)
 
 
 @click.command("server")
 @click.option("--config", "config_file", type=click.Path(exists=True, dir_okay=False, path_type=Path),
               help="TOML file: ServerConfig fields at top level, [params] for parameter overrides.")
 @click.option("--host", default=None, help="Bind address (default 127.0.0.1).")
-@click.option("--players-port", type=int, default=None, help="Players ROUTER port (default 6000; 0 = free port).")
-@click.option("--coach-port", type=int, default=None, help="Coach ROUTER port (default 6001; 0 = free port).")
-@click.option("--monitor-port", type=int, default=None, help="Monitor PUB port (default 6002; 0 = free port).")
-@click.option("--keepers", type=int, default=None, help="Number of keepers (default 3).")
-@click.option("--takers", type=int, default=None, help="Number of takers (default 2).")
-@click.option("--field-size", type=float, default=None, help="Side of the square region in m (default 20).")
+@click.option("--players-port", type=PORT_TYPE, default=None, help="Players ROUTER port (default 6000; 0 = free port).")
+@click.option("--coach-port", type=PORT_TYPE, default=None, help="Coach ROUTER port (default 6001; 0 = free port).")
+@click.option("--monitor-port", type=PORT_TYPE, default=None, help="Monitor PUB port (default 6002; 0 = free port).")
+@click.option("--keepers", type=TEAM_SIZE_TYPE, default=None, help="Number of keepers (default 3).")
+@click.option("--takers", type=TEAM_SIZE_TYPE, default=None, help="Number of takers (default 2).")
+@click.option("--field-size", type=POSITIVE_TYPE, default=None,
+              help="Side of the square region in m, at most the pitch width (default 20).")
 @click.option("--mode", type=click.Choice(TIMING_MODES), default=None, help="Timing (default sync).")
-@click.option("--seed", type=int, default=None, help="Seed of all server randomness (default 0).")
+@click.option("--seed", type=click.IntRange(SEED.low, SEED.high), default=None,
+              help="Seed of all server randomness (default 0).")
 @click.option("--params", "parameter_set_name", type=click.Choice(["classic", "current"]), default=None,
               help="Parameter set: rcssserver 11 (classic, default) or 19 (current).")
 @click.option("--param", "param_pairs", multiple=True, metavar="NAME=VALUE",
               help="Override one server parameter (repeatable).")
 @click.option("--no-keepaway-launch", is_flag=True,
               help="Do not apply keepaway.sh's stamina_inc_max=3500 and visible_angle=360.")
-@click.option("--episodes", type=int, default=None, help="Stop after this many episodes.")
-@click.option("--max-cycles", type=int, default=None, help="Stop after this many cycles.")
-@click.option("--cycle-timeout", "cycle_timeout_s", type=float, default=None,
+@click.option("--episodes", type=COUNT_TYPE, default=None, help="Stop after this many episodes.")
+@click.option("--max-cycles", type=COUNT_TYPE, default=None, help="Stop after this many cycles.")
+@click.option("--cycle-timeout", "cycle_timeout_s", type=POSITIVE_TYPE, default=None,
               help="Sync mode: seconds to wait for every player per cycle (default 1.25).")
-@click.option("--max-missed", "max_missed_cycles", type=int, default=None,
+@click.option("--max-missed", "max_missed_cycles", type=COUNT_TYPE, default=None,
               help="Consecutive missed cycles before a player counts as hung (default 20).")
 @click.option("--on-hang", type=click.Choice(HANG_POLICIES), default=None,
               help="What to do with a hung player: continue without it (default) or stop.")
-@click.option("--start-on", type=click.Choice(["players", "coach"]), default=None,
+@click.option("--start-on", type=click.Choice(START_ON), default=None,
               help="Start when all players connected (default) or when a coach says start.")
 @click.option("--log-dir", type=click.Path(file_okay=False, path_type=Path), default=None,
               help="Write the .kwy and .jsonl episode logs here.")

@@ -4,14 +4,29 @@ from __future__ import annotations
 
 import dataclasses
 import tomllib
+import typing
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from protocol.params import ServerParams, parameter_set
+from protocol.arena import MAX_SEED
+from protocol.params import (
+    PARAMETER_SETS,
+    POSITIVE,
+    TEAM_SIZE,
+    OneOf,
+    Range,
+    ServerParams,
+    check_parameter,
+    parameter_set,
+)
 
 TIMING_MODES = ("sync", "realtime")
 HANG_POLICIES = ("continue", "stop")
+START_ON = ("players", "coach")
+PORT = Range(0, 65535)  # 0 picks a free port
+SEED = Range(0, MAX_SEED)  # numpy's SeedSequence takes non-negative ints; the wire carries int64
+AT_LEAST_ONE = Range(1, high_open=True)
 
 
 @dataclass(frozen=True)
@@ -38,27 +53,15 @@ class ServerConfig:
     max_message_bytes: int = 4 * 1024 * 1024
 
     def __post_init__(self) -> None:
+        """Refuse every setting of the wrong type or outside :data:`SETTING_RANGES`, in one line."""
         problems = []
-        if self.mode not in TIMING_MODES:
-            problems.append(f"mode must be one of {TIMING_MODES}, not {self.mode!r}")
-        if self.on_hang not in HANG_POLICIES:
-            problems.append(f"on_hang must be one of {HANG_POLICIES}, not {self.on_hang!r}")
-        if self.start_on not in ("players", "coach"):
-            problems.append(f"start_on must be 'players' or 'coach', not {self.start_on!r}")
-        if not 1 <= self.keepers <= 11 or not 1 <= self.takers <= 11:
-            problems.append("keepers and takers must each be between 1 and 11")
-        for name in ("players_port", "coach_port", "monitor_port"):
-            port = getattr(self, name)
-            if not 0 <= port <= 65535:
-                problems.append(f"{name} must be in 0..65535 (0 picks a free port), not {port}")
-        if not self.cycle_timeout_s > 0:
-            problems.append("cycle_timeout_s must be positive")
-        if self.max_missed_cycles < 1:
-            problems.append("max_missed_cycles must be at least 1")
-        if self.episodes is not None and self.episodes < 1:
-            problems.append("episodes must be at least 1")
-        if self.max_message_bytes < 1024:
-            problems.append("max_message_bytes must be at least 1024")
+        if not isinstance(self.params, ServerParams):
+            problems.append(f"params must be a ServerParams, not {type(self.params).__name__}")
+        for name in SETTING_TYPES:
+            try:
+                check_setting(name, getattr(self, name))
+            except ValueError as exc:
+                problems.append(str(exc))
         if problems:
             raise ValueError("; ".join(problems))
 
@@ -73,18 +76,84 @@ class ServerConfig:
         return out
 
 
+# The allowed values of the settings that have limits; the others take any value of their type.
+SETTING_RANGES: dict[str, Range | OneOf] = {
+    "players_port": PORT, "coach_port": PORT, "monitor_port": PORT,
+    "keepers": TEAM_SIZE, "takers": TEAM_SIZE,
+    "mode": OneOf(TIMING_MODES), "on_hang": OneOf(HANG_POLICIES), "start_on": OneOf(START_ON),
+    "seed": SEED, "cycle_timeout_s": POSITIVE, "max_missed_cycles": AT_LEAST_ONE,
+    "episodes": AT_LEAST_ONE, "max_cycles": AT_LEAST_ONE, "max_message_bytes": Range(1024, high_open=True),
+}
+# Each setting's type, from the annotations of ServerConfig (the parameter table is checked by itself).
+SETTING_TYPES: dict[str, Any] = {
+    name: hint for name, hint in typing.get_type_hints(ServerConfig).items() if name != "params"
+}
+_TYPE_NAMES = {int: "an integer", float: "a number", str: "a non-empty string", Path: "a path"}
+
+
+def _has_type(value: Any, kind: type) -> bool:
+    """``value`` is a ``kind`` (ints count as numbers, bools as neither; strings as paths)."""
+    if kind is int:
+        return type(value) is int
+    if kind is float:
+        return type(value) in (int, float)
+    if kind is str:
+        return isinstance(value, str) and value != ""
+    return isinstance(value, (str, Path))
+
+
+def check_setting(name: str, value: Any) -> None:
+    """Raise ValueError (one line: the setting, the value and what is expected) unless ``value`` is of
+    ``name``'s type and within its :data:`SETTING_RANGES` entry."""
+    if name not in SETTING_TYPES:
+        raise ValueError(f"unknown setting {name!r}")
+    kinds = typing.get_args(SETTING_TYPES[name]) or (SETTING_TYPES[name],)
+    if value is None and type(None) in kinds:
+        return
+    kind = next(k for k in kinds if k is not type(None))
+    if not _has_type(value, kind):
+        raise ValueError(f"{name} = {value!r} is not {_TYPE_NAMES[kind]}")
+    allowed = SETTING_RANGES.get(name)
+    if allowed is not None and value not in allowed:
+        raise ValueError(f"{name} = {value!r} is out of range: allowed {allowed}")
+
+
+def _check_toml_entry(key: str, value: Any) -> None:
+    if key == "params":
+        if not isinstance(value, dict):
+            raise ValueError(f"params = {value!r} is not a table ([params] with NAME = VALUE lines)")
+        for name, parameter in value.items():
+            if name == "name":
+                raise ValueError("[params] name: choose the set with parameter_set at the top level")
+            try:
+                check_parameter(name, parameter)
+            except ValueError as exc:
+                raise ValueError(f"[params] {exc}") from None
+    elif key == "parameter_set":
+        if not isinstance(value, str) or value not in PARAMETER_SETS:
+            raise ValueError(f"parameter_set = {value!r} is not one of {', '.join(PARAMETER_SETS)}")
+    else:
+        check_setting(key, value)
+
+
 def load_toml(path: Path) -> dict[str, Any]:
     """Read a TOML config file: top-level keys are ServerConfig fields, ``[params]`` overrides parameters.
 
-    Errors name the file and the offending key in one line.
+    Every key's type and range is checked here; an error names the file, the key, the value and what is
+    expected, in one line.
     """
     try:
         with open(path, "rb") as fh:
             data = tomllib.load(fh)
     except (OSError, tomllib.TOMLDecodeError) as exc:
         raise ValueError(f"cannot read config {path}: {exc}") from None
-    known = {f.name for f in dataclasses.fields(ServerConfig)} | {"parameter_set"}
+    known = set(SETTING_TYPES) | {"params", "parameter_set"}
     unknown = sorted(set(data) - known)
     if unknown:
-        raise ValueError(f"{path}: unknown setting(s) {', '.join(unknown)}")
+        raise ValueError(f"{path}: unknown setting(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}")
+    for key, value in data.items():
+        try:
+            _check_toml_entry(key, value)
+        except ValueError as exc:
+            raise ValueError(f"{path}: {exc}") from None
     return data

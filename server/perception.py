@@ -19,7 +19,7 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
+from core.jit import njit
 
 from protocol.landmarks import FLAG_POSITIONS, LINE_LEFT, LINE_RIGHT, LINE_TOP, N_FLAGS, N_LINES
 from protocol.params import KernelParams

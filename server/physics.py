@@ -23,7 +23,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from core.jit import njit
 
 from protocol.params import NOISE_POLAR
 from server.rng import randint, uniform

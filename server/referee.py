@@ -12,7 +12,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
+from core.jit import njit
 
 from server import episode_log
 from server.rng import randint, uniform

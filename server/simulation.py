@@ -7,7 +7,7 @@ compiled loop serves the distributed server (batch of one) and the batched mode 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from core.jit import njit
 
 from server.physics import apply_commands, move_objects, resolve_collisions, update_stamina
 from server.referee import keepaway_referee

@@ -1,12 +1,19 @@
-"""Shared fixtures: real ``keepaway`` processes on free loopback ports, always cleaned up."""
+"""Shared fixtures: real ``keepaway`` processes on free loopback ports, always cleaned up.
+
+No test can hang on a child's output: every process writes its stderr to a file (a server logging
+fifty lines a second would otherwise fill an unread 64 KiB pipe and block in write()), and the line a
+server announces its ports with is read with a deadline, never with a blocking readline.
+"""
 
 from __future__ import annotations
 
 import os
 import re
+import selectors
 import signal
 import subprocess
 import sys
+import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -14,7 +21,10 @@ from pathlib import Path
 import pytest
 
 REPO = Path(__file__).resolve().parent.parent
-LISTEN_RE = re.compile(r"players=tcp://([\d.]+):(\d+) coach=tcp://[\d.]+:(\d+) monitor=tcp://[\d.]+:(\d+)")
+LISTEN_RE = re.compile(r"players=tcp://([\d.]+):(\d+) coach=tcp://[\d.]+:(\d+) monitor=tcp://[\d.]+:(\d+)\n")
+START_TIMEOUT_S = 120.0  # a server compiles (or loads) its numba kernels before it announces its ports
+FOLLOW_INTERVAL_S = 0.02  # how often a stderr file is looked at for new output (stderr=PIPE callers)
+TAIL_CHARS = 3000  # how much of a process's stderr a failure message shows
 
 
 @dataclass
@@ -25,6 +35,7 @@ class ServerProcess:
     coach_port: int
     monitor_port: int
     log_dir: Path
+    stderr_path: Path
 
     @property
     def players_endpoint(self) -> str:
@@ -42,7 +53,8 @@ class ServerProcess:
         return self.proc.wait(timeout=timeout)
 
     def stderr_text(self) -> str:
-        return self.proc.stderr.read().decode() if self.proc.stderr else ""
+        """What the server has logged so far (all of it once it has exited)."""
+        return self.stderr_path.read_text(errors="replace")
 
 
 def keepaway_command(*args: str) -> list[str]:
@@ -50,35 +62,113 @@ def keepaway_command(*args: str) -> list[str]:
     return [sys.executable, "-m", "keepaway", *args]
 
 
-class ProcessGroup:
-    """Every process a test starts; all are killed at teardown, even when the test failed."""
+def read_until_match(stream, pattern: re.Pattern, timeout_s: float) -> re.Match:
+    """Read a child's pipe until ``pattern`` matches what it has said; TimeoutError after ``timeout_s``,
+    EOFError if the child closes the pipe first. Reads the file descriptor behind a selector: a
+    blocking readline would wait forever for a child that prints nothing."""
+    seen = b""
+    deadline = time.monotonic() + timeout_s
+    with selectors.DefaultSelector() as selector:
+        selector.register(stream, selectors.EVENT_READ)
+        while not (match := pattern.search(seen.decode(errors="replace"))):
+            remaining = deadline - time.monotonic()
+            if remaining <= 0 or not selector.select(remaining):
+                raise TimeoutError(f"no {pattern.pattern!r} after {timeout_s:g} s; it said {seen[-500:]!r}")
+            chunk = os.read(stream.fileno(), 65536)
+            if not chunk:
+                raise EOFError(f"it closed its output before {pattern.pattern!r}; it said {seen[-500:]!r}")
+            seen += chunk
+    return match
 
-    def __init__(self) -> None:
+
+def _follow(path: Path, sink_fd: int, proc: subprocess.Popen) -> None:
+    """Copy the stderr file ``path`` into the pipe ``sink_fd`` as ``proc`` writes it, until ``proc`` has
+    exited and everything is copied (then the reader sees the end of the pipe), or until the reader
+    closes its end."""
+    try:
+        with path.open("rb") as source:
+            while True:
+                exited = proc.poll() is not None  # before the read: all it wrote is in the file
+                chunk = source.read(65536)
+                if not chunk:
+                    if exited:
+                        return
+                    time.sleep(FOLLOW_INTERVAL_S)
+                while chunk:
+                    chunk = chunk[os.write(sink_fd, chunk):]
+    except BrokenPipeError:
+        return
+    finally:
+        os.close(sink_fd)
+
+
+def program_name(args: list[str]) -> str:
+    """``server`` for ``python -m keepaway server ...``, else the executable's name."""
+    return args[3] if args[1:3] == ["-m", "keepaway"] and len(args) > 3 else Path(args[0]).name
+
+
+class ProcessGroup:
+    """Every process a test starts, their stderr files in ``stderr_dir``; all the processes are killed
+    at teardown, even when the test failed."""
+
+    def __init__(self, stderr_dir: Path) -> None:
+        self.stderr_dir = stderr_dir
         self.procs: list[subprocess.Popen] = []
+        self.stderr_paths: dict[subprocess.Popen, Path] = {}
+        self.followers: list[threading.Thread] = []
 
     def popen(self, args: list[str], **kwargs) -> subprocess.Popen:
-        proc = subprocess.Popen(args, cwd=REPO, start_new_session=True, **kwargs)
+        """Start ``args`` in a session of its own with its stderr going to a file (:meth:`stderr_path`).
+        With ``stderr=subprocess.PIPE`` the caller still gets ``proc.stderr``, a pipe fed from that
+        file: the child never waits for a reader."""
+        stderr = kwargs.pop("stderr", None)
+        piped = stderr == subprocess.PIPE
+        path = self.stderr_dir / f"{len(self.procs):02d}-{program_name(args)}.stderr"
+        with path.open("wb") as sink:
+            proc = subprocess.Popen(args, cwd=REPO, start_new_session=True,
+                                    stderr=sink if piped or stderr is None else stderr, **kwargs)
         self.procs.append(proc)
+        self.stderr_paths[proc] = path
+        if piped:
+            read_end, write_end = os.pipe()
+            text = bool(kwargs.get("text") or kwargs.get("universal_newlines") or kwargs.get("encoding"))
+            proc.stderr = os.fdopen(read_end, "r" if text else "rb", encoding=kwargs.get("encoding"),
+                                    errors=kwargs.get("errors"))
+            follower = threading.Thread(target=_follow, args=(path, write_end, proc), daemon=True)
+            follower.start()
+            self.followers.append(follower)
         return proc
 
-    def start_server(self, tmp_path: Path, *extra: str) -> ServerProcess:
+    def stderr_path(self, proc: subprocess.Popen) -> Path:
+        return self.stderr_paths[proc]
+
+    def stderr_tail(self, proc: subprocess.Popen) -> str:
+        return self.stderr_path(proc).read_text(errors="replace")[-TAIL_CHARS:]
+
+    def kill(self, proc: subprocess.Popen) -> None:
+        """SIGKILL ``proc`` and everything it started (its session), and reap it."""
+        try:
+            os.killpg(proc.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+        proc.wait()
+
+    def start_server(self, tmp_path: Path, *extra: str, start_timeout_s: float = START_TIMEOUT_S) -> ServerProcess:
+        """A ``keepaway server -v`` on free ports, once it has announced them; a server that exits or
+        stays silent for ``start_timeout_s`` is killed and the error shows the end of its stderr. Its
+        log is in :meth:`ServerProcess.stderr_text` and, to wait for a line, in ``proc.stderr``."""
         log_dir = tmp_path / "logs"
         proc = self.popen(
             keepaway_command("server", "--players-port", "0", "--coach-port", "0", "--monitor-port", "0",
                              "--log-dir", str(log_dir), "-v", *extra),
             stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-        deadline = time.monotonic() + 120
-        line = b""
-        while time.monotonic() < deadline:
-            line = proc.stdout.readline()
-            if not line:
-                break
-            match = LISTEN_RE.search(line.decode())
-            if match:
-                host, p, c, mon = match.groups()
-                return ServerProcess(proc, host, int(p), int(c), int(mon), log_dir)
-        proc.kill()
-        raise RuntimeError(f"server did not start: {line!r} {proc.stderr.read().decode()[-2000:]}")
+        try:
+            match = read_until_match(proc.stdout, LISTEN_RE, start_timeout_s)
+        except (TimeoutError, EOFError) as exc:
+            self.kill(proc)
+            raise RuntimeError(f"server did not start: {exc}\n{self.stderr_tail(proc)}") from None
+        host, p, c, mon = match.groups()
+        return ServerProcess(proc, host, int(p), int(c), int(mon), log_dir, self.stderr_path(proc))
 
     def cleanup(self) -> None:
         for proc in self.procs:
@@ -101,12 +191,26 @@ class ProcessGroup:
             for stream in (proc.stdout, proc.stderr):
                 if stream is not None:
                     stream.close()
+        for follower in self.followers:
+            follower.join(timeout=5)
 
 
 @pytest.fixture
-def processes():
-    group = ProcessGroup()
+def processes(request, tmp_path_factory):
+    """A :class:`ProcessGroup` whose stderr files sit in a directory of their own (not in ``tmp_path``,
+    which a test may expect to hold only what the program under test wrote)."""
+    group = ProcessGroup(tmp_path_factory.mktemp(re.sub(r"\W", "_", request.node.name)[:30] + "-stderr"))
     try:
         yield group
     finally:
         group.cleanup()
+
+
+@pytest.fixture(scope="session", autouse=True)
+def compiled_kernels(tmp_path_factory):
+    """Every numba kernel set compiled into the cache once, before any test starts processes: otherwise
+    the first tests' server and five players would each compile the same kernels at once (``keepaway
+    compile``; a no-op when this source's cache is already warm)."""
+    from trainer.kernels import KERNEL_SETS, ensure_compiled
+
+    ensure_compiled(KERNEL_SETS, log_dir=tmp_path_factory.mktemp("compile"))

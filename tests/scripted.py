@@ -5,10 +5,14 @@ from __future__ import annotations
 import time
 from typing import Any
 
+import msgpack
 import zmq
 
 from protocol import messages as m
 from protocol import PROTOCOL_VERSION, SERVER_TO_COACH, SERVER_TO_PLAYER, decode, encode
+
+# A message no port accepts: the server answers it with an ``unknown_type`` error naming "warp".
+BARRIER = msgpack.packb({"type": "warp"})
 
 
 class ScriptedClient:
@@ -41,6 +45,19 @@ class ScriptedClient:
             msg = self.recv(max(0.01, deadline - time.monotonic()))
             if isinstance(msg, kind):
                 return msg
+
+    def until_barrier(self, timeout: float = 20.0) -> list:
+        """Every message the server sent this client before it read :data:`BARRIER` (sent now): the
+        server reads one client's messages in order and its answers keep their order, so the barrier's
+        error is the acknowledgement that all of them have arrived."""
+        self.send_raw(BARRIER)
+        before = []
+        deadline = time.monotonic() + timeout
+        while True:
+            msg = self.recv(max(0.01, deadline - time.monotonic()))
+            if isinstance(msg, m.Error) and msg.code == "unknown_type" and "warp" in msg.message:
+                return before
+            before.append(msg)
 
     def close(self) -> None:
         self.sock.close(linger=0)

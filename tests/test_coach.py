@@ -7,24 +7,25 @@ import signal
 import subprocess
 import time
 
+import pytest
 import zmq
 
-from conftest import keepaway_command
+from conftest import keepaway_command, read_until_match
 from protocol import encode
 from protocol import messages as m
 from protocol.arena import EpisodesDone, RunEpisodes, StopArena, decode_for_trainer
 from scripted import ScriptedCoach
 
+ARENA_RE = re.compile(r"arena=(tcp://\S+)\n")
+
 
 def start_arena(processes, tmp_path, *player_args: str, coach_args: tuple[str, ...] = ()):
     srv = processes.start_server(tmp_path)
     coach = processes.popen(keepaway_command("coach", "--server", srv.coach_endpoint, "--arena-port", "0",
-                                             *coach_args),
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-    line = coach.stdout.readline().decode()
-    arena = re.search(r"arena=(tcp://\S+)", line).group(1)
+                                             *coach_args), stdout=subprocess.PIPE)
+    arena = read_until_match(coach.stdout, ARENA_RE, 60).group(1)
     players = [processes.popen(keepaway_command("player", "--team", team, "--server", srv.players_endpoint,
-                                                *player_args), stderr=subprocess.PIPE)
+                                                *player_args))
                for team in ["keepers"] * 3 + ["takers"] * 2]
     return srv, coach, arena, players
 
@@ -64,7 +65,9 @@ def test_a_second_request_while_busy_is_refused(processes, tmp_path):
         sock.connect(arena)
     try:
         first.send(encode(RunEpisodes(episodes=1000)))
-        time.sleep(0.5)
+        first.send(b"\x93garbage")  # answered once the coach has read the request before it
+        assert first.poll(60_000)
+        assert decode_for_trainer(first.recv()).code == "malformed"
         second.send(encode(RunEpisodes(episodes=1)))
         assert second.poll(60_000)
         refused = decode_for_trainer(second.recv())
@@ -83,6 +86,7 @@ def test_a_second_request_while_busy_is_refused(processes, tmp_path):
         second.close(linger=0)
 
 
+@pytest.mark.slow
 def test_an_idle_arena_waits_paused_for_its_first_request(processes, tmp_path):
     srv, coach, arena, players = start_arena(processes, tmp_path, coach_args=("--idle",))
     watcher = ScriptedCoach(srv.coach_endpoint)
@@ -96,9 +100,7 @@ def test_an_idle_arena_waits_paused_for_its_first_request(processes, tmp_path):
     while not (looked := look()).paused:  # standing still once every player has connected
         assert time.monotonic() < deadline, "the idle arena never stood still"
         time.sleep(0.2)
-    time.sleep(1.0)
-    again = look()
-    assert again.paused and again.cycle == looked.cycle and again.state["episode"] == 1
+    assert looked.cycle == 0 and looked.state["episode"] == 1  # paused before its first cycle
     trainer = zmq.Context.instance().socket(zmq.DEALER)
     trainer.setsockopt(zmq.LINGER, 0)
     trainer.connect(arena)
@@ -107,7 +109,7 @@ def test_an_idle_arena_waits_paused_for_its_first_request(processes, tmp_path):
         assert trainer.poll(180_000), "no answer from the arena"
         done = decode_for_trainer(trainer.recv())
         assert isinstance(done, EpisodesDone) and [e[0] for e in done.episodes] == [1]
-        assert done.episodes[0][1] == looked.cycle  # the episode restarted where the game stood
+        assert done.episodes[0][1] == looked.cycle  # it stood still until the request: not one cycle played
     finally:
         trainer.close(linger=0)
         watcher.close()

@@ -43,3 +43,14 @@ def test_clients_reach_the_server_by_service_name(name):
     argv = SERVICES[name]["command"]
     endpoint = argv[argv.index("--server") + 1]
     assert endpoint.startswith("tcp://server:")
+
+
+def test_the_image_holds_every_package_and_its_compiled_kernels():
+    import tomllib
+
+    packages = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"]
+    dockerfile = (REPO / "Dockerfile").read_text()
+    for package in packages:
+        assert f"COPY {package} ./{package}\n" in dockerfile, f"the image lacks the package {package}"
+    command = main.get_command(click.Context(main), "compile")
+    assert command is not None and "keepaway compile" in dockerfile

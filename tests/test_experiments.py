@@ -17,23 +17,26 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from scipy import stats
 
 import trainer.experiments as experiments
 import trainer.train as train_module
 from keepaway.cli import main
 from trainer.cem import CEMConfig
-from trainer.curves import read_curve_csv, write_curve_csv
+from trainer.curves import CurvePoint, read_curve_csv, write_curve_csv
 from trainer.experiments import (
     Cell,
+    ConfigurationRun,
     CrossTable,
     ExperimentConfig,
     configuration_dir,
-    regularized_beta,
+    plot_figure3,
+    reference_levels,
     table_cells,
     welch_p_value,
     with_counterpart,
+    write_final_evaluations,
 )
+from trainer.run import dump_json
 from trainer.schedule import GETOPEN, LEARNED, PASS, Phase
 from trainer.train import Behaviours
 
@@ -44,6 +47,14 @@ TINY = ["--trials", "2", "--episodes", "48", "--eval-every", "8", "--eval-episod
         "--no-progress"]
 POINTS = [0, 8, 16, 24, 32, 40, 48]
 NAMES = [f"P:{p}-GO:{g}" for p in ("R", "HC", "L") for g in ("R", "HC", "L")]
+
+
+def strict_json(text: str):
+    """``text`` parsed as RFC 8259 JSON: NaN and Infinity, which Python's parser accepts, are refused."""
+    def refuse(constant: str):
+        raise ValueError(f"not JSON: {constant}")
+
+    return json.loads(text, parse_constant=refuse)
 
 
 def invoke(command: str, out: Path, *extra: str):
@@ -76,28 +87,20 @@ def forbid_playing(monkeypatch) -> None:
 
 
 # -- statistics --------------------------------------------------------------------------------------
-def test_regularized_beta_matches_closed_forms():
-    # I_x(a, 1) = x^a; I_x(1, b) = 1 - (1 - x)^b: 0.3^2.5 = 0.049295..., 1 - 0.7^3 = 0.657.
-    assert regularized_beta(0.3, 2.5, 1.0) == pytest.approx(0.3 ** 2.5, rel=1e-12)
-    assert regularized_beta(0.3, 1.0, 3.0) == pytest.approx(0.657, rel=1e-12)
-    assert regularized_beta(0.9, 1.0, 3.0) == pytest.approx(0.999, rel=1e-12)  # the other side of the switch
-    assert regularized_beta(0.0, 2.0, 0.5) == 0.0 and regularized_beta(1.0, 2.0, 0.5) == 1.0
-
-
-def test_welch_p_value_by_hand_and_against_scipy():
+def test_welch_p_value_by_hand():
     # a = 1, 2, 3 and b = 4, 5, 6: means 2 and 5, sample variances 1, squared standard errors 1/3 each;
-    # t = -3 / sqrt(2/3) = -3.674; df = (2/3)^2 / (2 (1/3)^2 / 2) = 4; p = I_{4 / (4 + 13.5)}(2, 1/2).
-    assert welch_p_value([1, 2, 3], [4, 5, 6]) == pytest.approx(regularized_beta(4 / 17.5, 2.0, 0.5), rel=1e-12)
-    rng = np.random.default_rng(7)
-    for n1, n2, shift in ((3, 3, 0.0), (5, 12, 1.0), (20, 20, 0.3), (2, 9, 4.0)):
-        a, b = rng.normal(0.0, 1.0, n1), rng.normal(shift, 2.0, n2)
-        expected = stats.ttest_ind(a, b, equal_var=False).pvalue
-        assert welch_p_value(list(a), list(b)) == pytest.approx(expected, rel=1e-9, abs=1e-14)
+    # t^2 = 9 / (2/3) = 27/2; df = (2/3)^2 / (2 (1/3)^2 / 2) = 4. Student's t with 4 degrees of freedom:
+    # P(|T| > t) = 1 - (3/4) (t / s) (1 - t^2 / (12 s^2)), s^2 = 1 + t^2 / 4 = 35/8
+    # = 1 - (3/4) sqrt(108/35) (26/35) = 0.021312.
+    assert welch_p_value([1, 2, 3], [4, 5, 6]) == pytest.approx(1 - 0.75 * math.sqrt(108 / 35) * 26 / 35, rel=1e-12)
+    # a = 0, 2 and b = 3, 5: t^2 = 9 / 2, df = 2; P(|T| > t) = 1 - t / sqrt(2 + t^2) = 1 - 3 / sqrt(13).
+    assert welch_p_value([0, 2], [3, 5]) == pytest.approx(1 - 3 / math.sqrt(13), rel=1e-12)
+    assert welch_p_value([0, 2], [3, 5]) == welch_p_value([3, 5], [0, 2])  # two-sided
 
 
 def test_welch_p_value_is_undefined_for_single_values_and_no_spread():
-    assert math.isnan(welch_p_value([1.0], [2.0, 3.0]))
-    assert math.isnan(welch_p_value([1.0, 1.0], [2.0, 2.0]))
+    assert welch_p_value([1.0], [2.0, 3.0]) is None
+    assert welch_p_value([1.0, 1.0], [2.0, 2.0]) is None
 
 
 def test_entries_that_differ_from_their_columns_best_are_marked():
@@ -109,7 +112,7 @@ def test_entries_that_differ_from_their_columns_best_are_marked():
     cells = table_cells(values)
     assert [[c.best for c in row] for row in cells] == [[True, False], [False, False], [False, True]]
     assert [[c.significant for c in row] for row in cells] == [[False, False], [True, False], [False, False]]
-    assert math.isnan(cells[0][0].p_value)
+    assert cells[0][0].p_value is None
     # Row 1, column 0: mean 5, s.e. sqrt(0.01 / 3) = 0.0577.
     assert cells[1][0].text() == "5.00 +- 0.06*"
     assert cells[0][0].text() == "**10.00 +- 0.06**"
@@ -154,13 +157,14 @@ def test_a_learned_policy_meets_a_learned_counterpart_from_the_partner_run():
 
 
 # -- the commands ------------------------------------------------------------------------------------
+@pytest.mark.slow
 def test_figure3_writes_a_png_and_final_evaluations_of_nine_configurations(finished):
     assert (finished / "figure3.png").read_bytes().startswith(PNG_MAGIC)
     with open(finished / "figure3.csv", newline="") as f:
         rows = list(csv.DictReader(f))
     assert [r["name"] for r in rows] == NAMES
-    assert all(r["trials"] == "2" and r["episodes"] == "48" for r in rows)
-    data = json.loads((finished / "figure3.json").read_text())
+    assert all(r["trials"] == "2" and r["episodes"] == "48" and r["stderr_over"] == "trials" for r in rows)
+    data = strict_json((finished / "figure3.json").read_text())
     for row, configuration in zip(rows, data["configurations"]):
         assert [p["episodes"] for p in configuration["curve"]] == POINTS
         assert float(row["final_mean_hold_time_s"]) == configuration["curve"][-1]["mean_hold_time_s"] > 0.0
@@ -170,6 +174,7 @@ def test_figure3_writes_a_png_and_final_evaluations_of_nine_configurations(finis
     assert finals["P:HC-GO:HC"] > 2 * finals["P:R-GO:R"]
 
 
+@pytest.mark.slow
 def test_a_configuration_without_learning_is_measured_at_every_evaluation_point(finished):
     for trial in range(2):
         curve = read_curve_csv(configuration_dir(finished, "handcoded", "random") / f"trial_{trial:03d}" / "curve.csv")
@@ -177,8 +182,9 @@ def test_a_configuration_without_learning_is_measured_at_every_evaluation_point(
         assert len({p.mean_hold_time_s for p in curve}) > 1  # measured at each point, not copied
 
 
+@pytest.mark.slow
 def test_table2_writes_two_three_by_three_tables(finished):
-    data = json.loads((finished / "table2.json").read_text())
+    data = strict_json((finished / "table2.json").read_text())
     tables = {t["study"]: t for t in data["tables"]}
     assert set(tables) == {PASS, GETOPEN}
     for table in tables.values():
@@ -193,6 +199,7 @@ def test_table2_writes_two_three_by_three_tables(finished):
     assert markdown.count("| GO:") == 3 and markdown.count("| P:") == 3
 
 
+@pytest.mark.slow
 def test_running_again_skips_finished_work(copy, monkeypatch):
     checkpoint = configuration_dir(copy, LEARNED, LEARNED) / "trial_001" / "checkpoint.npz"
     before = checkpoint.stat().st_mtime_ns
@@ -208,6 +215,7 @@ def test_running_again_skips_finished_work(copy, monkeypatch):
     assert (configuration_dir(copy, LEARNED, LEARNED) / "summary.json").is_file()
 
 
+@pytest.mark.slow
 def test_an_unfinished_evaluation_continues_where_it_stopped(copy, monkeypatch):
     where = configuration_dir(copy, "handcoded", "handcoded")
     path = where / "trial_001" / "curve.csv"
@@ -228,6 +236,7 @@ def test_an_unfinished_evaluation_continues_where_it_stopped(copy, monkeypatch):
     assert read_curve_csv(path) == complete  # the same seeds give the same evaluations
 
 
+@pytest.mark.slow
 def test_a_directory_of_other_settings_is_refused(copy):
     result = CliRunner().invoke(main, ["experiment", "figure3", *TINY, "--eval-episodes", "6", "--out", str(copy)])
     assert result.exit_code == 2 and "holds a different" in result.output
@@ -245,6 +254,58 @@ def test_every_cell_of_a_table_reports_its_trials():
     cell = Cell((4.0, 6.0), best=False, p_value=0.2)
     # mean 5, sample standard deviation sqrt(2), s.e. sqrt(2) / sqrt(2) = 1.
     assert (cell.mean, cell.stderr, cell.significant) == (5.0, 1.0, False)
+
+
+def test_a_table_of_one_trial_has_no_standard_errors_or_tests_and_says_so():
+    values = [[[10.0], [5.0]], [[5.0], [6.5]], [[9.0], [7.0]]]
+    cells = table_cells(values)
+    assert all(c.stderr is None and c.p_value is None and not c.significant for row in cells for c in row)
+    assert cells[0][0].text() == "**10.00 +- n/a**" and cells[1][0].text() == "5.00 +- n/a"
+    table = CrossTable(PASS, table_cells([[[float(r == c)] for c in range(3)] for r in range(3)]))
+    assert "over 1 trial (n/a: one trial has none, and no test)" in table.markdown()
+    data = strict_json(dump_json(table.to_dict()))
+    assert all(c["stderr_hold_time_s"] is None and c["p_value"] is None for row in data["cells"] for c in row)
+
+
+def one_trial_runs(eval_episodes: int = 4) -> list[ConfigurationRun]:
+    """Figure 3's nine configurations with one trial each, flat curves at 2 s (R), 8 s (HC) and 5 s (L),
+    the last point of P:R-GO:R without a standard error (an evaluation of one episode)."""
+    level = {"random": 2.0, "handcoded": 8.0, LEARNED: 5.0}
+    runs = []
+    for p in experiments.POLICIES:
+        for g in experiments.POLICIES:
+            mean = (level[p] + level[g]) / 2
+            curve = [CurvePoint(e, mean + e / 100, 0.5) for e in POINTS]
+            if (p, g) == ("random", "random"):
+                curve[-1] = CurvePoint(POINTS[-1], mean, None)
+            runs.append(ConfigurationRun(experiments.configuration_name(p, g), p, g, [curve], False, eval_episodes))
+    return runs
+
+
+def test_figure3_of_one_trial_writes_strict_json_and_names_the_standard_errors(tmp_path):
+    runs = one_trial_runs()
+    write_final_evaluations(tmp_path, ExperimentConfig(trials=1), runs)
+    data = strict_json((tmp_path / "figure3.json").read_text())
+    rows = {c["name"]: c for c in data["configurations"]}
+    assert all(c["stderr_over"] == "episodes" for c in rows.values())
+    assert rows["P:HC-GO:HC"]["final_stderr_hold_time_s"] == 0.5  # the trial's last evaluation's, over episodes
+    assert rows["P:R-GO:R"]["final_stderr_hold_time_s"] is None
+    with open(tmp_path / "figure3.csv", newline="") as f:
+        csv_rows = {r["name"]: r for r in csv.DictReader(f)}
+    assert csv_rows["P:R-GO:R"]["final_stderr_hold_time_s"] == "" and csv_rows["P:R-GO:R"]["stderr_over"] == "episodes"
+    assert runs[0].stderr_basis() == "s.e. over 4 episodes of 1 trial"
+
+
+def test_figure3_draws_the_measured_hand_coded_and_random_levels_as_labelled_lines(tmp_path):
+    runs = one_trial_runs()
+    # P:HC-GO:HC's curve is 8 + e / 100 at e = 0, 8, ..., 48: mean 8.24; P:R-GO:R's 2 + e / 100 but 2 at 48.
+    levels = reference_levels(runs)
+    assert list(levels) == ["P:HC-GO:HC (hand-coded)", "P:R-GO:R (random)"]
+    assert levels["P:HC-GO:HC (hand-coded)"] == pytest.approx(8.24)
+    assert levels["P:R-GO:R (random)"] == pytest.approx(2.0 + sum(POINTS[:-1]) / 100 / len(POINTS))
+    assert reference_levels([r for r in runs if r.pass_policy == LEARNED]) == {}  # not measured: not drawn
+    plot_figure3(tmp_path / "figure3.png", runs)
+    assert (tmp_path / "figure3.png").read_bytes().startswith(PNG_MAGIC)
 
 
 def test_configurations_are_seeded_independently():

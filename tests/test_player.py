@@ -445,6 +445,16 @@ def test_policy_file_theta_is_the_keepers_getopen_net(tmp_path):
     np.testing.assert_array_equal(game.agent(2).theta, theta)
 
 
+def test_policy_file_net_on_scaled_inputs_plays_with_its_scaling_folded_in(tmp_path):
+    from agents.getopen import GetOpenScaling
+
+    theta = np.linspace(-1.0, 1.0, THETA_SIZE)
+    scaling = GetOpenScaling().inputs(K, T, 20.0)
+    path = save_policy(tmp_path / "policy", getopen_theta=theta, getopen_inputs=scaling)
+    game = Game(keeper_kw={"getopen_policy": "learned", "policy": load_policy(path)})
+    np.testing.assert_array_equal(game.agent(2).theta, scaling.fold(theta))
+
+
 # ------------------------------------------------------------------------------------- policy files
 
 
@@ -482,7 +492,7 @@ GOOD_HEADER = '{"format": "keepaway-policy", "version": 1, "config": {}, "seed":
     (lambda p: write_npz(p, getopen_theta=np.zeros(THETA_SIZE)), "no header"),
     (lambda p: write_npz(p, "{not json"), "Expecting property name"),
     (lambda p: write_npz(p, '{"format": "other", "version": 1}'), "header format is 'other'"),
-    (lambda p: write_npz(p, '{"format": "keepaway-policy", "version": 2}'), "version 2 is not supported"),
+    (lambda p: write_npz(p, '{"format": "keepaway-policy", "version": 3}'), "version 3 is not supported"),
     (lambda p: write_npz(p, GOOD_HEADER, getopen_theta=np.zeros(90)), r"shape \(90,\), expected \(91,\)"),
     (lambda p: write_npz(p, GOOD_HEADER, getopen_theta=np.zeros((91, 1))), r"shape \(91, 1\)"),
     (lambda p: write_npz(p, GOOD_HEADER, getopen_theta=np.r_[np.zeros(90), np.nan]),

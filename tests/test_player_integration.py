@@ -11,6 +11,7 @@ import subprocess
 import time
 
 import numpy as np
+import pytest
 
 from conftest import keepaway_command
 from protocol import messages as m
@@ -53,6 +54,7 @@ def test_five_players_play_a_synchronous_game_to_its_end(processes, tmp_path):
     assert_game_played(server, players, 5)
 
 
+@pytest.mark.slow
 def test_five_players_play_a_real_time_game_to_its_end(processes, tmp_path):
     server = processes.start_server(tmp_path, "--episodes", "2", "--mode", "realtime")
     players = start_players(processes, server)

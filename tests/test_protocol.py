@@ -262,6 +262,78 @@ def test_init_ok_params_rebuild_the_parameter_table():
     assert ServerParams.from_dict(msg.params) == CLASSIC
 
 
+# ------------------------------------------------------------------------------------ parameter ranges
+def test_every_parameter_has_a_range_and_the_named_sets_lie_within_them():
+    assert set(params.PARAMETER_RANGES) == set(params.KernelParams._fields)
+    for name in params.PARAMETER_SETS:
+        for launch in (True, False):
+            table = params.parameter_set(name, keepaway_launch=launch)
+            for key, allowed in params.PARAMETER_RANGES.items():
+                assert getattr(table, key) in allowed, (name, key)
+
+
+@pytest.mark.parametrize("name, value, allowed", [
+    ("ball_decay", -0.1, "[0, 1]"),  # a fraction
+    ("player_decay", 1.01, "[0, 1]"),
+    ("effort_dec", -1.0, "[0, 1]"),
+    ("simulator_step_ms", 0.0, "(0, inf)"),  # positive
+    ("keepaway_length", -3.0, "(0, inf)"),
+    ("inertia_moment", -1.0, "[0, inf)"),  # non-negative
+    ("min_moment", -181.0, "[-180, 180]"),  # an angle
+    ("visible_angle", 0.0, "(0, 360]"),
+    ("take_cycles", 0.0, "[1, inf)"),  # a count of cycles
+    ("movement_noise", 2.0, "{0, 1}"),  # a noise model
+    ("failed_kick_uses_slot", 2, "{0, 1}"),  # a flag
+])
+def test_a_value_outside_its_range_is_refused_in_one_line_naming_the_range(name, value, allowed):
+    message = f"server parameter {name}={value!r} is out of range: allowed {allowed}"
+    for build in (lambda: CLASSIC.replace(**{name: value}), lambda: ServerParams(**{name: value}),
+                  lambda: ServerParams.from_dict({name: value}),
+                  lambda: params.parameter_set("current", **{name: value})):
+        with pytest.raises(ValueError) as info:
+            build()
+        assert str(info.value) == message
+
+
+@pytest.mark.parametrize("name, value, problem", [
+    ("stamina_capacity", math.inf, "is not a finite number"),
+    ("ball_decay", math.nan, "is not a finite number"),
+    ("ball_decay", True, "is not a number"),
+    ("ball_decay", "0.9", "is not a number"),
+    ("see_behind_strict", "yes", "is not true/false"),
+])
+def test_a_value_of_the_wrong_kind_is_refused(name, value, problem):
+    with pytest.raises(ValueError, match=f"^server parameter {name}=.* {problem}$"):
+        CLASSIC.replace(**{name: value})
+
+
+@pytest.mark.parametrize("changes, message", [
+    ({"min_dash_power": 200.0}, "server parameter min_dash_power=200.0 must not exceed max_dash_power=100.0"),
+    ({"unum_far_length": 40.0}, "server parameter unum_far_length=40.0 must be below unum_too_far_length=40.0"),
+    ({"keepaway_width": 80.0}, "server parameter keepaway_width=80.0 must not exceed pitch_width=68.0"),
+])
+def test_bounds_that_must_be_ordered_are_refused_out_of_order(changes, message):
+    with pytest.raises(ValueError) as info:
+        CLASSIC.replace(**changes)
+    assert str(info.value) == message
+
+
+def test_values_on_the_bounds_and_flags_given_as_numbers_are_accepted():
+    table = CLASSIC.replace(ball_decay=0.0, player_decay=1.0, visible_angle=360.0, dash_angle_step=0.0,
+                            min_moment=-180.0, stamina_capacity=-1.0, failed_kick_uses_slot=1.0,
+                            movement_noise=params.NOISE_POLAR, keepaway_width=68.0, min_dash_power=100.0)
+    assert table.failed_kick_uses_slot == 1.0 and table.keepaway_width == 68.0
+
+
+def test_unknown_parameters_and_names_that_are_not_strings_are_refused():
+    with pytest.raises(ValueError, match="unknown server parameter 'warp'"):
+        CLASSIC.replace(warp=1.0)
+    with pytest.raises(ValueError, match="name=4 is not a string"):
+        params.parameter_set("classic", name=4)
+    with pytest.raises(ValueError, match="unknown parameter set"):
+        params.parameter_set(["classic"])
+
+
 def test_real_landmark_tables_fit_the_init_ok_limits():
     from protocol.landmarks import FLAGS, LINES
 

@@ -6,8 +6,11 @@ import json
 import os
 import signal
 import subprocess
+import sys
 import time
 from pathlib import Path
+
+import pytest
 
 from conftest import keepaway_command
 
@@ -44,6 +47,7 @@ def children_of(pid: int) -> dict[int, str]:
     return found
 
 
+@pytest.mark.slow
 def test_distributed_run_plays_twenty_episodes_and_writes_logs(processes, tmp_path):
     summary = run_json(processes, "--episodes", "20", "--seed", "4", "--out", str(tmp_path))
     assert set(summary) == SUMMARY_KEYS
@@ -68,6 +72,7 @@ def test_distributed_and_embedded_runs_give_identical_episodes(processes, tmp_pa
     assert (tmp_path / "d" / "keepaway.kwy").read_text() == (tmp_path / "e" / "keepaway.kwy").read_text()
 
 
+@pytest.mark.slow
 def test_a_killed_player_is_named_and_the_run_fails_without_hanging(processes, tmp_path):
     proc = processes.popen(keepaway_command("run", "--episodes", "100000", "--no-progress", "--out", str(tmp_path)),
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
@@ -82,10 +87,14 @@ def test_a_killed_player_is_named_and_the_run_fails_without_hanging(processes, t
         time.sleep(0.2)
     assert victim is not None, "the arena did not start"
     os.kill(victim, signal.SIGKILL)
-    _, err = proc.communicate(timeout=60)
+    out, err = proc.communicate(timeout=60)
     assert proc.returncode == 1
     message = err.decode().strip().splitlines()[-1]
     assert message.startswith("keepaway run: taker ") and f"(pid {victim}) was killed by SIGKILL" in message
+    # the summary of the episodes that did finish, as many as the server logged
+    logged = episodes_logged(tmp_path)
+    assert f"the summary covers the {logged} of 100000 episodes that finished" in message
+    assert f"episodes        {logged}\n" in out.decode()
     time.sleep(0.5)
     assert not children_of(proc.pid)
 
@@ -113,6 +122,7 @@ def test_bad_options_are_one_line_errors(processes, tmp_path):
         assert text in err.decode() and "Traceback" not in err.decode()
 
 
+@pytest.mark.slow
 def test_four_versus_three_on_a_larger_field_runs_distributed(processes, tmp_path):
     summary = run_json(processes, "--keepers", "4", "--takers", "3", "--field-size", "30", "--episodes", "2",
                        "--out", str(tmp_path))
@@ -121,6 +131,7 @@ def test_four_versus_three_on_a_larger_field_runs_distributed(processes, tmp_pat
     assert header == ["# Keepers: 4", "# Takers:  3", "# Region:  30 x 30"]
 
 
+@pytest.mark.slow
 def test_ctrl_c_stops_every_process_of_the_arena(processes, tmp_path):
     proc = processes.popen(keepaway_command("run", "--episodes", "100000", "--no-progress", "--out", str(tmp_path)),
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
@@ -138,3 +149,115 @@ def test_ctrl_c_stops_every_process_of_the_arena(processes, tmp_path):
     assert "interrupted; every process was stopped" in err.decode()
     for pid in kids:
         assert not Path(f"/proc/{pid}").exists() or "zombie" in Path(f"/proc/{pid}/status").read_text()
+
+
+# Runs the real server (argv[2:]), notes when it has exited, then keeps its process alive a while: a
+# server that is slow to stop (as on a loaded machine) after every episode is logged.
+SLOW_STOP = ("import subprocess, sys, time; code = subprocess.call(sys.argv[3:]); "
+             "open(sys.argv[1], 'w').write(repr(time.monotonic())); time.sleep(float(sys.argv[2])); sys.exit(code)")
+
+
+@pytest.mark.slow
+def test_clean_exits_while_a_slow_server_stops_are_not_deaths(tmp_path, monkeypatch):
+    """Players and coach exit 0 right after the server's shutdown; the server's process then takes
+    longer than the launcher's grace period to go. That is success, not a death."""
+    import trainer.launch
+    from trainer.launch import CLEAN_EXIT_GRACE_S
+    from protocol.params import parameter_set
+    from trainer.embedded import ArenaSpec
+    from trainer.run import RunOptions, run
+
+    real_argv = trainer.launch.keepaway_argv
+    exited = tmp_path / "server-exited"
+
+    def slow_server(*args: str) -> list[str]:
+        argv = real_argv(*args)
+        slow = str(CLEAN_EXIT_GRACE_S + 3)
+        return [sys.executable, "-c", SLOW_STOP, str(exited), slow, *argv] if args[0] == "server" else argv
+
+    monkeypatch.setattr(trainer.launch, "keepaway_argv", slow_server)
+    spec = ArenaSpec(parameter_set("classic"), 3, 2, 5, "handcoded", "handcoded", None)
+    result = run(RunOptions(spec, 3, out=tmp_path / "out"), progress=False)
+    stopped_at = time.monotonic()
+    assert [e.episode for e in result.episodes] == [1, 2, 3]
+    # the server process outlived the real server by more than the launcher's grace period
+    assert stopped_at - float(exited.read_text()) > CLEAN_EXIT_GRACE_S
+
+
+def strict_json(text: str):
+    """``text`` parsed as RFC 8259 JSON: NaN and Infinity, which Python's parser accepts, are refused."""
+    def refuse(constant: str):
+        raise ValueError(f"not JSON: {constant}")
+
+    return json.loads(text, parse_constant=refuse)
+
+
+def test_a_one_episode_summary_has_no_nan_and_says_why_it_has_no_standard_error():
+    from server.episode_log import EpisodeRecord
+    from trainer.run import RunResult, dump_json, summary_table
+
+    # one episode of 43 cycles, no measured time: no standard error, no rates
+    summary = RunResult("batched", 3, [EpisodeRecord(1, 0, 43, "taken")], 0.0, 0, 1).summary()
+    assert summary["mean_hold_time_s"] == 4.3
+    assert summary["stderr_hold_time_s"] is None and summary["cycles_per_s"] is None
+    parsed = strict_json(dump_json(summary))
+    assert parsed["stderr_hold_time_s"] is None and parsed["episodes_per_s"] is None
+    table = summary_table(summary)
+    assert "4.30 s +- n/a (s.e. over 1 episode)" in table and "nan" not in table.lower()
+    assert strict_json(dump_json({"x": float("nan"), "y": [float("inf"), -float("inf"), 1.5]})) == \
+        {"x": None, "y": [None, None, 1.5]}
+
+
+def test_a_batched_run_of_one_episode_prints_strict_json(processes, tmp_path):
+    proc = processes.popen(keepaway_command("run", "--json", "--mode", "batched", "--batch", "1", "--episodes", "1",
+                                            "--out", str(tmp_path)), stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    out, err = proc.communicate(timeout=600)
+    assert proc.returncode == 0, err.decode()[-2000:]
+    summary = strict_json(out)
+    assert len(summary["episodes"]) == 1 and summary["stderr_hold_time_s"] is None
+
+
+def batched_chunks(episodes: int, batch: int, seed: int) -> list:
+    from protocol.params import parameter_set
+    from trainer.batched import BatchedArenas
+
+    return list(BatchedArenas(parameter_set("classic"), batch, seed).chunks(total_episodes=episodes))
+
+
+def test_batched_episodes_come_out_chunk_by_chunk_as_they_end(monkeypatch, tmp_path):
+    from protocol.params import parameter_set
+    from trainer.batched import BatchedArenas
+    from trainer.embedded import ArenaSpec
+    from trainer.run import RunOptions, batched_episodes
+
+    played = []
+    real_chunk = BatchedArenas._run_chunk
+
+    def counting(self):
+        played.append(1)
+        real_chunk(self)
+
+    monkeypatch.setattr(BatchedArenas, "_run_chunk", counting)
+    spec = ArenaSpec(parameter_set("classic"), 3, 2, 4)
+    seen = [(record.episode, cycles, len(played))
+            for record, cycles in batched_episodes(RunOptions(spec, 12, "batched", 3, out=tmp_path))]
+    assert [episode for episode, _, _ in seen] == list(range(1, 13))  # numbered in the order they end
+    assert seen[0][2] < len(played)  # the first episode came out before the last chunk was played
+    n_played = len(played)
+    chunks = batched_chunks(12, 3, 4)
+    assert n_played == len(chunks) and seen[-1][1] == sum(c.cycles for c in chunks)  # arena-cycles so far
+    assert [c for _, c, _ in seen] == sorted(c for _, c, _ in seen)
+
+
+def test_batched_rates_count_the_episodes_and_arena_cycles_after_the_first_chunk_with_an_episode(tmp_path):
+    from protocol.params import parameter_set
+    from trainer.embedded import ArenaSpec
+    from trainer.run import RunOptions, run
+
+    result = run(RunOptions(ArenaSpec(parameter_set("classic"), 3, 2, 4), 12, "batched", 3, out=tmp_path),
+                 progress=False)
+    chunks = batched_chunks(12, 3, 4)
+    first = next(i for i, c in enumerate(chunks) if len(c))
+    assert result.cycles == sum(c.cycles for c in chunks[first + 1:])  # arena-cycles, compilation excluded
+    assert result.rate_episodes == sum(len(c) for c in chunks[first + 1:]), \
+        "run() must count the episodes by the cycles the stream yields, not by each arena's own end cycle"

@@ -13,14 +13,12 @@ from hypothesis import strategies as st
 from protocol import messages as m
 from scripted import ScriptedCoach, ScriptedPlayer
 
-BARRIER = msgpack.packb({"type": "warp"})  # always answered with unknown_type: marks the end of a case
-
 
 @pytest.fixture(scope="module")
 def live_game(tmp_path_factory):
     from conftest import ProcessGroup
 
-    group = ProcessGroup()
+    group = ProcessGroup(tmp_path_factory.mktemp("fuzz-stderr"))
     try:
         srv = group.start_server(tmp_path_factory.mktemp("fuzz"), "--keepers", "1", "--takers", "1",
                                  "--start-on", "coach", "--cycle-timeout", "0.02", "--max-missed", "1000000")
@@ -35,14 +33,8 @@ def live_game(tmp_path_factory):
 
 
 def errors_until_barrier(client: ScriptedPlayer) -> list[m.Error]:
-    client.send_raw(BARRIER)
-    errors = []
-    while True:
-        msg = client.recv(20)
-        if isinstance(msg, m.Error):
-            if msg.code == "unknown_type" and "warp" in msg.message:
-                return errors
-            errors.append(msg)
+    """The errors among the messages before the barrier's answer: one case's."""
+    return [msg for msg in client.until_barrier() if isinstance(msg, m.Error)]
 
 
 json_values = st.recursive(

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 import signal
-import time
 from pathlib import Path
 
 import msgpack
@@ -102,7 +101,7 @@ def test_reconnect_takes_back_the_uniform_number(processes, tmp_path):
     refused = q.init("takers", unum=1)
     assert isinstance(refused, m.Error) and refused.code == "no_more_player"
     p.send(m.Bye())
-    time.sleep(0.2)
+    p.until_barrier()  # the server has read the bye
     q.send(m.Reconnect(version=PROTOCOL_VERSION, team="takers", unum=1))
     ok = q.recv_until(m.InitOk)
     assert (ok.side, ok.unum) == ("r", 1)
@@ -315,3 +314,12 @@ def test_change_view_narrows_the_cone_and_refuses_low_quality(processes, tmp_pat
     # narrow (45 deg) sees fewer named flags than normal (90 deg); narrow also sees twice as often
     assert flags_seen[0] > max(flags_seen[c] for c in flags_seen if c > 0)
     assert len([c for c in flags_seen if c > 0]) >= 5
+
+
+def test_a_server_that_does_not_announce_its_ports_fails_fast_with_its_stderr(processes, tmp_path):
+    with pytest.raises(RuntimeError, match="(?s)server did not start.*Invalid value for '--mode'"):
+        processes.start_server(tmp_path / "exits", "--mode", "bogus")
+    with pytest.raises(RuntimeError, match="server did not start: no .* after 0.05 s"):
+        processes.start_server(tmp_path / "silent", start_timeout_s=0.05)  # still importing
+    exited, silent = processes.procs
+    assert exited.returncode == 2 and silent.returncode == -signal.SIGKILL

@@ -26,6 +26,7 @@ from server.world import World
 TEAMS = ["keepers"] * 3 + ["takers"] * 2
 EPISODE_MESSAGE = "training Keepaway 1"
 QUIET_S = 0.4  # how long a paused server is watched for messages it must not send
+QUIET_ROUND_S = 0.1  # how often each player checks, within QUIET_S, that nothing came before its barrier
 ADVICE = {"kind": "report", "what": "snapshot"}
 
 
@@ -183,10 +184,17 @@ class Table:
                 if players is None or i in players]
 
     def assert_quiet(self) -> None:
-        """Nothing more reaches any player while the server stands still."""
-        time.sleep(QUIET_S)
-        for p in self.players:
-            assert not p.sock.poll(0), f"a paused server sent {p.recv()}"
+        """Nothing more reaches any player while the server stands still: for QUIET_S, round after
+        round, each player's barrier is answered with nothing before it (a barrier's answer follows all
+        the server sent that player before, so nothing is in flight when a round ends)."""
+        deadline = time.monotonic() + QUIET_S
+        while True:
+            for p in self.players:
+                sent = p.until_barrier()
+                assert not sent, f"a paused server sent {sent}"
+            if time.monotonic() >= deadline:
+                return
+            time.sleep(QUIET_ROUND_S)
 
     def stop(self) -> None:
         self.control(action="stop")
@@ -301,10 +309,8 @@ def test_realtime_pause_holds_the_clock_and_delivers_hears_at_once(processes, tm
     table.players[0].recv_until(m.SenseBody)
     table.control(action="pause")
     paused_at = table.look().cycle
-    time.sleep(QUIET_S)  # percepts sent before the pause was read are still on their way
-    for p in table.players:
-        while p.sock.poll(0):
-            p.recv()
+    for p in table.players:  # percepts sent before the pause was read: their barrier says all are in
+        p.until_barrier()
     table.assert_quiet()
     assert table.look().cycle == paused_at
     table.coach.send(m.Advice(target="all", payload=ADVICE))

@@ -75,7 +75,7 @@ def test_getopen_state_for_a_point_by_hand():
     # Takers by distance from P: taker 4 (0, -2) 2 m = T1', taker 5 (-3, 3) sqrt(18) = T2'.
     pos = [[-5.5, 0.0], [-6.0, 0.0], [5.0, 5.0], [3.0, 4.0], [0.0, -2.0], [-3.0, 3.0]]
     out = np.full(10, np.nan)
-    getopen_state(belief(pos, 2), 0, 0.0, 0.0, 1, out)
+    getopen_state(belief(pos, 2), 0, 0.0, 0.0, -6.0, 0.0, out)  # lane origin O = K1 = keeper 1
     expected = [
         5.0,  # dist(K1', K2')
         6.0,  # dist(K1', K3')

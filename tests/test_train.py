@@ -8,7 +8,6 @@ Trainings here are tiny (a few candidates of a few episodes) so each runs in sec
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
 
 import numpy as np
@@ -65,6 +64,14 @@ def algorithm_3_config() -> TrainConfig:
                        schedule=parse_schedule("getopen:8,pass:4,getopen:8,pass:4"), trials=1, eval_every=4,
                        eval_episodes=4, arenas=2, seed=2, cem=CEMConfig(population=2, elite=1,
                                                                          episodes_per_candidate=2))
+
+
+def strict_json(text: str):
+    """``text`` parsed as RFC 8259 JSON: NaN and Infinity, which Python's parser accepts, are refused."""
+    def refuse(constant: str):
+        raise ValueError(f"not JSON: {constant}")
+
+    return json.loads(text, parse_constant=refuse)
 
 
 def outputs(out: Path, trials: int) -> dict[str, object]:
@@ -127,12 +134,14 @@ def test_getopen_phases_and_their_evaluations_must_fall_on_generation_boundaries
 
 
 # -- curves ------------------------------------------------------------------------------------------
-def test_curve_csv_round_trips(tmp_path):
-    points = [CurvePoint(0, 4.3, 0.25), CurvePoint(2500, 5.125, float("nan"))]
+def test_curve_csv_round_trips_with_an_empty_field_for_a_missing_standard_error(tmp_path):
+    points = [CurvePoint(0, 4.3, 0.25), CurvePoint(2500, 5.125, None)]
     write_curve_csv(tmp_path / "c.csv", points)
-    assert (tmp_path / "c.csv").read_text().splitlines()[0] == ",".join(CSV_HEADER)
-    back = read_curve_csv(tmp_path / "c.csv")
-    assert back[0] == points[0] and back[1].episodes == 2500 and math.isnan(back[1].stderr_hold_time_s)
+    assert (tmp_path / "c.csv").read_text().splitlines() == [",".join(CSV_HEADER), "0,4.3,0.25", "2500,5.125,"]
+    assert read_curve_csv(tmp_path / "c.csv") == points
+    write_curve_csv(tmp_path / "c.csv", [CurvePoint(0, 4.3, float("nan"))])  # e.g. from an old checkpoint
+    assert (tmp_path / "c.csv").read_text().splitlines()[1] == "0,4.3,"
+    assert read_curve_csv(tmp_path / "c.csv")[0].stderr_hold_time_s is None
     assert not list(tmp_path.glob(".*.tmp"))  # the temporary file was renamed, not left behind
 
 
@@ -142,7 +151,7 @@ def test_mean_curve_is_the_mean_over_trials_with_its_standard_error(tmp_path):
     a = [CurvePoint(0, 1.0, 0.1), CurvePoint(10, 4.0, 0.1)]
     b = [CurvePoint(0, 3.0, 0.2), CurvePoint(10, 4.0, 0.2)]
     assert mean_curve([a, b]) == [CurvePoint(0, 2.0, 1.0), CurvePoint(10, 4.0, 0.0)]
-    assert math.isnan(mean_curve([a])[0].stderr_hold_time_s)
+    assert mean_curve([a]) == a  # one trial: its own evaluations' standard errors, over their episodes
     with pytest.raises(ValueError, match="disagree"):
         mean_curve([a, [CurvePoint(5, 1.0, 0.0)]])
     plot_curves(tmp_path / "c.png", {"P:R-GO:L": mean_curve([a, b])}, "test")
@@ -179,10 +188,11 @@ def test_train_writes_curves_policies_traces_summary_and_plot(tmp_path):
     out = tmp_path / "run"
     result = CliRunner().invoke(main, TINY_ARGS + ["--out", str(out)])
     assert result.exit_code == 0, result.output
-    assert "P:R-GO:L: 2 trial(s)" in result.output
+    assert "P:R-GO:L: 2 trial(s)" in result.output and "(s.e. over 2 trials)" in result.output
     assert read_config(out) == tiny_config(trials=2, seed=5)
-    summary = json.loads((out / "summary.json").read_text())
+    summary = strict_json((out / "summary.json").read_text())
     assert [p["episodes"] for p in summary["curve"]] == [0, 16, 32]
+    assert summary["stderr_over"] == "trials"
     for t in range(2):
         where = out / f"trial_{t:03d}"
         curve = read_curve_csv(where / "curve.csv")
@@ -204,6 +214,43 @@ def test_train_writes_curves_policies_traces_summary_and_plot(tmp_path):
     assert (out / "curves.png").read_bytes().startswith(PNG_MAGIC)
     mean0 = np.mean([summary["trials"][t]["curve"][0]["mean_hold_time_s"] for t in range(2)])
     assert summary["curve"][0]["mean_hold_time_s"] == pytest.approx(mean0)
+
+
+def test_one_trial_reports_its_evaluations_standard_error_as_strict_json(tmp_path):
+    runner = CliRunner()
+    one = runner.invoke(main, TINY_ARGS + ["--out", str(tmp_path / "one"), "--episodes", "16", "--trials", "1"])
+    assert one.exit_code == 0, one.output
+    summary = strict_json((tmp_path / "one" / "summary.json").read_text())
+    trial_curve = summary["trials"][0]["curve"]
+    assert summary["stderr_over"] == "episodes" and summary["curve"] == trial_curve
+    assert summary["final_stderr_hold_time_s"] == trial_curve[-1]["stderr_hold_time_s"] > 0
+    assert "(s.e. over 8 episodes of 1 trial)" in one.output and "nan" not in one.output
+    # Evaluations of one episode have no standard error at all: null, an empty CSV field, "n/a".
+    single = runner.invoke(main, TINY_ARGS + ["--out", str(tmp_path / "single"), "--episodes", "16", "--trials", "1",
+                                              "--eval-episodes", "1"])
+    assert single.exit_code == 0, single.output
+    summary = strict_json((tmp_path / "single" / "summary.json").read_text())
+    assert summary["final_stderr_hold_time_s"] is None and summary["final_mean_hold_time_s"] > 0
+    assert all(p["stderr_hold_time_s"] is None for p in summary["curve"])
+    assert (tmp_path / "single" / "trial_000" / "curve.csv").read_text().splitlines()[1].endswith(",")
+    assert "+- n/a (s.e. over 1 episode of 1 trial)" in single.output and "nan" not in single.output
+    for path in (tmp_path / "single").rglob("*.json*"):
+        for line in path.read_text().splitlines() if path.suffix == ".jsonl" else [path.read_text()]:
+            strict_json(line)
+    assert (tmp_path / "single" / "curves.png").read_bytes().startswith(PNG_MAGIC)
+
+
+def test_curves_png_marks_the_random_level_only_where_the_training_measured_it(tmp_path, monkeypatch):
+    drawn = {}
+    monkeypatch.setattr(train_module, "plot_curves", lambda path, curves, title, references: drawn.update(references))
+    curve = [CurvePoint(0, 3.7, 0.1), CurvePoint(4, 5.0, 0.2)]
+    both = algorithm_3_config()  # Algorithm 3 starts from P:R-GO:R: its evaluation at 0 measures them
+    train_module.write_summary(both, tmp_path, [TrialState(0, Behaviours.initial(both, 0), curve=curve)])
+    assert drawn == {"P:R-GO:R (evaluation at 0)": 3.7}
+    drawn.clear()
+    alone = tiny_config()  # GO:L alone starts from a random net, not from GO:R: nothing to mark
+    train_module.write_summary(alone, tmp_path, [TrialState(0, Behaviours.initial(alone, 0), curve=curve)])
+    assert drawn == {}
 
 
 def asdict_point(p: CurvePoint) -> dict:
@@ -305,7 +352,7 @@ def test_evaluate_plays_each_trials_policy_frozen_and_prints_the_summary(tmp_pat
     as_json = runner.invoke(main, ["evaluate", "--policy", str(out / "trial_001/policy.npz"), "--episodes", "6",
                                    "--arenas", "3", "--threads", "1", "--pass", "handcoded", "--json"])
     assert as_json.exit_code == 0, as_json.output
-    summary = json.loads(as_json.output)
+    summary = strict_json(as_json.output)
     assert summary["pass"] == "handcoded" and summary["getopen"] == "learned"
     assert len(summary["episodes"]) == 6
     holds = [e["hold_time_s"] for e in summary["episodes"]]
@@ -315,23 +362,33 @@ def test_evaluate_plays_each_trials_policy_frozen_and_prints_the_summary(tmp_pat
 
 
 # -- learning on the real game ---------------------------------------------------------------------------
+GUARD_GAIN_S = 1.0  # the population's mean fitness must rise by more than this over generation 0
+
+
+def population_means(seed: int, getopen_inputs: str, generations: int = 5) -> list[float]:
+    """The CEM population's mean fitness in each generation of a short P:HC-GO:L training (batched):
+    12 candidates x 10 episodes per generation, the best 3 refitted, no evaluations."""
+    episodes = generations * 12 * 10
+    config = TrainConfig(pass_policy="handcoded", getopen_policy="learned", schedule=(Phase(GETOPEN, episodes),),
+                         eval_every=episodes, eval_episodes=1, arenas=10, seed=seed,
+                         cem=CEMConfig(population=12, elite=3, episodes_per_candidate=10),
+                         getopen_inputs=getopen_inputs)
+    state = TrialState(0, Behaviours.initial(config, 0), curve=[CurvePoint(0, 0.0, 0.0)])  # no evaluation
+    while state.episodes < config.total_episodes:
+        step(config, state)
+    assert state.trace[-1]["generation"] == generations - 1
+    assert state.cem.best_fitness == max(max(r["fitness"]) for r in state.trace)
+    return [float(np.mean(r["fitness"])) for r in state.trace]
+
+
 @pytest.mark.slow
-def test_cem_improves_the_getopen_population_over_its_first_generations():
-    # P:HC-GO:L, 4 seeds x 6 generations of 12 candidates x 10 episodes (the best 3 refitted). Every
-    # candidate's fitness is a noisy mean of 10 episodes, so the test pools: the 48 candidates of the
-    # first generation against the 48 of the sixth, one-sided Welch t-test. Measured: the population's
-    # mean fitness rises from about 5.3 s to about 6 s within 5-8 generations on every seed tried.
-    first, last = [], []
-    for seed in range(4):
-        config = TrainConfig(pass_policy="handcoded", getopen_policy="learned", schedule=(Phase(GETOPEN, 720),),
-                             eval_every=720, eval_episodes=1, arenas=10, seed=seed,
-                             cem=CEMConfig(population=12, elite=3, episodes_per_candidate=10))
-        state = TrialState(0, Behaviours.initial(config, 0), curve=[CurvePoint(0, 0.0, 0.0)])  # no evaluation
-        while state.episodes < config.total_episodes:
-            step(config, state)
-        first += state.trace[0]["fitness"]
-        last += state.trace[-1]["fitness"]
-        assert state.trace[-1]["generation"] == 5
-        assert state.cem.best_fitness == max(max(r["fitness"]) for r in state.trace)
-    p = stats.ttest_ind(last, first, equal_var=False, alternative="greater").pvalue
-    assert np.mean(last) > np.mean(first) and p < 0.01, (np.mean(first), np.mean(last), p)
+def test_cem_raises_the_getopen_population_mean_over_generation_0():
+    # Regression guard for issue 10 (GO:L on raw metres and degrees: N(0, 1) nets saturate, the population
+    # mean stays flat). 5 seeds x 5 generations; per seed the population's mean fitness in generation 0
+    # and in generation 4; one-sided Welch t-test over the seeds that the rise exceeds GUARD_GAIN_S.
+    # Measured (docs/design.md): scaled inputs 5.67 -> 9.97 s, p = 0.010; raw inputs 5.35 -> 6.25 s,
+    # p = 0.59 (this test fails on them).
+    means = np.array([population_means(seed, "scaled") for seed in range(5)])
+    first, last = means[:, 0], means[:, -1]
+    p = stats.ttest_ind(last - GUARD_GAIN_S, first, equal_var=False, alternative="greater").pvalue
+    assert p < 0.05, (first, last, p)

@@ -76,6 +76,7 @@ def test_a_refused_run_is_named_with_the_coach_error(fake_coach):
         backend.close()
 
 
+@pytest.mark.slow
 def test_a_chunk_plays_the_same_in_any_arena_whatever_it_played_before(tmp_path):
     # Random Pass and GetOpen draw from the players' own streams, so this checks the players' reseeding
     # as well as the server's. Two arenas split the job's chunks; then one arena that has played
@@ -93,6 +94,7 @@ def test_a_chunk_plays_the_same_in_any_arena_whatever_it_played_before(tmp_path)
     assert durations != [(e.end_cycle - e.start_cycle, e.end) for e in other_seed.episodes]
 
 
+@pytest.mark.slow
 def test_cem_candidates_share_their_chunk_seeds_across_arenas(tmp_path):
     # Three GO:L candidates with a learned (fresh) Pass, frozen; the first and the last are the same net:
     # on common seeds they must play the same episodes, whichever arena ran their chunks.
@@ -154,6 +156,7 @@ def wait_for(condition, timeout: float, what: str) -> None:
         time.sleep(0.2)
 
 
+@pytest.mark.slow
 def test_pass_learns_in_distributed_arenas_and_the_policy_reloads_and_plays(trained, tmp_path):
     out = trained
     summary = json.loads((out / "summary.json").read_text())
@@ -197,6 +200,7 @@ def test_pass_learns_in_distributed_arenas_and_the_policy_reloads_and_plays(trai
 
 
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="finds the arena processes through /proc")
+@pytest.mark.slow
 def test_a_terminated_training_stops_its_arenas_and_resumes_to_the_same_result_on_one_arena(trained, tmp_path,
                                                                                              processes):
     out = tmp_path / "one_arena"
@@ -219,6 +223,7 @@ def test_a_terminated_training_stops_its_arenas_and_resumes_to_the_same_result_o
 
 
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="finds the arena processes through /proc")
+@pytest.mark.slow
 def test_a_killed_trainer_leaves_no_arena_process_behind(tmp_path, processes):
     out = tmp_path / "killed"
     trainer = processes.popen(keepaway_command(*TRAIN_ARGS, "--arenas", "2", "--out", str(out)))

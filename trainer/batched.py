@@ -47,14 +47,14 @@ while 2^20 would cost 18 MB per keeper, 55 GB for 1024 arenas. At 2^16 a keeper 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
 import numba
-from numba import njit
+from core.jit import njit
 
 from agents.belief import AgentMemory, Belief, empty_belief, forget_episode, new_memory
 from agents.getopen import net_size
@@ -574,7 +574,23 @@ class BatchedArenas:
         shares that many out, ``total // batch`` per arena plus one in the first ``total % batch``
         arenas (the smaller quota wins if both are given). Fixed quotas rather than the first episodes
         to end keep the hold times unbiased: the short ones end first. ``progress`` is called with the
-        number of episodes collected after each chunk."""
+        number of episodes collected after each chunk. The episodes of :meth:`chunks`, in one table."""
+        parts = []
+        collected = 0
+        for part in self.chunks(episodes_per_arena, total_episodes, max_cycles):
+            parts.append(part)
+            collected += len(part)
+            if progress is not None:
+                progress(collected)
+        return EpisodeTable(*(np.concatenate([getattr(p, name) for p in parts])
+                              for name in ("arena", "episode", "start_cycle", "end_cycle", "end")),
+                            cycles=sum(p.cycles for p in parts))
+
+    def chunks(self, episodes_per_arena: int | None = None, total_episodes: int | None = None,
+               max_cycles: int | None = None) -> Iterator[EpisodeTable]:
+        """:meth:`run`'s play (the same limits, checked at once), one chunk of ``CHUNK_CYCLES`` cycles at a
+        time: yields each chunk's ended episodes and arena-cycles as it finishes, for a caller that
+        shows them as they come."""
         limits = (episodes_per_arena, total_episodes, max_cycles)
         if all(v is None for v in limits):
             raise ValueError("give episodes_per_arena, total_episodes or max_cycles")
@@ -588,20 +604,12 @@ class BatchedArenas:
         book.episodes_left[:] = quota
         book.active[:] = quota != 0
         book.stop_cycle[:] = _UNLIMITED if max_cycles is None else w.time + max_cycles
-        parts: list[tuple[np.ndarray, ...]] = []
-        collected = 0
-        cycles = 0
-        while book.active.any():
+        return self._chunks()
+
+    def _chunks(self) -> Iterator[EpisodeTable]:
+        while self.book.active.any():
             self._run_chunk()
-            cycles += int(book.stepped.sum())
-            part = self._ended()
-            parts.append(part)
-            collected += len(part[0])
-            if progress is not None:
-                progress(collected)
-        arena, episode, start, end_cycle, end = (np.concatenate(c) for c in zip(*parts))
-        return EpisodeTable(arena=arena.astype(np.int64), episode=episode, start_cycle=start,
-                            end_cycle=end_cycle, end=end.astype(np.int8), cycles=cycles)
+            yield self._ended()
 
     def _run_chunk(self) -> None:
         """One chunk of every arena; thread k steps arenas k, k + threads, ... (finished arenas are
@@ -616,15 +624,16 @@ class BatchedArenas:
             for done in [pool.submit(run_chunk, k, self.threads, *args) for k in range(self.threads)]:
                 done.result()
 
-    def _ended(self) -> tuple[np.ndarray, ...]:
-        """The episodes ended in the last chunk, ordered by end cycle, then arena."""
+    def _ended(self) -> EpisodeTable:
+        """The episodes ended in the last chunk, ordered by end cycle, then arena, and its arena-cycles."""
         book = self.book
         mask = np.arange(CHUNK_CYCLES)[None, :] < book.n_ended[:, None]
         arena = np.broadcast_to(np.arange(self.batch)[:, None], mask.shape)[mask]
         end_cycle = book.end_cycle[mask]
         order = np.lexsort((arena, end_cycle))
-        return (arena[order], book.episode[mask][order], book.start_cycle[mask][order], end_cycle[order],
-                book.end[mask][order])
+        return EpisodeTable(arena=arena[order].astype(np.int64), episode=book.episode[mask][order],
+                            start_cycle=book.start_cycle[mask][order], end_cycle=end_cycle[order],
+                            end=book.end[mask][order].astype(np.int8), cycles=int(book.stepped.sum()))
 
 
 __all__ = [

@@ -1,6 +1,7 @@
 """The cross-entropy method for GetOpen policy search (spec `keepaway-task.md` 6).
 
-A diagonal Gaussian over the 91 parameters of the GetOpen net (`agents.getopen.net_value`), N(0, I) at the
+A diagonal Gaussian over the 91 parameters of the GetOpen net (`agents.getopen.net_value`; the net on
+scaled inputs, `agents.getopen.GetOpenScaling`, unless the training says raw), N(0, I) at the
 start. Each generation ``ask()`` draws 20 candidates; the trainer evaluates each by its mean hold time
 over 125 episodes (all keepers share the candidate, Pass fixed) and hands the 20 numbers to ``tell``,
 which keeps the best 5 and refits the mean and the per-parameter variance to them. One generation is

@@ -7,21 +7,35 @@ from pathlib import Path
 
 import click
 
+from protocol.arena import MAX_SEED
+from protocol.params import KEEPAWAY_KEEPERS, KEEPAWAY_TAKERS
+from trainer.kernels import KERNEL_SETS
 from trainer.run import MODES
+
+# Option types shared by run, train, evaluate and experiment: what a seed, a count, a Keepaway team and
+# a region can be.
+SEED_TYPE = click.IntRange(0, MAX_SEED)
+COUNT_TYPE = click.IntRange(min=1)
+KEEPERS_TYPE = click.IntRange(KEEPAWAY_KEEPERS.low, KEEPAWAY_KEEPERS.high)
+TAKERS_TYPE = click.IntRange(KEEPAWAY_TAKERS.low, KEEPAWAY_TAKERS.high)
+FIELD_SIZE_TYPE = click.FloatRange(min=0.0, min_open=True)
+KEEPERS_HELP = "Number of keepers (at least 2: Pass needs a keeper to pass to)."
+TAKERS_HELP = "Number of takers."
+FIELD_SIZE_HELP = "Side of the square region (m), at most the pitch width."
 
 
 @click.command("run")
 @click.option("--episodes", type=int, default=20, show_default=True, help="Episodes to play.")
-@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the whole run.")
+@click.option("--seed", type=SEED_TYPE, default=0, show_default=True, help="Seed of the whole run.")
 @click.option("--pass", "pass_policy", type=click.Choice(["random", "handcoded", "learned", "hold"]),
               default="handcoded", show_default=True, help="Keepers' Pass policy.")
 @click.option("--getopen", "getopen_policy", type=click.Choice(["random", "handcoded", "handcoded-cone", "learned"]),
               default="handcoded", show_default=True, help="Keepers' GetOpen policy.")
 @click.option("--policy", "policy_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Policy file (.npz) for learned policies.")
-@click.option("--keepers", type=int, default=3, show_default=True)
-@click.option("--takers", type=int, default=2, show_default=True)
-@click.option("--field-size", type=float, default=20.0, show_default=True, help="Side of the square region (m).")
+@click.option("--keepers", type=KEEPERS_TYPE, default=3, show_default=True, help=KEEPERS_HELP)
+@click.option("--takers", type=TAKERS_TYPE, default=2, show_default=True, help=TAKERS_HELP)
+@click.option("--field-size", type=FIELD_SIZE_TYPE, default=20.0, show_default=True, help=FIELD_SIZE_HELP)
 @click.option("--params", "parameter_set", type=click.Choice(["classic", "current"]), default="classic",
               show_default=True, help="Server parameter set.")
 @click.option("--mode", type=click.Choice(MODES), default="distributed", show_default=True,
@@ -39,8 +53,9 @@ def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str,
     from agents.policy_file import PolicyFileError, load_policy
     from protocol.params import parameter_set as make_params
     from trainer.embedded import ArenaSpec
+    from trainer.kernels import CompileError
     from trainer.launch import ArenaFailure, interrupt_on_sigterm
-    from trainer.run import RunOptions, dump_json, run, summary_table
+    from trainer.run import RunOptions, RunStopped, dump_json, run, summary_table
 
     if episodes < 1:
         raise click.UsageError("--episodes must be at least 1")
@@ -56,16 +71,59 @@ def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str,
     spec = ArenaSpec(params, keepers, takers, seed, pass_policy, getopen_policy, policy)
     opts = RunOptions(spec, episodes, mode, batch, realtime, out, policy_path, parameter_set)
     interrupt_on_sigterm()
+    show = (lambda result: click.echo(dump_json(result.summary()) if as_json else summary_table(result.summary())))
     try:
-        result = run(opts, progress=not no_progress and not as_json)
-    except ArenaFailure as exc:
+        result = run(opts, progress=not no_progress and not as_json, announce=announce)
+    except RunStopped as stop:
+        if stop.result.episodes:
+            show(stop.result)
+        finished = f"the summary covers the {len(stop.result.episodes)} of {episodes} episodes that finished"
+        if isinstance(stop.cause, KeyboardInterrupt):
+            click.echo(f"keepaway run: interrupted; every process was stopped; {finished}", err=True)
+            sys.exit(130)
+        click.echo(f"keepaway run: {stop.cause}; {finished}", err=True)
+        sys.exit(1)
+    except (ArenaFailure, CompileError) as exc:
         click.echo(f"keepaway run: {exc}", err=True)
         sys.exit(1)
     except KeyboardInterrupt:
         click.echo("keepaway run: interrupted; every process was stopped", err=True)
         sys.exit(130)
-    summary = result.summary()
-    click.echo(dump_json(summary) if as_json else summary_table(summary))
+    show(result)
 
 
-commands = [run_command]
+def announce(line: str) -> None:
+    """One line on stderr about what a command is doing (stdout stays machine-readable)."""
+    click.echo(f"keepaway: {line}", err=True)
+
+
+@click.command("compile")
+@click.option("--only", "only", multiple=True, type=click.Choice(KERNEL_SETS),
+              help="Compile this kernel set in this process (repeatable) [all sets, side by side].")
+@click.option("--quiet", is_flag=True, help="Print nothing.")
+def compile_command(only: tuple[str, ...], quiet: bool) -> None:
+    """Compile the numba kernels into the cache once, e.g. while building an image or before tests.
+
+    Every later server, player, embedded or batched run of this version of the source loads them from
+    the cache instead of compiling (keepaway run and train also do this by themselves when needed).
+    """
+    from core.jit import cache_dir
+    from trainer.kernels import CompileError, compile_set, ensure_compiled
+
+    if only:
+        for kernel_set in only:
+            seconds = compile_set(kernel_set)
+            if not quiet:
+                click.echo(f"keepaway compile: {kernel_set} kernels ready in {seconds:.0f} s")
+        return
+    try:
+        done = ensure_compiled(KERNEL_SETS, None if quiet else announce)
+    except CompileError as exc:
+        click.echo(f"keepaway compile: {exc}", err=True)
+        sys.exit(1)
+    if not quiet:
+        click.echo(f"keepaway compile: {'compiled ' + ', '.join(done) if done else 'already compiled'}; "
+                   f"cache {cache_dir()}")
+
+
+commands = [run_command, compile_command]

@@ -2,6 +2,10 @@
 (spec `keepaway-task.md` 8: every 2,500 episodes a frozen evaluation; report mean and standard error over
 at least 20 trials).
 
+A standard error that is undefined (one value) is None: an empty CSV field, ``null`` in JSON, no band in a
+plot; never NaN. Over one trial there is no spread between trials, so its curve keeps the standard errors
+of its own evaluations, over their episodes; :func:`stderr_over` names which kind a curve has.
+
 Every file is written atomically (a temporary file in the same directory, then ``os.replace``), so a
 killed training never leaves a half-written curve behind.
 """
@@ -16,20 +20,22 @@ import math
 import os
 import tempfile
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 CSV_HEADER = ("episodes", "mean_hold_time_s", "stderr_hold_time_s")
+OVER_TRIALS = "trials"  # a mean curve's standard errors: over its trials' means
+OVER_EPISODES = "episodes"  # ... or, with one trial, over each evaluation's episodes
 
 
 @dataclass(frozen=True)
 class CurvePoint:
     """One frozen evaluation: after ``episodes`` training episodes, the mean hold time and its standard
-    error over the evaluation episodes (or, for an aggregate, over trials)."""
+    error over the evaluation episodes (or, for an aggregate, over trials); None where undefined."""
 
     episodes: int
     mean_hold_time_s: float
-    stderr_hold_time_s: float
+    stderr_hold_time_s: float | None
 
 
 def write_atomic(path: Path, data: bytes) -> None:
@@ -45,12 +51,14 @@ def write_atomic(path: Path, data: bytes) -> None:
 
 
 def write_curve_csv(path: Path, points: Sequence[CurvePoint]) -> None:
-    """The evaluation curve as CSV: ``episodes,mean_hold_time_s,stderr_hold_time_s``, one row per point."""
+    """The evaluation curve as CSV: ``episodes,mean_hold_time_s,stderr_hold_time_s``, one row per point;
+    an undefined standard error is an empty field."""
     text = io.StringIO()
     writer = csv.writer(text, lineterminator="\n")
     writer.writerow(CSV_HEADER)
     for p in points:
-        writer.writerow((p.episodes, repr(p.mean_hold_time_s), repr(p.stderr_hold_time_s)))
+        se = finite_or_none(p.stderr_hold_time_s)
+        writer.writerow((p.episodes, repr(p.mean_hold_time_s), "" if se is None else repr(se)))
     write_atomic(path, text.getvalue().encode())
 
 
@@ -60,14 +68,22 @@ def read_curve_csv(path: Path) -> list[CurvePoint]:
         rows = list(csv.reader(f))
     if not rows or tuple(rows[0]) != CSV_HEADER:
         raise ValueError(f"{path}: not a learning-curve CSV (header {rows[0] if rows else None})")
-    return [CurvePoint(int(e), float(m), float(s)) for e, m, s in rows[1:]]
+    return [CurvePoint(int(e), float(m), finite_or_none(float(s)) if s else None) for e, m, s in rows[1:]]
+
+
+def finite_or_none(value: float | None) -> float | None:
+    """``value`` if it is a finite number, else None (what JSON and our CSV can hold)."""
+    return value if value is not None and math.isfinite(value) else None
 
 
 def mean_curve(trials: Sequence[Sequence[CurvePoint]]) -> list[CurvePoint]:
     """Point by point over trials: the mean of the trials' mean hold times and its standard error
-    (sample standard deviation / sqrt(trials); NaN for one trial). Only points every trial has."""
+    (sample standard deviation / sqrt(trials)). Only points every trial has. One trial is its own curve,
+    with the standard errors of its evaluations (:func:`stderr_over`)."""
     if not trials:
         return []
+    if len(trials) == 1:
+        return list(trials[0])
     n = min(len(t) for t in trials)
     out = []
     for i in range(n):
@@ -76,25 +92,66 @@ def mean_curve(trials: Sequence[Sequence[CurvePoint]]) -> list[CurvePoint]:
         if len(episodes) != 1:
             raise ValueError(f"trials disagree on the episodes of evaluation {i}: {sorted(episodes)}")
         mean = sum(values) / len(values)
-        se = (math.sqrt(sum((v - mean) ** 2 for v in values) / (len(values) - 1) / len(values))
-              if len(values) > 1 else float("nan"))
+        se = math.sqrt(sum((v - mean) ** 2 for v in values) / (len(values) - 1) / len(values))
         out.append(CurvePoint(episodes.pop(), mean, se))
     return out
 
 
+def stderr_over(trials: int) -> str:
+    """What the standard errors of a mean curve over ``trials`` trials are over (:func:`mean_curve`)."""
+    return OVER_TRIALS if trials > 1 else OVER_EPISODES
+
+
+def stderr_basis(trials: int, eval_episodes: int) -> str:
+    """The standard error's basis in words: ``s.e. over 20 trials`` or ``s.e. over 500 episodes of 1 trial``."""
+    if stderr_over(trials) == OVER_TRIALS:
+        return f"s.e. over {trials} trials"
+    return f"s.e. over {eval_episodes} episode{'s' if eval_episodes > 1 else ''} of 1 trial"
+
+
+def format_hold(mean: float | None, stderr: float | None, basis: str) -> str:
+    """A mean hold time with its standard error and what that is over (``basis``, e.g.
+    :func:`stderr_basis`): ``4.30 s +- 0.25 (s.e. over 20 trials)``; ``n/a`` for an undefined value."""
+    m, se = finite_or_none(mean), finite_or_none(stderr)
+    return f"{'n/a' if m is None else f'{m:.2f} s'} +- {'n/a' if se is None else f'{se:.2f}'} ({basis})"
+
+
+def curve_summary(trials: Sequence[Sequence[CurvePoint]]) -> dict[str, Any]:
+    """The over-trials part of a ``summary.json``: the mean curve, its last point and what its standard
+    errors are over (``stderr_over``: "trials", or "episodes" with one trial)."""
+    curve = mean_curve(trials)
+    final = curve[-1] if curve else None
+    return {"curve": [asdict(p) for p in curve],
+            "final_mean_hold_time_s": None if final is None else final.mean_hold_time_s,
+            "final_stderr_hold_time_s": None if final is None else final.stderr_hold_time_s,
+            "stderr_over": stderr_over(len(trials))}
+
+
 def draw_curve(ax: Any, label: str, points: Sequence[CurvePoint]) -> None:
-    """One mean curve on matplotlib axes ``ax``, with its standard-error band where it is defined."""
+    """One mean curve on matplotlib axes ``ax``, with its standard-error band wherever it is defined (a
+    point without one interrupts the band)."""
     x = [p.episodes for p in points]
     y = [p.mean_hold_time_s for p in points]
-    se = [0.0 if math.isnan(p.stderr_hold_time_s) else p.stderr_hold_time_s for p in points]
+    se = [finite_or_none(p.stderr_hold_time_s) for p in points]
+    defined = [s is not None for s in se]
+    half = [s if s is not None else 0.0 for s in se]
     (line,) = ax.plot(x, y, marker="o", markersize=3, label=label)
-    ax.fill_between(x, [a - b for a, b in zip(y, se)], [a + b for a, b in zip(y, se)],
+    ax.fill_between(x, [a - b for a, b in zip(y, half)], [a + b for a, b in zip(y, half)], where=defined,
                     color=line.get_color(), alpha=0.25, linewidth=0)
 
 
-def plot_curves(path: Path, curves: dict[str, Sequence[CurvePoint]], title: str) -> None:
+def draw_references(ax: Any, references: dict[str, float]) -> None:
+    """Measured reference levels (e.g. the hand-coded and random keepers' hold times) as labelled dashed
+    horizontal lines on ``ax``."""
+    for (label, level), style in zip(references.items(), ("--", ":", "-.")):
+        ax.axhline(level, color="0.25", linestyle=style, linewidth=1.2, label=f"{label}: {level:.2f} s")
+
+
+def plot_curves(path: Path, curves: dict[str, Sequence[CurvePoint]], title: str,
+                references: dict[str, float] | None = None) -> None:
     """A PNG of learning curves (hold time against training episodes), each with its standard-error
-    band where it is defined, written atomically."""
+    band where it is defined, and the measured ``references`` levels as labelled lines; written
+    atomically."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -104,6 +161,7 @@ def plot_curves(path: Path, curves: dict[str, Sequence[CurvePoint]], title: str)
     ax = fig.add_subplot()
     for label, points in curves.items():
         draw_curve(ax, label, points)
+    draw_references(ax, references or {})
     ax.set_xlabel("training episodes")
     ax.set_ylabel("mean hold time (s)")
     ax.set_title(title)
@@ -114,5 +172,6 @@ def plot_curves(path: Path, curves: dict[str, Sequence[CurvePoint]], title: str)
     write_atomic(path, buffer.getvalue())
 
 
-__all__ = ["CSV_HEADER", "CurvePoint", "draw_curve", "mean_curve", "plot_curves", "read_curve_csv", "write_atomic",
-           "write_curve_csv"]
+__all__ = ["CSV_HEADER", "OVER_EPISODES", "OVER_TRIALS", "CurvePoint", "curve_summary", "draw_curve", "draw_references",
+           "finite_or_none", "format_hold", "mean_curve", "plot_curves", "read_curve_csv", "stderr_basis",
+           "stderr_over", "write_atomic", "write_curve_csv"]

@@ -80,11 +80,16 @@ class Arena:
         """Raise ArenaFailure naming the first dead process of an arena this trainer started, or for an
         attached arena that has not answered for :data:`ATTACHED_TIMEOUT_S`."""
         if self.processes is not None:
-            dead = self.processes.first_death()
+            dead = self.processes.first_death(run_finished=arena_never_finishes)
             if dead is not None:
                 raise ArenaFailure(f"{self.name}: {dead.describe_exit()}; logs in {self.processes.log_dir}")
         elif waited_s > ATTACHED_TIMEOUT_S:
             raise ArenaFailure(f"{self.name}: no answer for {waited_s:.0f} s; is its coach still running?")
+
+
+def arena_never_finishes() -> bool:
+    """A training arena plays until the trainer stops it: any exit while a request runs is a death."""
+    return False
 
 
 def chunk_seeds(seed: int, episodes: int, chunk_episodes: int) -> list[tuple[int, int]]:
@@ -103,10 +108,11 @@ def behaviour_advice(game: Any, behaviours: Any, pass_mode: str) -> tuple:
 
 
 def policy_advice(behaviours: Any) -> tuple:
-    """The policy names and the GetOpen net, to every keeper."""
+    """The policy names and the GetOpen net, to every keeper (its input scaling folded in: the advice
+    carries the net on the raw variables, docs/advice.md)."""
     policy: dict[str, Any] = {"kind": "policy", "pass": behaviours.pass_policy, "getopen": behaviours.getopen_policy}
     if behaviours.getopen_theta is not None:
-        policy["getopen_theta"] = np.ascontiguousarray(behaviours.getopen_theta, dtype="<f8").tobytes()
+        policy["getopen_theta"] = np.ascontiguousarray(behaviours.getopen_net, dtype="<f8").tobytes()
     return (("keepers", policy),)
 
 

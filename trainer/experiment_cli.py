@@ -11,6 +11,8 @@ from typing import Any
 
 import click
 
+from trainer.cli import COUNT_TYPE, SEED_TYPE
+
 Command = Callable[..., None]
 
 
@@ -18,24 +20,29 @@ def experiment_options(command: Command) -> Command:
     """The options both experiments share: the size of the run (a short version fits on a laptop) and
     where it goes."""
     options = [
-        click.option("--trials", type=int, default=20, show_default=True,
+        click.option("--trials", type=COUNT_TYPE, default=20, show_default=True,
                      help="Independent trials per configuration."),
-        click.option("--episodes", type=int, default=30_000, show_default=True,
+        click.option("--episodes", type=COUNT_TYPE, default=30_000, show_default=True,
                      help="Training episodes per trial (Algorithm 3 is scaled to it: a multiple of 6)."),
-        click.option("--eval-every", type=int, default=None,
+        click.option("--eval-every", type=COUNT_TYPE, default=None,
                      help="Training episodes between frozen evaluations [--episodes / 12: the paper's 2,500]."),
-        click.option("--eval-episodes", type=int, default=500, show_default=True, help="Episodes per evaluation."),
-        click.option("--arenas", type=int, default=25, show_default=True,
+        click.option("--eval-episodes", type=COUNT_TYPE, default=500, show_default=True,
+                     help="Episodes per evaluation."),
+        click.option("--arenas", type=COUNT_TYPE, default=25, show_default=True,
                      help="Arenas per CEM candidate and per evaluation."),
-        click.option("--population", type=int, default=20, show_default=True, help="CEM candidates per generation."),
-        click.option("--elite", type=int, default=5, show_default=True, help="CEM candidates refitted to."),
-        click.option("--candidate-episodes", type=int, default=125, show_default=True,
+        click.option("--population", type=COUNT_TYPE, default=20, show_default=True,
+                     help="CEM candidates per generation."),
+        click.option("--elite", type=COUNT_TYPE, default=5, show_default=True,
+                     help="CEM candidates refitted to (at most --population)."),
+        click.option("--candidate-episodes", type=COUNT_TYPE, default=125, show_default=True,
                      help="Episodes per CEM candidate."),
-        click.option("--seed", type=int, default=0, show_default=True, help="Seed of the whole experiment."),
+        click.option("--seed", type=SEED_TYPE, default=0, show_default=True,
+                     help="Seed of the whole experiment."),
         click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=Path("experiment_out"),
                      show_default=True, help="Directory of the experiment: one subdirectory per configuration; "
                                              "running again continues it."),
-        click.option("--threads", type=int, default=None, help="Threads stepping arenas [numba's thread count]."),
+        click.option("--threads", type=COUNT_TYPE, default=None,
+                     help="Threads stepping arenas [numba's thread count]."),
         click.option("--no-progress", is_flag=True, help="No progress bars."),
     ]
     return functools.reduce(lambda f, option: option(f), reversed(options), command)
@@ -57,13 +64,19 @@ def _experiment(trials: int, episodes: int, eval_every: int | None, eval_episode
 
 
 def _report(run: Any) -> None:
+    from trainer.curves import format_hold
+
     final = run.final()
     state = "finished before, skipped" if run.skipped else "done"
-    click.echo(f"{run.name}: {state}; final evaluation {final.mean_hold_time_s:.2f} s +- "
-               f"{final.stderr_hold_time_s:.2f} (s.e., {len(run.curves)} trials)")
+    click.echo(f"{run.name}: {state}; final evaluation "
+               f"{format_hold(final.mean_hold_time_s, final.stderr_hold_time_s, run.stderr_basis())}")
 
 
 def _run(what: Callable[..., Any], exp: Any, out: Path, threads: int | None, no_progress: bool) -> Any:
+    from trainer.kernels import BATCHED
+    from trainer.train_cli import prepare_kernels
+
+    prepare_kernels((BATCHED,))
     try:
         return what(exp, out, threads=threads, progress=not no_progress, on_configuration=_report)
     except ValueError as exc:

@@ -13,12 +13,17 @@ Table 2: a Pass policy learned with GetOpen X (``P:L-GO:X``) is tested with GetO
 policy learned with Pass X (``P:X-GO:L``) with Pass Y, for X, Y in {R, HC, L}. A learned counterpart Y is
 the one learned in ``P:L-GO:L``'s trial of the same number. Each entry is the mean over trials of the
 trials' mean hold times with its standard error; an entry marked ``*`` differs from its column's best
-(Welch's t-test over trials, p < 0.05). The paper expects each column's best on the diagonal.
+(Welch's t-test over trials, ``scipy.stats.ttest_ind``, p < 0.05). The paper expects each column's best on
+the diagonal.
 
 Every configuration has its own seed, derived from the experiment's and the configuration's place in
 the 3 x 3 grid, so configurations are independent samples as the significance tests assume (with one
 shared seed, P:R-GO:L and P:L-GO:L would play identical first CEM generations). Table 2's tests of a
 trial all play the same arena seeds (common random numbers).
+
+With one trial a standard error over trials does not exist: curves and finals carry the standard error
+over each evaluation's episodes (``trainer.curves.mean_curve``, named by ``stderr_over``), Table 2's
+entries none (``null``, printed ``n/a``). Every JSON written here is strict JSON (``trainer.run.dump_json``).
 """
 
 from __future__ import annotations
@@ -26,14 +31,27 @@ from __future__ import annotations
 import csv
 import io
 import json
-import math
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
+from scipy import stats
+
 from trainer.cem import CEMConfig
-from trainer.curves import CurvePoint, draw_curve, mean_curve, read_curve_csv, write_atomic, write_curve_csv
+from trainer.curves import (
+    CurvePoint,
+    curve_summary,
+    draw_curve,
+    draw_references,
+    mean_curve,
+    read_curve_csv,
+    stderr_basis,
+    stderr_over,
+    write_atomic,
+    write_curve_csv,
+)
+from trainer.run import dump_json
 from trainer.schedule import (
     ALGORITHM_3,
     GETOPEN,
@@ -64,6 +82,8 @@ SIGNIFICANCE = 0.05  # keepaway-task.md 8 / the issue: Welch's t-test, p < 0.05
 STREAM_CROSS_TEST = 5  # a trial's random stream for Table 2's tests (after trainer.train's streams 0-4)
 INTERVALS = 12  # keepaway-task.md 8: an evaluation every 2,500 of 30,000 episodes
 FIXED_RECORD = "fixed.json"  # a configuration that learns nothing records itself here (a training: config.json)
+# Figure 3's measured reference levels: the configurations that learn nothing at the paper's two extremes.
+REFERENCES = {("handcoded", "handcoded"): "hand-coded", ("random", "random"): "random"}
 
 
 def configuration_name(pass_policy: str, getopen_policy: str) -> str:
@@ -144,20 +164,32 @@ def experiment_game() -> Game:
 
 @dataclass(frozen=True)
 class ConfigurationRun:
-    """A configuration's learning curves, one per trial, and whether this run found it already finished."""
+    """A configuration's learning curves, one per trial, whether this run found it already finished, and
+    the episodes of each evaluation (what a single trial's standard errors are over)."""
 
     name: str
     pass_policy: str
     getopen_policy: str
     curves: list[list[CurvePoint]]
     skipped: bool
+    eval_episodes: int
 
     def mean_curve(self) -> list[CurvePoint]:
         return mean_curve(self.curves)
 
     def final(self) -> CurvePoint:
-        """The last evaluation: mean over trials and its standard error."""
+        """The last evaluation: mean over trials and its standard error (:meth:`stderr_basis`)."""
         return self.mean_curve()[-1]
+
+    def stderr_basis(self) -> str:
+        """What the standard errors of :meth:`mean_curve` are over, in words."""
+        return stderr_basis(len(self.curves), self.eval_episodes)
+
+    def reference_level(self) -> float:
+        """The mean of its mean curve over all evaluation points: the level of a configuration that
+        learns nothing (its curve is flat but measured at every point)."""
+        curve = self.mean_curve()
+        return sum(p.mean_hold_time_s for p in curve) / len(curve)
 
 
 def _read_json(path: Path) -> Any:
@@ -188,7 +220,8 @@ def run_configuration(exp: ExperimentConfig, pass_policy: str, getopen_policy: s
     skipped = _finished(summary, config.trials)
     if not skipped:
         summary = train(config, where, resume=started, threads=threads, progress=progress)
-    return ConfigurationRun(name, pass_policy, getopen_policy, _trial_curves(summary), skipped)
+    return ConfigurationRun(name, pass_policy, getopen_policy, _trial_curves(summary), skipped,
+                            config.eval_episodes)
 
 
 def _run_fixed(exp: ExperimentConfig, pass_policy: str, getopen_policy: str, where: Path, threads: int | None,
@@ -224,13 +257,9 @@ def _run_fixed(exp: ExperimentConfig, pass_policy: str, getopen_policy: str, whe
                 write_curve_csv(trial_dir(where, trial) / "curve.csv", curve)
     trials = [{"trial": t, "episodes": exp.episodes, "finished": True, "curve": [asdict(p) for p in c]}
               for t, c in enumerate(curves)]
-    final = mean_curve(curves)[-1]
-    write_atomic(where / "summary.json", json.dumps(
-        {"name": name, "config": record, "trials": trials, "curve": [asdict(p) for p in mean_curve(curves)],
-         "final_mean_hold_time_s": final.mean_hold_time_s, "final_stderr_hold_time_s": final.stderr_hold_time_s},
-        indent=1, allow_nan=True).encode())
-    return ConfigurationRun(name, pass_policy, getopen_policy, curves, skipped)
-
+    write_atomic(where / "summary.json", dump_json(
+        {"name": name, "config": record, "trials": trials, **curve_summary(curves)}, indent=1).encode())
+    return ConfigurationRun(name, pass_policy, getopen_policy, curves, skipped, exp.eval_episodes)
 
 
 # -- Figure 3 ----------------------------------------------------------------------------------------
@@ -256,7 +285,8 @@ def figure3(exp: ExperimentConfig, out: Path, threads: int | None = None, progre
 def plot_figure3(path: Path, runs: Sequence[ConfigurationRun]) -> None:
     """The paper's two-column layout as one PNG, written atomically: left, one panel per Pass policy with
     its three GetOpen curves; right, one panel per GetOpen policy with its three Pass curves. All panels
-    share the axes, so heights compare across them."""
+    share the axes, so heights compare across them, and every panel marks the :func:`reference_levels`
+    (labelled once, below the panels)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -264,8 +294,9 @@ def plot_figure3(path: Path, runs: Sequence[ConfigurationRun]) -> None:
 
     fig = Figure(figsize=(11.0, 10.0), dpi=100, layout="constrained")
     axes = fig.subplots(len(POLICIES), 2, sharex=True, sharey=True)
-    trials = sorted({len(r.curves) for r in runs})
-    fig.suptitle(f"Keepaway 3v2: mean hold time over {'/'.join(map(str, trials))} trials (band: standard error)")
+    bases = sorted({r.stderr_basis() for r in runs})
+    fig.suptitle(f"Keepaway 3v2: mean hold time (band: {'; '.join(bases)})")
+    references = reference_levels(runs)
     for row, policy in enumerate(POLICIES):
         for column, (panel, grouped_by, other) in enumerate((("Pass", "pass_policy", "GO"),
                                                             ("GetOpen", "getopen_policy", "P"))):
@@ -277,36 +308,52 @@ def plot_figure3(path: Path, runs: Sequence[ConfigurationRun]) -> None:
             ax.set_title(f"{panel}: {SHORT[policy]}")
             ax.grid(True, alpha=0.3)
             ax.legend(loc="best", fontsize="small")
+            draw_references(ax, references)  # after the panel's legend: the figure's legend names them once
             if row == len(POLICIES) - 1:
                 ax.set_xlabel("training episodes")
             if column == 0:
                 ax.set_ylabel("mean hold time (s)")
+    if references:
+        handles, labels = axes[0, 0].get_legend_handles_labels()
+        fig.legend(handles[-len(references):], labels[-len(references):], loc="outside lower center",
+                   ncols=len(references))
     buffer = io.BytesIO()
     fig.savefig(buffer, format="png")
     write_atomic(path, buffer.getvalue())
 
 
-FINAL_HEADER = ("name", "pass", "getopen", "trials", "episodes", "final_mean_hold_time_s", "final_stderr_hold_time_s")
+def reference_levels(runs: Sequence[ConfigurationRun]) -> dict[str, float]:
+    """The levels of the hand-coded (P:HC-GO:HC) and random (P:R-GO:R) keepers (:data:`REFERENCES`) among
+    ``runs``, by label, from their measured curves (:meth:`ConfigurationRun.reference_level`)."""
+    measured = {(r.pass_policy, r.getopen_policy): r for r in runs}
+    return {f"{configuration_name(*config)} ({label})": measured[config].reference_level()
+            for config, label in REFERENCES.items() if config in measured}
+
+
+FINAL_HEADER = ("name", "pass", "getopen", "trials", "episodes", "final_mean_hold_time_s", "final_stderr_hold_time_s",
+                "stderr_over")
 
 
 def write_final_evaluations(out: Path, exp: ExperimentConfig, runs: Sequence[ConfigurationRun]) -> None:
     """``figure3.csv`` (one row per configuration: its last evaluation, mean over trials and standard
-    error) and ``figure3.json`` (the same with the experiment's settings and every mean curve)."""
+    error, and what that is over; an undefined one is an empty field) and ``figure3.json`` (the same with
+    the experiment's settings and every mean curve; ``null`` where undefined)."""
     rows = []
     for run in runs:
         final = run.final()
         rows.append({"name": run.name, "pass": SHORT[run.pass_policy], "getopen": SHORT[run.getopen_policy],
                      "trials": len(run.curves), "episodes": final.episodes,
                      "final_mean_hold_time_s": final.mean_hold_time_s,
-                     "final_stderr_hold_time_s": final.stderr_hold_time_s})
+                     "final_stderr_hold_time_s": final.stderr_hold_time_s,
+                     "stderr_over": stderr_over(len(run.curves))})
     text = io.StringIO()
     writer = csv.DictWriter(text, FINAL_HEADER, lineterminator="\n")
     writer.writeheader()
     writer.writerows(rows)
     write_atomic(out / "figure3.csv", text.getvalue().encode())
     configurations = [{**row, "curve": [asdict(p) for p in run.mean_curve()]} for row, run in zip(rows, runs)]
-    write_atomic(out / "figure3.json", json.dumps({"experiment": asdict(exp), "configurations": configurations},
-                                                  indent=1, allow_nan=True).encode())
+    write_atomic(out / "figure3.json", dump_json({"experiment": asdict(exp), "configurations": configurations},
+                                                 indent=1).encode())
 
 
 # -- Table 2 -----------------------------------------------------------------------------------------
@@ -322,8 +369,9 @@ def with_counterpart(trained: Behaviours, study: str, counterpart: str, partner:
     """``trained``'s learned ``study`` behaviour played with the other behaviour ``counterpart``; a learned
     counterpart is ``partner``'s (the same trial of P:L-GO:L)."""
     if study == PASS:
-        return replace(trained, getopen_policy=counterpart,
-                       getopen_theta=partner.getopen_theta if counterpart == LEARNED else None)
+        learned = counterpart == LEARNED
+        return replace(trained, getopen_policy=counterpart, getopen_theta=partner.getopen_theta if learned else None,
+                       getopen_inputs=partner.getopen_inputs if learned else None)
     return replace(trained, pass_policy=counterpart,
                    pass_arrays=partner.pass_arrays if counterpart == LEARNED else None)
 
@@ -354,80 +402,45 @@ def cross_test_trial(exp: ExperimentConfig, out: Path, trial: int, threads: int 
     return values
 
 
-def welch_p_value(a: Sequence[float], b: Sequence[float]) -> float:
-    """Two-sided p-value of Welch's t-test of equal means (unequal variances); NaN when it is undefined
-    (fewer than two values in a sample, or both samples without spread)."""
-    n1, n2 = len(a), len(b)
-    if n1 < 2 or n2 < 2:
-        return float("nan")
-    m1, m2 = sum(a) / n1, sum(b) / n2
-    v1 = sum((x - m1) ** 2 for x in a) / (n1 - 1) / n1
-    v2 = sum((x - m2) ** 2 for x in b) / (n2 - 1) / n2
-    if v1 + v2 == 0.0:
-        return float("nan")
-    t = (m1 - m2) / math.sqrt(v1 + v2)
-    df = (v1 + v2) ** 2 / (v1 ** 2 / (n1 - 1) + v2 ** 2 / (n2 - 1))
-    return regularized_beta(df / (df + t * t), df / 2.0, 0.5)
-
-
-BETA_ITERATIONS = 500  # continued-fraction terms; it converges in far fewer for the t-test's arguments
-BETA_EPSILON = 1e-15  # relative change of a term at convergence
-BETA_TINY = 1e-300  # Lentz's guard against division by zero
-
-
-def regularized_beta(x: float, a: float, b: float) -> float:
-    """The regularised incomplete beta function I_x(a, b), the Student t distribution's tail (Numerical
-    Recipes 6.4: Lentz's continued fraction, on the side of x where it converges fast). Ours, so that
-    Table 2 needs no scipy at run time."""
-    if x <= 0.0 or x >= 1.0:
-        return 0.0 if x <= 0.0 else 1.0
-    if x > (a + 1.0) / (a + b + 2.0):
-        return 1.0 - regularized_beta(1.0 - x, b, a)
-    log_front = math.lgamma(a + b) - math.lgamma(a) - math.lgamma(b) + a * math.log(x) + b * math.log1p(-x)
-    c, d = 1.0, 1.0 - (a + b) * x / (a + 1.0)
-    d = 1.0 / (d if abs(d) > BETA_TINY else BETA_TINY)
-    fraction = d
-    for m in range(1, BETA_ITERATIONS + 1):
-        for numerator in (m * (b - m) * x / ((a + 2 * m - 1) * (a + 2 * m)),
-                          -(a + m) * (a + b + m) * x / ((a + 2 * m) * (a + 2 * m + 1))):
-            d = 1.0 + numerator * d
-            d = 1.0 / (d if abs(d) > BETA_TINY else BETA_TINY)
-            c = 1.0 + numerator / c
-            c = c if abs(c) > BETA_TINY else BETA_TINY
-            fraction *= c * d
-        if abs(c * d - 1.0) < BETA_EPSILON:
-            break
-    return math.exp(log_front) * fraction / a
+def welch_p_value(a: Sequence[float], b: Sequence[float]) -> float | None:
+    """Two-sided p-value of Welch's t-test of equal means (unequal variances; ``scipy.stats.ttest_ind``
+    with ``equal_var=False``); None when it is undefined (fewer than two values in a sample, or both
+    samples without spread)."""
+    if len(a) < 2 or len(b) < 2 or (min(a) == max(a) and min(b) == max(b)):
+        return None
+    return float(stats.ttest_ind(a, b, equal_var=False).pvalue)
 
 
 @dataclass(frozen=True)
 class Cell:
     """One entry of Table 2: the trials' mean hold times, whether it is its column's best, and the p-value
-    of Welch's test against that best (NaN for the best itself)."""
+    of Welch's test against that best (None for the best itself and where the test is undefined)."""
 
     values: tuple[float, ...]
     best: bool
-    p_value: float
+    p_value: float | None
 
     @property
     def mean(self) -> float:
         return self._over_trials().mean_hold_time_s
 
     @property
-    def stderr(self) -> float:
+    def stderr(self) -> float | None:
+        """Over trials; None with one trial (a cross-test keeps only each trial's mean)."""
         return self._over_trials().stderr_hold_time_s
 
     def _over_trials(self) -> CurvePoint:
         """Mean and standard error over trials, the statistic of a learning curve's point (trainer.curves)."""
-        return mean_curve([[CurvePoint(0, v, math.nan)] for v in self.values])[0]
+        return mean_curve([[CurvePoint(0, v, None)] for v in self.values])[0]
 
     @property
     def significant(self) -> bool:
         """Differs from the column's best at p < 0.05."""
-        return self.p_value < SIGNIFICANCE
+        return self.p_value is not None and self.p_value < SIGNIFICANCE
 
     def text(self) -> str:
-        entry = f"{self.mean:.2f} +- {self.stderr:.2f}{'*' if self.significant else ''}"
+        se = "n/a" if self.stderr is None else f"{self.stderr:.2f}"
+        entry = f"{self.mean:.2f} +- {se}{'*' if self.significant else ''}"
         return f"**{entry}**" if self.best else entry
 
 
@@ -440,7 +453,7 @@ def table_cells(values: Sequence[Sequence[Sequence[float]]]) -> list[list[Cell]]
         column = [values[r][c] for r in range(rows)]
         best = max(range(rows), key=lambda r: sum(column[r]) / len(column[r]))
         for r in range(rows):
-            p = math.nan if r == best else welch_p_value(column[r], column[best])
+            p = None if r == best else welch_p_value(column[r], column[best])
             cells[r][c] = Cell(tuple(column[r]), r == best, p)
     return cells  # type: ignore[return-value]
 
@@ -466,8 +479,9 @@ class CrossTable:
         prefix = self.counterpart_prefix
         trials = len(self.cells[0][0].values)
         lines = [f"### {learned} learned with {other} X (rows), tested with {other} Y (columns)", "",
-                 f"Mean hold time (s) +- standard error over {trials} trial{'s' if trials > 1 else ''}; bold: "
-                 f"the column's best; `*`: differs from it (Welch's t-test, p < {SIGNIFICANCE}).", "",
+                 f"Mean hold time (s) +- standard error over {trials} trial{'s' if trials > 1 else ''}"
+                 f"{' (n/a: one trial has none, and no test)' if trials == 1 else ''}; bold: the column's best; "
+                 f"`*`: differs from it (Welch's t-test, p < {SIGNIFICANCE}).", "",
                  f"| {learned} trained with | " + " | ".join(f"tested with {prefix}:{SHORT[p]}" for p in POLICIES)
                  + " |",
                  "|---|" + "---:|" * len(POLICIES)]
@@ -512,15 +526,15 @@ def table2(exp: ExperimentConfig, out: Path, threads: int | None = None, progres
             if stored is None or stored["experiment"] != settings:
                 stored = {"experiment": settings, "trial": trial,
                           "values": cross_test_trial(exp, out, trial, threads, bar.update)}
-                write_atomic(path, json.dumps(stored, allow_nan=True).encode())
+                write_atomic(path, dump_json(stored).encode())
             else:
                 bar.update(cells_per_trial * exp.eval_episodes)
             per_trial.append(stored["values"])
     tables = [CrossTable(study, table_cells([[[v[study][r][c] for v in per_trial] for c in range(len(POLICIES))]
                                              for r in range(len(POLICIES))]))
               for study in STUDIES]
-    write_atomic(out / "table2.json", json.dumps({"experiment": settings, "tables": [t.to_dict() for t in tables]},
-                                                 indent=1, allow_nan=True).encode())
+    write_atomic(out / "table2.json", dump_json({"experiment": settings, "tables": [t.to_dict() for t in tables]},
+                                                indent=1).encode())
     write_atomic(out / "table2.md", "\n".join(t.markdown() for t in tables).encode())
     return tables
 
@@ -538,7 +552,7 @@ __all__ = [
     "experiment_game",
     "figure3",
     "plot_figure3",
-    "regularized_beta",
+    "reference_levels",
     "run_configuration",
     "table2",
     "table_cells",

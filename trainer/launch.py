@@ -14,12 +14,17 @@ import signal
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
 LISTEN_RE = re.compile(r"players=(tcp://\S+) coach=(tcp://\S+) monitor=(tcp://\S+)")
 ARENA_RE = re.compile(r"arena=(tcp://\S+)")
 PR_SET_PDEATHSIG = 1  # linux/prctl.h
+# A clean exit (code 0) before the run has finished counts as a death once the server has gone on
+# running this long after it: players and coach exit 0 when the server shuts down, a moment before the
+# server's own process is gone.
+CLEAN_EXIT_GRACE_S = 10.0
 
 
 class ArenaFailure(RuntimeError):
@@ -73,7 +78,7 @@ class ArenaProcesses:
         stderr = open(self.log_dir / f"{name.replace(' ', '_')}.log", "wb")
         proc = subprocess.Popen(argv, stdout=subprocess.PIPE if capture_stdout else subprocess.DEVNULL,
                                 stderr=stderr, start_new_session=True,
-                                preexec_fn=_die_with_parent if sys.platform == "linux" else None)
+                                preexec_fn=die_with_parent if sys.platform == "linux" else None)
         stderr.close()
         member = Member(name, proc)
         self.members.append(member)
@@ -122,10 +127,11 @@ class ArenaProcesses:
         log = self.log_dir / f"{member.name}.log"
         raise ArenaFailure(f"the {member.name} did not start: {member.describe_exit()}; see {log}")
 
-    def first_death(self, grace_s: float = 5.0) -> Member | None:
-        """A member that died: any non-zero exit, or a clean exit while the server keeps running for
-        ``grace_s`` more seconds (players and coach exit cleanly right after the server's shutdown,
-        possibly a moment before the server process itself is gone)."""
+    def first_death(self, run_finished: Callable[[], bool], grace_s: float = CLEAN_EXIT_GRACE_S) -> Member | None:
+        """A member that died: any non-zero exit, or a clean exit before the run has finished while the
+        server keeps running ``grace_s`` seconds longer. Players and the coach exit cleanly when the
+        server shuts down, which it does once the run is finished (``run_finished()``, asked only when a
+        clean exit is seen): such an exit is never a death, however slowly the server then stops."""
         now = time.monotonic()
         server_running = any(mem.name == "server" and mem.proc.poll() is None for mem in self.members)
         for member in self.members:
@@ -134,7 +140,8 @@ class ArenaProcesses:
                 continue
             if code != 0:
                 return member
-            if server_running and now - self._clean_exit_seen.setdefault(member.name, now) > grace_s:
+            if (server_running and now - self._clean_exit_seen.setdefault(member.name, now) > grace_s
+                    and not run_finished()):
                 return member
         return None
 
@@ -168,7 +175,7 @@ class ArenaProcesses:
                 member.proc.stdout.close()
 
 
-def _die_with_parent() -> None:
+def die_with_parent() -> None:
     """In the child, before exec: ask Linux for SIGTERM when the parent dies."""
     ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
 

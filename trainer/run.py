@@ -11,10 +11,11 @@ from __future__ import annotations
 import json
 import math
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from itertools import islice
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
 import zmq
 
@@ -22,8 +23,10 @@ from protocol import MONITOR_EPISODE_TOPIC
 from protocol import messages as m
 from protocol.messages import decode_monitor
 from server.episode_log import EpisodeRecord, JsonlLog, KwyLog, read_jsonl
+from trainer.curves import finite_or_none, format_hold
 from trainer.embedded import ArenaSpec, embedded_episodes
-from trainer.launch import ArenaFailure, ArenaProcesses, keepaway_argv
+from trainer.kernels import BATCHED, PLAYERS, SERVER, ensure_compiled
+from trainer.launch import ArenaFailure, ArenaProcesses
 
 MODES = ("distributed", "embedded", "batched")
 
@@ -54,46 +57,58 @@ class RunResult:
         return [e.hold_time_s for e in self.episodes]
 
     def summary(self) -> dict:
+        """The machine-readable summary (module docstring). A value that is undefined is None, never NaN:
+        the mean without episodes, the standard error with fewer than two, the rates without elapsed time."""
         holds = self.hold_times
         n = len(holds)
-        mean = sum(holds) / n if n else float("nan")
-        var = sum((h - mean) ** 2 for h in holds) / (n - 1) if n > 1 else float("nan")
+        mean = sum(holds) / n if n else None
+        stderr = None
+        if mean is not None and n > 1:
+            stderr = math.sqrt(sum((h - mean) ** 2 for h in holds) / (n - 1) / n)
         return {
             "mode": self.mode,
             "seed": self.seed,
             "episodes": [{"episode": e.episode, "start_cycle": e.start_cycle, "end_cycle": e.end_cycle,
                           "hold_time_s": e.hold_time_s, "end": e.end} for e in self.episodes],
             "mean_hold_time_s": mean,
-            "stderr_hold_time_s": math.sqrt(var / n) if n > 1 else float("nan"),
-            "cycles_per_s": self.cycles / self.elapsed_s if self.elapsed_s > 0 else float("nan"),
-            "episodes_per_s": self.rate_episodes / self.elapsed_s if self.elapsed_s > 0 else float("nan"),
+            "stderr_hold_time_s": stderr,
+            "cycles_per_s": self.cycles / self.elapsed_s if self.elapsed_s > 0 else None,
+            "episodes_per_s": self.rate_episodes / self.elapsed_s if self.elapsed_s > 0 else None,
         }
 
 
 def summary_table(summary: dict) -> str:
-    """A short human-readable table of a run's summary."""
+    """A short human-readable table of a run's summary; an undefined value reads ``n/a``."""
     eps = summary["episodes"]
     n = len(eps)
     taken = sum(e["end"] == "taken" for e in eps)
+    hold = format_hold(summary["mean_hold_time_s"], summary["stderr_hold_time_s"],
+                       f"s.e. over {n} episode{'' if n == 1 else 's'}")
     rows = [
         ("mode", summary["mode"]),
         ("seed", str(summary["seed"])),
         ("episodes", str(n)),
-        ("mean hold time", f"{summary['mean_hold_time_s']:.2f} s +- {summary['stderr_hold_time_s']:.2f} (s.e.)"),
+        ("mean hold time", hold),
         ("ended by take", f"{taken} ({taken / n:.0%})" if n else "0"),
         ("ended out", f"{n - taken} ({(n - taken) / n:.0%})" if n else "0"),
-        ("cycles / s", f"{summary['cycles_per_s']:,.0f}"),
-        ("episodes / s", f"{summary['episodes_per_s']:,.2f}"),
+        ("cycles / s", _rate(summary["cycles_per_s"], ",.0f")),
+        ("episodes / s", _rate(summary["episodes_per_s"], ",.2f")),
     ]
     width = max(len(k) for k, _ in rows)
     return "\n".join(f"{k:<{width}}  {v}" for k, v in rows)
+
+
+def _rate(value: float | None, spec: str) -> str:
+    value = finite_or_none(value)
+    return "n/a" if value is None else format(value, spec)
 
 
 # -- modes ------------------------------------------------------------------------------------------
 def distributed_episodes(opts: RunOptions, processes: ArenaProcesses) -> Iterator[tuple[EpisodeRecord, int]]:
     """Start server, coach and players as processes; yield episodes as the monitor port reports them.
 
-    Raises ArenaFailure naming the process if any of them dies before the server has finished.
+    Raises ArenaFailure naming the process if any of them dies before the run has finished (a clean
+    exit once every episode is in the server's log is not a death, however slowly the rest stop).
     """
     spec = opts.spec
     server_args = ["--seed", str(spec.seed), "--keepers", str(spec.keepers), "--takers", str(spec.takers),
@@ -106,6 +121,10 @@ def distributed_episodes(opts: RunOptions, processes: ArenaProcesses) -> Iterato
         player_args += ["--policy", str(opts.policy_path)]
     endpoints = processes.start_arena(server_args, player_args, spec.keepers, spec.takers)
     server = processes.member("server")
+
+    def finished() -> bool:
+        return len(logged_episodes(opts.out)) >= opts.episodes
+
     ctx = zmq.Context.instance()
     monitor = ctx.socket(zmq.SUB)
     monitor.setsockopt(zmq.LINGER, 0)
@@ -119,55 +138,91 @@ def distributed_episodes(opts: RunOptions, processes: ArenaProcesses) -> Iterato
                 assert isinstance(end, m.EpisodeEnd)
                 yielded.add(end.episode)
                 yield EpisodeRecord(end.episode, end.start_cycle, end.end_cycle, end.end), end.end_cycle
-            dead = processes.first_death()
+            dead = processes.first_death(finished)
             if dead is not None:
                 raise ArenaFailure(dead.describe_exit())
-        dead = processes.first_death()
+        dead = processes.first_death(finished)
         if dead is not None:
             raise ArenaFailure(dead.describe_exit())
         # the server's log is the record; the monitor (PUB/SUB) only drives the progress bar and may
         # have missed events published before the subscription took effect
-        _, records = read_jsonl(opts.out / "keepaway.jsonl")
+        records = logged_episodes(opts.out)
         if len(records) < opts.episodes:
-            raise ArenaFailure(f"the server ended after {len(records)} of {opts.episodes} episodes")
+            raise ArenaFailure(f"the server ended after {len(records)} of {opts.episodes} episodes "
+                               f"({server.describe_exit()})")
         for record in records:
             if record.episode not in yielded:
                 yield record, record.end_cycle
-        unclean = processes.wait_all(timeout_s=30.0)
+        unclean = processes.wait_all(timeout_s=60.0)
         if unclean:
             raise ArenaFailure("; ".join(mem.describe_exit() for mem in unclean))
     finally:
         monitor.close(linger=0)
 
 
+def logged_episodes(out: Path) -> list[EpisodeRecord]:
+    """The episodes in the server's JSON-lines log in ``out`` so far (none if it has no log yet)."""
+    try:
+        return read_jsonl(out / "keepaway.jsonl")[1]
+    except (OSError, ValueError):
+        return []
+
+
 def batched_episodes(opts: RunOptions) -> Iterator[tuple[EpisodeRecord, int]]:
-    """Step ``opts.batch`` arenas in one process; yield episodes in the order they end."""
+    """Step ``opts.batch`` arenas in one process; yield episodes in the order they end, numbered from 1,
+    each chunk's as soon as it is played, with the arena-cycles simulated so far (the first chunk's
+    include the kernels' compilation, so rates are measured from its end)."""
     from trainer.batched import BatchedArenas
     from trainer.train import episode_records
 
     spec = opts.spec
-    theta = spec.policy.getopen_theta if spec.policy is not None else None
+    theta = spec.policy.getopen_net if spec.policy is not None else None
     arenas = BatchedArenas(spec.params, opts.batch, spec.seed, keepers=spec.keepers, takers=spec.takers,
                            pass_policy=spec.pass_policy, getopen_policy=spec.getopen_policy,
                            getopen_theta=theta)
-    table = arenas.run(total_episodes=opts.episodes)
-    for record in episode_records(table, spec.params.simulator_step_ms):
-        yield record, int(table.cycles)
+    ended = cycles = 0
+    for chunk in arenas.chunks(total_episodes=opts.episodes):
+        cycles += chunk.cycles
+        for record in episode_records(chunk, spec.params.simulator_step_ms):
+            ended += 1
+            yield replace(record, episode=ended), cycles
 
 
-def run(opts: RunOptions, progress: bool = True) -> RunResult:
-    """Play ``opts.episodes`` episodes in ``opts.mode``; write the logs; return the result."""
+class RunStopped(Exception):
+    """A run that stopped before its last episode: a process died (``cause`` is the ArenaFailure) or it
+    was interrupted (KeyboardInterrupt). ``result`` holds the episodes that did finish."""
+
+    def __init__(self, result: RunResult, cause: BaseException) -> None:
+        super().__init__(str(cause))
+        self.result = result
+        self.cause = cause
+
+
+def kernel_sets(mode: str) -> tuple[str, ...]:
+    """The numba kernel sets (``trainer.kernels``) a run in ``mode`` uses."""
+    return (BATCHED,) if mode == "batched" else (SERVER, PLAYERS)
+
+
+def run(opts: RunOptions, progress: bool = True, announce: Callable[[str], None] | None = None) -> RunResult:
+    """Play ``opts.episodes`` episodes in ``opts.mode``; write the logs; return the result.
+
+    The kernels are compiled first, once (``announce`` is told so in one line). Raises RunStopped, with
+    the result of the episodes that finished, if a process dies or the run is interrupted.
+    """
     from tqdm import tqdm
 
     spec = opts.spec
     opts.out.mkdir(parents=True, exist_ok=True)
+    ensure_compiled(kernel_sets(opts.mode), announce, log_dir=opts.out / "processes")
     records: list[EpisodeRecord] = []
+    marks: list[int] = []  # the stream's cycle count when each record came (all arenas' in batched mode)
     bar = tqdm(total=opts.episodes, unit="ep", disable=not progress, dynamic_ncols=True)
     first_at: float | None = None
     last_at = 0.0
     first_cycle = last_cycle = 0
     start = time.perf_counter()
     processes = ArenaProcesses(opts.out / "processes") if opts.mode == "distributed" else None
+    stopped: BaseException | None = None
     try:
         if opts.mode == "distributed":
             assert processes is not None
@@ -181,6 +236,7 @@ def run(opts: RunOptions, progress: bool = True) -> RunResult:
         # are cut at the wanted number of episodes
         for record, cycles in stream if opts.mode == "distributed" else islice(stream, opts.episodes):
             records.append(record)
+            marks.append(cycles)
             now = time.perf_counter()
             if first_at is None:
                 first_at, first_cycle = now, cycles
@@ -188,20 +244,28 @@ def run(opts: RunOptions, progress: bool = True) -> RunResult:
                 last_at, last_cycle = now, cycles
             bar.update(1)
             bar.set_postfix(mean_hold_s=f"{sum(r.hold_time_s for r in records) / len(records):.2f}")
+    except (ArenaFailure, KeyboardInterrupt) as exc:
+        stopped = exc
     finally:
         bar.close()
         if processes is not None:
             processes.stop()
+    if opts.mode == "distributed":
+        # the server's log is the record (flushed per episode, also when the server was killed)
+        records = logged_episodes(opts.out) or records
     records.sort(key=lambda r: r.episode)
-    if opts.mode == "distributed" and len(records) > 1 and first_at is not None and last_at > first_at:
+    if len(records) > 1 and first_at is not None and last_at > first_at:
         # rates between the first and the last episode end: start-up and compilation excluded
         elapsed, cycles = last_at - first_at, last_cycle - first_cycle
-        n_rate = sum(first_cycle < r.end_cycle <= last_cycle for r in records)
+        n_rate = sum(first_cycle < c <= last_cycle for c in marks)
     else:
         elapsed, cycles, n_rate = time.perf_counter() - start, last_cycle, len(records)
     if opts.mode != "distributed":  # the distributed server writes its own logs
         _write_logs(opts, records)
-    return RunResult(opts.mode, spec.seed, records, elapsed, cycles, n_rate)
+    result = RunResult(opts.mode, spec.seed, records, elapsed, cycles, n_rate)
+    if stopped is not None:
+        raise RunStopped(result, stopped)
+    return result
 
 
 def _write_logs(opts: RunOptions, records: list[EpisodeRecord]) -> None:
@@ -218,8 +282,21 @@ def _write_logs(opts: RunOptions, records: list[EpisodeRecord]) -> None:
         jsonl.close()
 
 
-def dump_json(summary: dict) -> str:
-    return json.dumps(summary, allow_nan=True)
+def dump_json(value: Any, indent: int | None = None) -> str:
+    """``value`` as strict JSON (RFC 8259: no NaN or Infinity): every non-finite number becomes ``null``,
+    so any JSON parser reads what the trainer prints and writes."""
+    return json.dumps(_finite(value), indent=indent, allow_nan=False)
 
 
-__all__ = ["MODES", "ArenaFailure", "RunOptions", "RunResult", "dump_json", "run", "summary_table"]
+def _finite(value: Any) -> Any:
+    if isinstance(value, float):
+        return finite_or_none(value)
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v) for v in value]
+    return value
+
+
+__all__ = ["MODES", "ArenaFailure", "RunOptions", "RunResult", "RunStopped", "dump_json", "kernel_sets", "logged_episodes", "run",
+           "summary_table"]

@@ -17,7 +17,9 @@ A learned behaviour that has not learned yet plays: in Algorithm 3 its random po
 from P:R and GO:R", section 7); alone, GO:L a net drawn from U[-0.5, 0.5] (section 6) and P:L fresh
 Sarsa learners (weights 0). The GetOpen policy a trial hands on (to Pass phases, evaluations and its
 policy file) is the CEM's best candidate so far; the CEM's distribution carries over from one GetOpen
-phase to the next.
+phase to the next. The nets drawn and searched see their inputs scaled (``TrainConfig.getopen_inputs``:
+``agents.getopen.GetOpenScaling`` by default, or raw; docs/design.md, GetOpen inputs) and play with the
+scaling folded into their first layer (``Behaviours.getopen_net``); the policy file records the scaling.
 
 The steps are played by a backend: :class:`BatchedBackend` steps in-process arenas
 (``trainer.batched``), ``trainer.distributed.DistributedBackend`` drives arenas of separate processes
@@ -53,15 +55,25 @@ from typing import Any
 
 import numpy as np
 
-from agents.policy_file import getopen_theta_size, pack_pass_arrays, save_policy, unpack_pass_arrays
+from agents.getopen import RAW_INPUTS, SCALED_INPUTS, InputScaling, getopen_input_scaling
+from agents.policy_file import getopen_theta_size, pack_pass_arrays, read_npz, save_policy, unpack_pass_arrays
 from agents.sarsa import SarsaConfig
+from agents.skills import AgentConfig
 from protocol.params import ServerParams, parameter_set
 from server.episode_log import EpisodeRecord
 from server.referee import END_OUT
 from trainer.batched import BATCHED_SARSA, BatchedArenas
 from trainer.cem import CEM, CEMConfig
-from trainer.curves import CurvePoint, mean_curve, plot_curves, write_atomic, write_curve_csv
-from trainer.run import RunResult
+from trainer.curves import (
+    CurvePoint,
+    curve_summary,
+    mean_curve,
+    plot_curves,
+    stderr_basis,
+    write_atomic,
+    write_curve_csv,
+)
+from trainer.run import RunResult, dump_json
 from trainer.schedule import (
     GETOPEN,
     LEARNED,
@@ -101,6 +113,9 @@ class Game:
     keepers: int = 3
     takers: int = 2
     sarsa: SarsaConfig = BATCHED_SARSA
+    # the players' constants (the policies are set per play); batched mode only: the player processes of
+    # the distributed mode use the defaults
+    agent: AgentConfig = AgentConfig()
 
 
 @dataclass(frozen=True)
@@ -122,6 +137,7 @@ class TrainConfig:
     cem: CEMConfig = CEMConfig()
     sarsa: SarsaConfig = BATCHED_SARSA  # the batched mode's table size (trainer/batched.py), in both modes
     mode: str = "batched"  # MODES
+    getopen_inputs: str = SCALED_INPUTS  # ours: how GO:L's inputs are scaled (agents.getopen.GETOPEN_INPUTS)
 
     def __post_init__(self) -> None:
         if self.pass_policy not in POLICY_NAMES or self.getopen_policy not in POLICY_NAMES:
@@ -138,6 +154,7 @@ class TrainConfig:
                              f"{self.keepers}v{self.takers} has {getopen_theta_size(self.keepers, self.takers)}")
         check_generations(self.schedule, self.eval_every, self.generation_episodes)
         self.params()
+        self.input_scaling()
 
     @property
     def generation_episodes(self) -> int:
@@ -159,6 +176,10 @@ class TrainConfig:
     def game(self) -> Game:
         return Game(self.params(), self.keepers, self.takers, self.sarsa)
 
+    def input_scaling(self) -> InputScaling:
+        """The scaling the CEM's nets see their inputs through (docs/design.md, GetOpen inputs)."""
+        return getopen_input_scaling(self.getopen_inputs, self.keepers, self.takers, self.field_size)
+
     def to_dict(self) -> dict[str, Any]:
         """Plain JSON values; :meth:`from_dict` inverts it."""
         out = asdict(self)
@@ -171,19 +192,30 @@ class TrainConfig:
         values["schedule"] = parse_schedule(values["schedule"])
         values["cem"] = CEMConfig(**values["cem"])
         values["sarsa"] = SarsaConfig(**values["sarsa"])
+        values.setdefault("getopen_inputs", RAW_INPUTS)  # trainings begun before scaling had raw nets
         return cls(**values)
 
 
 @dataclass
 class Behaviours:
     """The policies the keepers play now: a policy name each, with the learned parameters if any:
-    ``pass_arrays`` holds every keeper's own Pass policy (``agents.sarsa.policy_arrays``), None with Pass
-    learned means fresh learners."""
+    ``getopen_theta`` the GO:L net on the inputs scaled by ``getopen_inputs`` (None: raw inputs; the net
+    that plays is :attr:`getopen_net`); ``pass_arrays`` holds every keeper's own Pass policy
+    (``agents.sarsa.policy_arrays``), None with Pass learned means fresh learners."""
 
     pass_policy: str
     getopen_policy: str
     getopen_theta: np.ndarray | None = None
     pass_arrays: list[dict[str, np.ndarray]] | None = None
+    getopen_inputs: InputScaling | None = None
+
+    @property
+    def getopen_net(self) -> np.ndarray | None:
+        """The GO:L parameters on the raw state variables (the scaling folded in): what the arenas and
+        the coach's advice take."""
+        if self.getopen_theta is None or self.getopen_inputs is None:
+            return self.getopen_theta
+        return self.getopen_inputs.fold(self.getopen_theta)
 
     @classmethod
     def initial(cls, config: TrainConfig, trial: int) -> Behaviours:
@@ -195,7 +227,8 @@ class Behaviours:
         if config.getopen_policy == LEARNED:
             rng = np.random.default_rng(derive_seed(config.seed, trial, STREAM_INITIAL_NET))
             theta = rng.uniform(-INITIAL_NET_RANGE, INITIAL_NET_RANGE, config.cem.n_params)
-        return cls(config.pass_policy, config.getopen_policy, theta)
+            return cls(config.pass_policy, config.getopen_policy, theta, getopen_inputs=config.input_scaling())
+        return cls(config.pass_policy, config.getopen_policy)
 
 
 @dataclass
@@ -242,7 +275,8 @@ def play(game: Game, behaviours: Behaviours, seed: int, episodes: int, batch: in
         extra = {"sarsa": game.sarsa, "pass_mode": pass_mode}
     arenas = BatchedArenas(params, min(batch, episodes), seed, keepers=game.keepers, takers=game.takers,
                            pass_policy=behaviours.pass_policy, getopen_policy=behaviours.getopen_policy,
-                           getopen_theta=behaviours.getopen_theta, threads=threads, **extra)
+                           getopen_theta=behaviours.getopen_net, agent_config=game.agent, threads=threads,
+                           **extra)
     if behaviours.pass_arrays is not None:
         arenas.load_pass_arrays(behaviours.pass_arrays)
     done = 0
@@ -350,13 +384,16 @@ def _cem_generation(config: TrainConfig, state: TrialState, backend: Any, progre
     cem = state.cem
     generation = cem.generation
     seed = derive_seed(config.seed, state.trial, STREAM_GENERATION, generation)
-    candidates = [replace(state.behaviours, getopen_policy=LEARNED, getopen_theta=theta) for theta in cem.ask()]
+    inputs = config.input_scaling()
+    candidates = [replace(state.behaviours, getopen_policy=LEARNED, getopen_theta=theta, getopen_inputs=inputs)
+                  for theta in cem.ask()]
     results = backend.play_candidates(candidates, seed, config.cem.episodes_per_candidate, config.arenas, progress)
     fitness = [result.summary()["mean_hold_time_s"] for result in results]
     cem.tell(np.array(fitness))
     assert cem.best_params is not None
     state.behaviours.getopen_policy = LEARNED
     state.behaviours.getopen_theta = cem.best_params.copy()
+    state.behaviours.getopen_inputs = inputs
     state.episodes += config.generation_episodes
     state.trace.append({"phase": GETOPEN, "generation": generation, "episodes": state.episodes,
                         "fitness": fitness, "best_fitness": cem.best_fitness,
@@ -394,6 +431,7 @@ def save_checkpoint(out: Path, state: TrialState) -> None:
         "keepers": len(b.pass_arrays) if b.pass_arrays is not None else None,
         "curve": [asdict(p) for p in state.curve], "trace": state.trace,
         "pass_policy": b.pass_policy, "getopen_policy": b.getopen_policy, "cem": None, "wall_s": state.wall_s,
+        "getopen_inputs": None if b.getopen_inputs is None else b.getopen_inputs.to_json(),
     }
     arrays: dict[str, np.ndarray] = {}
     if b.getopen_theta is not None:
@@ -412,25 +450,41 @@ def save_checkpoint(out: Path, state: TrialState) -> None:
     write_atomic(trial_dir(out, state.trial) / "checkpoint.npz", buffer.getvalue())
 
 
+def _unreadable(exc: Exception) -> str:
+    """Why a stored file could not be used, in one line."""
+    return f"no {exc}" if isinstance(exc, KeyError) else " ".join(str(exc).split()) or type(exc).__name__
+
+
+STORED_FILE_ERRORS = (OSError, ValueError, KeyError, TypeError, AttributeError)
+_JSON_TYPES = {int: "an integer", float: "a number", str: "a string", dict: "a map", bool: "true or false"}
+
+
 def load_checkpoint(out: Path, trial: int) -> TrialState | None:
-    """The trial's last checkpoint, or None if it has none."""
+    """The trial's last checkpoint, or None if it has none. One that cannot be used (truncated,
+    overwritten, of another trial) is a ValueError in one line naming the file and the way out."""
     path = trial_dir(out, trial) / "checkpoint.npz"
     if not path.is_file():
         return None
-    with np.load(path, allow_pickle=False) as data:
-        arrays = {name: data[name] for name in data.files}
-    header = json.loads(arrays.pop("header").tobytes().decode())
-    if header.get("version") != CHECKPOINT_VERSION or header.get("trial") != trial:
-        raise ValueError(f"{path}: not a version {CHECKPOINT_VERSION} checkpoint of trial {trial}")
-    packed = {k.removeprefix("behaviour_"): v for k, v in arrays.items() if k.startswith("behaviour_")}
-    behaviours = Behaviours(header["pass_policy"], header["getopen_policy"], arrays.get("getopen_theta"),
-                            unpack_pass_arrays(packed, header["keepers"]) if packed else None)
-    cem = None
-    if header["cem"] is not None:
-        cem = CEM.from_state_dict({**header["cem"], "mean": arrays["cem_mean"], "variance": arrays["cem_variance"],
-                                   "best_params": arrays.get("cem_best_params")})
-    return TrialState(trial, behaviours, header["episodes"], [CurvePoint(**p) for p in header["curve"]],
-                      header["trace"], cem, wall_s=header.get("wall_s", 0.0))
+    try:
+        arrays = read_npz(path)
+        header = json.loads(arrays.pop("header").tobytes().decode())
+        if header.get("version") != CHECKPOINT_VERSION or header.get("trial") != trial:
+            raise ValueError(f"not a version {CHECKPOINT_VERSION} checkpoint of trial {trial}")
+        packed = {k.removeprefix("behaviour_"): v for k, v in arrays.items() if k.startswith("behaviour_")}
+        behaviours = Behaviours(header["pass_policy"], header["getopen_policy"], arrays.get("getopen_theta"),
+                                unpack_pass_arrays(packed, header["keepers"]) if packed else None)
+        if header.get("getopen_inputs") is not None:  # absent: a checkpoint of a net on raw inputs
+            behaviours.getopen_inputs = InputScaling.from_json(header["getopen_inputs"],
+                                                               len(header["getopen_inputs"]["mean"]))
+        cem = None
+        if header["cem"] is not None:
+            cem = CEM.from_state_dict({**header["cem"], "mean": arrays["cem_mean"], "variance": arrays["cem_variance"],
+                                       "best_params": arrays.get("cem_best_params")})
+        return TrialState(trial, behaviours, header["episodes"], [CurvePoint(**p) for p in header["curve"]],
+                          header["trace"], cem, wall_s=header.get("wall_s", 0.0))
+    except STORED_FILE_ERRORS as exc:
+        raise ValueError(f"{path}: unusable checkpoint ({_unreadable(exc)}); restore it from a copy, or delete it "
+                         f"to play trial {trial} again from its start (the other trials are kept)") from None
 
 
 def write_transitions(out: Path, state: TrialState) -> None:
@@ -466,33 +520,38 @@ def write_trial_outputs(config: TrainConfig, out: Path, state: TrialState) -> No
     tmp = where / ".policy.tmp.npz"
     save_policy(tmp, getopen_theta=b.getopen_theta if learned_getopen else None,
                 pass_arrays=pack_pass_arrays(b.pass_arrays) if learned_pass else None, config=header,
-                seed=config.seed)
+                seed=config.seed, getopen_inputs=b.getopen_inputs if learned_getopen else None)
     os.replace(tmp, where / "policy.npz")
 
 
 def summarise(config: TrainConfig, states: list[TrialState]) -> dict[str, Any]:
-    """``summary.json``: the configuration, every trial's curve and the curve over trials."""
-    curve = mean_curve([s.curve for s in states])
-    final = curve[-1] if curve else None
+    """``summary.json``: the configuration, every trial's curve and the curve over trials with its final
+    point; ``stderr_over`` says what the curve's standard errors are over: "trials", or with one trial
+    "episodes" (of each evaluation; ``trainer.curves.mean_curve``). Undefined values are None."""
     return {
         "name": config.name,
         "config": config.to_dict(),
         "trials": [{"trial": s.trial, "episodes": s.episodes, "finished": s.finished(config), "wall_s": s.wall_s,
                     "curve": [asdict(p) for p in s.curve],
                     "best_fitness": None if s.cem is None else s.cem.best_fitness} for s in states],
-        "curve": [asdict(p) for p in curve],
-        "final_mean_hold_time_s": None if final is None else final.mean_hold_time_s,
-        "final_stderr_hold_time_s": None if final is None else final.stderr_hold_time_s,
+        **curve_summary([s.curve for s in states]),
     }
 
 
 def write_summary(config: TrainConfig, out: Path, states: list[TrialState]) -> dict[str, Any]:
-    """``summary.json`` and ``curves.png`` over the trials so far."""
+    """``summary.json`` (strict JSON) and ``curves.png`` over the trials so far. The plot marks the random
+    keepers' level (P:R-GO:R) where the training measured it: its evaluation at 0 when the trial starts
+    from random policies (Algorithm 3)."""
     summary = summarise(config, states)
-    write_atomic(out / "summary.json", json.dumps(summary, indent=1, allow_nan=True).encode())
-    label = f"{config.name} ({len(states)} trial{'s' if len(states) > 1 else ''})"
-    plot_curves(out / "curves.png", {label: mean_curve([s.curve for s in states])},
-                f"Keepaway {config.keepers}v{config.takers}: {config.name}")
+    write_atomic(out / "summary.json", dump_json(summary, indent=1).encode())
+    curve = mean_curve([s.curve for s in states])
+    start = Behaviours.initial(config, 0)
+    references = {}
+    if curve and curve[0].episodes == 0 and (start.pass_policy, start.getopen_policy) == ("random", "random"):
+        references["P:R-GO:R (evaluation at 0)"] = curve[0].mean_hold_time_s
+    label = f"{config.name} (band: {stderr_basis(len(states), config.eval_episodes)})"
+    plot_curves(out / "curves.png", {label: curve}, f"Keepaway {config.keepers}v{config.takers}: {config.name}",
+                references)
     return summary
 
 
@@ -507,11 +566,28 @@ def write_config(config: TrainConfig, out: Path) -> None:
 
 
 def read_config(out: Path) -> TrainConfig:
-    """The configuration of the training in ``out``."""
+    """The configuration of the training in ``out``: FileNotFoundError if it holds none, ValueError (one
+    line naming the file and the way out) if its ``config.json`` cannot be used."""
     path = out / "config.json"
     if not path.is_file():
         raise FileNotFoundError(f"{out} holds no training (no config.json)")
-    return TrainConfig.from_dict(json.loads(path.read_text()))
+    try:
+        data = json.loads(path.read_text())
+        if type(data) is not dict:
+            raise ValueError("not a JSON object")
+        defaults = TrainConfig().to_dict()
+        unknown = sorted(set(data) - set(defaults))
+        if unknown:
+            raise ValueError(f"unknown setting(s) {', '.join(unknown)}")
+        for key, default in defaults.items():
+            value = data.get(key, default)
+            if type(value) is not type(default) and not (type(default) is float and type(value) is int):
+                raise ValueError(f"{key} is {value!r}, expected {_JSON_TYPES[type(default)]}")
+        return TrainConfig.from_dict(data)
+    except STORED_FILE_ERRORS as exc:
+        raise ValueError(f"{path}: unusable training configuration ({_unreadable(exc)}); restore it from a copy, "
+                         f"or start a new training in another --out directory") from None
+
 
 
 def run_trials(config: TrainConfig, out: Path, backend: Any = None,

@@ -3,19 +3,40 @@
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 
 import click
 
+from trainer.cli import (
+    COUNT_TYPE,
+    FIELD_SIZE_HELP,
+    FIELD_SIZE_TYPE,
+    KEEPERS_HELP,
+    KEEPERS_TYPE,
+    SEED_TYPE,
+    TAKERS_HELP,
+    TAKERS_TYPE,
+)
+from trainer.kernels import BATCHED, PLAYERS, SERVER
 from trainer.schedule import POLICY_NAMES
 
 POLICY_CHOICES = click.Choice(POLICY_NAMES)
+
+
+def prepare_kernels(kernel_sets: tuple[str, ...]) -> None:
+    """Compile the kernel sets this command's processes use, once, saying so (``trainer.kernels``)."""
+    from trainer.cli import announce
+    from trainer.kernels import CompileError, ensure_compiled
+
+    try:
+        ensure_compiled(kernel_sets, announce)
+    except CompileError as exc:
+        raise click.ClickException(str(exc)) from None
 # Options that define a training; with --resume the stored configuration is used and these must not be given.
 CONFIG_OPTIONS = ("pass_policy", "getopen_policy", "episodes", "schedule", "trials", "eval_every", "eval_episodes",
                   "arenas", "seed", "population", "elite", "candidate_episodes", "keepers", "takers",
-                  "field_size", "parameter_set")
+                  "field_size", "parameter_set", "getopen_inputs")
 
 
 @click.command("train")
@@ -23,16 +44,16 @@ CONFIG_OPTIONS = ("pass_policy", "getopen_policy", "episodes", "schedule", "tria
               help="Keepers' Pass policy (learned: SMDP Sarsa).")
 @click.option("--getopen", "getopen_policy", type=POLICY_CHOICES, default="learned", show_default=True,
               help="Keepers' GetOpen policy (learned: CEM).")
-@click.option("--episodes", type=int, default=None,
+@click.option("--episodes", type=COUNT_TYPE, default=None,
               help="Training episodes [30,000; with both learned: the schedule's length].")
 @click.option("--schedule", default=None, metavar="B:N,...",
               help="Phases, e.g. getopen:5000,pass:5000,getopen:15000,pass:5000 (Algorithm 3, the default "
                    "when both learn).")
-@click.option("--trials", type=int, default=1, show_default=True, help="Independent trials.")
-@click.option("--eval-every", type=int, default=2500, show_default=True,
+@click.option("--trials", type=COUNT_TYPE, default=1, show_default=True, help="Independent trials.")
+@click.option("--eval-every", type=COUNT_TYPE, default=2500, show_default=True,
               help="Training episodes between frozen evaluations.")
-@click.option("--eval-episodes", type=int, default=500, show_default=True, help="Episodes per evaluation.")
-@click.option("--arenas", type=int, default=None,
+@click.option("--eval-episodes", type=COUNT_TYPE, default=500, show_default=True, help="Episodes per evaluation.")
+@click.option("--arenas", type=COUNT_TYPE, default=None,
               help="batched: arenas stepped at once per CEM candidate and per evaluation [25]; distributed: "
                    "arenas of processes started [2] (a Pass block learns in one arena).")
 @click.option("--mode", type=click.Choice(["batched", "distributed"]), default="batched", show_default=True,
@@ -44,41 +65,47 @@ CONFIG_OPTIONS = ("pass_policy", "getopen_policy", "episodes", "schedule", "tria
               help="distributed: start the arenas on this machine, or on a Ray cluster (pip install "
                    "'keepaway[ray]'; see --ray-address).")
 @click.option("--ray-address", default=None, help="Ray cluster to join [RAY_ADDRESS, or a local Ray].")
-@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the whole training.")
-@click.option("--population", type=int, default=20, show_default=True, help="CEM candidates per generation.")
-@click.option("--elite", type=int, default=5, show_default=True, help="CEM candidates refitted to.")
-@click.option("--candidate-episodes", type=int, default=125, show_default=True,
+@click.option("--seed", type=SEED_TYPE, default=0, show_default=True, help="Seed of the whole training.")
+@click.option("--population", type=COUNT_TYPE, default=20, show_default=True, help="CEM candidates per generation.")
+@click.option("--elite", type=COUNT_TYPE, default=5, show_default=True,
+              help="CEM candidates refitted to (at most --population).")
+@click.option("--candidate-episodes", type=COUNT_TYPE, default=125, show_default=True,
               help="Episodes per CEM candidate.")
-@click.option("--keepers", type=int, default=3, show_default=True)
-@click.option("--takers", type=int, default=2, show_default=True)
-@click.option("--field-size", type=float, default=20.0, show_default=True, help="Side of the square region (m).")
+@click.option("--keepers", type=KEEPERS_TYPE, default=3, show_default=True, help=KEEPERS_HELP)
+@click.option("--takers", type=TAKERS_TYPE, default=2, show_default=True, help=TAKERS_HELP)
+@click.option("--field-size", type=FIELD_SIZE_TYPE, default=20.0, show_default=True, help=FIELD_SIZE_HELP)
 @click.option("--params", "parameter_set", type=click.Choice(["classic", "current"]), default="classic",
               show_default=True, help="Server parameter set.")
+@click.option("--getopen-inputs", type=click.Choice(["scaled", "raw"]), default="scaled", show_default=True,
+              help="GO:L net inputs: scaled by agents.getopen.GetOpenScaling, or raw metres and degrees.")
 @click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=Path("train_out"),
               show_default=True, help="Directory for curves, policies, traces and the summary.")
 @click.option("--resume", type=click.Path(file_okay=False, exists=True, path_type=Path), default=None,
               help="Continue the training in this directory from its last checkpoint.")
-@click.option("--threads", type=int, default=None, help="Threads stepping arenas [numba's thread count].")
+@click.option("--threads", type=COUNT_TYPE, default=None, help="Threads stepping arenas [numba's thread count].")
 @click.option("--no-progress", is_flag=True, help="No progress bars.")
 def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, schedule: str | None, trials: int,
                   eval_every: int, eval_episodes: int, arenas: int | None, mode: str, attach: tuple[str, ...],
                   backend: str, ray_address: str | None, seed: int, population: int,
                   elite: int, candidate_episodes: int, keepers: int, takers: int, field_size: float,
-                  parameter_set: str, out: Path, resume: Path | None, threads: int | None,
+                  parameter_set: str, getopen_inputs: str, out: Path, resume: Path | None, threads: int | None,
                   no_progress: bool) -> None:
     """Learn GetOpen (CEM), Pass (Sarsa) or both (Algorithm 3) with frozen evaluations along the way."""
     from agents.policy_file import getopen_theta_size
     from trainer.cem import CEMConfig
     from trainer.schedule import parse_schedule, training_schedule
     from trainer.launch import ArenaFailure, interrupt_on_sigterm
-    from trainer.train import TrainConfig, read_config, train
+    from trainer.train import TrainConfig, load_checkpoint, read_config, train
 
     ctx = click.get_current_context()
     if resume is not None:
-        try:
-            mode = read_config(resume).mode
-        except (FileNotFoundError, ValueError, TypeError, KeyError) as exc:
-            raise click.UsageError(f"{resume}: not a training to resume: {exc}") from None
+        try:  # every stored file is checked before anything starts
+            stored = read_config(resume)
+            for trial in range(stored.trials):
+                load_checkpoint(resume, trial)
+        except (FileNotFoundError, ValueError) as exc:
+            raise click.UsageError(str(exc)) from None
+        mode = stored.mode
     if (attach or backend != "local") and mode != "distributed":
         raise click.UsageError("--arena and --backend choose where a distributed training runs; "
                                + ("this training is batched" if resume else "add --mode distributed"))
@@ -99,7 +126,8 @@ def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, s
             if arenas is None:
                 arenas = len(attach) or (2 if mode == "distributed" else 25)
             config = TrainConfig(pass_policy, getopen_policy, phases, trials, eval_every, eval_episodes, arenas,
-                                 seed, keepers, takers, field_size, parameter_set, cem, mode=mode)
+                                 seed, keepers, takers, field_size, parameter_set, cem, mode=mode,
+                                 getopen_inputs=getopen_inputs)
         except ValueError as exc:
             raise click.UsageError(str(exc)) from None
     launcher = None
@@ -111,6 +139,8 @@ def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, s
         except RuntimeError as exc:
             raise click.UsageError(str(exc)) from None
     interrupt_on_sigterm()
+    local_arenas = mode == "distributed" and not attach and backend == "local"
+    prepare_kernels((BATCHED,) if mode == "batched" else (SERVER, PLAYERS) if local_arenas else ())
     try:
         summary = train(config, resume or out, resume=resume is not None, threads=threads,  # type: ignore[arg-type]
                         progress=not no_progress, attach=list(attach) or None, launcher=launcher)
@@ -122,8 +152,12 @@ def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, s
     except KeyboardInterrupt:
         click.echo(f"keepaway train: interrupted; continue with --resume {resume or out}", err=True)
         sys.exit(130)
-    click.echo(f"{summary['name']}: {len(summary['trials'])} trial(s); final evaluation "
-               f"{summary['final_mean_hold_time_s']:.2f} s +- {summary['final_stderr_hold_time_s']:.2f} (s.e.) "
+    from trainer.curves import format_hold, stderr_basis
+
+    trials = len(summary["trials"])
+    basis = stderr_basis(trials, summary["config"]["eval_episodes"])
+    click.echo(f"{summary['name']}: {trials} trial(s); final evaluation "
+               f"{format_hold(summary['final_mean_hold_time_s'], summary['final_stderr_hold_time_s'], basis)} "
                f"-> {resume or out}")
 
 
@@ -141,14 +175,14 @@ def _policy_files(path: Path) -> list[Path]:
 @click.command("evaluate")
 @click.option("--policy", "policy_path", type=click.Path(exists=True, path_type=Path), required=True,
               help="A policy file, or a training directory (each trial's policy).")
-@click.option("--episodes", type=int, default=500, show_default=True, help="Episodes per policy.")
-@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--episodes", type=COUNT_TYPE, default=500, show_default=True, help="Episodes per policy.")
+@click.option("--seed", type=SEED_TYPE, default=0, show_default=True, help="Seed of the evaluation.")
 @click.option("--pass", "pass_policy", type=POLICY_CHOICES, default=None,
               help="Pass policy to play [the one the file was trained with].")
 @click.option("--getopen", "getopen_policy", type=POLICY_CHOICES, default=None,
               help="GetOpen policy to play [the one the file was trained with].")
-@click.option("--arenas", type=int, default=25, show_default=True, help="Arenas stepped at once.")
-@click.option("--threads", type=int, default=None, help="Threads stepping arenas [numba's thread count].")
+@click.option("--arenas", type=COUNT_TYPE, default=25, show_default=True, help="Arenas stepped at once.")
+@click.option("--threads", type=COUNT_TYPE, default=None, help="Threads stepping arenas [numba's thread count].")
 @click.option("--json", "as_json", is_flag=True, help="Print machine-readable summaries.")
 @click.option("--no-progress", is_flag=True, help="No progress bar.")
 def evaluate_command(policy_path: Path, episodes: int, seed: int, pass_policy: str | None,
@@ -164,9 +198,7 @@ def evaluate_command(policy_path: Path, episodes: int, seed: int, pass_policy: s
     from agents.policy_file import unpack_pass_arrays
     from trainer.train import Behaviours, Game, evaluate
 
-    if episodes < 1 or arenas < 1:
-        raise click.UsageError("--episodes and --arenas must be at least 1")
-    results = []
+    plays = []  # every file is checked before the kernels are compiled and anything is played
     for path in _policy_files(policy_path):
         try:
             policy = load_policy(path)
@@ -180,11 +212,16 @@ def evaluate_command(policy_path: Path, episodes: int, seed: int, pass_policy: s
         behaviours = Behaviours(pass_policy or config.get("pass", "handcoded"),
                                 getopen_policy or config.get("getopen", "handcoded"),
                                 policy.getopen_theta,
-                                unpack_pass_arrays(policy.pass_arrays, policy.n_keepers) if policy.pass_arrays else None)
+                                unpack_pass_arrays(policy.pass_arrays, policy.n_keepers) if policy.pass_arrays else None,
+                                policy.getopen_inputs)
         if behaviours.getopen_policy == "learned" and behaviours.getopen_theta is None:
             raise click.UsageError(f"{path}: --getopen learned needs GetOpen parameters; the file has none")
         if behaviours.pass_policy == "learned" and behaviours.pass_arrays is None:
             raise click.UsageError(f"{path}: --pass learned needs Pass weights; the file has no Pass weights")
+        plays.append((path, game, behaviours))
+    prepare_kernels((BATCHED,))
+    results = []
+    for path, game, behaviours in plays:
         with tqdm(total=episodes, unit="ep", desc=str(path), disable=no_progress or as_json,
                   dynamic_ncols=True) as bar:
             try:
@@ -198,7 +235,7 @@ def evaluate_command(policy_path: Path, episodes: int, seed: int, pass_policy: s
             click.echo(f"{path}  (Pass {behaviours.pass_policy}, GetOpen {behaviours.getopen_policy})")
             click.echo(summary_table(summary) + "\n")
     if as_json:
-        click.echo(dump_json(results[0]) if len(results) == 1 else json.dumps(results, allow_nan=True))
+        click.echo(dump_json(results[0] if len(results) == 1 else results))
 
 
 commands = [train_command, evaluate_command]

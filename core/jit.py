@@ -1,0 +1,124 @@
+"""numba's compiled-kernel cache, keyed on the source of every kernel and everything it calls into.
+
+numba's own ``cache=True`` checks only the timestamp of the file that defines a kernel: after an edit
+to a file the kernel calls into (``agents/geometry.py`` under ``agents/skills.py``, say) it would load
+stale machine code. So every kernel module imports :func:`njit` from here, which first points numba's
+cache at a directory named after a digest of the kernel packages' source (content, size and mtime of
+every ``.py`` file of ``protocol``, ``core``, ``server``, ``agents`` and ``trainer/batched.py``) and of
+the numba, llvmlite and Python versions and the CPU. Any change there selects a fresh directory, so
+stale code can never run; the few most recently used directories are kept, older ones deleted.
+
+The directory lives under ``$NUMBA_CACHE_DIR`` if set, else ``$XDG_CACHE_HOME/keepaway`` (default
+``~/.cache/keepaway``). It also holds one marker per kernel set that ``keepaway compile`` has warmed
+(:func:`is_warm`, :func:`mark_warm`), so a launcher can compile each kernel once before it starts the
+processes that load them.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import platform
+import shutil
+import sys
+import time
+from functools import lru_cache
+from pathlib import Path
+
+import llvmlite
+import numba
+import numba.core.config
+from llvmlite import binding as llvm_binding
+from numba import njit
+
+ROOT = Path(__file__).resolve().parent.parent
+# Every file a kernel is defined in or calls into (kernels are compiled from these sources).
+KERNEL_SOURCES = ("protocol", "core", "server", "agents", "trainer/batched.py")
+KEEP_DIRECTORIES = 5  # the most recently used cache directories kept (a developer switching branches)
+LAST_USED = "last-used"
+
+
+def source_files(root: Path, entries: tuple[str, ...]) -> list[Path]:
+    """The ``.py`` files of ``entries`` (packages or single files) under ``root``, in a fixed order."""
+    files: list[Path] = []
+    for entry in entries:
+        path = root / entry
+        files.extend(sorted(path.rglob("*.py")) if path.is_dir() else [path])
+    return files
+
+
+def source_digest(root: Path, entries: tuple[str, ...]) -> str:
+    """A digest of the source files of ``entries`` (path, size, mtime and content of each) and of the
+    compiler and machine that compile them."""
+    digest = hashlib.sha256()
+    for item in (numba.__version__, llvmlite.__version__, sys.version, platform.machine(),
+                 llvm_binding.get_host_cpu_name()):
+        digest.update(item.encode() + b"\0")
+    for path in source_files(root, entries):
+        stat = path.stat()
+        digest.update(f"{path.relative_to(root)}\0{stat.st_size}\0{stat.st_mtime_ns}\0".encode())
+        digest.update(path.read_bytes())
+    return digest.hexdigest()[:16]
+
+
+@lru_cache(maxsize=1)
+def cache_key() -> str:
+    """The digest of this installation's kernel sources (:data:`KERNEL_SOURCES`)."""
+    return source_digest(ROOT, KERNEL_SOURCES)
+
+
+def cache_root() -> Path:
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        return Path(os.environ["NUMBA_CACHE_DIR"])
+    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "keepaway"
+
+
+@lru_cache(maxsize=1)
+def cache_dir() -> Path:
+    """This source's cache directory, created (and older ones pruned) on first use."""
+    root = cache_root()
+    path = root / f"numba-{cache_key()}"
+    if not path.exists():
+        path.mkdir(parents=True, exist_ok=True)
+        _prune(root, keep=path)
+    (path / LAST_USED).touch()
+    return path
+
+
+def _prune(root: Path, keep: Path) -> None:
+    """Delete all but the KEEP_DIRECTORIES most recently used cache directories."""
+    def last_used(path: Path) -> float:
+        try:
+            return (path / LAST_USED).stat().st_mtime
+        except OSError:
+            return 0.0
+
+    others = sorted((p for p in root.glob("numba-*") if p != keep and p.is_dir()), key=last_used, reverse=True)
+    for stale in others[KEEP_DIRECTORIES - 1:]:
+        shutil.rmtree(stale, ignore_errors=True)
+
+
+def configure_cache() -> None:
+    """Point numba's cache at :func:`cache_dir` (before any ``cache=True`` kernel is decorated)."""
+    directory = str(cache_dir())
+    if numba.core.config.CACHE_DIR != directory:
+        numba.core.config.CACHE_DIR = directory
+
+
+def _marker(kernel_set: str) -> Path:
+    return cache_dir() / f"warm-{kernel_set}"
+
+
+def is_warm(kernel_set: str) -> bool:
+    """``kernel_set`` was compiled into this source's cache (:func:`mark_warm`)."""
+    return _marker(kernel_set).exists()
+
+
+def mark_warm(kernel_set: str, seconds: float) -> None:
+    """Record that ``kernel_set`` is in the cache, and how long compiling it took."""
+    _marker(kernel_set).write_text(f"{seconds:.1f} s compile, {time.strftime('%Y-%m-%d %H:%M:%S')}\n")
+
+
+configure_cache()
+
+__all__ = ["cache_dir", "cache_key", "configure_cache", "is_warm", "mark_warm", "njit", "source_digest"]

@@ -1,0 +1,109 @@
+"""numba's kernel cache (``core.jit``): keyed on every kernel source, so stale machine code never runs,
+and compiled once per source before the processes that load it start (``trainer.kernels``)."""
+
+from __future__ import annotations
+
+import ast
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+from conftest import REPO, keepaway_command
+
+from core.jit import KERNEL_SOURCES, ROOT, source_digest, source_files
+
+# Runs pkg.a.f() with numba's cache in CACHE_ROOT/numba-<digest of pkg's source>, as core.jit does.
+RUN_KERNEL = textwrap.dedent("""
+    import sys
+    from pathlib import Path
+    import numba.core.config
+    from core.jit import source_digest
+    root, cache_root = Path(sys.argv[1]), Path(sys.argv[2])
+    numba.core.config.CACHE_DIR = str(cache_root / f"numba-{source_digest(root, ('pkg',))}")
+    sys.path.insert(0, str(root))
+    from pkg.a import f
+    print(f())
+""")
+
+
+def write_package(root: Path, g_value: int) -> None:
+    pkg = root / "pkg"
+    pkg.mkdir(exist_ok=True)
+    (pkg / "__init__.py").write_text("")
+    (pkg / "b.py").write_text(f"from numba import njit\n\n\n@njit(cache=True)\ndef g():\n    return {g_value}\n")
+    (pkg / "a.py").write_text("from numba import njit\n\nfrom pkg.b import g\n\n\n"
+                              "@njit(cache=True)\ndef f():\n    return g() + 10\n")
+
+
+def run_kernel(root: Path, cache_root: Path) -> int:
+    out = subprocess.run([sys.executable, "-c", RUN_KERNEL, str(root), str(cache_root)], cwd=REPO,
+                         capture_output=True, timeout=300, check=True)
+    return int(out.stdout)
+
+
+def test_editing_a_file_a_kernel_calls_into_never_runs_stale_code(tmp_path):
+    """numba's own cache checks only the caller's file (a.py): after an edit of b.py it would still
+    return 11. Keyed on the package's source, the edit selects a fresh cache."""
+    root, cache_root = tmp_path / "src", tmp_path / "cache"
+    root.mkdir()
+    write_package(root, 1)
+    assert run_kernel(root, cache_root) == 11
+    assert run_kernel(root, cache_root) == 11  # now from the cache
+    cached = list(cache_root.glob("numba-*/*/a.f-*.nbi"))
+    assert len(cached) == 1
+    write_package(root, 2)
+    assert run_kernel(root, cache_root) == 12
+    assert len(list(cache_root.glob("numba-*"))) == 2
+
+
+def test_the_digest_follows_content_and_timestamps(tmp_path):
+    write_package(tmp_path, 1)
+    first = source_digest(tmp_path, ("pkg",))
+    assert source_digest(tmp_path, ("pkg",)) == first
+    b = tmp_path / "pkg" / "b.py"
+    stat = b.stat()
+    b.write_text(b.read_text().replace("1", "7"))  # same size
+    os.utime(b, ns=(stat.st_atime_ns, stat.st_mtime_ns))  # same timestamp
+    assert source_digest(tmp_path, ("pkg",)) != first
+
+
+def imports_njit(tree: ast.AST, module: str) -> bool:
+    return any(isinstance(node, ast.ImportFrom) and node.module == module and any(a.name == "njit" for a in node.names)
+               for node in ast.walk(tree))
+
+
+def imports_numba_njit(tree: ast.AST) -> bool:
+    if imports_njit(tree, "numba"):
+        return True
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Attribute) and node.attr == "njit" and getattr(node.value, "id", None) in ("numba", "nb"):
+            return True
+    return False
+
+
+def test_every_cached_kernel_goes_through_core_jit_and_is_in_the_key():
+    """A kernel decorated with numba's own njit would use numba's stale-prone cache; a kernel module
+    outside KERNEL_SOURCES would not change the key when edited."""
+    keyed = set(source_files(ROOT, KERNEL_SOURCES))
+    for package in ("protocol", "core", "server", "agents", "coach", "trainer", "keepaway"):
+        for path in sorted((ROOT / package).rglob("*.py")):
+            tree = ast.parse(path.read_text())
+            if path.name != "jit.py":
+                assert not imports_numba_njit(tree), f"{path}: import njit from core.jit"
+            if imports_njit(tree, "core.jit"):
+                assert path in keyed, f"{path} defines kernels but is not in core.jit.KERNEL_SOURCES"
+
+
+def test_a_warm_cache_is_loaded_not_compiled_again(processes, tmp_path):
+    """The test session compiled every kernel set (conftest); nothing says it compiles again."""
+    proc = processes.popen(keepaway_command("compile"), stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    out, err = proc.communicate(timeout=300)
+    assert proc.returncode == 0, err.decode()
+    assert "already compiled" in out.decode() and "compiling" not in err.decode()
+    proc = processes.popen(keepaway_command("run", "--episodes", "1", "--mode", "embedded", "--json",
+                                            "--out", str(tmp_path)), stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    _, err = proc.communicate(timeout=300)
+    assert proc.returncode == 0, err.decode()
+    assert "compiling" not in err.decode()
