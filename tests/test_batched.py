@@ -8,8 +8,6 @@ encoded messages in the synchronous order.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 
@@ -29,6 +27,7 @@ from server.referee import END_OUT, END_TAKEN
 from server.world import new_world
 from server.perception import see_due
 from trainer.batched import BatchedArenas, see_to_model_row
+from trainer.experiments import welch_p_value
 
 PARAMS = parameter_set("classic")
 KP = PARAMS.kernel()
@@ -74,18 +73,6 @@ class EmbeddedGame:
 def table_rows(table, arena=None):
     keep = slice(None) if arena is None else table.arena == arena
     return np.column_stack((table.episode[keep], table.start_cycle[keep], table.end_cycle[keep], table.end[keep]))
-
-
-def welch_p_value(a: np.ndarray, b: np.ndarray) -> float:
-    """Two-sided Welch t-test: t = (ma - mb) / sqrt(va/na + vb/nb), Welch-Satterthwaite degrees of freedom,
-    p = 2 P(T_df > |t|) from the Student t density integrated numerically."""
-    va, vb = a.var(ddof=1) / len(a), b.var(ddof=1) / len(b)
-    t = abs(a.mean() - b.mean()) / math.sqrt(va + vb)
-    df = (va + vb) ** 2 / (va ** 2 / (len(a) - 1) + vb ** 2 / (len(b) - 1))
-    x = np.linspace(0.0, t, 200_001)
-    log_c = math.lgamma((df + 1) / 2) - math.lgamma(df / 2) - 0.5 * math.log(df * math.pi)
-    density = np.exp(log_c - (df + 1) / 2 * np.log1p(x * x / df))
-    return max(0.0, 1.0 - 2.0 * np.trapezoid(density, x))
 
 
 # --------------------------------------------------------------------------------------------------
