@@ -21,6 +21,7 @@ import os
 import platform
 import shutil
 import sys
+import tempfile
 import time
 from functools import lru_cache
 from pathlib import Path
@@ -75,8 +76,15 @@ def cache_root() -> Path:
 
 @lru_cache(maxsize=1)
 def cache_dir() -> Path:
-    """This source's cache directory, created (and older ones pruned) on first use."""
-    root = cache_root()
+    """This source's cache directory, created (and older ones pruned) on first use; under the system's
+    temporary directory if the cache root cannot be written (a read-only home, say)."""
+    try:
+        return _open_cache_dir(cache_root())
+    except OSError:
+        return _open_cache_dir(Path(tempfile.gettempdir()) / f"keepaway-{os.getuid()}")
+
+
+def _open_cache_dir(root: Path) -> Path:
     path = root / f"numba-{cache_key()}"
     if not path.exists():
         path.mkdir(parents=True, exist_ok=True)

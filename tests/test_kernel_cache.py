@@ -107,3 +107,14 @@ def test_a_warm_cache_is_loaded_not_compiled_again(processes, tmp_path):
     _, err = proc.communicate(timeout=300)
     assert proc.returncode == 0, err.decode()
     assert "compiling" not in err.decode()
+
+
+def test_an_unwritable_cache_root_falls_back_to_the_temporary_directory(tmp_path):
+    """A read-only home must not stop every command at import: the cache moves to the temp directory."""
+    blocker = tmp_path / "not-a-directory"
+    blocker.write_text("")
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(blocker / "cache"), "TMPDIR": str(tmp_path / "tmp")}
+    (tmp_path / "tmp").mkdir()
+    out = subprocess.run([sys.executable, "-c", "from core.jit import cache_dir; print(cache_dir())"], cwd=REPO,
+                         env=env, capture_output=True, text=True, timeout=120, check=True)
+    assert Path(out.stdout.strip()).parent == tmp_path / "tmp" / f"keepaway-{os.getuid()}"
