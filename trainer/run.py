@@ -216,6 +216,7 @@ def run(opts: RunOptions, progress: bool = True, announce: Callable[[str], None]
     ensure_compiled(kernel_sets(opts.mode), announce, log_dir=opts.out / "processes")
     records: list[EpisodeRecord] = []
     marks: list[int] = []  # the stream's cycle count when each record came (all arenas' in batched mode)
+    held_s = 0.0  # the records' hold times, summed as they come (the bar's running mean)
     bar = tqdm(total=opts.episodes, unit="ep", disable=not progress, dynamic_ncols=True)
     first_at: float | None = None
     last_at = 0.0
@@ -242,8 +243,9 @@ def run(opts: RunOptions, progress: bool = True, announce: Callable[[str], None]
                 first_at, first_cycle = now, cycles
             if cycles > last_cycle:
                 last_at, last_cycle = now, cycles
+            held_s += record.hold_time_s
             bar.update(1)
-            bar.set_postfix(mean_hold_s=f"{sum(r.hold_time_s for r in records) / len(records):.2f}")
+            bar.set_postfix(mean_hold_s=f"{held_s / len(records):.2f}")
     except (ArenaFailure, KeyboardInterrupt) as exc:
         stopped = exc
     finally:

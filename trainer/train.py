@@ -589,7 +589,6 @@ def read_config(out: Path) -> TrainConfig:
                          f"or start a new training in another --out directory") from None
 
 
-
 def run_trials(config: TrainConfig, out: Path, backend: Any = None,
                steps: Callable[[int, int], Progress] | None = None,
                on_step: Callable[[TrialState, str], None] | None = None) -> Iterator[TrialState]:
