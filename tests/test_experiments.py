@@ -314,3 +314,18 @@ def test_configurations_are_seeded_independently():
     seeds.add(exp.fixed_record("random", "random")["seed"])
     assert len(seeds) == 4
     assert exp.train_config(LEARNED, LEARNED).seed == ExperimentConfig(seed=3).train_config(LEARNED, LEARNED).seed
+
+
+def test_only_runs_the_named_configurations_and_draws_nothing(tmp_path):
+    result = invoke("figure3", tmp_path, "--only", "P:HC-GO:HC", "--only", "P_R-GO_R")
+    assert result.exit_code == 0, result.output + repr(result.exception)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["P_HC-GO_HC", "P_R-GO_R"]
+    assert "ran 2 of 9 configurations" in result.output
+    assert [line.split(":")[0:2] for line in result.output.splitlines()[:2]] == [["P", "R-GO"], ["P", "HC-GO"]]
+
+
+def test_an_unknown_configuration_name_is_a_one_line_usage_error(tmp_path):
+    result = invoke("figure3", tmp_path, "--only", "P:HC-GO:X")
+    assert result.exit_code == 2
+    assert "unknown configuration 'P:HC-GO:X'; choose from P:R-GO:R" in result.output
+    assert not any(tmp_path.iterdir())

@@ -93,16 +93,26 @@ def experiment_group() -> None:
 
 @experiment_group.command("figure3")
 @experiment_options
+@click.option("--only", "only", multiple=True, metavar="P:X-GO:Y",
+              help="Run just this configuration (repeat for more) and draw nothing: split the nine across "
+                   "processes sharing --out, then run once without --only to draw the figure.")
 def figure3_command(trials: int, episodes: int, eval_every: int | None, eval_episodes: int, arenas: int,
                     population: int, elite: int, candidate_episodes: int, seed: int, out: Path,
-                    threads: int | None, no_progress: bool) -> None:
+                    threads: int | None, no_progress: bool, only: tuple[str, ...]) -> None:
     """Train the nine Pass x GetOpen configurations and plot them grouped by Pass and by GetOpen."""
-    from trainer.experiments import figure3
+    from trainer.experiments import figure3, parse_configurations
 
     exp = _experiment(trials, episodes, eval_every, eval_episodes, arenas, population, elite, candidate_episodes,
                       seed)
-    _run(figure3, exp, out, threads, no_progress)
-    click.echo(f"figure: {out / 'figure3.png'}; final evaluations: {out / 'figure3.csv'}, {out / 'figure3.json'}")
+    try:
+        chosen = parse_configurations(only) if only else None
+    except ValueError as exc:
+        raise click.BadParameter(str(exc), param_hint="--only") from None
+    _run(functools.partial(figure3, only=chosen), exp, out, threads, no_progress)
+    if chosen is None:
+        click.echo(f"figure: {out / 'figure3.png'}; final evaluations: {out / 'figure3.csv'}, {out / 'figure3.json'}")
+    else:
+        click.echo(f"ran {len(chosen)} of 9 configurations; run without --only to draw the figure")
 
 
 @experiment_group.command("table2")

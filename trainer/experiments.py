@@ -263,22 +263,41 @@ def _run_fixed(exp: ExperimentConfig, pass_policy: str, getopen_policy: str, whe
 
 
 # -- Figure 3 ----------------------------------------------------------------------------------------
+CONFIGURATIONS = tuple((p, g) for p in POLICIES for g in POLICIES)  # Figure 3's order: P:R-GO:R, P:R-GO:HC, ...
+
+
+def parse_configurations(names: Sequence[str]) -> list[tuple[str, str]]:
+    """The (Pass, GetOpen) pairs named ``P:HC-GO:L`` (or as their directories, ``P_HC-GO_L``), in Figure 3's
+    order; ValueError (one line) for a name that is none of the nine."""
+    known = {configuration_name(p, g): (p, g) for p, g in CONFIGURATIONS}
+    chosen = set()
+    for name in names:
+        pair = known.get(name.strip().replace("_", ":"))
+        if pair is None:
+            raise ValueError(f"unknown configuration {name!r}; choose from {', '.join(known)}")
+        chosen.add(pair)
+    return [c for c in CONFIGURATIONS if c in chosen]
+
+
 def figure3(exp: ExperimentConfig, out: Path, threads: int | None = None, progress: bool = True,
-            on_configuration: Callable[[ConfigurationRun], None] | None = None) -> list[ConfigurationRun]:
+            on_configuration: Callable[[ConfigurationRun], None] | None = None,
+            only: Sequence[tuple[str, str]] | None = None) -> list[ConfigurationRun]:
     """Run the nine configurations in ``out`` (each skipped when finished), then write ``figure3.png``
     (:func:`plot_figure3`), ``figure3.csv`` and ``figure3.json`` (final evaluations); returns the runs
-    in the order P:R-GO:R, P:R-GO:HC, ..., P:L-GO:L."""
+    in the order P:R-GO:R, P:R-GO:HC, ..., P:L-GO:L. With ``only`` (pairs from :func:`parse_configurations`)
+    just those configurations run and nothing experiment-wide is written: processes or machines sharing
+    ``out`` can each take some, and a last run without ``only`` finds them all finished and draws the figure."""
     exp.check()
     out.mkdir(parents=True, exist_ok=True)
     runs = []
-    for pass_policy in POLICIES:
-        for getopen_policy in POLICIES:
-            run = run_configuration(exp, pass_policy, getopen_policy, out, threads, progress)
-            runs.append(run)
-            if on_configuration is not None:
-                on_configuration(run)
-    plot_figure3(out / "figure3.png", runs)
-    write_final_evaluations(out, exp, runs)
+    for pass_policy, getopen_policy in CONFIGURATIONS if only is None else only:
+        run = run_configuration(exp, pass_policy, getopen_policy, out, threads, progress)
+        runs.append(run)
+        if on_configuration is not None:
+            on_configuration(run)
+    if only is None:
+        plot_figure3(out / "figure3.png", runs)
+        write_final_evaluations(out, exp, runs)
     return runs
 
 
@@ -540,6 +559,7 @@ def table2(exp: ExperimentConfig, out: Path, threads: int | None = None, progres
 
 
 __all__ = [
+    "CONFIGURATIONS",
     "Cell",
     "ConfigurationRun",
     "CrossTable",
@@ -551,6 +571,7 @@ __all__ = [
     "default_eval_every",
     "experiment_game",
     "figure3",
+    "parse_configurations",
     "plot_figure3",
     "reference_levels",
     "run_configuration",
