@@ -332,7 +332,8 @@ class PlayerAgent:
             raise PolicyFileError(f"{policy.path}: the policy is for {policy.n_keepers} keepers and "
                                   f"{policy.n_takers} takers, the server plays {n_keepers} vs {n_takers}")
         params = ServerParams.from_dict(msg.params)
-        self._world_args = (params, msg.side, msg.unum, n_keepers, n_takers, msg.landmarks["flags"])
+        self._world_args = (params, msg.side, msg.unum, n_keepers, n_takers, msg.landmarks["flags"],
+                            self.config)
         self.wm = WorldModel(*self._world_args)
         self.kp = self.wm.kp
         self.n_keepers, self.n_takers, self.mode = n_keepers, n_takers, mode

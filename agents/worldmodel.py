@@ -10,12 +10,22 @@ deciding player (one row of a batch), an estimate of every object and writes it 
 * **sense_body**: my neck (head_angle), velocity (speed) and effort, both angles truncated to integers;
 * **see**: self-localisation from the flags, a weighted 2-D rigid fit (Procrustes) of the flags' relative
   positions onto their global positions, which gives my head direction and position without a prior; the
-  ball and the players from their polar observations, velocities from dist_chg/dir_chg (spec 4 "Changes"),
-  unnamed players associated with the nearest compatible predicted player;
+  players, then the ball, from their polar observations, velocities from dist_chg/dir_chg (spec 4
+  "Changes"), unnamed players associated with the nearest compatible predicted player;
 * **confidence** conf = 1 - (cycles since seen)/100, 1 for myself (spec `keepaway-agents.md` 1).
 
+The ball follows the rules of the keepaway-0.6 C++ players' world model (tjpalmer/keepaway
+`player/WorldModelUpdate.cc`, docs/design.md "The ball in the players' world model"), which keepers and
+takers share: a ball that an opponent can kick is believed to stand still (in the prediction and after a
+see), a seen velocity is averaged with the predicted one when they agree, and a velocity from position
+differences is refused where a player could have kicked the ball. The players' own settings
+(``AgentConfig``: which players are usable) enter these rules as in the C++
+(``PlayerSettings::getPlayerConfThr``).
+
 Not modelled: collisions, the line observations (the flags suffice), fusing successive noisy sightings of
-an object (each see replaces the estimate), commands that arrive late and act a cycle later.
+a player (each see replaces the estimate), commands that arrive late and act a cycle later, the C++
+model's guesses about unseen players (moving the fastest opponent towards the ball) and its own position
+from the sense_body speed.
 
 Hot paths are ``@njit`` kernels over arrays with a row per player; a row kernel takes the row index ``r``
 so the batched mode can compose them in one loop. :class:`WorldModel` is the per-process Python wrapper
@@ -34,6 +44,7 @@ from core.jit import njit
 
 from agents.belief import Belief, empty_belief
 from agents.geometry import kick_rate, normalize_angle, turn_effect
+from agents.skills import AgentConfig, kickable_distance
 from protocol.params import ServerParams
 from server.world import BALL, CMD_DASH, CMD_KICK, CMD_NONE, CMD_TURN
 
@@ -43,10 +54,6 @@ CONF_HORIZON_CYCLES = 100.0
 DIR_STEP_DEG = 1.0
 # The outer quantisation of every seen distance, Q(exp(Q(ln d, q)), 0.1) (spec 4 "Distance").
 DIST_PRINT_STEP = 0.1
-# Velocity from two successive ball positions only if they are at most this many cycles apart: one see
-# period is 1-2 cycles at normal width and 3 at the widest synch-see (spec 4 "View modes"); beyond it a
-# kick or collision in between is likely.
-MAX_POSITION_DIFF_GAP = 3
 # seen/obs time of an object never seen since the last forget.
 NEVER = -(1 << 40)
 # Association tiers (spec: nearest compatible predicted player): a player within its reach beats a never
@@ -76,6 +83,8 @@ class ModelState(NamedTuple):
     speed_time: np.ndarray  # (B,) int64 cycle of that speed
     cmd_main: np.ndarray  # (B,) int8 my main command of this cycle (CMD_*), applied at the next step
     cmd_args: np.ndarray  # (B, 3) its arg1, arg2 and my turn_neck moment
+    kicked: np.ndarray  # (B,) bool my last predicted step had a kick command (C++ m_bPerformedKick)
+    loc_shift: np.ndarray  # (B, 2) my seen minus predicted position at the last see (C++ PositionDifference)
 
 
 class SeeBuffer(NamedTuple):
@@ -116,6 +125,8 @@ def new_model_state(batch: int, n_keepers: int, n_takers: int, me: np.ndarray | 
         speed_time=np.full(batch, NEVER, dtype=np.int64),
         cmd_main=np.full(batch, CMD_NONE, dtype=np.int8),
         cmd_args=np.zeros((batch, 3)),
+        kicked=np.zeros(batch, dtype=np.bool_),
+        loc_shift=np.zeros((batch, 2)),
     )
 
 
@@ -174,18 +185,57 @@ def _flag_weight(dist, kp):
     return 1.0 / (dist * dist * rel + DIST_PRINT_STEP ** 2 / 12.0)
 
 
+@njit(cache=True)
+def _confidence(r, s, obj):
+    """conf = 1 - (cycles since seen)/100 in [0, 1], 1 for me (spec `keepaway-agents.md` 1)."""
+    if obj == s.me[r]:
+        return 1.0
+    return _clamp(1.0 - float(s.time[r] - s.seen[r, obj]) / CONF_HORIZON_CYCLES, 0.0, 1.0)
+
+
+@njit(cache=True)
+def _closest_player(r, s, x, y, lo, hi, skip, cfg):
+    """The usable player (conf >= player_conf_threshold, me included) among objects ``lo``..``hi - 1``
+    other than ``skip`` nearest to (x, y), and its distance; (-1, inf) if none. The C++ world model's
+    ``getClosestInSetTo`` with its default confidence threshold."""
+    best = -1
+    best_d = np.inf
+    for obj in range(lo, hi):
+        if obj == skip or _confidence(r, s, obj) < cfg.player_conf_threshold:
+            continue
+        d = math.hypot(s.pos[r, obj, 0] - x, s.pos[r, obj, 1] - y)
+        if d < best_d:
+            best = obj
+            best_d = d
+    return best, best_d
+
+
+@njit(cache=True, inline="always")
+def _opponents(r, s, n_keepers):
+    """Object range lo..hi - 1 of my opponents: the takers for a keeper, the keepers for a taker."""
+    if s.me[r] <= n_keepers:
+        return n_keepers + 1, s.pos.shape[1]
+    return 1, n_keepers + 1
+
+
 # ---------------------------------------------------------------------------------------------------
 # prediction (spec `server-physics.md` 2-3, without noise)
 
 
 @njit(cache=True)
+def _ball_kickable_by_me(r, s, kp):
+    """Whether the estimated ball is within my kickable distance."""
+    me = s.me[r]
+    d = math.hypot(s.pos[r, BALL, 0] - s.pos[r, me, 0], s.pos[r, BALL, 1] - s.pos[r, me, 1])
+    return d <= kickable_distance(kp)
+
+
+@njit(cache=True)
 def _kick_acceleration(r, s, power, direction, kp):
-    """The acceleration my kick gives the ball, or zero if the ball is not kickable (spec 3 kick)."""
+    """The acceleration my kick gives a kickable ball (spec 3 kick)."""
     me = s.me[r]
     px, py = s.pos[r, me, 0], s.pos[r, me, 1]
     bx, by = s.pos[r, BALL, 0], s.pos[r, BALL, 1]
-    if math.hypot(bx - px, by - py) > kp.player_size + kp.kickable_margin + kp.ball_size:
-        return 0.0, 0.0
     power = _clamp(power, kp.min_power, kp.max_power)
     direction = _clamp(direction, kp.min_moment, kp.max_moment)
     eff = power * kick_rate(px, py, s.body[r, me], bx, by, kp)
@@ -230,40 +280,60 @@ def _move(r, s, obj, ax, ay, accel_max, speed_max, decay):
 
 
 @njit(cache=True)
-def predict_row(r: int, s: ModelState, kp) -> None:
-    """Advance row ``r`` by one cycle: apply my pending commands and roll every object out."""
+def _stop_ball_at_opponent(r, s, x0, y0, n_keepers, kp, cfg):
+    """The rolled-out ball stops if the usable opponent nearest to where it was (x0, y0) can kick it
+    where it is now (C++ ``WorldModel::updateDynamicObjectForNextCycle``, ball branch): he is taken to
+    control it."""
+    lo, hi = _opponents(r, s, n_keepers)
+    opp, _ = _closest_player(r, s, x0, y0, lo, hi, -1, cfg)
+    if opp >= 0 and math.hypot(s.pos[r, BALL, 0] - s.pos[r, opp, 0],
+                               s.pos[r, BALL, 1] - s.pos[r, opp, 1]) < kickable_distance(kp):
+        s.vel[r, BALL, 0] = 0.0
+        s.vel[r, BALL, 1] = 0.0
+
+
+@njit(cache=True)
+def predict_row(r: int, s: ModelState, n_keepers: int, kp, cfg) -> None:
+    """Advance row ``r`` by one cycle: apply my pending commands and roll every object out. A ball I did
+    not kick stops where an opponent can kick it (:func:`_stop_ball_at_opponent`); the other players are
+    still at their old estimates then, as in the C++ (the ball is updated first)."""
+    s.time[r] += 1
     me = s.me[r]
     main = s.cmd_main[r]
     ax = ay = bx = by = 0.0
+    kick = main == CMD_KICK and _ball_kickable_by_me(r, s, kp)
     if main == CMD_DASH:
         ax, ay = _dash_acceleration(r, s, s.cmd_args[r, 0], kp)
     elif main == CMD_TURN:
         speed = math.hypot(s.vel[r, me, 0], s.vel[r, me, 1])
         s.body[r, me] = normalize_angle(s.body[r, me] + turn_effect(s.cmd_args[r, 0], speed, kp))
-    elif main == CMD_KICK:
+    elif kick:
         bx, by = _kick_acceleration(r, s, s.cmd_args[r, 0], s.cmd_args[r, 1], kp)
+    s.kicked[r] = main == CMD_KICK
     neck_moment = _clamp(s.cmd_args[r, 2], kp.min_neck_moment, kp.max_neck_moment)
     s.neck[r, me] = _clamp(s.neck[r, me] + neck_moment, kp.min_neck_angle, kp.max_neck_angle)
     s.cmd_main[r] = CMD_NONE
     s.cmd_args[r, :] = 0.0
 
+    x0, y0 = s.pos[r, BALL, 0], s.pos[r, BALL, 1]
     _move(r, s, BALL, bx, by, kp.ball_accel_max, kp.ball_speed_max, kp.ball_decay)
+    if not kick:
+        _stop_ball_at_opponent(r, s, x0, y0, n_keepers, kp, cfg)
     for obj in range(1, s.pos.shape[1]):
         if obj == me:
             _move(r, s, obj, ax, ay, kp.player_accel_max, kp.player_speed_max, kp.player_decay)
         else:
             _move(r, s, obj, 0.0, 0.0, kp.player_accel_max, kp.player_speed_max, kp.player_decay)
             s.err[r, obj] += kp.player_speed_max
-    s.time[r] += 1
 
 
 @njit(cache=True)
-def advance_row(r: int, s: ModelState, cycle: int, kp) -> None:
+def advance_row(r: int, s: ModelState, cycle: int, n_keepers: int, kp, cfg) -> None:
     """Predict row ``r`` forward to ``cycle`` (the first percept just sets the clock)."""
     if s.time[r] < 0:
         s.time[r] = cycle
     while s.time[r] < cycle:
-        predict_row(r, s, kp)
+        predict_row(r, s, n_keepers, kp, cfg)
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -281,10 +351,10 @@ def _velocity_from_speed(r, s):
 
 @njit(cache=True)
 def sense_body_row(r: int, s: ModelState, cycle: int, speed_amount: float, speed_dir: float, head_angle: int,
-                   stamina: float, effort: float, kp) -> None:
+                   stamina: float, effort: float, n_keepers: int, kp, cfg) -> None:
     """Take a sense_body: advance to its cycle, correct my neck (kept if the prediction truncates to
     the reported head_angle), velocity, stamina and effort."""
-    advance_row(r, s, cycle, kp)
+    advance_row(r, s, cycle, n_keepers, kp, cfg)
     me = s.me[r]
     if int(s.neck[r, me]) != head_angle:
         s.neck[r, me] = _truncated_centre(float(head_angle))
@@ -308,9 +378,11 @@ def localise_row(r: int, s: ModelState, see: SeeBuffer, flag_pos: np.ndarray, kp
     position f_i = p + R(head) q_i. The weighted least-squares (p, head) is a 2-D Procrustes fit: head =
     atan2(sum w (Q x F), sum w (Q . F)) over centred Q, F, then p = mean f - R(head) mean q. Weights are the
     inverse quantisation variances, so near flags dominate the position and far ones add baseline to
-    the direction. One flag keeps the predicted head.
+    the direction. One flag keeps the predicted head. The correction of my predicted position is kept
+    in ``loc_shift`` (the ball's position differences discount it).
     """
     n = see.n_flags[r]
+    s.loc_shift[r, :] = 0.0
     if n == 0:
         return
     me = s.me[r]
@@ -353,50 +425,106 @@ def localise_row(r: int, s: ModelState, see: SeeBuffer, flag_pos: np.ndarray, kp
     h = math.radians(head)
     c = math.cos(h)
     sn = math.sin(h)
-    s.pos[r, me, 0] = mfx - (c * mqx - sn * mqy)
-    s.pos[r, me, 1] = mfy - (sn * mqx + c * mqy)
+    x = mfx - (c * mqx - sn * mqy)
+    y = mfy - (sn * mqx + c * mqy)
+    s.loc_shift[r, 0] = x - s.pos[r, me, 0]
+    s.loc_shift[r, 1] = y - s.pos[r, me, 1]
+    s.pos[r, me, 0] = x
+    s.pos[r, me, 1] = y
     s.body[r, me] = normalize_angle(head - s.neck[r, me])
     s.err[r, me] = 0.0
     s.seen[r, me] = s.time[r]
 
 
 @njit(cache=True)
-def _observe(r, s, obj, dist, direction, dist_chg, dir_chg, decay, from_positions):
-    """Set object ``obj`` from a polar observation relative to my head: position; velocity from the
-    change pair (v = v_me + dist_chg e + rad(dir_chg) d e_perp, spec 4 "Changes"), else, if
-    ``from_positions``, from the displacement since a recent observation (p1 - p0 = v0 (1 - d^n)/(1 - d),
-    v1 = v0 d^n), else the predicted velocity stays."""
+def _seen_point(r, s, dist, direction):
+    """Global position of a polar observation relative to my head, and the unit sight vector."""
     me = s.me[r]
     a = math.radians(s.body[r, me] + s.neck[r, me] + direction)
     ex = math.cos(a)
     ey = math.sin(a)
-    px = s.pos[r, me, 0] + dist * ex
-    py = s.pos[r, me, 1] + dist * ey
-    t = s.time[r]
-    if not (math.isnan(dist_chg) or math.isnan(dir_chg)):
-        tangential = math.radians(dir_chg) * dist
-        s.vel[r, obj, 0] = s.vel[r, me, 0] + dist_chg * ex - tangential * ey
-        s.vel[r, obj, 1] = s.vel[r, me, 1] + dist_chg * ey + tangential * ex
-    elif from_positions and 1 <= t - s.seen[r, obj] <= MAX_POSITION_DIFF_GAP:
-        gap = t - s.seen[r, obj]
-        k = decay ** gap * (1.0 - decay) / (1.0 - decay ** gap)
-        s.vel[r, obj, 0] = (px - s.obs_pos[r, obj, 0]) * k
-        s.vel[r, obj, 1] = (py - s.obs_pos[r, obj, 1]) * k
+    return s.pos[r, me, 0] + dist * ex, s.pos[r, me, 1] + dist * ey, ex, ey
+
+
+@njit(cache=True)
+def _change_velocity(r, s, dist, ex, ey, dist_chg, dir_chg):
+    """Velocity from the change pair: v = v_me + dist_chg e + rad(dir_chg) d e_perp (spec 4 "Changes")."""
+    me = s.me[r]
+    tangential = math.radians(dir_chg) * dist
+    return (s.vel[r, me, 0] + dist_chg * ex - tangential * ey,
+            s.vel[r, me, 1] + dist_chg * ey + tangential * ex)
+
+
+@njit(cache=True)
+def _mark_seen(r, s, obj, px, py):
+    """Object ``obj`` seen at (px, py) now."""
     s.pos[r, obj, 0] = px
     s.pos[r, obj, 1] = py
     s.obs_pos[r, obj, 0] = px
     s.obs_pos[r, obj, 1] = py
-    s.seen[r, obj] = t
+    s.seen[r, obj] = s.time[r]
     s.err[r, obj] = 0.0
 
 
 @njit(cache=True)
-def update_ball_row(r: int, s: ModelState, see: SeeBuffer, kp) -> None:
-    """The ball from the see (spec 4), velocity from its change pair or successive positions."""
+def _ball_velocity_from_positions(r, s, px, py, vx, vy, kp, cfg):
+    """The ball's velocity from its last seen position (C++ ``calculateStateBall`` without the change
+    pair): seen 1 cycle ago, v = (p1 - p0) d; 2 cycles ago, v0 = (p1 - p0) d/(1 + d) and v = v0 d unless
+    a player (me included) was within kickable distance of the ball's position a cycle ago or I kicked;
+    otherwise the predicted (vx, vy) stays. The displacement discounts my own localisation correction
+    (``loc_shift``): both positions then carry the same error of my position.
+    """
+    d = kp.ball_decay
+    gap = s.time[r] - s.seen[r, BALL]
+    dx = px - s.obs_pos[r, BALL, 0] - s.loc_shift[r, 0]
+    dy = py - s.obs_pos[r, BALL, 1] - s.loc_shift[r, 1]
+    if gap == 1:
+        return dx * d, dy * d
+    if gap == 2:
+        tx = dx / (1.0 + d) * d
+        ty = dy / (1.0 + d) * d
+        _, near = _closest_player(r, s, px - tx, py - ty, 1, s.pos.shape[1], -1, cfg)
+        if near > kickable_distance(kp) and not s.kicked[r]:
+            return tx * d, ty * d
+    return vx, vy
+
+
+@njit(cache=True)
+def update_ball_row(r: int, s: ModelState, see: SeeBuffer, n_keepers: int, kp, cfg) -> None:
+    """The ball from the see (spec 4), as the C++ ``WorldModel::calculateStateBall``: the velocity from
+    the change pair, averaged with the predicted one if each component is within 2 ball_rand |v_pred| of
+    it; without the pair, within visible_distance, from successive positions
+    (:func:`_ball_velocity_from_positions`); else the predicted one. Then zero if a usable opponent is
+    within kickable distance of the ball and I am not (he controls it), else at most ball_speed_max if
+    above (1 + ball_rand) ball_speed_max. Call after the players are updated: the opponents' positions are
+    this see's."""
     if not see.ball_seen[r]:
         return
-    o = see.ball_obs[r]
-    _observe(r, s, BALL, o[0], o[1], o[2], o[3], kp.ball_decay, True)
+    dist, direction = see.ball_obs[r, 0], see.ball_obs[r, 1]
+    dist_chg, dir_chg = see.ball_obs[r, 2], see.ball_obs[r, 3]
+    px, py, ex, ey = _seen_point(r, s, dist, direction)
+    vx, vy = s.vel[r, BALL, 0], s.vel[r, BALL, 1]
+    kickable = kickable_distance(kp)
+    if not (math.isnan(dist_chg) or math.isnan(dir_chg)):
+        cx, cy = _change_velocity(r, s, dist, ex, ey, dist_chg, dir_chg)
+        agree = 2.0 * kp.ball_rand * math.hypot(vx, vy)
+        if abs(cx - vx) <= agree and abs(cy - vy) <= agree:
+            vx, vy = 0.5 * (cx + vx), 0.5 * (cy + vy)
+        else:
+            vx, vy = cx, cy
+    elif dist < kp.visible_distance:
+        vx, vy = _ball_velocity_from_positions(r, s, px, py, vx, vy, kp, cfg)
+    lo, hi = _opponents(r, s, n_keepers)
+    _, d_opp = _closest_player(r, s, px, py, lo, hi, -1, cfg)
+    speed = math.hypot(vx, vy)
+    if d_opp < kickable and dist > kickable:
+        vx = vy = 0.0
+    elif speed > (1.0 + kp.ball_rand) * kp.ball_speed_max:
+        vx *= kp.ball_speed_max / speed
+        vy *= kp.ball_speed_max / speed
+    s.vel[r, BALL, 0] = vx
+    s.vel[r, BALL, 1] = vy
+    _mark_seen(r, s, BALL, px, py)
 
 
 @njit(cache=True)
@@ -479,7 +607,8 @@ def associate_row(r: int, s: ModelState, see: SeeBuffer, n_keepers: int, kp) -> 
 
 @njit(cache=True)
 def update_players_row(r: int, s: ModelState, see: SeeBuffer, n_keepers: int, kp) -> None:
-    """The other players from the see: association, then position, change-pair velocity, facing."""
+    """The other players from the see: association, then position, change-pair velocity (else the
+    predicted one stays), facing."""
     associate_row(r, s, see, n_keepers, kp)
     me = s.me[r]
     head = s.body[r, me] + s.neck[r, me]
@@ -488,7 +617,10 @@ def update_players_row(r: int, s: ModelState, see: SeeBuffer, n_keepers: int, kp
         if obj < 0:
             continue
         o = see.player_obs[r, i]
-        _observe(r, s, obj, o[0], o[1], o[2], o[3], kp.player_decay, False)
+        px, py, ex, ey = _seen_point(r, s, o[0], o[1])
+        if not (math.isnan(o[2]) or math.isnan(o[3])):
+            s.vel[r, obj, 0], s.vel[r, obj, 1] = _change_velocity(r, s, o[0], ex, ey, o[2], o[3])
+        _mark_seen(r, s, obj, px, py)
         if not math.isnan(o[4]):
             s.body[r, obj] = normalize_angle(head + o[4])
             if not math.isnan(o[5]):
@@ -496,18 +628,19 @@ def update_players_row(r: int, s: ModelState, see: SeeBuffer, n_keepers: int, kp
 
 
 @njit(cache=True)
-def see_row(r: int, s: ModelState, see: SeeBuffer, flag_pos: np.ndarray, n_keepers: int, kp) -> None:
-    """Take the see of row ``r``: advance to its cycle, localise, then the ball and the players.
-    A see older than the estimate is ignored."""
+def see_row(r: int, s: ModelState, see: SeeBuffer, flag_pos: np.ndarray, n_keepers: int, kp, cfg) -> None:
+    """Take the see of row ``r``: advance to its cycle, localise, then the players and the ball (the
+    C++ ``WorldModel::updateAfterSeeMessage`` order, which the ball's rules rely on). A see older than the
+    estimate is ignored."""
     cycle = see.cycle[r]
     if cycle < 0 or cycle < s.time[r]:
         return
-    advance_row(r, s, cycle, kp)
+    advance_row(r, s, cycle, n_keepers, kp, cfg)
     localise_row(r, s, see, flag_pos, kp)
     if s.speed_time[r] == s.time[r]:
         _velocity_from_speed(r, s)
-    update_ball_row(r, s, see, kp)
     update_players_row(r, s, see, n_keepers, kp)
+    update_ball_row(r, s, see, n_keepers, kp, cfg)
 
 
 @njit(cache=True)
@@ -537,11 +670,7 @@ def write_belief_row(r: int, s: ModelState, out: Belief, row: int) -> None:
         out.vel[row, obj, 1] = s.vel[r, obj, 1]
         out.body[row, obj] = s.body[r, obj]
         out.neck[row, obj] = s.neck[r, obj]
-        if obj == me:
-            out.conf[row, obj] = 1.0
-        else:
-            age = float(s.time[r] - s.seen[r, obj])
-            out.conf[row, obj] = _clamp(1.0 - age / CONF_HORIZON_CYCLES, 0.0, 1.0)
+        out.conf[row, obj] = _confidence(r, s, obj)
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -554,16 +683,19 @@ class WorldModel:
 
     ``flags`` is the landmark table of ``init_ok`` (``[[name, x, y], ...]``): see flag ids index it.
     Keepers are side 'l', takers side 'r' (spec `keepaway-task.md`); ``me`` follows `server/world.py`.
+    ``config``: the players' settings (default ``AgentConfig()``), of which the ball rules use
+    ``player_conf_threshold``.
     """
 
     def __init__(self, params: ServerParams, side: str, unum: int, n_keepers: int, n_takers: int,
-                 flags: Sequence[Sequence[Any]]) -> None:
+                 flags: Sequence[Sequence[Any]], config: AgentConfig | None = None) -> None:
         if side not in SIDE_CODES:
             raise ValueError(f"unknown side {side!r}")
         limit = n_keepers if side == "l" else n_takers
         if not 1 <= unum <= limit:
             raise ValueError(f"no player {side} {unum} with {n_keepers} keepers and {n_takers} takers")
         self.kp = params.kernel()
+        self.cfg = (config or AgentConfig()).kernel()
         self.n_keepers = n_keepers
         self.n_takers = n_takers
         self.me = unum if side == "l" else n_keepers + unum
@@ -583,7 +715,8 @@ class WorldModel:
             return
         speed, stamina = msg["speed"], msg["stamina"]
         sense_body_row(0, self.state, int(msg["cycle"]), float(speed[0]), float(speed[1]),
-                       int(msg["head_angle"]), float(stamina[0]), float(stamina[1]), self.kp)
+                       int(msg["head_angle"]), float(stamina[0]), float(stamina[1]), self.n_keepers, self.kp,
+                       self.cfg)
 
     def on_see(self, msg: Mapping[str, Any]) -> None:
         """A see payload (spec 4): anonymous flags are skipped, omitted fields become NaN."""
@@ -609,7 +742,7 @@ class WorldModel:
             buf.player_unum[0, :n] = [_NO_UNUM if p[1] is None else p[1] for p in players]
             buf.player_obs[0, :n] = [[np.nan if v is None else v for v in p[2:]] for p in players]
         buf.cycle[0] = int(msg["cycle"])
-        see_row(0, self.state, buf, self.flag_pos, self.n_keepers, self.kp)
+        see_row(0, self.state, buf, self.flag_pos, self.n_keepers, self.kp, self.cfg)
 
     def on_fullstate(self, msg: Mapping[str, Any]) -> None:
         """Exact state (spec 4 fullstate): every object known exactly at the message's cycle; percepts

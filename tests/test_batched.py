@@ -14,6 +14,7 @@ import pytest
 from agents.getopen import net_size
 from agents.player import PlayerAgent
 from agents.sarsa import SarsaConfig
+from agents.skills import AgentConfig
 from agents.worldmodel import WorldModel, new_model_state, new_see_buffer, see_row, write_belief_row
 from agents.belief import empty_belief
 from protocol import PROTOCOL_VERSION, encode
@@ -119,7 +120,7 @@ def test_direct_see_gives_the_belief_of_the_wire_see(params, levels_seen):
             state = new_model_state(1, K, T, obs, params)
             see = new_see_buffer(1, N_FLAGS, N)
             see_to_model_row(out, 0, obs, 5, K, see, 0)
-            see_row(0, state, see, FLAG_POSITIONS, K, kp)
+            see_row(0, state, see, FLAG_POSITIONS, K, kp, AgentConfig().kernel())
             direct = empty_belief(1, K, T)
             write_belief_row(0, state, direct, 0)
             expected = wm.belief()

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from agents.belief import belief_from_truth
+from agents.skills import AgentConfig
 from agents.worldmodel import CONF_HORIZON_CYCLES, WorldModel, new_model_state, new_see_buffer, see_row
 from protocol import landmarks
 from protocol.params import parameter_set
@@ -29,6 +30,7 @@ from server.world import CMD_DASH, CMD_KICK, CMD_NONE, CMD_TURN, new_world
 
 PARAMS = parameter_set("classic")  # keepaway launch: visible_angle 360
 KP = PARAMS.kernel()
+CFG = AgentConfig().kernel()
 K, T = 3, 2
 N = 1 + K + T
 FLAGS = landmarks.to_wire()["flags"]
@@ -287,26 +289,159 @@ def test_ball_velocity_from_the_change_pair_of_the_server():
         vel[0] = rng.uniform(-1.8, 1.8, size=2)
         vel[1] = rng.uniform(-0.4, 0.4, size=2)
         w = world(pos, vel, body, neck, seed=trial)
+        if np.hypot(*(pos[K + 1:] - pos[0]).T).min() < 3.0:
+            continue  # a taker that may seem to control the ball stops it (test below)
         sb, see = percepts(w, 1, 5)
         assert see["ball"][2] is not None  # d < 20: the change pair is always sent
         wm = model_for(1)
         wm.on_sense_body(sb)
         wm.on_see(see)
         errors.append(np.hypot(*(wm.belief().vel[0, 0] - vel[0])))
+    assert len(errors) > 150
     assert max(errors) < 0.35
     assert np.mean(errors) < 0.1
 
 
 def test_ball_velocity_from_successive_positions_without_the_change_pair():
-    # ball at (5, 0), then 2 cycles later at (6.94, 0) with no change pair: displacement 1.94 =
-    # v0 (1 + 0.94) -> v0 = 1; now v = v0 0.94^2 = 0.8836
+    # ball at (1.5, 0), then 2 cycles later at (2.47, 0) with no change pair, within visible_distance
+    # (3 m): displacement 0.97 = v0 (1 + 0.94) -> v0 = 0.5, v after one cycle 0.47; the ball was then at
+    # 2.0, 2 m from me (beyond 1.085): v = 0.47 * 0.94 = 0.4418 (WorldModel::calculateStateBall)
+    wm = model_for(1, HAND_FLAGS)
+    wm.on_sense_body(sense(3))
+    wm.on_see(hand_see(3, ball=[1.5, 0, None, None]))
+    wm.on_sense_body(sense(4))
+    wm.on_sense_body(sense(5))
+    wm.on_see(hand_see(5, ball=[2.47, 0, None, None]))
+    assert wm.belief().vel[0, 0] == pytest.approx([0.4418, 0.0])
+
+
+def test_ball_velocity_from_positions_one_cycle_apart():
+    # 2.0 -> 2.5 m in one cycle: v = 0.5 * 0.94 = 0.47
+    wm = model_for(1, HAND_FLAGS)
+    wm.on_sense_body(sense(3))
+    wm.on_see(hand_see(3, ball=[2.0, 0, None, None]))
+    wm.on_sense_body(sense(4))
+    wm.on_see(hand_see(4, ball=[2.5, 0, None, None]))
+    assert wm.belief().vel[0, 0] == pytest.approx([0.47, 0.0])
+
+
+def test_no_velocity_from_positions_beyond_visible_distance():
+    # 5.0 -> 5.5 m: beyond visible_distance 3 m the C++ keeps the predicted velocity (0 here)
     wm = model_for(1, HAND_FLAGS)
     wm.on_sense_body(sense(3))
     wm.on_see(hand_see(3, ball=[5.0, 0, None, None]))
     wm.on_sense_body(sense(4))
+    wm.on_see(hand_see(4, ball=[5.5, 0, None, None]))
+    assert wm.belief().vel[0, 0] == pytest.approx([0.0, 0.0])
+
+
+def test_position_difference_discounts_my_localisation_correction():
+    # I believe I stand at (0, 0); the next see puts me at (0.1, 0) (east flag 9.9 m at 0 deg, south
+    # flag hypot(0.1, 10) at atan2(10, -0.1)) and the ball 2.5 m ahead, at (2.6, 0). The ball moved
+    # 2.6 - 2.0 = 0.6 m, of which 0.1 is my own correction: v = 0.5 * 0.94 = 0.47 (not 0.564)
+    wm = model_for(1, HAND_FLAGS)
+    wm.on_sense_body(sense(3))
+    wm.on_see(hand_see(3, ball=[2.0, 0, None, None]))
+    wm.on_sense_body(sense(4))
+    flags = [[0, 9.9, 0, None, None], [1, math.hypot(0.1, 10.0), math.degrees(math.atan2(10.0, -0.1)), None, None]]
+    wm.on_see({"cycle": 4, "flags": flags, "lines": [], "ball": [2.5, 0, None, None], "players": []})
+    b = wm.belief()
+    assert b.pos[0, 1] == pytest.approx([0.1, 0.0], abs=1e-9)
+    assert b.vel[0, 0] == pytest.approx([0.47, 0.0])
+
+
+@pytest.mark.parametrize("case", ["teammate near the ball", "my kick"])
+def test_position_difference_over_two_cycles_refused_where_the_ball_could_have_been_kicked(case):
+    # As the 2-cycle test above (the ball a cycle ago at 2.0), but a teammate stands at 2.3 (0.3 m from
+    # it) or I sent a kick: the predicted velocity (0) stays (WorldModel::calculateStateBall)
+    wm = model_for(1, HAND_FLAGS)
+    mate = [["l", 2, 2.3, 0, 0.0, 0.0, 0, 0]] if case == "teammate near the ball" else []
+    wm.on_sense_body(sense(3))
+    wm.on_see(hand_see(3, ball=[1.5, 0, None, None], players=mate))
+    wm.on_sense_body(sense(4))
+    if case == "my kick":
+        wm.on_own_commands(CMD_KICK, 100.0, 0.0)  # ball 1.5 m away: not kickable, but a kick was sent
     wm.on_sense_body(sense(5))
-    wm.on_see(hand_see(5, ball=[6.94, 0, None, None]))
-    assert wm.belief().vel[0, 0] == pytest.approx([0.8836, 0.0])
+    wm.on_see(hand_see(5, ball=[2.47, 0, None, None], players=mate))
+    assert wm.belief().vel[0, 0] == pytest.approx([0.0, 0.0])
+
+
+def test_seen_ball_velocity_averaged_with_a_close_prediction():
+    # see 3: v = (-0.5, 0); predicted at 4: (-0.47, 0). The change pair says (-0.48, 0): within
+    # 2 ball_rand |v_pred| = 0.047 of it in x and y, so the average (-0.475, 0); (-0.3, 0) differs by 0.17:
+    # taken as seen (WorldModel::calculateStateBall)
+    for seen, expected in ((-0.48, -0.475), (-0.3, -0.3)):
+        wm = model_for(1, HAND_FLAGS)
+        wm.on_sense_body(sense(3))
+        wm.on_see(hand_see(3, ball=[5.0, 0, -0.5, 0.0]))
+        wm.on_sense_body(sense(4))
+        wm.on_see(hand_see(4, ball=[4.5, 0, seen, 0.0]))
+        assert wm.belief().vel[0, 0] == pytest.approx([expected, 0.0])
+
+
+def test_seen_ball_speed_above_max_with_noise_is_cut_to_max():
+    # ball_speed_max 2.7, ball_rand 0.05: 3.0 > 2.835 becomes 2.7; 2.8 stays
+    for seen, expected in ((-3.0, -2.7), (-2.8, -2.8)):
+        wm = model_for(1, HAND_FLAGS)
+        wm.on_sense_body(sense(3))
+        wm.on_see(hand_see(3, ball=[5.0, 0, seen, 0.0]))
+        assert wm.belief().vel[0, 0] == pytest.approx([expected, 0.0])
+
+
+# (me, the other player seen): a keeper seeing a taker, a taker seeing a keeper, a keeper its teammate
+OPPONENT = [(1, ["r", 2]), (K + 1, ["l", 2])]
+TEAMMATE = [(1, ["l", 2])]
+
+
+@pytest.mark.parametrize("me, other", OPPONENT)
+def test_seen_ball_stops_where_an_opponent_can_kick_it(me, other):
+    # ball 5 m ahead with change pair (-0.5, 2 deg) -> (-0.5, 0.174533) if free; an opponent 0.5 m
+    # behind it can kick it: v = 0 (WorldModel::calculateStateBall), for keepers and takers alike
+    wm = model_for(me, HAND_FLAGS)
+    wm.on_sense_body(sense(3))
+    wm.on_see(hand_see(3, ball=[5.0, 0, -0.5, 2.0], players=[[*other, 5.5, 0, 0.0, 0.0, 0, 0]]))
+    assert wm.belief().vel[0, 0] == pytest.approx([0.0, 0.0])
+
+
+@pytest.mark.parametrize("me, other", OPPONENT + TEAMMATE)
+def test_seen_ball_keeps_its_velocity_when_i_can_kick_it_or_a_teammate_is_near(me, other):
+    # ball 1.0 m ahead (within my 1.085 m) with an opponent 0.5 m behind it: v = (-0.5, rad(2) * 1.0);
+    # and 5 m ahead next to a teammate: (-0.5, rad(2) * 5)
+    near = 1.0 if other[0] != ("l" if me <= K else "r") else 5.0
+    wm = model_for(me, HAND_FLAGS)
+    wm.on_sense_body(sense(3))
+    wm.on_see(hand_see(3, ball=[near, 0, -0.5, 2.0], players=[[*other, near + 0.5, 0, 0.0, 0.0, 0, 0]]))
+    assert wm.belief().vel[0, 0] == pytest.approx([-0.5, math.radians(2.0) * near])
+
+
+def test_an_opponent_unseen_for_13_cycles_no_longer_stops_the_ball():
+    # conf >= 0.88 (player_conf_threshold) makes a player count: seen 12 cycles ago (conf 0.88) he
+    # stops the ball, 13 cycles ago (0.87) he does not
+    for age, expected in ((12, [0.0, 0.0]), (13, [-0.5, 0.174533])):
+        wm = model_for(1, HAND_FLAGS)
+        wm.on_sense_body(sense(3))
+        wm.on_see(hand_see(3, players=[["r", 1, 5.5, 0, 0.0, 0.0, 0, 0]]))
+        for cycle in range(4, 4 + age):
+            wm.on_sense_body(sense(cycle))
+        wm.on_see(hand_see(3 + age, ball=[5.0, 0, -0.5, 2.0]))
+        assert wm.belief().vel[0, 0] == pytest.approx(expected, abs=1e-6)
+
+
+@pytest.mark.parametrize("me, other", OPPONENT + TEAMMATE)
+def test_predicted_ball_stops_when_it_rolls_into_an_opponents_reach(me, other):
+    # ball at 5 m rolling away at 0.5 (dist_chg +0.5), the other player still at 6.8 m. Cycle 4: ball
+    # at 5.5 (1.3 m from him), v 0.47; cycle 5: at 5.97 (0.83 m < 1.085): an opponent controls it,
+    # v = 0 (WorldModel::updateDynamicObjectForNextCycle); a teammate does not stop it: v = 0.4418
+    wm = model_for(me, HAND_FLAGS)
+    wm.on_sense_body(sense(3))
+    wm.on_see(hand_see(3, ball=[5.0, 0, 0.5, 0.0], players=[[*other, 6.8, 0, 0.0, 0.0, 0, 0]]))
+    wm.on_sense_body(sense(4))
+    assert wm.belief().vel[0, 0] == pytest.approx([0.47, 0.0])
+    wm.on_sense_body(sense(5))
+    b = wm.belief()
+    assert b.pos[0, 0] == pytest.approx([5.97, 0.0])
+    opponent = other[0] != ("l" if me <= K else "r")
+    assert b.vel[0, 0] == pytest.approx([0.0, 0.0] if opponent else [0.4418, 0.0])
 
 
 def test_prediction_between_sees_follows_ball_decay():
@@ -526,7 +661,7 @@ def test_rows_of_a_batch_are_independent():
     see.flag_obs[1, :2] = [[5.0, 0.0], [np.hypot(5.0, 10.0), np.degrees(np.arctan2(10.0, -5.0))]]
     see.cycle[:] = [-1, 4]
     for r in range(2):
-        see_row(r, s, see, flag_pos, K, KP)
+        see_row(r, s, see, flag_pos, K, KP, CFG)
     assert s.time.tolist() == [-1, 4]
     assert s.pos[0, 1] == pytest.approx([0.0, 0.0])
     assert s.pos[1, 2] == pytest.approx([5.0, 0.0])  # (10, 0) 5 m ahead, (0, 10) at (-5, 10)

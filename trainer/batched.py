@@ -262,7 +262,7 @@ def see_to_model_row(out: SeeBuffers, b: int, obs: int, cycle: int, n_keepers: i
 
 
 @njit(cache=True)
-def perceive(b: int, obs: int, row: int, w: World, with_see: bool, episode_message: bool, cone: float, kp,
+def perceive(b: int, obs: int, row: int, w: World, with_see: bool, episode_message: bool, cone: float, kp, cfg,
              pl: Players, see_out: SeeBuffers, body_out: SenseBodyBuffers) -> None:
     """Player ``obs``'s percepts of this cycle into its world-model row, in the server's order
     (sense_body, hears, see; ``server.arena.Arena.cycle_percepts``)."""
@@ -270,14 +270,15 @@ def perceive(b: int, obs: int, row: int, w: World, with_see: bool, episode_messa
     cycle = w.time[b]
     sense_body_arena(b, w, obs, body_out)
     sense_body_row(row, pl.model, cycle, body_out.speed[b, p], float(body_out.speed_dir[b, p]),
-                   body_out.head_angle[b, p], body_out.stamina[b, p], body_out.effort[b, p], kp)
+                   body_out.head_angle[b, p], body_out.stamina[b, p], body_out.effort[b, p], w.n_keepers, kp,
+                   cfg)
     if episode_message:
         forget_row(row, pl.model)
         forget_episode(pl.memory, row)
     if with_see:
         see_arena(b, w, obs, cone, kp, see_out)
         see_to_model_row(see_out, b, obs, cycle, w.n_keepers, pl.see, row)
-        see_row(row, pl.model, pl.see, FLAG_POSITIONS, w.n_keepers, kp)
+        see_row(row, pl.model, pl.see, FLAG_POSITIONS, w.n_keepers, kp, cfg)
 
 
 @njit(cache=True)
@@ -353,7 +354,7 @@ def arena_cycle(b: int, w: World, c: Commands, ref: RefereeState, theta: np.ndar
     for p in range(n_players):
         obs = p + 1
         row = b * n_players + p
-        perceive(b, obs, row, w, with_see, episode_message, cone, kp, pl, see_out, body_out)
+        perceive(b, obs, row, w, with_see, episode_message, cone, kp, cfg, pl, see_out, body_out)
         decide(b, obs, row, w, c, theta, kp, cfg, pl, sarsa, sp)
     return step_arena(b, w, c, ref, kp)
 
