@@ -73,7 +73,7 @@ class AgentConfig:
     freeze_target_ratio: float = 0.7  # agents.md 2.2 step 3 (x kickable distance)
     freeze_inset: float = 0.1  # BasicPlayer::freezeBall, agents.md 2.2 step 3
     pitch_pullback: float = 0.2  # BasicPlayer::kickBallCloseToBody, agents.md 2.2 step 3
-    pass_speed_ratio: float = 0.85  # agents.md 2.3 (x ball_speed_max)
+    pass_speed_ratio: float = 0.85  # BasicPlayer::kickTo, PlayerWhenToKick (x ball_accel_max)
     pass_kick_rate_ratio: float = 0.85  # agents.md 2.3 (x kick_power_rate)
     reposition_ratio: float = 0.16  # agents.md 2.3
     pass_power_ok: float = 105.0  # agents.md 2.3
@@ -92,7 +92,14 @@ class AgentConfig:
     turn_mid_distance: float = 10.0  # same
     turn_far_distance: float = 20.0  # same
     close_radius_margin: float = 1.0 / 6.0  # agents.md 2.1 step 1 (x kickable_margin)
-    close_margin: float = 0.95  # BasicPlayer::interceptClose (x kickable distance)
+    close_margin: float = 0.95  # BasicPlayer::interceptClose: one dash succeeds (x kickable distance)
+    close_turn_margin: float = 0.8  # same: a turn (or a stopping dash) keeps the ball (x kickable distance)
+    close_near_margin: float = 0.7  # same, ball beyond close range: ball already at my feet (x kickable)
+    close_heading_tolerance: float = 25.0  # same, angThreshold: body close enough to the desired heading
+    close_opponent_radius: float = 3.0  # same, bOppClose: an opponent this near -> dash first
+    close_range_dash_cycles: float = 3.0  # same: close range 3 player_speed_max + (1 + ball_decay)
+    back_turn_margin: float = 0.9  # WorldModel::predictCommandTurnTowards: turn with the back (x kickable)
+    back_turn_max_cycles: float = 4.0  # same: only when arriving in fewer cycles
     close_max_cycle: float = 3.0  # agents.md 2.1 step 3
     stability_radius: float = 1.0  # agents.md 2.1 step 2
     stability_margin: float = 0.7  # agents.md 2.1 step 2 (x kickable distance)
@@ -299,15 +306,34 @@ def go_to_point(bel: Belief, r: int, tx: float, ty: float, kp, cfg) -> tuple:
 
 
 @njit(cache=True)
+def backward_move_distance(kp, cfg) -> float:
+    """How far behind it a player moving to a point dashes backwards instead of turning round: the
+    framework's 2.5 m (WorldModel::predictCommandToMoveToPos), or 0 when the server clips a negative dash
+    power to nothing (min_dash_power >= 0, rcssserver 17 on). The C++ players predate that server and
+    send such dashes regardless; a player that sends them to a ball behind it never reaches it, and two
+    takers doing so next to a keeper that holds the ball deadlocked the episode (docs/design.md). 0 is
+    the framework's own setting for when it must not dash backwards (isDeadBallUs)."""
+    return cfg.intercept_back_distance if kp.min_dash_power < 0.0 else 0.0
+
+
+@njit(cache=True)
 def _intercept_turns(
     px: float, py: float, vx: float, vy: float, body: float, tx: float, ty: float, far: float, roll: float,
-    kp, cfg,
+    cycles: float, kp, cfg,
 ) -> tuple:
     """(turn?, angle): ``intercept_move``'s choice between a turn by ``angle`` and a dash, given ``far``
     = distance(p, t) and ``roll`` = geometric_sum(player_decay, min(cycles, 4)), which the travel
-    simulation reuses."""
+    simulation reuses (WorldModel::predictCommandTurnTowards without a backward move).
+
+    A turn is due when the point lies more than ratio x kickable distance off the body line through my
+    rolled-out position, or behind me beyond the back distance. When more than one turn would be needed
+    (the framework simulates up to 5, its velocity decaying), the point is within the back distance and
+    is to be reached in fewer than 4 cycles, the player turns its back to it instead if that puts it within
+    0.9 x kickable distance of the body line (the next dash then goes backwards). The back distance is
+    ``backward_move_distance``: 0 where the server cannot dash backwards."""
     qx, qy = px + vx * roll, py + vy * roll
-    angle = normalize_angle(direction(tx - qx, ty - qy) - body)
+    to_point = direction(tx - qx, ty - qy)
+    angle = normalize_angle(to_point - body)
     ahead = distance(qx, qy, tx, ty)
     if far > cfg.turn_far_distance:
         ratio = cfg.turn_ratio_far
@@ -315,9 +341,29 @@ def _intercept_turns(
         ratio = cfg.turn_ratio_mid
     else:
         ratio = cfg.turn_ratio_near
-    off_line = ahead * abs(math.sin(math.radians(angle)))
-    behind = ahead > cfg.intercept_back_distance and abs(angle) > 90.0
-    return off_line > ratio * kickable_distance(kp) or behind, angle
+    reach = ratio * kickable_distance(kp)
+    back_distance = backward_move_distance(kp, cfg)
+    far_behind = ahead > back_distance
+    if not (ahead * abs(math.sin(math.radians(angle))) > reach or (far_behind and abs(angle) > 90.0)):
+        return False, angle
+    if ahead >= back_distance or cycles >= cfg.back_turn_max_cycles:
+        return True, angle
+    speed = math.hypot(vx, vy)
+    sb, turns = body, 0
+    while turns < cfg.max_sim_turns:
+        a = normalize_angle(to_point - sb)
+        if not ahead * abs(math.sin(math.radians(a))) > reach:
+            break
+        sb = normalize_angle(sb + turn_effect(turn_moment(a, speed, kp), speed, kp))
+        speed *= kp.player_decay
+        turns += 1
+    if turns > 1:
+        back = normalize_angle(to_point + 180.0 - body)
+        speed = math.hypot(vx, vy)
+        turned = normalize_angle(body + turn_effect(turn_moment(back, speed, kp), speed, kp))
+        if ahead * abs(math.sin(math.radians(to_point - turned))) < cfg.back_turn_margin * kickable_distance(kp):
+            return True, back
+    return True, angle
 
 
 @njit(cache=True)
@@ -329,12 +375,14 @@ def intercept_move(
     intercept and travel-time code moves (WorldModel::predictCommandToMoveToPos with back distance 2.5;
     spec 2.1 steps 2-3 name the GoToPoint rule, the code uses this one): from my position rolled out
     min(cycles, 4) cycles, turn towards the point only if it lies more than ratio x kickable distance
-    off my body line (ratio 0.9 within 10 m, 2 within 20 m, 3 beyond) or behind me beyond 2.5 m;
-    else dash (backwards if it is behind) with the power that covers the distance in ``cycles``.
-    (The code's angle threshold never applies there: an operator-precedence slip makes it 180.)
-    Returns (code, arg1)."""
+    off my body line (ratio 0.9 within 10 m, 2 within 20 m, 3 beyond) or behind me beyond 2.5 m, or turn
+    my back to a close point (``_intercept_turns``); else dash (backwards if it is behind) with the power
+    that covers the distance in ``cycles``. (The code's angle threshold never applies there: an
+    operator-precedence slip makes it 180.) Returns (code, arg1)."""
     roll = geometric_sum(kp.player_decay, min(cycles, cfg.intercept_roll_cycles))
-    turn, angle = _intercept_turns(px, py, vx, vy, body, tx, ty, distance(px, py, tx, ty), roll, kp, cfg)
+    turn, angle = _intercept_turns(
+        px, py, vx, vy, body, tx, ty, distance(px, py, tx, ty), roll, cycles, kp, cfg
+    )
     if turn:
         return CMD_TURN, turn_moment(angle, math.hypot(vx, vy), kp)
     return CMD_DASH, dash_power_for(tx - px, ty - py, body, vx, vy, effort, cycles, kp)
@@ -400,7 +448,7 @@ def travel(
         if reached > n and far - radius > left * step + _REACH_SLACK:
             return n + 1, math.inf
         roll = _decay_sum(sums, left, kp) if left < roll_limit else roll_far
-        turn, angle = _intercept_turns(px, py, vx, vy, body, tx, ty, far, roll, kp, cfg)
+        turn, angle = _intercept_turns(px, py, vx, vy, body, tx, ty, far, roll, float(left), kp, cfg)
         if turn:
             body = normalize_angle(body + turn_effect(turn_moment(angle, speed, kp), speed, kp))
             rad = math.radians(body)
@@ -591,6 +639,17 @@ def pass_initial_speed(dist: float, end_speed: float, decay: float) -> tuple:
 
 
 @njit(cache=True)
+def _full_kick_speed(bvx: float, bvy: float, ux: float, uy: float, kick_speed: float) -> float:
+    """The ball speed the C++ kickTo predicts for a full-power kick along (ux, uy): the kick (speed
+    ``kick_speed``) aimed so that it cancels the ball's velocity across the line, no caps applied; 0 when
+    it cannot (the C++'s asin is then undefined and its test fails)."""
+    across = -bvx * uy + bvy * ux
+    if abs(across) > kick_speed:
+        return 0.0
+    return abs(bvx * ux + bvy * uy + math.sqrt(kick_speed**2 - across**2))
+
+
+@njit(cache=True)
 def kick_to(bel: Belief, r: int, tx: float, ty: float, end_speed: float, kp, cfg) -> tuple:
     """kickTo(target, end speed) (spec 2.3): the initial speed that makes the ball arrive at ``end_speed``;
     if the ball's first step would end on my next position, it is shortened/extended to end 0.385 m
@@ -609,13 +668,11 @@ def kick_to(bel: Belief, r: int, tx: float, ty: float, end_speed: float, kp, cfg
         along = abs((bel.pos[r, me, 0] - bx) * ux + (bel.pos[r, me, 1] - by) * uy)
         v0 = along - body_clear if v0 < along else along + body_clear
     if v0 > kp.ball_speed_max:
-        code, power, kick_dir = accelerate_ball_to(bel, r, v0 * ux, v0 * uy, kp)
         rate = _my_kick_rate(bel, r, kp)
-        _, _, fvx, fvy = ball_after_kick(
-            bx, by, bel.vel[r, 0, 0], bel.vel[r, 0, 1], rate, power, kick_dir, bel.body[r, me], kp
-        )
-        if math.hypot(fvx, fvy) / kp.ball_decay > cfg.pass_speed_ratio * kp.ball_speed_max:
-            return code, power, kick_dir
+        if _full_kick_speed(bel.vel[r, 0, 0], bel.vel[r, 0, 1], ux, uy, rate * kp.max_power) > (
+            cfg.pass_speed_ratio * kp.ball_accel_max
+        ):
+            return accelerate_ball_to(bel, r, v0 * ux, v0 * uy, kp)
         if rate > cfg.pass_kick_rate_ratio * kp.kick_power_rate:
             return freeze_ball(bel, r, kp, cfg)
         return kick_close_to_body(bel, r, 0.0, cfg.reposition_ratio, kp, cfg)
@@ -659,43 +716,144 @@ def _line_circle(px: float, py: float, ux: float, uy: float, cx: float, cy: floa
 
 
 @njit(cache=True)
-def close_intercept(bel: Belief, r: int, still: bool, kp, cfg) -> tuple:
-    """(ok, code, arg1): intercept a ball reachable in 1-2 cycles (spec 2.1 step 1). Tried in order:
-    one dash to a point of the circle (radius player_size + ball_size + kickable_margin/6) around the
-    next ball position on my body line, ball in front first, then a dash at the ball; turn+dash and
-    dash+dash to the ball in two cycles. Success: ending within 0.95 x kickable distance."""
+def forward_angle(bel: Belief, r: int) -> float:
+    """The server-frame direction that my own frame calls 0 deg. The C++ players mirror the field for the
+    right-hand team, the takers (rcssserver keepaway mode: keepers left), so where their code says
+    "global 0" or "forward in x" a taker means the server's 180 deg and -x."""
+    return 0.0 if is_keeper(bel, bel.me[r]) else 180.0
+
+
+@njit(cache=True)
+def collide_with_ball(bel: Belief, r: int, still: bool, kp) -> tuple:
+    """(ok, code, arg1): a command after which my body overlaps the ball next cycle (BasicPlayer::
+    collideWithBall), the ball being near enough: a turn to my forward direction if I drift into it, else
+    a dash at its next position."""
     me = bel.me[r]
     px, py, vx, vy = bel.pos[r, me, 0], bel.pos[r, me, 1], bel.vel[r, me, 0], bel.vel[r, me, 1]
     body, effort = bel.body[r, me], bel.effort[r]
-    reach = cfg.close_margin * kickable_distance(kp)
+    ball_speed = 0.0 if still else math.hypot(bel.vel[r, 0, 0], bel.vel[r, 0, 1])
+    if distance(px, py, bel.pos[r, 0, 0], bel.pos[r, 0, 1]) > ball_speed + kp.player_speed_max:
+        return False, CMD_DASH, 0.0
+    b1x, b1y = _ball_plan(bel, r, 1.0, still, kp)
+    touch = kp.ball_size + kp.player_size
+    fwd = math.radians(forward_angle(bel, r))
+    _, moment, _ = turn_to_point(bel, r, px + math.cos(fwd), py + math.sin(fwd), 1.0, kp)
+    sx, sy, _, _, _ = player_step(px, py, vx, vy, body, effort, CMD_TURN, moment, kp)
+    if distance(sx, sy, b1x, b1y) < touch:
+        return True, CMD_TURN, moment
+    power = dash_power_for(b1x - px, b1y - py, body, vx, vy, effort, 1.0, kp)
+    sx, sy, _, _, _ = player_step(px, py, vx, vy, body, effort, CMD_DASH, power, kp)
+    if distance(sx, sy, b1x, b1y) < touch:
+        return True, CMD_DASH, power
+    return False, CMD_DASH, 0.0
+
+
+@njit(cache=True)
+def _opponent_within(bel: Belief, r: int, radius: float, cfg) -> bool:
+    """Whether a usable opponent is within ``radius`` of me."""
+    me = bel.me[r]
+    first, last = opponents(bel, me)
+    for j in range(first, last + 1):
+        if bel.conf[r, j] >= cfg.player_conf_threshold and distance(
+            bel.pos[r, j, 0], bel.pos[r, j, 1], bel.pos[r, me, 0], bel.pos[r, me, 1]
+        ) < radius:
+            return True
+    return False
+
+
+@njit(cache=True)
+def close_intercept(bel: Belief, r: int, still: bool, kp, cfg) -> tuple:
+    """(ok, code, arg1): the close interception, as BasicPlayer::interceptClose does it (its doc comment,
+    which spec 2.1 step 1 follows, describes turn+dash and dash+dash searches the code does not make).
+
+    The one dash: to where my body line (from my position next cycle) meets the circle of radius
+    player_size + ball_size + kickable_margin/6 around the next ball position, the meeting point further
+    forward in my own frame first, then the other, then a dash at the ball; it counts if it ends within
+    0.95 x kickable distance (the C++ predicts with the power cut to an integer). Then, with the ball
+    within close range (3 player_speed_max + (1 + ball_decay) ball_speed_max + kickable distance):
+    an opponent within 3 m and the dash -> dash. Else the candidates, in order: a turn towards my
+    forward direction after which the ball stays within 0.8 x kickable distance next cycle (or after a
+    second turn, two cycles on), taken if it leaves my body within 25 deg of forward; if my body is off
+    forward by more than 25 deg, colliding with the ball (``collide_with_ball``), then a stopping dash
+    that keeps the ball within 0.8 x kickable distance two cycles on; then the turn that keeps the ball
+    however it leaves me; then the dash. With the ball beyond close range: turn to forward when it will be
+    at my feet (0.7 x kickable distance, next cycle if I am off by 25 deg, else in two) with no opponent
+    near, else collide if off forward, else the dash. (ok False: none applies.)"""
+    me = bel.me[r]
+    px, py, vx, vy = bel.pos[r, me, 0], bel.pos[r, me, 1], bel.vel[r, me, 0], bel.vel[r, me, 1]
+    body, effort = bel.body[r, me], bel.effort[r]
+    speed = math.hypot(vx, vy)
+    kickable = kickable_distance(kp)
+    fwd = forward_angle(bel, r)
+    sign = 1.0 if fwd == 0.0 else -1.0  # my own frame's x and y in server coordinates
+    close_range = (cfg.close_range_dash_cycles * kp.player_speed_max
+                   + (1.0 + kp.ball_decay) * kp.ball_speed_max + kickable)
+    in_range = distance(px, py, bel.pos[r, 0, 0], bel.pos[r, 0, 1]) <= close_range
+    collide_ok, collide_code, collide_a1 = collide_with_ball(bel, r, still, kp)
+    opp_close = _opponent_within(bel, r, cfg.close_opponent_radius, cfg)
+    off_forward = abs(normalize_angle(fwd - body)) > cfg.close_heading_tolerance
     b1x, b1y = _ball_plan(bel, r, 1.0, still, kp)
     b2x, b2y = _ball_plan(bel, r, 2.0, still, kp)
+    p1x, p1y = rolled_out(px, py, vx, vy, 1.0, kp.player_decay)
+    p2x, p2y = rolled_out(px, py, vx, vy, 2.0, kp.player_decay)
+
+    dash_ok, dash_power = False, 0.0
     ux, uy = math.cos(math.radians(body)), math.sin(math.radians(body))
     radius = kp.player_size + kp.ball_size + kp.kickable_margin * cfg.close_radius_margin
-    t1, t2 = _line_circle(px + vx, py + vy, ux, uy, b1x, b1y, radius)
-    n_aims = 1 if math.isnan(t1) else 3
-    for k in range(n_aims):
-        if k == n_aims - 1:
-            gx, gy = b1x, b1y
-        else:
-            t = t1 if k == 0 else t2
-            gx, gy = px + vx + t * ux, py + vy + t * uy
-        power = dash_power_for(gx - px, gy - py, body, vx, vy, effort, 1.0, kp)
+    t1, t2 = _line_circle(p1x, p1y, ux, uy, b1x, b1y, radius)
+    if not math.isnan(t1):
+        if sign * ux > 0.0 or (ux == 0.0 and sign * uy > 0.0):
+            t1, t2 = t2, t1
+        for t in (t1, t2):
+            power = dash_power_for(p1x + t * ux - px, p1y + t * uy - py, body, vx, vy, effort, 1.0, kp)
+            sx, sy, _, _, _ = player_step(px, py, vx, vy, body, effort, CMD_DASH, float(int(power)), kp)
+            if distance(sx, sy, b1x, b1y) < cfg.close_margin * kickable:
+                dash_ok, dash_power = True, power
+                break
+    if not dash_ok:
+        power = dash_power_for(b1x - px, b1y - py, body, vx, vy, effort, 1.0, kp)
         sx, sy, _, _, _ = player_step(px, py, vx, vy, body, effort, CMD_DASH, power, kp)
-        if distance(sx, sy, b1x, b1y) < reach:
-            return True, CMD_DASH, power
-    to_ball = normalize_angle(direction(b2x - px - vx, b2y - py - vy) - body)
-    moment = turn_moment(to_ball, math.hypot(vx, vy), kp)
-    for first in (CMD_TURN, CMD_DASH):
-        if first == CMD_TURN:
-            a1 = moment
-        else:
-            a1 = dash_power_for(b2x - px, b2y - py, body, vx, vy, effort, 2.0, kp)
-        sx, sy, svx, svy, sb = player_step(px, py, vx, vy, body, effort, first, a1, kp)
-        power = dash_power_for(b2x - sx, b2y - sy, sb, svx, svy, effort, 1.0, kp)
-        sx, sy, _, _, _ = player_step(sx, sy, svx, svy, sb, effort, CMD_DASH, power, kp)
-        if distance(sx, sy, b2x, b2y) < reach:
-            return True, first, a1
+        if distance(sx, sy, b1x, b1y) < cfg.close_margin * kickable:
+            dash_ok, dash_power = True, power
+
+    keep = cfg.close_turn_margin * kickable
+    if in_range:
+        if opp_close and dash_ok:
+            return True, CMD_DASH, dash_power
+        turn_ok = False
+        moment = turn_moment(normalize_angle(fwd - body), speed, kp)
+        sx, sy, svx, svy, sb = player_step(px, py, vx, vy, body, effort, CMD_TURN, moment, kp)
+        if distance(sx, sy, b1x, b1y) < keep:
+            turn_ok = True
+            if abs(normalize_angle(fwd - sb)) < cfg.close_heading_tolerance:
+                return True, CMD_TURN, moment
+        second = turn_moment(normalize_angle(fwd - sb), math.hypot(svx, svy), kp)
+        sx, sy, _, _, sb = player_step(sx, sy, svx, svy, sb, effort, CMD_TURN, second, kp)
+        if distance(sx, sy, b2x, b2y) < keep:
+            turn_ok = True
+            if abs(normalize_angle(fwd - sb)) < cfg.close_heading_tolerance:
+                return True, CMD_TURN, moment
+        if off_forward and collide_ok:
+            return True, collide_code, collide_a1
+        if off_forward:
+            stop = dash_power_for(0.0, 0.0, body, vx, vy, effort, 1.0, kp)
+            sx, sy, _, _, _ = player_step(px, py, vx, vy, body, effort, CMD_DASH, stop, kp)
+            if distance(sx, sy, b2x, b2y) < keep:
+                return True, CMD_DASH, stop
+        if turn_ok:
+            return True, CMD_TURN, moment
+        if dash_ok:
+            return True, CMD_DASH, dash_power
+        return False, CMD_DASH, 0.0
+    near = cfg.close_near_margin * kickable
+    if off_forward and not opp_close and distance(p1x, p1y, b1x, b1y) < near:
+        return True, CMD_TURN, turn_moment(normalize_angle(fwd - body), speed, kp)
+    if not opp_close and distance(p2x, p2y, b2x, b2y) < near:
+        return True, CMD_TURN, turn_moment(normalize_angle(fwd - body), speed, kp)
+    if off_forward and collide_ok:
+        return True, collide_code, collide_a1
+    if dash_ok:
+        return True, CMD_DASH, dash_power
     return False, CMD_DASH, 0.0
 
 
@@ -759,9 +917,10 @@ def interception_point(bel: Belief, r: int, mem: AgentMemory, still: bool, kp, c
 @njit(cache=True)
 def intercept(bel: Belief, r: int, mem: AgentMemory, still: bool, kp, cfg, known_first: int = -1) -> tuple:
     """Intercept / GoToBall (spec 2.1 step 3): the close intercept when the chosen point is < 3 cycles
-    away and one exists; no move when my rolled-out position is already within 0.5 m of the point (the
-    framework then turns to global 0 deg, a quirk kept); else move to the point, sized to arrive in i
-    cycles (``intercept_move``). With no reachable point, head for the ball's current position.
+    away and one exists; no move when my position rolled out min(i, 4) cycles is already within 0.5 m of
+    the point (the framework then turns to its global 0 deg, ``forward_angle``, a quirk kept); else move
+    to the point, sized to arrive in i cycles (``intercept_move``). With no reachable point, head for the
+    ball's current position.
     ``still``: plan with the ball at rest (see ``taker_decide``); False is the framework's behaviour.
     ``known_first``: as in ``interception_point``."""
     me = bel.me[r]
@@ -770,12 +929,12 @@ def intercept(bel: Belief, r: int, mem: AgentMemory, still: bool, kp, cfg, known
         ok, code, a1 = close_intercept(bel, r, still, kp, cfg)
         if ok:
             return code, a1, 0.0
-    fx, fy = final_position(
-        bel.pos[r, me, 0], bel.pos[r, me, 1], bel.vel[r, me, 0], bel.vel[r, me, 1], kp.player_decay
-    )
+    px, py = bel.pos[r, me, 0], bel.pos[r, me, 1]
+    roll = cfg.intercept_roll_cycles if i < 0 else min(float(i), cfg.intercept_roll_cycles)
+    fx, fy = rolled_out(px, py, bel.vel[r, me, 0], bel.vel[r, me, 1], roll, kp.player_decay)
     if distance(fx, fy, x, y) < cfg.intercept_stay_radius:
-        speed = math.hypot(bel.vel[r, me, 0], bel.vel[r, me, 1])
-        return CMD_TURN, turn_moment(normalize_angle(-bel.body[r, me]), speed, kp), 0.0
+        fwd = math.radians(forward_angle(bel, r))
+        return turn_to_point(bel, r, px + math.cos(fwd), py + math.sin(fwd), 1.0, kp)
     code, a1 = intercept_move(
         bel.pos[r, me, 0], bel.pos[r, me, 1], bel.vel[r, me, 0], bel.vel[r, me, 1], bel.body[r, me],
         bel.effort[r], x, y, max(i, 1), kp, cfg,

@@ -102,9 +102,27 @@ def _ref_intercept_move(px, py, vx, vy, body, effort, tx, ty, cycles, kp, cfg):
     else:
         ratio = cfg.turn_ratio_near
     off_line = ahead * abs(math.sin(math.radians(angle)))
-    behind = ahead > cfg.intercept_back_distance and abs(angle) > 90.0
+    back_distance = cfg.intercept_back_distance if kp.min_dash_power < 0.0 else 0.0
+    behind = ahead > back_distance and abs(angle) > 90.0
     kickable = kp.player_size + kp.kickable_margin + kp.ball_size
     if off_line > ratio * kickable or behind:
+        # WorldModel::predictCommandTurnTowards: count the turns (at most 5) that bring the point within
+        # ratio x kickable of the body line; more than one, close and soon -> turn the back to it instead
+        turns, b, speed = 0, body, math.hypot(vx, vy)
+        while turns < 5 and (
+            ahead * abs(math.sin(math.radians(direction(tx - qx, ty - qy) - b))) > ratio * kickable or behind
+        ):
+            a = normalize_angle(direction(tx - qx, ty - qy) - b)
+            b = normalize_angle(b + min(kp.max_moment, max(kp.min_moment, _ref_turn_moment(a, speed, kp)))
+                                / (1.0 + kp.inertia_moment * speed))
+            speed *= kp.player_decay
+            turns += 1
+        if turns > 1 and cycles < 4 and ahead < back_distance:
+            back = normalize_angle(direction(tx - qx, ty - qy) + 180.0 - body)
+            m = _ref_turn_moment(back, math.hypot(vx, vy), kp)
+            nb = body + min(kp.max_moment, max(kp.min_moment, m)) / (1.0 + kp.inertia_moment * math.hypot(vx, vy))
+            if ahead * abs(math.sin(math.radians(direction(tx - qx, ty - qy) - nb))) < 0.9 * kickable:
+                return CMD_TURN, m
         return CMD_TURN, _ref_turn_moment(angle, math.hypot(vx, vy), kp)
     return CMD_DASH, _ref_dash_power_for(tx - px, ty - py, body, vx, vy, effort, cycles, kp)
 
@@ -245,15 +263,15 @@ def _memory(last_point: tuple[float, float] | None, last_time: int) -> AgentMemo
     return mem
 
 
-def _check_interception(bel, r: int, still: bool, last_point, last_time: int) -> None:
+def _check_interception(bel, r: int, still: bool, last_point, last_time: int, kp=KP) -> None:
     """The kernel's interception point of row ``r`` equals the reference's, bit for bit."""
     me, time = int(bel.me[r]), int(bel.time[r])
     lx, ly = last_point if last_point is not None else (0.0, 0.0)
     ref = _ref_interception_point(bel.pos[r], bel.vel[r], bel.body[r], bel.effort[r], me, time, still, lx, ly,
-                                  last_time if last_point is not None else -1, KP, CFG)
+                                  last_time if last_point is not None else -1, kp, CFG)
     one = belief_from_truth(bel.pos[r], bel.vel[r], bel.body[r], bel.neck[r], me, time, K, T, bel.effort[r])
     one.conf[0] = bel.conf[r]
-    got = interception_point(one, 0, _memory(last_point, last_time), still, KP, CFG)
+    got = interception_point(one, 0, _memory(last_point, last_time), still, kp, CFG)
     assert got == ref
 
 
@@ -285,15 +303,17 @@ def test_interception_of_a_ball_rolling_towards_me_matches_the_reference():
     _check_interception(bel, 0, False, (-2.25, 0.0), 49)
 
 
+@pytest.mark.parametrize("params", ["classic", "current"])  # current: no backward dashes
 @pytest.mark.parametrize("still", [False, True])
-def test_interception_point_matches_the_reference_on_random_beliefs(still):
+def test_interception_point_matches_the_reference_on_random_beliefs(still, params):
+    kp = parameter_set(params).kernel()
     bel = _random_beliefs(150, seed=11 + still)
     for r in range(bel.batch):
-        _check_interception(bel, r, still, None, -1)
+        _check_interception(bel, r, still, None, -1, kp)
         # recently intercepted near the ball's position 3 cycles ahead: the stability scan runs
         bx, by = rolled_out(bel.pos[r, 0, 0], bel.pos[r, 0, 1], bel.vel[r, 0, 0], bel.vel[r, 0, 1], 3.0,
-                            KP.ball_decay)
-        _check_interception(bel, r, still, (bx, by), int(bel.time[r]) - 1)
+                            kp.ball_decay)
+        _check_interception(bel, r, still, (bx, by), int(bel.time[r]) - 1, kp)
 
 
 def test_fastest_to_ball_matches_the_reference_on_random_beliefs():

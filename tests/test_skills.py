@@ -18,10 +18,13 @@ from agents.geometry import (
 )
 from agents.skills import (
     AgentConfig,
+    close_intercept,
     fastest_to_ball,
+    forward_angle,
     go_to_point,
     hold_ball,
     intercept,
+    intercept_move,
     interception_point,
     kick_close_to_body,
     pass_ball,
@@ -174,6 +177,50 @@ def test_fastest_keeper_to_a_rolling_ball():
     bel = belief([[-10.0, 0.0], [0.0, 0.0], [0.0, -6.0], [9.0, 0.0]] + FAR_TAKERS, 2,
                  vel=[[1.5, 0.0], [0, 0], [0, 0], [0, 0], [0, 0], [0, 0]], body=[0, 180, 90, 180, 0, 0])
     assert fastest_to_ball(bel, 0, 1, 3, KP, CFG) == (1, 5)
+
+
+def test_close_intercept_dashes_when_an_opponent_is_near():
+    # keeper at (0, 0) facing 0, ball at rest at (1.5, 0), a taker 2.2 m away. The body line meets the
+    # circle of radius 0.3 + 0.085 + 0.7/6 = 0.5017 around the ball at x = 0.998 and 2.002; the forward
+    # one first: any power above 100 is cut to 100, which moves me 0.6 m, 0.9 m < 0.95 x 1.085 = 1.031
+    # from the ball -> with the opponent within 3 m the dash is taken at once
+    bel = belief([[1.5, 0.0], [0.0, 0.0], [-9.0, 0.0], [0.0, 9.0], [2.0, 1.0], [9.0, -9.0]], 1)
+    assert close_intercept(bel, 0, False, KP, CFG) == (True, CMD_DASH, 100.0)
+
+
+@pytest.mark.parametrize("me, expected_moment", [(1, -90.0), (4, 90.0)])
+def test_close_intercept_turns_to_its_own_forward_direction(me, expected_moment):
+    # a still player facing 90 with the ball at rest 0.8 m to its right (< 0.8 x 1.085 = 0.868), nobody
+    # within 3 m: turning to "global 0" keeps the ball, so it turns. The keeper's 0 deg is the server's
+    # 0; the taker's (the right-hand team, whose C++ frame is mirrored) is the server's 180.
+    pos = [[0.8, 0.0], [-9.0, -9.0], [-9.0, 0.0], [0.0, 9.0], [9.0, -9.0], [9.0, 9.0]]
+    pos[me] = [0.0, 0.0]
+    body = [0.0] * 6
+    body[me] = 90.0
+    bel = belief(pos, me, body=body)
+    assert forward_angle(bel, 0) == (0.0 if me == 1 else 180.0)
+    assert close_intercept(bel, 0, False, KP, CFG) == (True, CMD_TURN, pytest.approx(expected_moment))
+
+
+def test_intercept_move_turns_its_back_to_a_close_point():
+    # moving at 0.5 m/cycle along body 0, target (0, 2) to be reached in 2 cycles. Rolled out 2 cycles:
+    # q = (0.7, 0); the point is 2.119 m away (< 2.5) at 109.29 deg, 2.0 m off the body line (> 0.9 x
+    # 1.085). Inertia 1 + 5 x 0.5 limits the first turn to 51.43 deg (then 57.86 at speed 0.2): two turns,
+    # so the player turns its back instead: -70.71 deg wanted, moment -247.5 cut to -180, body -51.43 ->
+    # the point is 2.119 sin(160.72 deg) = 0.700 m off the line (< 0.9 x 1.085): turn with moment -180
+    assert intercept_move(0.0, 0.0, 0.5, 0.0, 0.0, 1.0, 0.0, 2.0, 2.0, KP, CFG) == (CMD_TURN, -180.0)
+    # arriving in 4 cycles the rule does not apply: the turn goes towards the point (moment cut to 180)
+    assert intercept_move(0.0, 0.0, 0.5, 0.0, 0.0, 1.0, 0.0, 2.0, 4.0, KP, CFG) == (CMD_TURN, 180.0)
+
+
+def test_intercept_move_turns_round_where_the_server_cannot_dash_backwards():
+    # a still player facing 0, the point 1.5 m straight behind it, 2 cycles away. CLASSIC (min_dash_power
+    # -100): within the 2.5 m back distance and on the body line -> dash backwards, -1.5 / (1 + 0.4) =
+    # -1.0714 m/cycle over 0.006 -> -178.6, cut to -100. CURRENT (min 0: that dash would do nothing): turn
+    # round (moment 180 for a still player)
+    assert intercept_move(0.0, 0.0, 0.0, 0.0, 0.0, 1.0, -1.5, 0.0, 2.0, KP, CFG) == (CMD_DASH, -100.0)
+    current = parameter_set("current").kernel()
+    assert intercept_move(0.0, 0.0, 0.0, 0.0, 0.0, 1.0, -1.5, 0.0, 2.0, current, CFG) == (CMD_TURN, 180.0)
 
 
 def _run_intercept(ball_pos, ball_vel, me_pos, me_body, cycles):
