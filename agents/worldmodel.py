@@ -17,15 +17,15 @@ deciding player (one row of a batch), an estimate of every object and writes it 
 The ball follows the rules of the keepaway-0.6 C++ players' world model (tjpalmer/keepaway
 `player/WorldModelUpdate.cc`, docs/design.md "The ball in the players' world model"), which keepers and
 takers share: a ball that an opponent can kick is believed to stand still (in the prediction and after a
-see), a seen velocity is averaged with the predicted one when they agree, a velocity from position
-differences is refused where a player could have kicked the ball, and a collision guessed from the
-sense_body speed moves the ball out of me. The players' own settings (``AgentConfig``: which players are
-usable) enter these rules as in the C++ (``PlayerSettings::getPlayerConfThr``).
+see), a seen velocity is averaged with the predicted one when they agree, and a velocity from position
+differences is refused where a player could have kicked the ball. The players' own settings
+(``AgentConfig``: which players are usable) enter these rules as in the C++
+(``PlayerSettings::getPlayerConfThr``).
 
-Not modelled: the line observations (the flags suffice), fusing successive noisy sightings of a player
-(each see replaces the estimate), commands that arrive late and act a cycle later, the C++ model's
-guesses about unseen players (moving the fastest opponent towards the ball) and its own position from the
-sense_body speed.
+Not modelled: collisions, the line observations (the flags suffice), fusing successive noisy sightings of
+a player (each see replaces the estimate), commands that arrive late and act a cycle later, the C++
+model's guesses about unseen players (moving the fastest opponent towards the ball) and its own position
+from the sense_body speed.
 
 Hot paths are ``@njit`` kernels over arrays with a row per player; a row kernel takes the row index ``r``
 so the batched mode can compose them in one loop. :class:`WorldModel` is the per-process Python wrapper
@@ -46,7 +46,6 @@ from agents.belief import Belief, empty_belief
 from agents.geometry import kick_rate, normalize_angle, turn_effect
 from agents.skills import AgentConfig, kickable_distance
 from protocol.params import ServerParams
-from server.physics import COLLISION_VEL_FACTOR
 from server.world import BALL, CMD_DASH, CMD_KICK, CMD_NONE, CMD_TURN
 
 # Confidence falls to 0 after this many unseen cycles (spec `keepaway-agents.md` 1).
@@ -55,19 +54,6 @@ CONF_HORIZON_CYCLES = 100.0
 DIR_STEP_DEG = 1.0
 # The outer quantisation of every seen distance, Q(exp(Q(ln d, q)), 0.1) (spec 4 "Distance").
 DIST_PRINT_STEP = 0.1
-# WorldModel::calculateStateBall (WorldModelUpdate.cc): a velocity from two ball positions seen 2 cycles
-# apart is refused if I collided within this many cycles (1 cycle apart: if the last sense showed one).
-POSITION_DIFF_COLLISION_CYCLES = 3
-# WorldModel::updateAgentAndBallAfterSense: a collision is guessed from my sense_body speed against my
-# predicted velocity. A sensed speed below EPSILON (Geometry.h) is "zero".
-SPEED_EPSILON = 1.0e-4
-COLLISION_MOVING_SPEED = 0.01  # zero speed while predicted faster than this ...
-COLLISION_BALL_NEAR = 0.8  # ... with the ball this close (m)
-COLLISION_BALL_MARGIN = 0.5  # or within kickable + this (m) ...
-COLLISION_SMALL_COMPONENT = 0.08  # ... each velocity component flipped or below this ...
-COLLISION_SPEED_DROP = 0.25  # ... and the speed below this fraction of the predicted one
-# WorldModel::updateBallForCollision: the ball is put this far from my centre (m), towards where it was.
-COLLISION_BALL_DISTANCE = 0.2
 # seen/obs time of an object never seen since the last forget.
 NEVER = -(1 << 40)
 # Association tiers (spec: nearest compatible predicted player): a player within its reach beats a never
@@ -98,8 +84,6 @@ class ModelState(NamedTuple):
     cmd_main: np.ndarray  # (B,) int8 my main command of this cycle (CMD_*), applied at the next step
     cmd_args: np.ndarray  # (B, 3) its arg1, arg2 and my turn_neck moment
     kicked: np.ndarray  # (B,) bool my last predicted step had a kick command (C++ m_bPerformedKick)
-    collided: np.ndarray  # (B,) bool my last sense_body suggested a collision (C++ m_bWasCollision)
-    collision_time: np.ndarray  # (B,) int64 cycle of that collision (NEVER if none)
     loc_shift: np.ndarray  # (B, 2) my seen minus predicted position at the last see (C++ PositionDifference)
 
 
@@ -142,8 +126,6 @@ def new_model_state(batch: int, n_keepers: int, n_takers: int, me: np.ndarray | 
         cmd_main=np.full(batch, CMD_NONE, dtype=np.int8),
         cmd_args=np.zeros((batch, 3)),
         kicked=np.zeros(batch, dtype=np.bool_),
-        collided=np.zeros(batch, dtype=np.bool_),
-        collision_time=np.full(batch, NEVER, dtype=np.int64),
         loc_shift=np.zeros((batch, 2)),
     )
 
@@ -201,12 +183,6 @@ def _flag_weight(dist, kp):
     quantize_step_l), of the direction (1 deg) and of the printed distance (0.1 m), spec 4."""
     rel = (kp.quantize_step_l ** 2 + math.radians(DIR_STEP_DEG) ** 2) / 12.0
     return 1.0 / (dist * dist * rel + DIST_PRINT_STEP ** 2 / 12.0)
-
-
-@njit(cache=True, inline="always")
-def _sign(x):
-    """C++ ``sign`` (Geometry.cc): 1 for positive, else -1 (zero counts as negative)."""
-    return 1.0 if x > 0.0 else -1.0
 
 
 @njit(cache=True)
@@ -365,70 +341,21 @@ def advance_row(r: int, s: ModelState, cycle: int, n_keepers: int, kp, cfg) -> N
 
 
 @njit(cache=True)
-def _sensed_velocity(r, s):
+def _velocity_from_speed(r, s):
     """My velocity from the last sense_body speed, relative to my current head estimate."""
     me = s.me[r]
     a = math.radians(s.body[r, me] + s.neck[r, me] + _truncated_centre(s.speed[r, 1]))
-    return s.speed[r, 0] * math.cos(a), s.speed[r, 0] * math.sin(a)
-
-
-@njit(cache=True)
-def _velocity_from_speed(r, s):
-    """My velocity from the last sense_body speed."""
-    me = s.me[r]
-    s.vel[r, me, 0], s.vel[r, me, 1] = _sensed_velocity(r, s)
-
-
-@njit(cache=True)
-def _detect_collision(r, s, x, y, vx, vy, kp, cfg):
-    """Guess from the sensed speed whether I collided in the last step, and if the ball is nearer to me
-    than any other player, move the ball out of me (C++ ``WorldModel::updateAgentAndBallAfterSense`` and
-    ``updateBallForCollision``). (x, y), (vx, vy) is my state the C++ compares with: predicted after a dash
-    or turn, else (a kick or no command) as it was before the step. A collision is guessed when the sensed
-    speed is zero while I was predicted to move with the ball within 0.8 m, when the ball overlaps me
-    with zero speed, or when near the ball the speed dropped below a quarter of the predicted one with
-    each component flipped or small. A ball not seen since the last forget is nowhere (the C++ keeps
-    unknown positions far off the pitch)."""
-    nx, ny = _sensed_velocity(r, s)
-    sensed = math.hypot(nx, ny)
-    predicted = math.hypot(vx, vy)
-    d_ball = np.inf
-    if s.seen[r, BALL] != NEVER:
-        d_ball = math.hypot(s.pos[r, BALL, 0] - x, s.pos[r, BALL, 1] - y)
-    stopped = sensed < SPEED_EPSILON
-    reversed_x = _sign(vx) != _sign(nx) or abs(vx) < COLLISION_SMALL_COMPONENT
-    reversed_y = _sign(vy) != _sign(ny) or abs(vy) < COLLISION_SMALL_COMPONENT
-    collided = ((stopped and predicted > COLLISION_MOVING_SPEED and d_ball < COLLISION_BALL_NEAR)
-                or (stopped and d_ball < kp.player_size + kp.ball_size)
-                or (not stopped and d_ball < kickable_distance(kp) + COLLISION_BALL_MARGIN
-                    and reversed_x and reversed_y and sensed < COLLISION_SPEED_DROP * predicted))
-    s.collided[r] = collided
-    if not collided:
-        return
-    s.collision_time[r] = s.time[r]
-    _, d_player = _closest_player(r, s, x, y, 1, s.pos.shape[1], s.me[r], cfg)
-    if d_ball < d_player:
-        a = math.atan2(s.pos[r, BALL, 1] - y, s.pos[r, BALL, 0] - x)
-        s.pos[r, BALL, 0] = x + COLLISION_BALL_DISTANCE * math.cos(a)
-        s.pos[r, BALL, 1] = y + COLLISION_BALL_DISTANCE * math.sin(a)
-        s.vel[r, BALL, 0] *= COLLISION_VEL_FACTOR
-        s.vel[r, BALL, 1] *= COLLISION_VEL_FACTOR
+    s.vel[r, me, 0] = s.speed[r, 0] * math.cos(a)
+    s.vel[r, me, 1] = s.speed[r, 0] * math.sin(a)
 
 
 @njit(cache=True)
 def sense_body_row(r: int, s: ModelState, cycle: int, speed_amount: float, speed_dir: float, head_angle: int,
                    stamina: float, effort: float, n_keepers: int, kp, cfg) -> None:
     """Take a sense_body: advance to its cycle, correct my neck (kept if the prediction truncates to
-    the reported head_angle), stamina and effort, check for a collision (:func:`_detect_collision`), then
-    take my velocity from the speed."""
-    me = s.me[r]
-    moved = s.cmd_main[r] == CMD_DASH or s.cmd_main[r] == CMD_TURN
-    x, y = s.pos[r, me, 0], s.pos[r, me, 1]
-    vx, vy = s.vel[r, me, 0], s.vel[r, me, 1]
+    the reported head_angle), velocity, stamina and effort."""
     advance_row(r, s, cycle, n_keepers, kp, cfg)
-    if moved:
-        x, y = s.pos[r, me, 0], s.pos[r, me, 1]
-        vx, vy = s.vel[r, me, 0], s.vel[r, me, 1]
+    me = s.me[r]
     if int(s.neck[r, me]) != head_angle:
         s.neck[r, me] = _truncated_centre(float(head_angle))
     s.stamina[r] = stamina
@@ -436,7 +363,6 @@ def sense_body_row(r: int, s: ModelState, cycle: int, speed_amount: float, speed
     s.speed[r, 0] = speed_amount
     s.speed[r, 1] = speed_dir
     s.speed_time[r] = cycle
-    _detect_collision(r, s, x, y, vx, vy, kp, cfg)
     _velocity_from_speed(r, s)
 
 
@@ -544,13 +470,10 @@ def _mark_seen(r, s, obj, px, py):
 def _ball_velocity_from_positions(r, s, px, py, vx, vy, kp, cfg):
     """The ball's velocity from its last seen position (C++ ``calculateStateBall`` without the change
     pair): seen 1 cycle ago, v = (p1 - p0) d; 2 cycles ago, v0 = (p1 - p0) d/(1 + d) and v = v0 d unless
-    a player (me included) was within kickable distance of the ball's position a cycle ago, or I kicked,
-    or collided within 3 cycles; otherwise, or after a collision at the last sense, the predicted
-    (vx, vy) stays. The displacement discounts my own localisation correction (``loc_shift``): both
-    positions then carry the same error of my position.
+    a player (me included) was within kickable distance of the ball's position a cycle ago or I kicked;
+    otherwise the predicted (vx, vy) stays. The displacement discounts my own localisation correction
+    (``loc_shift``): both positions then carry the same error of my position.
     """
-    if s.collided[r]:
-        return vx, vy
     d = kp.ball_decay
     gap = s.time[r] - s.seen[r, BALL]
     dx = px - s.obs_pos[r, BALL, 0] - s.loc_shift[r, 0]
@@ -561,8 +484,7 @@ def _ball_velocity_from_positions(r, s, px, py, vx, vy, kp, cfg):
         tx = dx / (1.0 + d) * d
         ty = dy / (1.0 + d) * d
         _, near = _closest_player(r, s, px - tx, py - ty, 1, s.pos.shape[1], -1, cfg)
-        if (near > kickable_distance(kp) and not s.kicked[r]
-                and s.time[r] - s.collision_time[r] > POSITION_DIFF_COLLISION_CYCLES):
+        if near > kickable_distance(kp) and not s.kicked[r]:
             return tx * d, ty * d
     return vx, vy
 
