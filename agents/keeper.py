@@ -110,7 +110,7 @@ def keeper_decide(
     chaser, ball_cycles = fastest_to_ball(bel, r, 1, bel.n_keepers, kp, cfg)
     if chaser == me:
         # fastest_to_ball already found my first reachable cycle: ball_cycles
-        code, a1, a2 = intercept(bel, r, mem, False, kp, cfg, ball_cycles)
+        code, a1, a2 = intercept(bel, r, mem, kp, cfg, ball_cycles)
         write_action(r, code, a1, a2, neck_to_ball(bel, r, code, a1, kp), out_main, out_a1, out_a2, out_neck)
         return NO_PASS_DECISION
     code, a1, a2 = getopen(bel, r, mem, theta, ball_cycles, kp, cfg)

@@ -118,10 +118,6 @@ class AgentConfig:
     arrival_radius: float = 1.5  # agents.md 2.5 step 6, 2.6
     mark_distance: float = 4.0  # agents.md 3 step 3
     mark_cone_ratio: float = 0.3  # agents.md 3 step 3
-    # Not in the spec (a deviation, on by default): takers plan their interception with the ball at rest
-    # while a keeper controls it. With exact beliefs the framework rule locks a taker into turning back
-    # and forth as HoldBall moves the ball around the keeper (see agents/taker.py).
-    takers_plan_held_ball_still: bool = True
     # Not in the spec (an option, off by default): GO:L's variables 9-10 measured from predictedBallPos
     # (as GO:HC's lane test) instead of from the keeper now closest to the ball (keepaway-task.md 4);
     # the measurements that kept the paper's definition are in docs/design.md.
@@ -153,14 +149,6 @@ def ball_in(bel: Belief, r: int, n: float, kp) -> tuple:
     return rolled_out(
         bel.pos[r, 0, 0], bel.pos[r, 0, 1], bel.vel[r, 0, 0], bel.vel[r, 0, 1], n, kp.ball_decay
     )
-
-
-@njit(cache=True)
-def _ball_plan(bel: Belief, r: int, n: float, still: bool, kp) -> tuple:
-    """The ball after ``n`` cycles as an interception plans it: at rest when ``still``."""
-    if still:
-        return bel.pos[r, 0, 0], bel.pos[r, 0, 1]
-    return ball_in(bel, r, n, kp)
 
 
 @njit(cache=True)
@@ -724,17 +712,17 @@ def forward_angle(bel: Belief, r: int) -> float:
 
 
 @njit(cache=True)
-def collide_with_ball(bel: Belief, r: int, still: bool, kp) -> tuple:
+def collide_with_ball(bel: Belief, r: int, kp) -> tuple:
     """(ok, code, arg1): a command after which my body overlaps the ball next cycle (BasicPlayer::
     collideWithBall), the ball being near enough: a turn to my forward direction if I drift into it, else
     a dash at its next position."""
     me = bel.me[r]
     px, py, vx, vy = bel.pos[r, me, 0], bel.pos[r, me, 1], bel.vel[r, me, 0], bel.vel[r, me, 1]
     body, effort = bel.body[r, me], bel.effort[r]
-    ball_speed = 0.0 if still else math.hypot(bel.vel[r, 0, 0], bel.vel[r, 0, 1])
+    ball_speed = math.hypot(bel.vel[r, 0, 0], bel.vel[r, 0, 1])
     if distance(px, py, bel.pos[r, 0, 0], bel.pos[r, 0, 1]) > ball_speed + kp.player_speed_max:
         return False, CMD_DASH, 0.0
-    b1x, b1y = _ball_plan(bel, r, 1.0, still, kp)
+    b1x, b1y = ball_in(bel, r, 1.0, kp)
     touch = kp.ball_size + kp.player_size
     fwd = math.radians(forward_angle(bel, r))
     _, moment, _ = turn_to_point(bel, r, px + math.cos(fwd), py + math.sin(fwd), 1.0, kp)
@@ -762,7 +750,7 @@ def _opponent_within(bel: Belief, r: int, radius: float, cfg) -> bool:
 
 
 @njit(cache=True)
-def close_intercept(bel: Belief, r: int, still: bool, kp, cfg) -> tuple:
+def close_intercept(bel: Belief, r: int, kp, cfg) -> tuple:
     """(ok, code, arg1): the close interception, as BasicPlayer::interceptClose does it (its doc comment,
     which spec 2.1 step 1 follows, describes turn+dash and dash+dash searches the code does not make).
 
@@ -789,11 +777,11 @@ def close_intercept(bel: Belief, r: int, still: bool, kp, cfg) -> tuple:
     close_range = (cfg.close_range_dash_cycles * kp.player_speed_max
                    + (1.0 + kp.ball_decay) * kp.ball_speed_max + kickable)
     in_range = distance(px, py, bel.pos[r, 0, 0], bel.pos[r, 0, 1]) <= close_range
-    collide_ok, collide_code, collide_a1 = collide_with_ball(bel, r, still, kp)
+    collide_ok, collide_code, collide_a1 = collide_with_ball(bel, r, kp)
     opp_close = _opponent_within(bel, r, cfg.close_opponent_radius, cfg)
     off_forward = abs(normalize_angle(fwd - body)) > cfg.close_heading_tolerance
-    b1x, b1y = _ball_plan(bel, r, 1.0, still, kp)
-    b2x, b2y = _ball_plan(bel, r, 2.0, still, kp)
+    b1x, b1y = ball_in(bel, r, 1.0, kp)
+    b2x, b2y = ball_in(bel, r, 2.0, kp)
     p1x, p1y = rolled_out(px, py, vx, vy, 1.0, kp.player_decay)
     p2x, p2y = rolled_out(px, py, vx, vy, 2.0, kp.player_decay)
 
@@ -858,8 +846,7 @@ def close_intercept(bel: Belief, r: int, still: bool, kp, cfg) -> tuple:
 
 
 @njit(cache=True)
-def interception_point(bel: Belief, r: int, mem: AgentMemory, still: bool, kp, cfg, known_first: int = -1
-                       ) -> tuple:
+def interception_point(bel: Belief, r: int, mem: AgentMemory, kp, cfg, known_first: int = -1) -> tuple:
     """(i, x, y): the cycle and ball position at which I intercept (spec 2.1 step 2), -1 if none within
     the horizon. First reachable i by default; the stability rule prefers a reachable i (at most 2 cycles
     after the first) whose ball position is within 1 m of the point chosen last cycle, with margin and a
@@ -872,14 +859,14 @@ def interception_point(bel: Belief, r: int, mem: AgentMemory, still: bool, kp, c
     px, py, vx, vy = bel.pos[r, me, 0], bel.pos[r, me, 1], bel.vel[r, me, 0], bel.vel[r, me, 1]
     fx, fy = final_position(px, py, vx, vy, kp.player_decay)
     kickable = kickable_distance(kp)
-    ball_speed = 0.0 if still else math.hypot(bel.vel[r, 0, 0], bel.vel[r, 0, 1])
+    ball_speed = math.hypot(bel.vel[r, 0, 0], bel.vel[r, 0, 1])
     recent = mem.intercept_time[r] >= 0 and bel.time[r] - mem.intercept_time[r] <= cfg.stability_window
     sums = decay_sums(cfg)
     first, stable = -1, -1
     for i in range(int(cfg.intercept_horizon) + 1):
         if first >= 0 and i > first + cfg.stability_window:
             break
-        bx, by = _ball_plan(bel, r, i, still, kp)
+        bx, by = ball_in(bel, r, i, kp)
         if abs(bx) > kp.pitch_length / 2.0 or abs(by) > kp.pitch_width / 2.0:
             break
         if i < known_first:
@@ -907,7 +894,7 @@ def interception_point(bel: Belief, r: int, mem: AgentMemory, still: bool, kp, c
     chosen = stable if stable >= 0 else first
     if chosen < 0:
         return -1, bel.pos[r, 0, 0], bel.pos[r, 0, 1]
-    x, y = _ball_plan(bel, r, chosen, still, kp)
+    x, y = ball_in(bel, r, chosen, kp)
     mem.intercept_point[r, 0] = x
     mem.intercept_point[r, 1] = y
     mem.intercept_time[r] = bel.time[r]
@@ -915,18 +902,17 @@ def interception_point(bel: Belief, r: int, mem: AgentMemory, still: bool, kp, c
 
 
 @njit(cache=True)
-def intercept(bel: Belief, r: int, mem: AgentMemory, still: bool, kp, cfg, known_first: int = -1) -> tuple:
+def intercept(bel: Belief, r: int, mem: AgentMemory, kp, cfg, known_first: int = -1) -> tuple:
     """Intercept / GoToBall (spec 2.1 step 3): the close intercept when the chosen point is < 3 cycles
     away and one exists; no move when my position rolled out min(i, 4) cycles is already within 0.5 m of
     the point (the framework then turns to its global 0 deg, ``forward_angle``, a quirk kept); else move
     to the point, sized to arrive in i cycles (``intercept_move``). With no reachable point, head for the
     ball's current position.
-    ``still``: plan with the ball at rest (see ``taker_decide``); False is the framework's behaviour.
     ``known_first``: as in ``interception_point``."""
     me = bel.me[r]
-    i, x, y = interception_point(bel, r, mem, still, kp, cfg, known_first)
+    i, x, y = interception_point(bel, r, mem, kp, cfg, known_first)
     if 0 <= i < cfg.close_max_cycle:
-        ok, code, a1 = close_intercept(bel, r, still, kp, cfg)
+        ok, code, a1 = close_intercept(bel, r, kp, cfg)
         if ok:
             return code, a1, 0.0
     px, py = bel.pos[r, me, 0], bel.pos[r, me, 1]

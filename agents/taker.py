@@ -4,12 +4,10 @@ Per cycle: ball lost -> search; ball kickable and I am the taker closest to it -
 with more than two takers, the third and further takers mark the least covered keeper; if another taker
 already controls the ball -> face it and do not interfere; else intercept. In 3v2 both takers chase.
 
-Deviation (``AgentConfig.takers_plan_held_ball_still``, on by default): while a keeper controls the ball,
-a chasing taker plans its interception with the ball at rest. With exact beliefs (batched mode) the
-framework rule deadlocks: HoldBall moves the ball ~1.2 m around the keeper every other cycle, away from
-the side the nearest taker's body points to; the taker's interception point swings with the ball's
-velocity, so it turns every cycle and never dashes, which flips the keeper's side again. In a noise-free
-check with hand-coded keepers most episodes never ended; with this option they ended after ~13 s.
+Literal, as the C++ takers: they plan their interception with the ball they believe in. Holding the
+ball still in their belief while a keeper controls it is the world model's work (the C++ rule in
+``agents/worldmodel.py``); an earlier deviation that planned with a held ball at rest is gone
+(docs/design.md, "The players' skills").
 """
 
 from __future__ import annotations
@@ -54,15 +52,6 @@ def takers_closer_to_ball(bel: Belief, r: int, cfg) -> int:
         if d < mine or (d == mine and j < me):
             count += 1
     return count
-
-
-@njit(cache=True)
-def keeper_controls_ball(bel: Belief, r: int, kp, cfg) -> bool:
-    """Whether a usable keeper has the ball within its kickable distance."""
-    for i in range(1, bel.n_keepers + 1):
-        if bel.conf[r, i] >= cfg.player_conf_threshold and ball_kickable(bel, r, i, kp):
-            return True
-    return False
 
 
 @njit(cache=True)
@@ -124,8 +113,7 @@ def taker_decide(bel: Belief, r: int, mem: AgentMemory, kp, cfg, out_main, out_a
             code, a1, a2 = turn_to_point(bel, r, bel.pos[r, 0, 0], bel.pos[r, 0, 1], 1.0, kp)
             write_action(r, code, a1, a2, neck_with_body(bel, r), out_main, out_a1, out_a2, out_neck)
             return
-        still = cfg.takers_plan_held_ball_still > 0.0 and keeper_controls_ball(bel, r, kp, cfg)
-        code, a1, a2 = intercept(bel, r, mem, still, kp, cfg)
+        code, a1, a2 = intercept(bel, r, mem, kp, cfg)
     write_action(r, code, a1, a2, neck_to_ball(bel, r, code, a1, kp), out_main, out_a1, out_a2, out_neck)
 
 

@@ -267,16 +267,15 @@ def test_two_closest_takers_never_mark():
     assert out[1][0] == pytest.approx(direction(3.5, -3.0), abs=1.0)
 
 
-@pytest.mark.parametrize("still, expected", [(True, CMD_DASH), (False, CMD_TURN)])
-def test_taker_plans_with_a_held_ball_at_rest(still, expected):
-    # keeper 1 controls the ball (0.5, 0), which moves at 1 m/cycle (a HoldBall kick). Taker 4 at (0, 4)
-    # faces -90 deg: the ball itself lies 7.1 deg off its body line, 0.5 m < 0.9 x 1.085 m -> dash.
-    # Planning with the ball's velocity (the framework rule) the interception point lies several metres
-    # to the right (the ball would roll on), far off the body line -> turn.
+@pytest.mark.parametrize("ball_speed, expected", [(0.0, CMD_DASH), (1.0, CMD_TURN)])
+def test_taker_plans_with_the_ball_it_believes(ball_speed, expected):
+    # keeper 1 controls the ball (0.5, 0). Taker 4 at (0, 4) faces -90 deg. Believed at rest (what the
+    # world model believes of a ball an opponent controls): the ball lies 7.1 deg off the body line,
+    # 0.5 m < 0.9 x 1.085 m -> dash. Believed rolling at 1 m/cycle: the interception point lies several
+    # metres to the right, far off the body line -> turn.
     pos = [[0.5, 0.0], [0.0, 0.0], [7.0, -7.0], [-7.0, 7.0], [0.0, 4.0], [9.0, 9.0]]
     bel = belief(pos, 4, body=[0, 0, 0, 0, -90, 0])
-    bel.vel[0, 0] = [1.0, 0.0]
-    cfg = AgentConfig(takers_plan_held_ball_still=still).kernel()
+    bel.vel[0, 0] = [ball_speed, 0.0]
     out = outputs()
-    taker_decide(bel, 0, new_memory(1, seed_streams(0, 1)), KP, cfg, *out)
+    taker_decide(bel, 0, new_memory(1, seed_streams(0, 1)), KP, CFG, *out)
     assert out[0][0] == expected

@@ -152,24 +152,22 @@ def _ref_player_travel(pos, vel, body, effort, me, obj, tx, ty, n, kp, cfg):
 
 
 @njit
-def _ref_ball_plan(pos, vel, n, still, kp):
-    if still:
-        return pos[0, 0], pos[0, 1]
+def _ref_ball_plan(pos, vel, n, kp):
     return rolled_out(pos[0, 0], pos[0, 1], vel[0, 0], vel[0, 1], n, kp.ball_decay)
 
 
 @njit
-def _ref_interception_point(pos, vel, body, effort, me, time, still, last_x, last_y, last_time, kp, cfg):
+def _ref_interception_point(pos, vel, body, effort, me, time, last_x, last_y, last_time, kp, cfg):
     """Returns (i, x, y): every candidate cycle's travel simulated in full."""
     fx, fy = final_position(pos[me, 0], pos[me, 1], vel[me, 0], vel[me, 1], kp.player_decay)
     kickable = kp.player_size + kp.kickable_margin + kp.ball_size
-    ball_speed = 0.0 if still else math.hypot(vel[0, 0], vel[0, 1])
+    ball_speed = math.hypot(vel[0, 0], vel[0, 1])
     recent = last_time >= 0 and time - last_time <= cfg.stability_window
     first, stable = -1, -1
     for i in range(int(cfg.intercept_horizon) + 1):
         if first >= 0 and i > first + cfg.stability_window:
             break
-        bx, by = _ref_ball_plan(pos, vel, i, still, kp)
+        bx, by = _ref_ball_plan(pos, vel, i, kp)
         if abs(bx) > kp.pitch_length / 2.0 or abs(by) > kp.pitch_width / 2.0:
             break
         if distance(fx, fy, bx, by) / kp.player_speed_max > i + kickable:
@@ -192,7 +190,7 @@ def _ref_interception_point(pos, vel, body, effort, me, time, still, last_x, las
     chosen = stable if stable >= 0 else first
     if chosen < 0:
         return -1, pos[0, 0], pos[0, 1]
-    x, y = _ref_ball_plan(pos, vel, chosen, still, kp)
+    x, y = _ref_ball_plan(pos, vel, chosen, kp)
     return chosen, x, y
 
 
@@ -263,15 +261,15 @@ def _memory(last_point: tuple[float, float] | None, last_time: int) -> AgentMemo
     return mem
 
 
-def _check_interception(bel, r: int, still: bool, last_point, last_time: int, kp=KP) -> None:
+def _check_interception(bel, r: int, last_point, last_time: int, kp=KP) -> None:
     """The kernel's interception point of row ``r`` equals the reference's, bit for bit."""
     me, time = int(bel.me[r]), int(bel.time[r])
     lx, ly = last_point if last_point is not None else (0.0, 0.0)
-    ref = _ref_interception_point(bel.pos[r], bel.vel[r], bel.body[r], bel.effort[r], me, time, still, lx, ly,
+    ref = _ref_interception_point(bel.pos[r], bel.vel[r], bel.body[r], bel.effort[r], me, time, lx, ly,
                                   last_time if last_point is not None else -1, kp, CFG)
     one = belief_from_truth(bel.pos[r], bel.vel[r], bel.body[r], bel.neck[r], me, time, K, T, bel.effort[r])
     one.conf[0] = bel.conf[r]
-    got = interception_point(one, 0, _memory(last_point, last_time), still, kp, CFG)
+    got = interception_point(one, 0, _memory(last_point, last_time), kp, CFG)
     assert got == ref
 
 
@@ -296,24 +294,23 @@ def test_interception_of_a_ball_rolling_towards_me_matches_the_reference():
     vel = np.zeros((N, 2))
     vel[0] = (1.5, 0.0)
     bel = belief_from_truth(pos, vel, [0, 180, 0, 0, 0, 0], np.zeros(N), 1, 50, K, T)
-    ref = _ref_interception_point(pos, vel, bel.body[0], 1.0, 1, 50, False, 0.0, 0.0, -1, KP, CFG)
+    ref = _ref_interception_point(pos, vel, bel.body[0], 1.0, 1, 50, 0.0, 0.0, -1, KP, CFG)
     assert ref[0] == 5
-    _check_interception(bel, 0, False, None, -1)
+    _check_interception(bel, 0, None, -1)
     # chosen last cycle near x_6 = -10 + 25 (1 - 0.94^6) = -2.25: the stability rule may prefer it
-    _check_interception(bel, 0, False, (-2.25, 0.0), 49)
+    _check_interception(bel, 0, (-2.25, 0.0), 49)
 
 
 @pytest.mark.parametrize("params", ["classic", "current"])  # current: no backward dashes
-@pytest.mark.parametrize("still", [False, True])
-def test_interception_point_matches_the_reference_on_random_beliefs(still, params):
+def test_interception_point_matches_the_reference_on_random_beliefs(params):
     kp = parameter_set(params).kernel()
-    bel = _random_beliefs(150, seed=11 + still)
+    bel = _random_beliefs(150, seed=11)
     for r in range(bel.batch):
-        _check_interception(bel, r, still, None, -1, kp)
+        _check_interception(bel, r, None, -1, kp)
         # recently intercepted near the ball's position 3 cycles ahead: the stability scan runs
         bx, by = rolled_out(bel.pos[r, 0, 0], bel.pos[r, 0, 1], bel.vel[r, 0, 0], bel.vel[r, 0, 1], 3.0,
                             kp.ball_decay)
-        _check_interception(bel, r, still, (bx, by), int(bel.time[r]) - 1, kp)
+        _check_interception(bel, r, (bx, by), int(bel.time[r]) - 1, kp)
 
 
 def test_fastest_to_ball_matches_the_reference_on_random_beliefs():
@@ -337,8 +334,7 @@ def test_every_belief_of_a_batched_game_decides_as_the_reference():
             if bel.conf[r, 0] < CFG.ball_conf_threshold:
                 continue
             me, last = int(bel.me[r]), (float(mem.intercept_point[r, 0]), float(mem.intercept_point[r, 1]))
-            for still in (False, True):
-                _check_interception(bel, r, still, last, int(mem.intercept_time[r]))
+            _check_interception(bel, r, last, int(mem.intercept_time[r]))
             fastest = fastest_to_ball(bel, r, 1, K, KP, CFG)
             assert fastest == _ref_fastest_to_ball(bel.pos[r], bel.vel[r], bel.body[r], bel.effort[r],
                                                    bel.conf[r], me, 1, K, KP, CFG)
@@ -348,8 +344,8 @@ def test_every_belief_of_a_batched_game_decides_as_the_reference():
                     plain, hint = _memory(last, last_time), _memory(last, last_time)
                     one = belief_from_truth(bel.pos[r], bel.vel[r], bel.body[r], bel.neck[r], me, bel.time[r],
                                             K, T, bel.effort[r])
-                    assert (interception_point(one, 0, hint, False, KP, CFG, fastest[1])
-                            == interception_point(one, 0, plain, False, KP, CFG))
+                    assert (interception_point(one, 0, hint, KP, CFG, fastest[1])
+                            == interception_point(one, 0, plain, KP, CFG))
                     assert np.array_equal(hint.intercept_point, plain.intercept_point)
                 hinted += 1
     assert checked > 300 and hinted > 40  # the game gave the kernels something to decide (400 and 80)

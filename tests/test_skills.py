@@ -164,11 +164,11 @@ def test_interception_point_of_a_ball_rolling_towards_me():
     bel = belief([[-10.0, 0.0], [0.0, 0.0], [9.0, 0.0], [0.0, 9.0]] + FAR_TAKERS, 1,
                  vel=[[1.5, 0.0], [0, 0], [0, 0], [0, 0], [0, 0], [0, 0]], body=[0, 180, 0, 0, 0, 0])
     mem = new_memory(1, seed_streams(0, 1))
-    i, x, y = interception_point(bel, 0, mem, False, KP, CFG)
+    i, x, y = interception_point(bel, 0, mem, KP, CFG)
     assert i == 5
     assert (x, y) == pytest.approx((-10.0 + 25.0 * (1.0 - 0.94**5), 0.0))
     # far from it (i >= 3): move there, a full dash since 3.35 m in 5 cycles needs more than 1.2 m/cycle
-    assert intercept(bel, 0, new_memory(1, seed_streams(0, 1)), False, KP, CFG) == (CMD_DASH, 100.0, 0.0)
+    assert intercept(bel, 0, new_memory(1, seed_streams(0, 1)), KP, CFG) == (CMD_DASH, 100.0, 0.0)
 
 
 def test_fastest_keeper_to_a_rolling_ball():
@@ -185,7 +185,7 @@ def test_close_intercept_dashes_when_an_opponent_is_near():
     # one first: any power above 100 is cut to 100, which moves me 0.6 m, 0.9 m < 0.95 x 1.085 = 1.031
     # from the ball -> with the opponent within 3 m the dash is taken at once
     bel = belief([[1.5, 0.0], [0.0, 0.0], [-9.0, 0.0], [0.0, 9.0], [2.0, 1.0], [9.0, -9.0]], 1)
-    assert close_intercept(bel, 0, False, KP, CFG) == (True, CMD_DASH, 100.0)
+    assert close_intercept(bel, 0, KP, CFG) == (True, CMD_DASH, 100.0)
 
 
 @pytest.mark.parametrize("me, expected_moment", [(1, -90.0), (4, 90.0)])
@@ -199,7 +199,7 @@ def test_close_intercept_turns_to_its_own_forward_direction(me, expected_moment)
     body[me] = 90.0
     bel = belief(pos, me, body=body)
     assert forward_angle(bel, 0) == (0.0 if me == 1 else 180.0)
-    assert close_intercept(bel, 0, False, KP, CFG) == (True, CMD_TURN, pytest.approx(expected_moment))
+    assert close_intercept(bel, 0, KP, CFG) == (True, CMD_TURN, pytest.approx(expected_moment))
 
 
 def test_intercept_move_turns_its_back_to_a_close_point():
@@ -236,7 +236,7 @@ def _run_intercept(ball_pos, ball_vel, me_pos, me_body, cycles):
         if math.dist(pos[0], pos[1]) < KP.player_size + KP.kickable_margin + KP.ball_size:
             return t
         bel = belief_from_truth(pos, vel, body, np.zeros(6), 1, t, 3, 2)
-        code, a1, _ = intercept(bel, 0, mem, False, KP, CFG)
+        code, a1, _ = intercept(bel, 0, mem, KP, CFG)
         x, y, vx, vy, b = player_step(pos[1, 0], pos[1, 1], vel[1, 0], vel[1, 1], body[1], 1.0, code, a1, KP)
         pos[1], vel[1], body[1] = (x, y), (vx, vy), b
         pos[0] += vel[0]
