@@ -11,10 +11,8 @@ from typing import Any
 
 import click
 
-from trainer.cli import COUNT_TYPE, SEED_TYPE
+from trainer.cli import COUNT_TYPE, SEED_TYPE, Command, with_options
 from trainer.train_cli import learning_options
-
-Command = Callable[..., None]
 
 
 def experiment_options(command: Command) -> Command:
@@ -47,7 +45,7 @@ def experiment_options(command: Command) -> Command:
                      help="Threads stepping arenas [numba's thread count]."),
         click.option("--no-progress", is_flag=True, help="No progress bars."),
     ]
-    return functools.reduce(lambda f, option: option(f), reversed(options), command)
+    return with_options(options, command)
 
 
 def _experiment(trials: int, episodes: int, eval_every: int | None, eval_episodes: int, arenas: int,

@@ -3,9 +3,7 @@
 
 from __future__ import annotations
 
-import functools
 import sys
-from collections.abc import Callable
 from pathlib import Path
 
 import click
@@ -19,12 +17,13 @@ from trainer.cli import (
     SEED_TYPE,
     TAKERS_HELP,
     TAKERS_TYPE,
+    Command,
+    with_options,
 )
 from trainer.kernels import BATCHED, PLAYERS, SERVER
 from trainer.schedule import POLICY_NAMES
 
 POLICY_CHOICES = click.Choice(POLICY_NAMES)
-Command = Callable[..., None]
 
 
 def prepare_kernels(kernel_sets: tuple[str, ...]) -> None:
@@ -48,7 +47,7 @@ def learning_options(command: Command) -> Command:
         click.option("--cem-noise-generations", type=click.IntRange(min=0), default=0, show_default=True,
                      help="Generations over which --cem-extra-noise falls linearly to 0 (0: it stays)."),
     ]
-    return functools.reduce(lambda f, option: option(f), reversed(options), command)
+    return with_options(options, command)
 
 
 # Options that define a training; with --resume the stored configuration is used and these must not be given.
