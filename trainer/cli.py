@@ -9,7 +9,7 @@ from pathlib import Path
 
 import click
 
-from protocol.arena import MAX_SEED
+from protocol.messages import MAX_SEED
 from protocol.params import KEEPAWAY_KEEPERS, KEEPAWAY_TAKERS
 from trainer.kernels import KERNEL_SETS
 from trainer.run import MODES
