@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 
 import click
 
-from protocol.arena import MAX_SEED
+from protocol.messages import MAX_SEED
 from protocol.endpoints import DEFAULT_PORTS, parse_endpoint
 
 EXIT_OK = 0

@@ -15,7 +15,7 @@ from collections.abc import Mapping
 from typing import ClassVar
 
 from protocol.codec import Message, choice, decode, fixed, integer, message, optional, payload_value, sequence, wire
-from protocol.messages import CYCLE, EPISODE_ENDS, MAX_CYCLE, Error, Shutdown, _advice_target, _by_type
+from protocol.messages import CYCLE, EPISODE_ENDS, MAX_CYCLE, SEED, Error, Shutdown, _advice_target, _by_type
 
 MAX_EPISODES_PER_REQUEST = 1_000_000
 MAX_RECORDS = 1_000_000
@@ -24,7 +24,6 @@ MAX_ADVICE = 1024
 # The arena port carries whole Pass policies one way and every keeper's reports the other: its frames
 # may be far larger than a player's (the trainer is trusted; ZeroMQ still enforces this bound).
 ARENA_MAX_MESSAGE_BYTES = 1 << 28
-MAX_SEED = 2**63 - 1
 # What a trainer can ask the keepers to report after a run (agents/player.py, docs/advice.md).
 REPORTS = ("transitions", "snapshot")
 
@@ -37,7 +36,7 @@ class RunEpisodes(Message):
 
     TYPE: ClassVar[str] = "run_episodes"
     episodes: int = wire(integer(1, MAX_EPISODES_PER_REQUEST))
-    seed: int | None = wire(optional(integer(0, MAX_SEED)), default=None)
+    seed: int | None = wire(optional(SEED), default=None)
     advice: tuple = wire(sequence(fixed(_advice_target, payload_value), MAX_ADVICE), default=())
     reports: tuple = wire(sequence(choice(*REPORTS), len(REPORTS)), default=())
 

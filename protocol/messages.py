@@ -41,7 +41,7 @@ from protocol.codec import (
 )
 from protocol.endpoints import DEFAULT_MAX_MESSAGE_BYTES, MONITOR_EPISODE_TOPIC, MONITOR_FRAME_TOPIC
 from protocol.errors import ProtocolError
-from protocol.params import ServerParams
+from protocol.params import MAX_TEAM_SIZE, ServerParams
 
 # ------------------------------------------------------------------------------------------ vocabulary
 
@@ -59,7 +59,7 @@ COMMAND_COUNTS = ("kick", "dash", "turn", "catch", "move", "turn_neck", "change_
 
 # ------------------------------------------------------------------------------------------------ limits
 
-MAX_UNUM = 11
+MAX_UNUM = MAX_TEAM_SIZE
 MAX_CYCLE = 2**31 - 1
 MAX_COMMANDS = 16
 MAX_CLIENT_CHARS = 64
@@ -402,7 +402,8 @@ class Advice(Message):
 
 # ``reset`` reseeds the arena's random stream with server.rng.seed_streams, which takes any int; the
 # wire allows msgpack's non-negative signed 64-bit ints.
-SEED = integer(0, 2**63 - 1)
+MAX_SEED = 2**63 - 1
+SEED = integer(0, MAX_SEED)
 # Actions that take ``episodes_left``: stop or pause once that many more episodes have ended.
 COUNTDOWN_ACTIONS = ("stop", "pause")
 

@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from protocol.arena import MAX_SEED
+from protocol.messages import MAX_SEED
 from protocol.params import (
     PARAMETER_SETS,
     POSITIVE,

@@ -125,3 +125,25 @@ def test_tell_rejects_bad_fitness():
         cem.tell(np.full(20, np.nan))
     with pytest.raises(ValueError):
         CEMConfig(elite=21)
+
+
+def test_noisy_cem_adds_extra_variance_that_falls_linearly_to_zero():
+    # Szita & Lorincz's noisy CE: extra noise 0.5 over 4 generations adds 0.5, 0.375, 0.25, 0.125, 0, 0, ...
+    cfg = CEMConfig(extra_noise=0.5, extra_noise_generations=4)
+    assert [cfg.extra_variance(g) for g in range(6)] == [0.5, 0.375, 0.25, 0.125, 0.0, 0.0]
+    assert CEMConfig(extra_noise=0.5).extra_variance(100) == 0.5  # 0 generations: it stays
+    assert CEMConfig().extra_variance(0) == 0.0  # the paper's CEM
+    with pytest.raises(ValueError, match="extra_noise"):
+        CEMConfig(extra_noise=-1.0)
+
+
+def test_tell_adds_the_extra_variance_to_the_elites_fit():
+    cem = CEM(CEMConfig(extra_noise=0.5, extra_noise_generations=4), seed=3)
+    for extra in (0.5, 0.375):  # generations 0 and 1
+        candidates = cem.ask()
+        fitness = candidates[:, 0] - candidates[:, 1]
+        mean, variance = fit_elite(candidates, fitness, 5)
+        cem.tell(fitness)
+        np.testing.assert_allclose(cem.mean, mean)
+        np.testing.assert_allclose(cem.variance, variance + extra)
+    assert cem.generation == 2

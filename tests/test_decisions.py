@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from agents.belief import belief_from_truth, forget_episode, new_memory
+from agents.belief import forget_episode, new_memory
 from agents.geometry import direction
 from agents.getopen import grid_point, handcoded_target, net_size, net_value, random_target
 from agents.keeper import (
@@ -23,16 +23,10 @@ from agents.taker import mark_point, taker_decide
 from protocol.params import parameter_set
 from server.rng import seed_streams
 from server.world import CMD_DASH, CMD_KICK, CMD_NONE, CMD_TURN
+from beliefs import belief
 
 KP = parameter_set("classic").kernel()
 CFG = AgentConfig().kernel()
-
-
-def belief(pos, me, body=None, n_keepers=3, n_takers=2, time=100):
-    pos = np.asarray(pos, dtype=float)
-    n = pos.shape[0]
-    body = np.zeros(n) if body is None else np.asarray(body, dtype=float)
-    return belief_from_truth(pos, np.zeros((n, 2)), body, np.zeros(n), me, time, n_keepers, n_takers)
 
 
 def outputs():

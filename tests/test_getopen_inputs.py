@@ -8,7 +8,6 @@ import json
 import numpy as np
 import pytest
 
-from agents.belief import belief_from_truth
 from agents.getopen import (
     RAW_INPUTS,
     SCALED_INPUTS,
@@ -28,6 +27,7 @@ from trainer.curves import CurvePoint
 from trainer.distributed import policy_advice
 from trainer.train import Behaviours, TrainConfig, TrialState, load_checkpoint, save_checkpoint, trial_dir
 from trainer.train import write_trial_outputs
+from beliefs import belief
 
 KP = parameter_set("classic").kernel()
 CFG = AgentConfig().kernel()
@@ -35,13 +35,6 @@ N_INPUTS = getopen_state_size(3, 2)
 THETA_SIZE = net_size(N_INPUTS)
 # theta layout (agents.getopen.net_value), 10 inputs: W1 0..49, b1 50..54, W2 55..79, b2 80..84, W3 85..89, b3 90
 B1, W2, W3 = 50, 55, 85
-
-
-def belief(pos, me, vel=None):
-    pos = np.asarray(pos, dtype=float)
-    n = pos.shape[0]
-    vel = np.zeros((n, 2)) if vel is None else np.asarray(vel, dtype=float)
-    return belief_from_truth(pos, vel, np.zeros(n), np.zeros(n), me, 100, 3, 2)
 
 
 def random_states(rng, n):

@@ -3,8 +3,7 @@ connects, waits for the game, plays and exits cleanly when the server ends or on
 
 from __future__ import annotations
 
-import os
-import select
+import re
 import signal
 import socket
 import subprocess
@@ -13,7 +12,7 @@ import time
 import numpy as np
 import pytest
 
-from conftest import keepaway_command
+from conftest import keepaway_command, read_until_match
 from protocol import messages as m
 from scripted import ScriptedPlayer
 
@@ -61,29 +60,15 @@ def test_five_players_play_a_real_time_game_to_its_end(processes, tmp_path):
     assert_game_played(server, players, 2)
 
 
-def read_until(stream, text, timeout_s):
-    """What ``stream`` says up to and including ``text`` (AssertionError after ``timeout_s``). Reads the
-    file descriptor directly: a buffered readline would hide lines from select."""
-    seen = b""
-    deadline = time.monotonic() + timeout_s
-    while text.encode() not in seen:
-        ready, _, _ = select.select([stream], [], [], max(0.0, deadline - time.monotonic()))
-        chunk = os.read(stream.fileno(), 65536) if ready else b""
-        if not chunk:
-            raise AssertionError(f"no {text!r} in {seen.decode()[-2000:]!r}")
-        seen += chunk
-    return seen.decode()
-
-
 def test_sigterm_makes_a_player_say_bye_and_exit_0(processes, tmp_path):
     server = processes.start_server(tmp_path, "--mode", "sync")
     player = processes.popen(keepaway_command("player", "--team", "keepers", "--server", server.players_endpoint,
                                               "-v"), stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-    read_until(player.stderr, "joined as keepers 1", PROCESS_TIMEOUT_S)
+    read_until_match(player.stderr, re.compile("joined as keepers 1"), PROCESS_TIMEOUT_S)
     player.send_signal(signal.SIGTERM)
     assert player.wait(PROCESS_TIMEOUT_S) == 0
     assert "Traceback" not in player.stderr.read().decode()
-    read_until(server.proc.stderr, "keeper 1 said bye", 30)
+    read_until_match(server.proc.stderr, re.compile("keeper 1 said bye"), 30)
     server.proc.send_signal(signal.SIGTERM)
     assert server.wait(PROCESS_TIMEOUT_S) == 0
 

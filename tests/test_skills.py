@@ -34,18 +34,10 @@ from agents.skills import (
 from protocol.params import parameter_set
 from server.rng import seed_streams
 from server.world import CMD_DASH, CMD_KICK, CMD_TURN
+from beliefs import belief
 
 KP = parameter_set("classic").kernel()
 CFG = AgentConfig().kernel()
-
-
-def belief(pos, me, vel=None, body=None, n_keepers=3, n_takers=2, time=100):
-    """One perfect-belief row; ``pos`` lists ball, keepers, takers."""
-    pos = np.asarray(pos, dtype=float)
-    n = pos.shape[0]
-    vel = np.zeros((n, 2)) if vel is None else np.asarray(vel, dtype=float)
-    body = np.zeros(n) if body is None else np.asarray(body, dtype=float)
-    return belief_from_truth(pos, vel, body, np.zeros(n), me, time, n_keepers, n_takers)
 
 
 FAR_TAKERS = [[9.0, 9.0], [9.0, -9.0]]

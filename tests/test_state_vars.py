@@ -7,18 +7,12 @@ import math
 import numpy as np
 import pytest
 
-from agents.belief import belief_from_truth
 from agents.skills import AgentConfig
 from agents.state_vars import getopen_state, getopen_state_size, pass_state, pass_state_size
+from beliefs import belief
 
 CFG = AgentConfig().kernel()
 ANGLE_3_4_5 = math.degrees(math.acos(0.8))  # 36.8699 deg: cos = 0.8 in a 3-4-5 triangle
-
-
-def belief(pos, me):
-    pos = np.asarray(pos, dtype=float)
-    n = pos.shape[0]
-    return belief_from_truth(pos, np.zeros((n, 2)), np.zeros(n), np.zeros(n), me, 0, 3, 2)
 
 
 # ball, keepers 1..3, takers 4..5. Keeper 1 holds the ball; from K1 = (-3, -4): keeper 3 at (1, -1) is

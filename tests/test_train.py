@@ -329,6 +329,51 @@ def test_algorithm_3_alternates_cem_and_sarsa_and_resumes_inside_a_pass_phase(tm
     assert outputs(tmp_path / "killed", 1) == outputs(tmp_path / "whole", 1)
 
 
+def pass_config(**overrides) -> TrainConfig:
+    # Pass alone: blocks of 4 episodes between evaluations of 2, 12 episodes in all.
+    values = dict(pass_policy="learned", getopen_policy="handcoded", schedule=(Phase(PASS, 12),), trials=1,
+                  eval_every=4, eval_episodes=2, arenas=2, seed=4)
+    values.update(overrides)
+    return TrainConfig(**values)
+
+
+def test_an_annealed_pass_step_size_follows_its_half_life():
+    # alpha = 0.125 h / (h + n) with h = 4: 0.125 at n = 0, 0.0625 at 4, 0.125 * 4 / 12 at 8.
+    config = pass_config(pass_alpha_halflife=4)
+    assert [config.pass_alpha(n) for n in (0, 4, 8)] == [0.125, 0.0625, 0.125 / 3]
+    assert pass_config().pass_alpha(8) == 0.125  # the paper's constant
+    with pytest.raises(ValueError, match="needs learned Pass in the batched mode"):
+        tiny_config(pass_alpha_halflife=4)
+    with pytest.raises(ValueError, match="needs learned Pass in the batched mode"):
+        pass_config(pass_alpha_halflife=4, mode="distributed")
+    # A configuration stored before the option existed reads back with it off.
+    stored = pass_config().to_dict()
+    del stored["pass_alpha_halflife"], stored["cem"]["extra_noise"], stored["cem"]["extra_noise_generations"]
+    assert TrainConfig.from_dict(stored) == pass_config()
+
+
+def test_pass_blocks_learn_with_the_annealed_step_size(tmp_path):
+    annealed, constant = pass_config(pass_alpha_halflife=4), pass_config()
+    train(annealed, tmp_path / "annealed", threads=1, progress=False)
+    train(constant, tmp_path / "constant", threads=1, progress=False)
+    traces = {}
+    for name in ("annealed", "constant"):
+        lines = (tmp_path / name / "trial_000/trace.jsonl").read_text().splitlines()
+        traces[name] = [json.loads(line)["alpha"] for line in lines]
+    assert traces == {"annealed": [0.125, 0.0625, 0.125 / 3], "constant": [0.125] * 3}
+    weights = [load_policy(tmp_path / name / "trial_000/policy.npz").pass_arrays["pass_weights"]
+               for name in ("annealed", "constant")]
+    assert not np.array_equal(*weights)  # the smaller steps reached the learners
+
+
+def test_an_annealed_step_size_without_learned_pass_is_a_one_line_usage_error(tmp_path):
+    result = CliRunner().invoke(main, ["train", "--pass", "random", "--pass-alpha-halflife", "100",
+                                       "--out", str(tmp_path / "t")])
+    assert result.exit_code == 2
+    assert "an annealed Pass step size (--pass-alpha-halflife) needs learned Pass" in result.output
+    assert not (tmp_path / "t").exists()
+
+
 def test_before_learning_algorithm_3_plays_random_policies_and_go_l_alone_a_small_random_net():
     # keepaway-task.md 7: start from P:R and GO:R; 6: a random-initialised net draws from U[-0.5, 0.5].
     start = Behaviours.initial(algorithm_3_config(), 0)

@@ -4,7 +4,8 @@ A diagonal Gaussian over the 91 parameters of the GetOpen net (`agents.getopen.n
 scaled inputs, `agents.getopen.GetOpenScaling`, unless the training says raw), N(0, I) at the
 start. Each generation ``ask()`` draws 20 candidates; the trainer evaluates each by its mean hold time
 over 125 episodes (all keepers share the candidate, Pass fixed) and hands the 20 numbers to ``tell``,
-which keeps the best 5 and refits the mean and the per-parameter variance to them. One generation is
+which keeps the best 5 and refits the mean and the per-parameter variance to them (with the noisy
+variant, :attr:`CEMConfig.extra_noise`, plus a decreasing amount of extra variance). One generation is
 20 x 125 = 2,500 episodes. The best candidate evaluated so far is what Algorithm 3's Pass phases use
 (`keepaway-task.md` 7).
 
@@ -34,6 +35,11 @@ class CEMConfig:
     initial_mean: float = 0.0  # N(0, I) start
     initial_variance: float = 1.0
     min_variance: float = 0.0  # ours, off by default: a floor on each refitted variance against collapse
+    # Ours, off by default: the noisy cross-entropy method (Szita & Lorincz 2006, "Learning Tetris using the
+    # noisy cross-entropy method"): extra_noise is added to every refitted variance after generation 0 and
+    # decreases linearly to zero at generation extra_noise_generations (0: it never decreases).
+    extra_noise: float = 0.0
+    extra_noise_generations: int = 0
 
     def __post_init__(self) -> None:
         if not 0 < self.elite <= self.population:
@@ -42,6 +48,14 @@ class CEMConfig:
             raise ValueError("n_params and episodes_per_candidate must be positive")
         if self.initial_variance <= 0.0 or self.min_variance < 0.0:
             raise ValueError("need initial_variance > 0 and min_variance >= 0")
+        if self.extra_noise < 0.0 or self.extra_noise_generations < 0:
+            raise ValueError("need extra_noise >= 0 and extra_noise_generations >= 0")
+
+    def extra_variance(self, generation: int) -> float:
+        """The noise added to the variance refitted after ``generation`` (0-based; ``extra_noise`` above)."""
+        if self.extra_noise_generations == 0:
+            return self.extra_noise
+        return self.extra_noise * max(0.0, 1.0 - generation / self.extra_noise_generations)
 
 
 def fit_elite(
@@ -86,6 +100,7 @@ class CEM:
             self.best_fitness = float(fitness[top])
             self.best_params = candidates[top].copy()
         self.mean, self.variance = fit_elite(candidates, fitness, self.config.elite, self.config.min_variance)
+        self.variance += self.config.extra_variance(self.generation)
         self.generation += 1
 
     def state_dict(self) -> dict[str, Any]:

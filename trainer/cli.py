@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import functools
 import sys
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import click
 
-from protocol.arena import MAX_SEED
+from protocol.messages import MAX_SEED
 from protocol.params import KEEPAWAY_KEEPERS, KEEPAWAY_TAKERS
 from trainer.kernels import KERNEL_SETS
 from trainer.run import MODES
@@ -22,6 +24,14 @@ FIELD_SIZE_TYPE = click.FloatRange(min=0.0, min_open=True)
 KEEPERS_HELP = "Number of keepers (at least 2: Pass needs a keeper to pass to)."
 TAKERS_HELP = "Number of takers."
 FIELD_SIZE_HELP = "Side of the square region (m), at most the pitch width."
+
+Command = Callable[..., None]
+
+
+def with_options(options: Sequence[Callable[[Command], Command]], command: Command) -> Command:
+    """``command`` decorated with ``options`` in the order given (as if stacked above it top to bottom): a
+    group of options that several commands share."""
+    return functools.reduce(lambda f, option: option(f), reversed(options), command)
 
 
 @click.command("run")

@@ -11,9 +11,8 @@ from typing import Any
 
 import click
 
-from trainer.cli import COUNT_TYPE, SEED_TYPE
-
-Command = Callable[..., None]
+from trainer.cli import COUNT_TYPE, SEED_TYPE, Command, with_options
+from trainer.train_cli import learning_options
 
 
 def experiment_options(command: Command) -> Command:
@@ -36,6 +35,7 @@ def experiment_options(command: Command) -> Command:
                      help="CEM candidates refitted to (at most --population)."),
         click.option("--candidate-episodes", type=COUNT_TYPE, default=125, show_default=True,
                      help="Episodes per CEM candidate."),
+        learning_options,
         click.option("--seed", type=SEED_TYPE, default=0, show_default=True,
                      help="Seed of the whole experiment."),
         click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=Path("experiment_out"),
@@ -45,18 +45,21 @@ def experiment_options(command: Command) -> Command:
                      help="Threads stepping arenas [numba's thread count]."),
         click.option("--no-progress", is_flag=True, help="No progress bars."),
     ]
-    return functools.reduce(lambda f, option: option(f), reversed(options), command)
+    return with_options(options, command)
 
 
 def _experiment(trials: int, episodes: int, eval_every: int | None, eval_episodes: int, arenas: int,
-                population: int, elite: int, candidate_episodes: int, seed: int) -> Any:
+                population: int, elite: int, candidate_episodes: int, seed: int, pass_alpha_halflife: int,
+                cem_extra_noise: float, cem_noise_generations: int) -> Any:
+    """The experiment the shared options describe (:func:`experiment_options`); a usage error if it cannot run."""
     from trainer.cem import CEMConfig
     from trainer.experiments import ExperimentConfig, default_eval_every
 
     try:
-        cem = CEMConfig(population=population, elite=elite, episodes_per_candidate=candidate_episodes)
+        cem = CEMConfig(population=population, elite=elite, episodes_per_candidate=candidate_episodes,
+                        extra_noise=cem_extra_noise, extra_noise_generations=cem_noise_generations)
         exp = ExperimentConfig(trials, episodes, default_eval_every(episodes) if eval_every is None else eval_every,
-                               eval_episodes, arenas, seed, cem)
+                               eval_episodes, arenas, seed, cem, pass_alpha_halflife)
         exp.check()
     except ValueError as exc:
         raise click.UsageError(str(exc)) from None
@@ -96,14 +99,12 @@ def experiment_group() -> None:
 @click.option("--only", "only", multiple=True, metavar="P:X-GO:Y",
               help="Run just this configuration (repeat for more) and draw nothing: split the nine across "
                    "processes sharing --out, then run once without --only to draw the figure.")
-def figure3_command(trials: int, episodes: int, eval_every: int | None, eval_episodes: int, arenas: int,
-                    population: int, elite: int, candidate_episodes: int, seed: int, out: Path,
-                    threads: int | None, no_progress: bool, only: tuple[str, ...]) -> None:
+def figure3_command(out: Path, threads: int | None, no_progress: bool, only: tuple[str, ...],
+                    **settings: Any) -> None:
     """Train the nine Pass x GetOpen configurations and plot them grouped by Pass and by GetOpen."""
     from trainer.experiments import figure3, parse_configurations
 
-    exp = _experiment(trials, episodes, eval_every, eval_episodes, arenas, population, elite, candidate_episodes,
-                      seed)
+    exp = _experiment(**settings)
     try:
         chosen = parse_configurations(only) if only else None
     except ValueError as exc:
@@ -117,14 +118,11 @@ def figure3_command(trials: int, episodes: int, eval_every: int | None, eval_epi
 
 @experiment_group.command("table2")
 @experiment_options
-def table2_command(trials: int, episodes: int, eval_every: int | None, eval_episodes: int, arenas: int,
-                   population: int, elite: int, candidate_episodes: int, seed: int, out: Path,
-                   threads: int | None, no_progress: bool) -> None:
+def table2_command(out: Path, threads: int | None, no_progress: bool, **settings: Any) -> None:
     """Test each learned Pass policy with every GetOpen and each learned GetOpen with every Pass."""
     from trainer.experiments import table2
 
-    exp = _experiment(trials, episodes, eval_every, eval_episodes, arenas, population, elite, candidate_episodes,
-                      seed)
+    exp = _experiment(**settings)
     tables = _run(table2, exp, out, threads, no_progress)
     click.echo("")
     for table in tables:

@@ -112,6 +112,7 @@ class ExperimentConfig:
     arenas: int = 25  # ours: arenas per CEM candidate and per evaluation (trainer.train)
     seed: int = 0
     cem: CEMConfig = CEMConfig()
+    pass_alpha_halflife: int = 0  # ours, off by default (trainer.train.TrainConfig.pass_alpha)
 
     def schedule(self, pass_policy: str, getopen_policy: str) -> tuple[Phase, ...]:
         """The phases of a learning configuration: one phase of ``episodes``, or with both behaviours
@@ -133,7 +134,8 @@ class ExperimentConfig:
         """The training of a configuration in which at least one behaviour learns."""
         return TrainConfig(pass_policy, getopen_policy, self.schedule(pass_policy, getopen_policy), self.trials,
                            self.eval_every, self.eval_episodes, self.arenas,
-                           self.configuration_seed(pass_policy, getopen_policy), cem=self.cem)
+                           self.configuration_seed(pass_policy, getopen_policy), cem=self.cem,
+                           pass_alpha_halflife=self.pass_alpha_halflife if pass_policy == LEARNED else 0)
 
     def points(self) -> list[int]:
         """Episodes trained at each evaluation: the same for every configuration."""

@@ -138,6 +138,8 @@ class TrainConfig:
     sarsa: SarsaConfig = BATCHED_SARSA  # the batched mode's table size (trainer/batched.py), in both modes
     mode: str = "batched"  # MODES
     getopen_inputs: str = SCALED_INPUTS  # ours: how GO:L's inputs are scaled (agents.getopen.GETOPEN_INPUTS)
+    # Ours, off (0) by default: Sarsa's step size annealed over Pass learning (:meth:`pass_alpha`).
+    pass_alpha_halflife: int = 0
 
     def __post_init__(self) -> None:
         if self.pass_policy not in POLICY_NAMES or self.getopen_policy not in POLICY_NAMES:
@@ -152,6 +154,11 @@ class TrainConfig:
         if self.cem.n_params != getopen_theta_size(self.keepers, self.takers):
             raise ValueError(f"the CEM searches {self.cem.n_params} parameters; the GetOpen net of "
                              f"{self.keepers}v{self.takers} has {getopen_theta_size(self.keepers, self.takers)}")
+        if self.pass_alpha_halflife < 0:
+            raise ValueError(f"pass_alpha_halflife must be at least 0, not {self.pass_alpha_halflife}")
+        if self.pass_alpha_halflife and (self.pass_policy != LEARNED or self.mode != "batched"):
+            raise ValueError("an annealed Pass step size (--pass-alpha-halflife) needs learned Pass in the batched "
+                             "mode (player processes learn with the constant one)")
         check_generations(self.schedule, self.eval_every, self.generation_episodes)
         self.params()
         self.input_scaling()
@@ -175,6 +182,14 @@ class TrainConfig:
 
     def game(self) -> Game:
         return Game(self.params(), self.keepers, self.takers, self.sarsa)
+
+    def pass_alpha(self, pass_episodes: int) -> float:
+        """Sarsa's step size for a Pass block that begins after ``pass_episodes`` episodes of Pass learning:
+        the original's constant 0.125 (keepaway-task.md 5), or with a half-life h the harmonic schedule
+        0.125 h / (h + n), constant within a block (blocks end at the evaluation points). The paper
+        suggests annealing against the dips of its learning curves; docs/design.md has what it does here."""
+        h = self.pass_alpha_halflife
+        return self.sarsa.alpha if h == 0 else self.sarsa.alpha * h / (h + pass_episodes)
 
     def input_scaling(self) -> InputScaling:
         """The scaling the CEM's nets see their inputs through (docs/design.md, GetOpen inputs)."""
@@ -310,8 +325,10 @@ class BatchedBackend:
         self.threads = threads
 
     def play(self, behaviours: Behaviours, seed: int, episodes: int, arenas: int, pass_mode: str,
-             progress: Progress | None = None) -> Played:
-        result, learned = play(self.game, behaviours, seed, episodes, arenas, pass_mode, self.threads, progress)
+             progress: Progress | None = None, alpha: float | None = None) -> Played:
+        """:func:`play`; ``alpha`` replaces the Sarsa step size of learning keepers (default: the game's)."""
+        game = self.game if alpha is None else replace(self.game, sarsa=replace(self.game.sarsa, alpha=alpha))
+        result, learned = play(game, behaviours, seed, episodes, arenas, pass_mode, self.threads, progress)
         return result, learned, None
 
     def play_candidates(self, candidates: list[Behaviours], seed: int, episodes: int, arenas: int,
@@ -406,7 +423,10 @@ def _pass_block(config: TrainConfig, state: TrialState, episodes: int, backend: 
     """Sarsa learns Pass for ``episodes`` episodes in one fresh arena, GetOpen fixed (keepaway-task.md 5, 7)."""
     learner = replace(state.behaviours, pass_policy=LEARNED)
     seed = derive_seed(config.seed, state.trial, STREAM_PASS_BLOCK, state.episodes)
-    result, arrays, transitions = backend.play(learner, seed, episodes, 1, LEARN, progress)
+    learned_before = sum(r["block_episodes"] for r in state.trace if r["phase"] == PASS)
+    alpha = config.pass_alpha(learned_before)
+    annealed = {"alpha": alpha} if config.pass_alpha_halflife else {}
+    result, arrays, transitions = backend.play(learner, seed, episodes, 1, LEARN, progress, **annealed)
     state.behaviours.pass_policy = LEARNED
     state.behaviours.pass_arrays = arrays
     state.transitions = transitions
@@ -414,7 +434,7 @@ def _pass_block(config: TrainConfig, state: TrialState, episodes: int, backend: 
     summary = result.summary()
     state.trace.append({"phase": PASS, "episodes": state.episodes, "block_episodes": episodes,
                         "mean_hold_time_s": summary["mean_hold_time_s"],
-                        "stderr_hold_time_s": summary["stderr_hold_time_s"]})
+                        "stderr_hold_time_s": summary["stderr_hold_time_s"], "alpha": alpha})
     return f"Pass block to {state.episodes}"
 
 

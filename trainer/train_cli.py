@@ -17,6 +17,8 @@ from trainer.cli import (
     SEED_TYPE,
     TAKERS_HELP,
     TAKERS_TYPE,
+    Command,
+    with_options,
 )
 from trainer.kernels import BATCHED, PLAYERS, SERVER
 from trainer.schedule import POLICY_NAMES
@@ -33,10 +35,26 @@ def prepare_kernels(kernel_sets: tuple[str, ...]) -> None:
         ensure_compiled(kernel_sets, announce)
     except CompileError as exc:
         raise click.ClickException(str(exc)) from None
+def learning_options(command: Command) -> Command:
+    """Ours, beyond the paper, off by default (docs/design.md, "Learning options"): how Sarsa's step size
+    and the CEM's variance change as learning goes on. ``keepaway train`` and ``keepaway experiment``."""
+    options = [
+        click.option("--pass-alpha-halflife", type=click.IntRange(min=0), default=0, show_default=True,
+                     help="Learned Pass, batched: Sarsa's alpha 0.125 h / (h + n) after n Pass-learning "
+                          "episodes (0: constant, the paper)."),
+        click.option("--cem-extra-noise", type=click.FloatRange(min=0.0), default=0.0, show_default=True,
+                     help="Noisy CEM: variance added to each refit (0: the paper's CEM)."),
+        click.option("--cem-noise-generations", type=click.IntRange(min=0), default=0, show_default=True,
+                     help="Generations over which --cem-extra-noise falls linearly to 0 (0: it stays)."),
+    ]
+    return with_options(options, command)
+
+
 # Options that define a training; with --resume the stored configuration is used and these must not be given.
 CONFIG_OPTIONS = ("pass_policy", "getopen_policy", "episodes", "schedule", "trials", "eval_every", "eval_episodes",
                   "arenas", "seed", "population", "elite", "candidate_episodes", "keepers", "takers",
-                  "field_size", "parameter_set", "getopen_inputs")
+                  "field_size", "parameter_set", "getopen_inputs", "pass_alpha_halflife", "cem_extra_noise",
+                  "cem_noise_generations")
 
 
 @click.command("train")
@@ -78,6 +96,7 @@ CONFIG_OPTIONS = ("pass_policy", "getopen_policy", "episodes", "schedule", "tria
               show_default=True, help="Server parameter set.")
 @click.option("--getopen-inputs", type=click.Choice(["scaled", "raw"]), default="scaled", show_default=True,
               help="GO:L net inputs: scaled by agents.getopen.GetOpenScaling, or raw metres and degrees.")
+@learning_options
 @click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=Path("train_out"),
               show_default=True, help="Directory for curves, policies, traces and the summary.")
 @click.option("--resume", type=click.Path(file_okay=False, exists=True, path_type=Path), default=None,
@@ -88,7 +107,8 @@ def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, s
                   eval_every: int, eval_episodes: int, arenas: int | None, mode: str, attach: tuple[str, ...],
                   backend: str, ray_address: str | None, seed: int, population: int,
                   elite: int, candidate_episodes: int, keepers: int, takers: int, field_size: float,
-                  parameter_set: str, getopen_inputs: str, out: Path, resume: Path | None, threads: int | None,
+                  parameter_set: str, getopen_inputs: str, pass_alpha_halflife: int, cem_extra_noise: float,
+                  cem_noise_generations: int, out: Path, resume: Path | None, threads: int | None,
                   no_progress: bool) -> None:
     """Learn GetOpen (CEM), Pass (Sarsa) or both (Algorithm 3) with frozen evaluations along the way."""
     from agents.policy_file import getopen_theta_size
@@ -122,12 +142,13 @@ def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, s
             phases = training_schedule(pass_policy, getopen_policy, episodes,
                                        parse_schedule(schedule) if schedule else None)
             cem = CEMConfig(n_params=getopen_theta_size(keepers, takers), population=population, elite=elite,
-                            episodes_per_candidate=candidate_episodes)
+                            episodes_per_candidate=candidate_episodes, extra_noise=cem_extra_noise,
+                            extra_noise_generations=cem_noise_generations)
             if arenas is None:
                 arenas = len(attach) or (2 if mode == "distributed" else 25)
             config = TrainConfig(pass_policy, getopen_policy, phases, trials, eval_every, eval_episodes, arenas,
                                  seed, keepers, takers, field_size, parameter_set, cem, mode=mode,
-                                 getopen_inputs=getopen_inputs)
+                                 getopen_inputs=getopen_inputs, pass_alpha_halflife=pass_alpha_halflife)
         except ValueError as exc:
             raise click.UsageError(str(exc)) from None
     launcher = None
