@@ -31,16 +31,16 @@ def learning(batch: int, seed: int, **kw) -> BatchedArenas:
 def test_a_learning_arena_learns_the_weights_of_the_embedded_game_with_learning_players():
     # Batched arena 0 seeded 4 and the embedded game seeded 4 whose keepers run Sarsa in learn mode from
     # zero weights: the same episodes, the same transitions and, once the keepers have heard the
-    # boundary of the third episode (their terminal update), the same weights and collision tables.
+    # boundary of the fifth episode (their terminal update), the same weights and collision tables.
     factory = sarsa_pass_factory(None, MODE_LEARN, SMALL)
     game = EmbeddedGame(4, pass_policy="learned", pass_learner=factory)
     batched = learning(1, 4)
     records = []
-    while len(records) < 3:
+    while len(records) < 5:
         record = game.cycle()
         if record is not None:
             records.append(record)
-    table = batched.run(episodes_per_arena=3)
+    table = batched.run(episodes_per_arena=5)
     assert table_rows(table)[:, :3].tolist() == [[r.episode, r.start_cycle, r.end_cycle] for r in records]
     for slot, agent in game.players:  # the next cycle's percepts carry the referee's episode message
         for msg in game.arena.cycle_percepts(slot, game.arena.see_due(slot, game.arena.cycle)):
@@ -81,14 +81,14 @@ def test_rewards_are_cycles_and_the_terminal_reward_reaches_the_next_episodes_fi
 
 def test_same_seed_learns_the_same_weights_whatever_the_threads():
     runs = [learning(3, 2, threads=threads) for threads in (1, 2)]
-    tables = [r.run(episodes_per_arena=3) for r in runs]
+    tables = [r.run(episodes_per_arena=5) for r in runs]
     np.testing.assert_array_equal(table_rows(tables[0]), table_rows(tables[1]))
     np.testing.assert_array_equal(runs[0].sarsa.weights, runs[1].sarsa.weights)
     assert np.any(runs[0].sarsa.weights != 0.0)
     other = learning(3, 3)
-    other.run(episodes_per_arena=3)
+    other.run(episodes_per_arena=5)
     assert not np.array_equal(other.sarsa.weights, runs[0].sarsa.weights)
-    # each keeper its own weights: no two rows equal
+    # each keeper its own weights: no two rows equal (five episodes: every keeper has decided)
     rows = runs[0].sarsa.weights
     assert len({rows[i].tobytes() for i in range(len(rows))}) == len(rows)
 
