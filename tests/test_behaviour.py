@@ -174,6 +174,16 @@ def test_recording_does_not_change_the_games_and_sees_every_cycle_and_kick():
     assert kicks[:, 1:K + 1].sum() > 0 and kicks[:, K + 1:].sum() > 0
 
 
+def test_recording_starts_at_episode_starts():
+    arenas = BatchedArenas(CURRENT, 2, 5, threads=1)
+    arenas.run(max_cycles=3)
+    with pytest.raises(ValueError, match="mid-episode"):
+        record_batched(arenas, 2)
+    arenas.run(episodes_per_arena=1)
+    table, episodes = record_batched(arenas, 2)
+    assert table.episode.tolist() == [2, 2] and episodes[0].cycles == table.hold_cycles[0]
+
+
 # --------------------------------------------------------------------------------------------------
 # our players beside the reference stack
 
@@ -183,6 +193,8 @@ def ours(policy: str):
     return measure_policy(CURRENT, policy, EPISODES, SEED)
 
 
+# Random Pass at 4.94 s is 0.04 s (under one s.e.) below the tolerance's 4.98 s: a gain of 1 % makes the
+# expected failure pass, and strict, fail: then look again at the gap and drop the mark.
 @pytest.mark.slow
 @pytest.mark.parametrize("policy", [
     "hold",

@@ -244,18 +244,24 @@ def record_batched(arenas: BatchedArenas, total_episodes: int) -> tuple[EpisodeT
     is its state at cycle time0[b] + k. A successful kick is the one the server counts (its kick counter
     grows only when the kick reaches the ball, ``server.physics.kick``): the counter's growth between two
     snapshots; ``world.kicked`` would also flag kicks that miss. The chunk size does not change the game
-    (``tests/test_behaviour.py``)."""
+    (``tests/test_behaviour.py``). Every arena must be at an episode start (new, or after ``run`` with
+    an episode quota): an episode begun before would lack its first rows."""
     w = arenas.world
+    if np.any(arenas.referee.start_cycle != w.time):
+        raise ValueError("record from episode starts: some arenas are in mid-episode")
     time0 = w.time.copy()
-    pos, ball_vel, kick_count = [w.pos.copy()], [w.vel[:, BALL].copy()], [w.counts[:, :, COUNT_KICK].copy()]
+    snapshots = []
+
+    def snapshot() -> None:
+        snapshots.append((w.pos.copy(), w.vel[:, BALL].copy(), w.counts[:, :, COUNT_KICK].copy()))
+
+    snapshot()
     parts = []
     for part in arenas.chunks(total_episodes=total_episodes, cycles_per_chunk=1):
         parts.append(part)
-        pos.append(w.pos.copy())
-        ball_vel.append(w.vel[:, BALL].copy())
-        kick_count.append(w.counts[:, :, COUNT_KICK].copy())
+        snapshot()
     table = EpisodeTable.concatenate(parts)
-    pos, ball_vel, kick_count = np.stack(pos), np.stack(ball_vel), np.stack(kick_count)
+    pos, ball_vel, kick_count = (np.stack(arrays) for arrays in zip(*snapshots))
     episodes = []
     for b, start, end, cause in zip(table.arena, table.start_cycle, table.end_cycle, table.end):
         rows = slice(start - time0[b], end - time0[b])
