@@ -27,7 +27,7 @@ from server.perception import CLOSE, FULL, NAMELESS, PARTIAL, UNSEEN, SeeBuffers
 from server.referee import END_OUT, END_TAKEN
 from server.world import new_world
 from server.perception import see_due
-from trainer.batched import BatchedArenas, see_to_model_row
+from trainer.batched import CHUNK_CYCLES, BatchedArenas, see_to_model_row
 from trainer.experiments import welch_p_value
 
 PARAMS = parameter_set("classic")
@@ -253,3 +253,9 @@ def test_bad_configurations_are_refused(kw, message):
 def test_a_run_needs_a_limit():
     with pytest.raises(ValueError, match="give episodes_per_arena"):
         BatchedArenas(PARAMS, 1, 0).run()
+
+
+@pytest.mark.parametrize("cycles_per_chunk", [0, CHUNK_CYCLES + 1])
+def test_chunks_hold_one_to_chunk_cycles_cycles(cycles_per_chunk):
+    with pytest.raises(ValueError, match="cycles_per_chunk"):
+        BatchedArenas(PARAMS, 1, 0).chunks(max_cycles=1, cycles_per_chunk=cycles_per_chunk)

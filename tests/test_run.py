@@ -235,9 +235,9 @@ def test_batched_episodes_come_out_chunk_by_chunk_as_they_end(monkeypatch, tmp_p
     played = []
     real_chunk = BatchedArenas._run_chunk
 
-    def counting(self):
+    def counting(self, *args):
         played.append(1)
-        real_chunk(self)
+        real_chunk(self, *args)
 
     monkeypatch.setattr(BatchedArenas, "_run_chunk", counting)
     spec = ArenaSpec(parameter_set("classic"), 3, 2, 4)

@@ -205,6 +205,13 @@ class EpisodeTable:
         """Episode lengths in cycles (hold time, spec `keepaway-task.md` 1)."""
         return self.end_cycle - self.start_cycle
 
+    @classmethod
+    def concatenate(cls, parts: list[EpisodeTable]) -> EpisodeTable:
+        """The episodes of consecutive chunks (:meth:`BatchedArenas.chunks`), in one table."""
+        return cls(*(np.concatenate([getattr(p, name) for p in parts])
+                     for name in ("arena", "episode", "start_cycle", "end_cycle", "end")),
+                   cycles=sum(p.cycles for p in parts))
+
 
 # --------------------------------------------------------------------------------------------------
 # kernels
@@ -583,20 +590,21 @@ class BatchedArenas:
             collected += len(part)
             if progress is not None:
                 progress(collected)
-        return EpisodeTable(*(np.concatenate([getattr(p, name) for p in parts])
-                              for name in ("arena", "episode", "start_cycle", "end_cycle", "end")),
-                            cycles=sum(p.cycles for p in parts))
+        return EpisodeTable.concatenate(parts)
 
     def chunks(self, episodes_per_arena: int | None = None, total_episodes: int | None = None,
-               max_cycles: int | None = None) -> Iterator[EpisodeTable]:
-        """:meth:`run`'s play (the same limits, checked at once), one chunk of ``CHUNK_CYCLES`` cycles at a
-        time: yields each chunk's ended episodes and arena-cycles as it finishes, for a caller that
-        shows them as they come."""
+               max_cycles: int | None = None, cycles_per_chunk: int = CHUNK_CYCLES) -> Iterator[EpisodeTable]:
+        """:meth:`run`'s play (the same limits, checked at once), one chunk of ``cycles_per_chunk`` cycles
+        (at most ``CHUNK_CYCLES``) at a time: yields each chunk's ended episodes and arena-cycles as it
+        finishes, for a caller that shows them as they come. Chunks of one cycle let a caller look at
+        every cycle of every arena (``trainer.behaviour``); the games do not depend on the chunk size."""
         limits = (episodes_per_arena, total_episodes, max_cycles)
         if all(v is None for v in limits):
             raise ValueError("give episodes_per_arena, total_episodes or max_cycles")
         if any(v is not None and v < 1 for v in limits):
             raise ValueError("limits must be at least 1")
+        if not 1 <= cycles_per_chunk <= CHUNK_CYCLES:
+            raise ValueError(f"cycles_per_chunk must be in 1..{CHUNK_CYCLES}")
         book, w = self.book, self.world
         quota = np.full(self.batch, _UNLIMITED if episodes_per_arena is None else episodes_per_arena)
         if total_episodes is not None:
@@ -605,17 +613,17 @@ class BatchedArenas:
         book.episodes_left[:] = quota
         book.active[:] = quota != 0
         book.stop_cycle[:] = _UNLIMITED if max_cycles is None else w.time + max_cycles
-        return self._chunks()
+        return self._chunks(cycles_per_chunk)
 
-    def _chunks(self) -> Iterator[EpisodeTable]:
+    def _chunks(self, n_cycles: int) -> Iterator[EpisodeTable]:
         while self.book.active.any():
-            self._run_chunk()
+            self._run_chunk(n_cycles)
             yield self._ended()
 
-    def _run_chunk(self) -> None:
-        """One chunk of every arena; thread k steps arenas k, k + threads, ... (finished arenas are
-        spread evenly)."""
-        args = (CHUNK_CYCLES, self.world, self.commands, self.referee, self.theta, self.kp, self.cfg,
+    def _run_chunk(self, n_cycles: int = CHUNK_CYCLES) -> None:
+        """One chunk of ``n_cycles`` cycles of every arena; thread k steps arenas k, k + threads, ...
+        (finished arenas are spread evenly)."""
+        args = (n_cycles, self.world, self.commands, self.referee, self.theta, self.kp, self.cfg,
                 self.players, self.sarsa, self.sarsa_params, self.see_out, self.body_out, self.book,
                 self.see_period_ms, self.cone)
         if self.threads == 1:
@@ -639,6 +647,7 @@ class BatchedArenas:
 
 __all__ = [
     "BATCHED_SARSA",
+    "CHUNK_CYCLES",
     "BatchedArenas",
     "Decisions",
     "EpisodeTable",

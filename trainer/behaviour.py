@@ -1,0 +1,350 @@
+"""Behaviour statistics of Keepaway games: ours, recorded from the batched mode, beside the reference stack's.
+
+The reference is rcssserver 19.0.0 with the keepaway-0.6 C++ players, measured from its game logs
+(``tests/data/rcss-behaviour``). The statistics follow the definitions of the reference's own analysis
+(``stats.py`` there), so that both stacks are measured by one rule (t = cycles since the episode's
+reset; row t = 0 is the reset placement; the state after the last step, already the next reset, is not
+a row of the episode):
+
+* hold time = episode length in cycles x the simulator step; s.e. = sd / sqrt(n) (sd with n - 1).
+* taker within 1 m: the first t at which a taker's centre is within 1.0 m of the ball's, if it happens.
+* kicks: successful kicks only (the kick reached the ball), every step of the episode, the last one
+  (end - 1 -> end) included. Passes: keeper kicks after which the next kick by anyone (in step order,
+  players in object order within a step) is by a different keeper. Fast kicks: keeper kicks after which
+  the ball moves at >= 1.5 m/cycle (kicks in the last step are not counted: the ball is already reset).
+* taker-ball distance curve: for t = 0..29, the mean over the episodes still running at t of each
+  taker's distance to the ball and of the nearer taker's.
+* keeper-nearest-taker distance: for every row and keeper, the distance to the nearer taker; the mean
+  over all rows and keepers (pooled) and the mean of the episodes' means.
+
+:func:`behaviour_statistics` is the sans-IO core (arrays in, statistics out); :func:`record_batched`
+plays a :class:`trainer.batched.BatchedArenas` one cycle at a time to record its episodes without
+changing them; :func:`load_reference` reads the reference file and :func:`compare` sets the two side by
+side. ``benchmarks/side_by_side.py`` prints the comparison.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from agents.skills import AgentConfig
+from protocol.params import ServerParams
+from server.referee import END_OUT, END_TAKEN
+from server.world import BALL, COUNT_KICK
+from trainer.batched import BatchedArenas, EpisodeTable
+
+# The reference analysis's definitions (its stats.py docstring), not server parameters.
+TAKER_REACH_M = 1.0
+FAST_KICK_SPEED = 1.5  # m/cycle
+CURVE_CYCLES = 30
+# A difference within this many combined standard errors or this share of the reference, whichever is
+# larger, is within tolerance (the reference's campaigns differ by more than their s.e., its README).
+TOLERANCE_SE = 3.0
+TOLERANCE_SHARE = 0.10
+# Our Pass policies and the reference file's campaigns of the same policy ("hand14": a second one).
+REFERENCE_CAMPAIGNS = {"hold": ("hold",), "random": ("rand",), "handcoded": ("hand", "hand14")}
+
+
+@dataclass(frozen=True, eq=False)
+class Episode:
+    """One recorded episode of ``d`` cycles: rows t = 0 .. d-1, row 0 the reset placement. Objects in
+    server order: 0 the ball, 1..K the keepers, K+1..K+T the takers."""
+
+    pos: np.ndarray  # (d, N, 2) m
+    ball_vel: np.ndarray  # (d, 2) m/cycle, as the server stores it (after the decay)
+    kicks: np.ndarray  # (d, N) bool: kicks[t, i], object i's kick reached the ball in the step t -> t+1
+    end: int  # server.referee END_OUT / END_TAKEN
+
+    @property
+    def cycles(self) -> int:
+        return len(self.pos)
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """A statistic and its standard error (None where there is none, e.g. a pooled mean or a reference
+    that does not give one)."""
+
+    value: float
+    se: float | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class BehaviourStats:
+    """The statistics of one set of episodes (module docstring); the same fields for ours and for the
+    reference's (:meth:`from_reference`)."""
+
+    episodes: int
+    hold_s: Estimate
+    hold_sd_s: float
+    hold_median_s: float
+    hold_p10_s: float
+    hold_p90_s: float
+    share_out: Estimate
+    share_taken: Estimate
+    taker_within_1m_share: Estimate
+    taker_within_1m_t: Estimate  # cycles, over the episodes where it happens
+    keeper_kicks: Estimate  # per episode
+    taker_kicks: Estimate
+    passes: Estimate
+    fast_kicks: Estimate
+    keeper_nearest_taker_m: Estimate  # pooled over rows and keepers
+    keeper_nearest_taker_episode_mean_m: Estimate
+    curve_running: np.ndarray  # (CURVE_CYCLES,) int: episodes still running at t
+    curve_takers: np.ndarray  # (T, CURVE_CYCLES) m, taker j's mean distance to the ball at t
+    curve_nearer: np.ndarray  # (CURVE_CYCLES,) m, the nearer taker's
+
+    def scalars(self) -> dict[str, Estimate]:
+        """Every single-number statistic by name, in the order the comparison lists them."""
+        return {
+            "hold time (s)": self.hold_s,
+            "hold time sd (s)": Estimate(self.hold_sd_s),
+            "hold time median (s)": Estimate(self.hold_median_s),
+            "hold time p10 (s)": Estimate(self.hold_p10_s),
+            "hold time p90 (s)": Estimate(self.hold_p90_s),
+            "share ended out": self.share_out,
+            "share ended taken": self.share_taken,
+            "share with a taker within 1 m": self.taker_within_1m_share,
+            "taker within 1 m: first t (cycles)": self.taker_within_1m_t,
+            "keeper kicks / episode": self.keeper_kicks,
+            "taker kicks / episode": self.taker_kicks,
+            "passes / episode": self.passes,
+            "fast keeper kicks / episode": self.fast_kicks,
+            "keeper-nearest-taker distance, pooled (m)": self.keeper_nearest_taker_m,
+            "keeper-nearest-taker distance, mean of episodes (m)": self.keeper_nearest_taker_episode_mean_m,
+        }
+
+    @classmethod
+    def from_reference(cls, entry: dict) -> BehaviourStats:
+        """One policy's entry of the reference file (``stats_real.json``, written by its ``stats.py``)."""
+        n = entry["episodes"]
+        within = entry["taker_within_1m"]
+        curve = entry["taker_ball_distance_curve"]
+        takers = sorted((k for k in curve if k[0] == "r" and k[1:].isdigit()), key=lambda k: int(k[1:]))
+        near = entry["keeper_nearest_taker_m"]
+
+        def per_episode(key: str) -> Estimate:
+            return Estimate(entry[key + "_per_episode"]["mean"], entry[key + "_per_episode"]["se"])
+
+        return cls(
+            episodes=n,
+            hold_s=Estimate(entry["hold_mean_s"], entry["hold_se_s"]),
+            hold_sd_s=entry["hold_sd_s"],
+            hold_median_s=entry["hold_median_s"],
+            hold_p10_s=entry["hold_p10_s"],
+            hold_p90_s=entry["hold_p90_s"],
+            share_out=share_estimate(entry["share_out"], n),
+            share_taken=share_estimate(entry["share_taken"], n),
+            taker_within_1m_share=share_estimate(within["share_of_episodes"], n),
+            taker_within_1m_t=Estimate(within["mean_t"], within["se_t"]),
+            keeper_kicks=per_episode("kicks_keepers"),
+            taker_kicks=per_episode("kicks_takers"),
+            passes=per_episode("passes"),
+            fast_kicks=per_episode("fast_kicks"),
+            keeper_nearest_taker_m=Estimate(near["pooled"]),
+            keeper_nearest_taker_episode_mean_m=Estimate(near["mean_of_episode_means"]),
+            curve_running=np.array(curve["n_episodes_running"]),
+            curve_takers=np.array([curve[k] for k in takers]),
+            curve_nearer=np.array(curve["nearer"]),
+        )
+
+
+def share_estimate(share: float, n: int) -> Estimate:
+    """A share of ``n`` episodes with its binomial standard error."""
+    return Estimate(share, math.sqrt(share * (1.0 - share) / n))
+
+
+def mean_estimate(values: Sequence[float] | np.ndarray) -> Estimate:
+    """The mean and its standard error sd / sqrt(n) (sd with n - 1; none for fewer than two values)."""
+    values = np.asarray(values, dtype=np.float64)
+    if len(values) == 0:
+        return Estimate(math.nan)
+    se = float(values.std(ddof=1) / math.sqrt(len(values))) if len(values) > 1 else None
+    return Estimate(float(values.mean()), se)
+
+
+def kick_counts(episode: Episode, n_keepers: int) -> tuple[int, int, int, int]:
+    """An episode's keeper kicks, taker kicks, passes and fast keeper kicks (module docstring)."""
+    steps, kickers = np.nonzero(episode.kicks)  # in step order, then object order
+    by_keeper = (kickers >= 1) & (kickers <= n_keepers)
+    passes = by_keeper[:-1] & by_keeper[1:] & (kickers[:-1] != kickers[1:])
+    visible = steps[by_keeper]
+    visible = visible[visible < episode.cycles - 1]  # the ball after a kick in the last step is reset
+    fast = np.linalg.norm(episode.ball_vel[visible + 1], axis=1) >= FAST_KICK_SPEED
+    return int(by_keeper.sum()), int((kickers > n_keepers).sum()), int(passes.sum()), int(fast.sum())
+
+
+def behaviour_statistics(episodes: Sequence[Episode], n_keepers: int, seconds_per_cycle: float) -> BehaviourStats:
+    """The statistics of ``episodes`` (module docstring), each episode with ``n_keepers`` keepers first."""
+    if not episodes:
+        raise ValueError("no episodes")
+    n_takers = episodes[0].pos.shape[1] - 1 - n_keepers
+    takers = slice(1 + n_keepers, None)
+    cycles = np.array([e.cycles for e in episodes])
+    ends = np.array([e.end for e in episodes])
+    within_t, keeper_kicks, taker_kicks, passes, fast = [], [], [], [], []
+    curve_sum = np.zeros((n_takers + 1, CURVE_CYCLES))
+    curve_running = np.zeros(CURVE_CYCLES, dtype=np.int64)
+    near_sum, near_rows, near_episode_means = 0.0, 0, []
+    for e in episodes:
+        taker_ball = np.linalg.norm(e.pos[:, takers] - e.pos[:, BALL, None], axis=2)  # (d, T)
+        nearer = taker_ball.min(axis=1)
+        reached = np.flatnonzero(nearer <= TAKER_REACH_M)
+        if len(reached):
+            within_t.append(reached[0])
+        shown = min(e.cycles, CURVE_CYCLES)
+        curve_sum[:n_takers, :shown] += taker_ball[:shown].T
+        curve_sum[n_takers, :shown] += nearer[:shown]
+        curve_running[:shown] += 1
+        keeper_taker = np.linalg.norm(e.pos[:, 1:1 + n_keepers, None] - e.pos[:, None, takers], axis=3)
+        keeper_nearest = keeper_taker.min(axis=2)  # (d, K)
+        near_sum += keeper_nearest.sum()
+        near_rows += keeper_nearest.size
+        near_episode_means.append(keeper_nearest.mean())
+        for tally, count in zip((keeper_kicks, taker_kicks, passes, fast), kick_counts(e, n_keepers)):
+            tally.append(count)
+    with np.errstate(invalid="ignore"):
+        curve = curve_sum / curve_running  # NaN where no episode runs that long
+    hold_s = cycles * seconds_per_cycle
+    n = len(episodes)
+    return BehaviourStats(
+        episodes=n,
+        hold_s=mean_estimate(hold_s),
+        hold_sd_s=float(hold_s.std(ddof=1)) if n > 1 else 0.0,
+        hold_median_s=float(np.percentile(hold_s, 50)),
+        hold_p10_s=float(np.percentile(hold_s, 10)),
+        hold_p90_s=float(np.percentile(hold_s, 90)),
+        share_out=share_estimate(float(np.mean(ends == END_OUT)), n),
+        share_taken=share_estimate(float(np.mean(ends == END_TAKEN)), n),
+        taker_within_1m_share=share_estimate(len(within_t) / n, n),
+        taker_within_1m_t=mean_estimate(within_t),
+        keeper_kicks=mean_estimate(keeper_kicks),
+        taker_kicks=mean_estimate(taker_kicks),
+        passes=mean_estimate(passes),
+        fast_kicks=mean_estimate(fast),
+        keeper_nearest_taker_m=Estimate(float(near_sum / near_rows)),
+        keeper_nearest_taker_episode_mean_m=Estimate(float(np.mean(near_episode_means))),
+        curve_running=curve_running,
+        curve_takers=curve[:n_takers],
+        curve_nearer=curve[n_takers],
+    )
+
+
+def record_batched(arenas: BatchedArenas, total_episodes: int) -> tuple[EpisodeTable, list[Episode]]:
+    """Play ``total_episodes`` more episodes of ``arenas`` (quotas as :meth:`BatchedArenas.run`) one
+    cycle per chunk, and return them as ``run`` would, with each one's :class:`Episode` (same order).
+
+    After every chunk each arena that played has advanced exactly one cycle, so snapshot k of arena b
+    is its state at cycle time0[b] + k. A successful kick is the one the server counts (its kick counter
+    grows only when the kick reaches the ball, ``server.physics.kick``): the counter's growth between two
+    snapshots; ``world.kicked`` would also flag kicks that miss. The chunk size does not change the game
+    (``tests/test_behaviour.py``). Every arena must be at an episode start (new, or after ``run`` with
+    an episode quota): an episode begun before would lack its first rows."""
+    w = arenas.world
+    if np.any(arenas.referee.start_cycle != w.time):
+        raise ValueError("record from episode starts: some arenas are in mid-episode")
+    time0 = w.time.copy()
+    snapshots = []
+
+    def snapshot() -> None:
+        snapshots.append((w.pos.copy(), w.vel[:, BALL].copy(), w.counts[:, :, COUNT_KICK].copy()))
+
+    snapshot()
+    parts = []
+    for part in arenas.chunks(total_episodes=total_episodes, cycles_per_chunk=1):
+        parts.append(part)
+        snapshot()
+    table = EpisodeTable.concatenate(parts)
+    pos, ball_vel, kick_count = (np.stack(arrays) for arrays in zip(*snapshots))
+    episodes = []
+    for b, start, end, cause in zip(table.arena, table.start_cycle, table.end_cycle, table.end):
+        rows = slice(start - time0[b], end - time0[b])
+        kicked = kick_count[rows.start + 1:rows.stop + 1, b] > kick_count[rows, b]
+        episodes.append(Episode(pos=pos[rows, b], ball_vel=ball_vel[rows, b], kicks=kicked, end=int(cause)))
+    return table, episodes
+
+
+def measure_policy(params: ServerParams, pass_policy: str, episodes: int, seed: int, batch: int = 100,
+                   getopen_policy: str = "handcoded") -> BehaviourStats:
+    """Our players' statistics over ``episodes`` episodes of 3v2 with Pass ``pass_policy``, batched on one
+    thread (``batch`` arenas seeded ``seed``, ``seed + 1``, ...), the reference's setting otherwise."""
+    arenas = BatchedArenas(params, batch=batch, seed=seed, pass_policy=pass_policy, getopen_policy=getopen_policy,
+                           agent_config=AgentConfig(), threads=1)
+    _, recorded = record_batched(arenas, episodes)
+    return behaviour_statistics(recorded, arenas.keepers, params.simulator_step_ms / 1000.0)
+
+
+def load_reference(path: Path) -> dict[str, BehaviourStats]:
+    """The reference file's statistics by campaign name ("hold", "rand", "hand", "hand14")."""
+    return {entry["policy"]: BehaviourStats.from_reference(entry) for entry in json.loads(path.read_text())}
+
+
+@dataclass(frozen=True)
+class Compared:
+    """One statistic of ours beside the reference's."""
+
+    statistic: str
+    ours: Estimate
+    reference: Estimate
+
+    @property
+    def difference(self) -> float:
+        return self.ours.value - self.reference.value
+
+    @property
+    def combined_se(self) -> float | None:
+        """sqrt(s.e. ours^2 + s.e. reference^2) (None unless both have one)."""
+        if self.ours.se is None or self.reference.se is None:
+            return None
+        return math.hypot(self.ours.se, self.reference.se)
+
+    @property
+    def z(self) -> float | None:
+        """The difference in combined standard errors (None without them)."""
+        return self.difference / self.combined_se if self.combined_se else None
+
+    @property
+    def tolerance(self) -> float:
+        """How far ours may be from the reference: TOLERANCE_SE combined standard errors or TOLERANCE_SHARE
+        of the reference, whichever is larger."""
+        return max(TOLERANCE_SE * (self.combined_se or 0.0), TOLERANCE_SHARE * abs(self.reference.value))
+
+    @property
+    def within_tolerance(self) -> bool:
+        return abs(self.difference) <= self.tolerance
+
+    @property
+    def percent(self) -> float | None:
+        """The difference in percent of the reference (None for a reference of 0)."""
+        return 100.0 * self.difference / self.reference.value if self.reference.value else None
+
+
+def compare(ours: BehaviourStats, reference: BehaviourStats) -> list[Compared]:
+    """Every single-number statistic of ours beside the reference's (:meth:`BehaviourStats.scalars`)."""
+    theirs = reference.scalars()
+    return [Compared(name, value, theirs[name]) for name, value in ours.scalars().items()]
+
+
+__all__ = [
+    "BehaviourStats",
+    "Compared",
+    "Episode",
+    "Estimate",
+    "REFERENCE_CAMPAIGNS",
+    "TOLERANCE_SE",
+    "TOLERANCE_SHARE",
+    "behaviour_statistics",
+    "compare",
+    "kick_counts",
+    "load_reference",
+    "mean_estimate",
+    "measure_policy",
+    "record_batched",
+    "share_estimate",
+]
