@@ -315,24 +315,17 @@ def test_ball_velocity_from_successive_positions_without_the_change_pair():
     assert wm.belief().vel[0, 0] == pytest.approx([0.4418, 0.0])
 
 
-def test_ball_velocity_from_positions_one_cycle_apart():
-    # 2.0 -> 2.5 m in one cycle: v = 0.5 * 0.94 = 0.47
+@pytest.mark.parametrize("first, second, expected", [
+    (2.0, 2.5, 0.47),  # 0.5 m in one cycle: v = 0.5 * 0.94 = 0.47
+    (5.0, 5.5, 0.0),  # beyond visible_distance 3 m the C++ keeps the predicted velocity (0 here)
+])
+def test_ball_velocity_from_positions_one_cycle_apart(first, second, expected):
     wm = model_for(1, HAND_FLAGS)
     wm.on_sense_body(sense(3))
-    wm.on_see(hand_see(3, ball=[2.0, 0, None, None]))
+    wm.on_see(hand_see(3, ball=[first, 0, None, None]))
     wm.on_sense_body(sense(4))
-    wm.on_see(hand_see(4, ball=[2.5, 0, None, None]))
-    assert wm.belief().vel[0, 0] == pytest.approx([0.47, 0.0])
-
-
-def test_no_velocity_from_positions_beyond_visible_distance():
-    # 5.0 -> 5.5 m: beyond visible_distance 3 m the C++ keeps the predicted velocity (0 here)
-    wm = model_for(1, HAND_FLAGS)
-    wm.on_sense_body(sense(3))
-    wm.on_see(hand_see(3, ball=[5.0, 0, None, None]))
-    wm.on_sense_body(sense(4))
-    wm.on_see(hand_see(4, ball=[5.5, 0, None, None]))
-    assert wm.belief().vel[0, 0] == pytest.approx([0.0, 0.0])
+    wm.on_see(hand_see(4, ball=[second, 0, None, None]))
+    assert wm.belief().vel[0, 0] == pytest.approx([expected, 0.0])
 
 
 def test_position_difference_discounts_my_localisation_correction():
