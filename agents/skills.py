@@ -192,11 +192,33 @@ def sort_by_distance(bel: Belief, r: int, ox: float, oy: float, first: int, last
 
 
 @njit(cache=True)
+def opponent_range(obj: int, n_keepers: int, n_players: int) -> tuple:
+    """Object index range (first, last), inclusive, of the opponents of player ``obj`` among objects
+    1..n_players (keepers first): the takers for a keeper, the keepers for a taker."""
+    if 1 <= obj <= n_keepers:
+        return n_keepers + 1, n_players
+    return 1, n_keepers
+
+
+@njit(cache=True)
 def opponents(bel: Belief, obj: int) -> tuple:
     """Object index range (first, last) of the opponents of player ``obj``."""
-    if is_keeper(bel, obj):
-        return bel.n_keepers + 1, bel.n_keepers + bel.n_takers
-    return 1, bel.n_keepers
+    return opponent_range(obj, bel.n_keepers, bel.n_keepers + bel.n_takers)
+
+
+@njit(cache=True)
+def own_frame_sign(bel: Belief, r: int) -> float:
+    """+1 if my own frame is the server's, -1 if it is mirrored. The C++ players mirror the field for the
+    right-hand team, the takers (rcssserver keepaway mode: keepers left), so where their code says
+    "global 0", "forward in x" or "the opponent goal" a taker means the server's 180 deg, -x and the
+    left goal."""
+    return 1.0 if is_keeper(bel, bel.me[r]) else -1.0
+
+
+@njit(cache=True)
+def forward_angle(bel: Belief, r: int) -> float:
+    """The server-frame direction that my own frame calls 0 deg (``own_frame_sign``)."""
+    return 0.0 if own_frame_sign(bel, r) > 0.0 else 180.0
 
 
 # ----------------------------------------------------------------------------------------------- neck
@@ -606,7 +628,7 @@ def hold_ball(bel: Belief, r: int, ratio: float, kp, cfg) -> tuple:
     spot_x = px + ratio * math.cos(math.radians(desired))
     spot_y = py + ratio * math.sin(math.radians(desired))
     if distance(spot_x, spot_y, bel.pos[r, 0, 0], bel.pos[r, 0, 1]) < cfg.hold_ball_tolerance:
-        goal_x = kp.pitch_length / 2.0 if is_keeper(bel, me) else -kp.pitch_length / 2.0
+        goal_x = own_frame_sign(bel, r) * kp.pitch_length / 2.0
         code, a1, a2 = turn_to_point(bel, r, goal_x, 0.0, 1.0, kp)
         mx, my, _, _, _ = player_step(
             px, py, bel.vel[r, me, 0], bel.vel[r, me, 1], body, bel.effort[r], code, a1, kp
@@ -704,14 +726,6 @@ def _line_circle(px: float, py: float, ux: float, uy: float, cx: float, cy: floa
 
 
 @njit(cache=True)
-def forward_angle(bel: Belief, r: int) -> float:
-    """The server-frame direction that my own frame calls 0 deg. The C++ players mirror the field for the
-    right-hand team, the takers (rcssserver keepaway mode: keepers left), so where their code says
-    "global 0" or "forward in x" a taker means the server's 180 deg and -x."""
-    return 0.0 if is_keeper(bel, bel.me[r]) else 180.0
-
-
-@njit(cache=True)
 def collide_with_ball(bel: Belief, r: int, kp) -> tuple:
     """(ok, code, arg1): a command after which my body overlaps the ball next cycle (BasicPlayer::
     collideWithBall), the ball being near enough: a turn to my forward direction if I drift into it, else
@@ -773,13 +787,16 @@ def close_intercept(bel: Belief, r: int, kp, cfg) -> tuple:
     speed = math.hypot(vx, vy)
     kickable = kickable_distance(kp)
     fwd = forward_angle(bel, r)
-    sign = 1.0 if fwd == 0.0 else -1.0  # my own frame's x and y in server coordinates
+    sign = own_frame_sign(bel, r)
     close_range = (cfg.close_range_dash_cycles * kp.player_speed_max
                    + (1.0 + kp.ball_decay) * kp.ball_speed_max + kickable)
     in_range = distance(px, py, bel.pos[r, 0, 0], bel.pos[r, 0, 1]) <= close_range
-    collide_ok, collide_code, collide_a1 = collide_with_ball(bel, r, kp)
     opp_close = _opponent_within(bel, r, cfg.close_opponent_radius, cfg)
     off_forward = abs(normalize_angle(fwd - body)) > cfg.close_heading_tolerance
+    to_forward = turn_moment(normalize_angle(fwd - body), speed, kp)  # turnBodyToPoint(me + (1, fwd))
+    collide_ok, collide_code, collide_a1 = False, CMD_DASH, 0.0  # only off forward is it ever used
+    if off_forward:
+        collide_ok, collide_code, collide_a1 = collide_with_ball(bel, r, kp)
     b1x, b1y = ball_in(bel, r, 1.0, kp)
     b2x, b2y = ball_in(bel, r, 2.0, kp)
     p1x, p1y = rolled_out(px, py, vx, vy, 1.0, kp.player_decay)
@@ -809,18 +826,17 @@ def close_intercept(bel: Belief, r: int, kp, cfg) -> tuple:
         if opp_close and dash_ok:
             return True, CMD_DASH, dash_power
         turn_ok = False
-        moment = turn_moment(normalize_angle(fwd - body), speed, kp)
-        sx, sy, svx, svy, sb = player_step(px, py, vx, vy, body, effort, CMD_TURN, moment, kp)
+        sx, sy, svx, svy, sb = player_step(px, py, vx, vy, body, effort, CMD_TURN, to_forward, kp)
         if distance(sx, sy, b1x, b1y) < keep:
             turn_ok = True
             if abs(normalize_angle(fwd - sb)) < cfg.close_heading_tolerance:
-                return True, CMD_TURN, moment
+                return True, CMD_TURN, to_forward
         second = turn_moment(normalize_angle(fwd - sb), math.hypot(svx, svy), kp)
         sx, sy, _, _, sb = player_step(sx, sy, svx, svy, sb, effort, CMD_TURN, second, kp)
         if distance(sx, sy, b2x, b2y) < keep:
             turn_ok = True
             if abs(normalize_angle(fwd - sb)) < cfg.close_heading_tolerance:
-                return True, CMD_TURN, moment
+                return True, CMD_TURN, to_forward
         if off_forward and collide_ok:
             return True, collide_code, collide_a1
         if off_forward:
@@ -829,15 +845,15 @@ def close_intercept(bel: Belief, r: int, kp, cfg) -> tuple:
             if distance(sx, sy, b2x, b2y) < keep:
                 return True, CMD_DASH, stop
         if turn_ok:
-            return True, CMD_TURN, moment
+            return True, CMD_TURN, to_forward
         if dash_ok:
             return True, CMD_DASH, dash_power
         return False, CMD_DASH, 0.0
     near = cfg.close_near_margin * kickable
     if off_forward and not opp_close and distance(p1x, p1y, b1x, b1y) < near:
-        return True, CMD_TURN, turn_moment(normalize_angle(fwd - body), speed, kp)
+        return True, CMD_TURN, to_forward
     if not opp_close and distance(p2x, p2y, b2x, b2y) < near:
-        return True, CMD_TURN, turn_moment(normalize_angle(fwd - body), speed, kp)
+        return True, CMD_TURN, to_forward
     if off_forward and collide_ok:
         return True, collide_code, collide_a1
     if dash_ok:

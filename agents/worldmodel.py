@@ -44,7 +44,7 @@ from core.jit import njit
 
 from agents.belief import Belief, empty_belief
 from agents.geometry import kick_rate, normalize_angle, turn_effect
-from agents.skills import AgentConfig, kickable_distance
+from agents.skills import AgentConfig, kickable_distance, opponent_range
 from protocol.params import ServerParams
 from server.world import BALL, CMD_DASH, CMD_KICK, CMD_NONE, CMD_TURN
 
@@ -210,14 +210,6 @@ def _closest_player(r, s, x, y, lo, hi, skip, cfg):
     return best, best_d
 
 
-@njit(cache=True, inline="always")
-def _opponents(r, s, n_keepers):
-    """Object range lo..hi - 1 of my opponents: the takers for a keeper, the keepers for a taker."""
-    if s.me[r] <= n_keepers:
-        return n_keepers + 1, s.pos.shape[1]
-    return 1, n_keepers + 1
-
-
 # ---------------------------------------------------------------------------------------------------
 # prediction (spec `server-physics.md` 2-3, without noise)
 
@@ -284,8 +276,8 @@ def _stop_ball_at_opponent(r, s, x0, y0, n_keepers, kp, cfg):
     """The rolled-out ball stops if the usable opponent nearest to where it was (x0, y0) can kick it
     where it is now (C++ ``WorldModel::updateDynamicObjectForNextCycle``, ball branch): he is taken to
     control it."""
-    lo, hi = _opponents(r, s, n_keepers)
-    opp, _ = _closest_player(r, s, x0, y0, lo, hi, -1, cfg)
+    first, last = opponent_range(s.me[r], n_keepers, s.pos.shape[1] - 1)
+    opp, _ = _closest_player(r, s, x0, y0, first, last + 1, -1, cfg)
     if opp >= 0 and math.hypot(s.pos[r, BALL, 0] - s.pos[r, opp, 0],
                                s.pos[r, BALL, 1] - s.pos[r, opp, 1]) < kickable_distance(kp):
         s.vel[r, BALL, 0] = 0.0
@@ -514,8 +506,8 @@ def update_ball_row(r: int, s: ModelState, see: SeeBuffer, n_keepers: int, kp, c
             vx, vy = cx, cy
     elif dist < kp.visible_distance:
         vx, vy = _ball_velocity_from_positions(r, s, px, py, vx, vy, kp, cfg)
-    lo, hi = _opponents(r, s, n_keepers)
-    _, d_opp = _closest_player(r, s, px, py, lo, hi, -1, cfg)
+    first, last = opponent_range(s.me[r], n_keepers, s.pos.shape[1] - 1)
+    _, d_opp = _closest_player(r, s, px, py, first, last + 1, -1, cfg)
     speed = math.hypot(vx, vy)
     if d_opp < kickable and dist > kickable:
         vx = vy = 0.0
