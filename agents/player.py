@@ -76,6 +76,7 @@ from agents.policy_file import (
     keeper_pass_arrays,
 )
 from agents.sarsa import MODE_GREEDY, MODE_LEARN, MODE_NAMES, SarsaConfig, SarsaLearner
+from agents.say import hear_row, hear_text, new_talk, say_row, to_text
 from agents.skills import (
     GETOPEN_POLICIES,
     PASS_POLICIES,
@@ -335,6 +336,7 @@ class PlayerAgent:
         self._world_args = (params, msg.side, msg.unum, n_keepers, n_takers, msg.landmarks["flags"],
                             self.config)
         self.wm = WorldModel(*self._world_args)
+        self.talk = new_talk(1)
         self.kp = self.wm.kp
         self.n_keepers, self.n_takers, self.mode = n_keepers, n_takers, mode
         self.side, self.unum = msg.side, msg.unum
@@ -419,6 +421,8 @@ class PlayerAgent:
                 self._apply_advice()
         elif msg.sender == "coach":
             self._on_advice(msg.message, msg.cycle)
+        elif msg.sender == "our" and isinstance(msg.message, str):
+            hear_text(self.talk, 0, msg.message)  # taken in at the decision, after this cycle's see
 
     def _fresh_world_model(self) -> None:
         """A world model that knows nothing, fed again with this cycle's percepts and own commands (those
@@ -481,9 +485,12 @@ class PlayerAgent:
 
     def _reseed(self, seed: int) -> None:
         """Restart every random stream as if the agent had been started with ``seed``, with a fresh
-        decision memory and world model (docs/advice.md, seed)."""
+        decision memory and world model, nothing heard, and this cycle as its cycle 0 for talking
+        (docs/advice.md, seed): teammates' says of the old episode may arrive as bare hears while the
+        server is paused, before this advice, and a fresh player says nothing in its first cycle."""
         self.seed = seed
         self.memory = self._new_memory()
+        self.talk = new_talk(1, start=self._cycle)
         self._fresh_world_model()
         if isinstance(self.learner, SarsaLearner):
             self.learner.reseed(learner_seed(self.learner_seed_sequence()))
@@ -593,6 +600,8 @@ class PlayerAgent:
     # -- deciding ----------------------------------------------------------------------------------
     def _decide(self, cycle: int) -> m.Command:
         """Run the decision kernel for this cycle and turn its output into atomic commands."""
+        if not self.fullstate:  # the C++ ignores what it hears while it has the full state
+            hear_row(0, self.wm.state, self.n_keepers, self.cfg, self.talk)
         bel = self.wm.belief()
         outs = (self._out_main, self._out_a1, self._out_a2, self._out_neck)
         if self.is_keeper:
@@ -610,6 +619,9 @@ class PlayerAgent:
         if spec is not None:
             name, n_args = spec
             commands.insert(0, m.AtomicCommand(name, (a1, a2)[:n_args]))
+        say_row(0, self.wm.state, main, a1, a2, self.n_keepers, self.kp, self.cfg, self.talk)
+        if self.talk.said_len[0]:
+            commands.append(m.AtomicCommand("say", (to_text(self.talk, 0),)))
         return m.Command(cycle=cycle, commands=tuple(commands))
 
     def _ask_learner(self, bel: Any, decision: int, outs: tuple) -> None:
@@ -641,7 +653,8 @@ def compile_kernels() -> None:
     for team, side in (("keepers", "l"), ("takers", "r")):
         agent = PlayerAgent(team)
         agent.on_message(m.InitOk(side=side, unum=1, team=team, **init))
-        for msg in (body, see, m.Think(cycle=0), m.Hear(cycle=0, sender="referee", message=EPISODE_MESSAGE)):
+        heard = m.Hear(cycle=0, sender="our", direction=0, unum=2, message="1aaaa18aa1")
+        for msg in (body, see, heard, m.Think(cycle=0), m.Hear(cycle=0, sender="referee", message=EPISODE_MESSAGE)):
             agent.on_message(msg)
         if agent.is_keeper:
             execute_pass_action(agent.wm.belief(), 0, agent.memory, 0, agent.kp, agent.cfg, agent._out_main,

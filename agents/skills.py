@@ -122,6 +122,14 @@ class AgentConfig:
     # (as GO:HC's lane test) instead of from the keeper now closest to the ball (keepaway-task.md 4);
     # the measurements that kept the paper's definition are in docs/design.md.
     getopen_lane_from_predicted_ball: bool = False
+    # Say and hear (agents/say.py; KeepawayPlayer::makeSayMessage, WorldModelSayMsgTypes.cc). Off: silent
+    # players that hear nothing, to measure what talking changes.
+    say_messages: bool = True
+    say_ball_range: float = 20.0  # makeSayMessage: a ball seen with its change pair within this is said
+    say_pass_margin: float = 0.2  # same: a kick taking the ball this far beyond kickable distance is a pass
+    hear_ball_near: float = 3.0  # WMBallInfo::process: a heard ball is not taken this close to me
+    hear_ball_stale_cycles: float = 3.0  # same: a ball whose change pair is older than this is replaced
+    hear_velocity_gap: float = 0.3  # same, and processPerfectHearInfoBall: a velocity this different
 
     def kernel(self) -> tuple:
         """The fields as a NamedTuple of floats, the form numba kernels take."""

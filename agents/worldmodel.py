@@ -77,6 +77,8 @@ class ModelState(NamedTuple):
     seen: np.ndarray  # (B, N) int64 cycle each object was last seen (NEVER if not since forget)
     err: np.ndarray  # (B, N) how far a player may have moved since it was seen, m (association gate)
     obs_pos: np.ndarray  # (B, N, 2) position of the last observation (for position differences)
+    obs_time: np.ndarray  # (B, N) int64 its cycle (``seen`` may be set by hearing, `agents/say.py`)
+    ball_chg: np.ndarray  # (B,) int64 cycle of the last see with the ball's change pair (C++ getTimeChangeInformation)
     stamina: np.ndarray  # (B,) my stamina (sense_body)
     effort: np.ndarray  # (B,) my effort (sense_body)
     speed: np.ndarray  # (B, 2) sense_body speed [amount, direction relative to head (truncated deg)]
@@ -119,6 +121,8 @@ def new_model_state(batch: int, n_keepers: int, n_takers: int, me: np.ndarray | 
         seen=np.full((batch, n), NEVER, dtype=np.int64),
         err=np.zeros((batch, n)),
         obs_pos=np.zeros((batch, n, 2)),
+        obs_time=np.full((batch, n), NEVER, dtype=np.int64),
+        ball_chg=np.full(batch, NEVER, dtype=np.int64),
         stamina=np.full(batch, params.stamina_max),
         effort=np.full(batch, params.effort_init),
         speed=np.zeros((batch, 2)),
@@ -454,6 +458,7 @@ def _mark_seen(r, s, obj, px, py):
     s.pos[r, obj, 1] = py
     s.obs_pos[r, obj, 0] = px
     s.obs_pos[r, obj, 1] = py
+    s.obs_time[r, obj] = s.time[r]
     s.seen[r, obj] = s.time[r]
     s.err[r, obj] = 0.0
 
@@ -467,7 +472,7 @@ def _ball_velocity_from_positions(r, s, px, py, vx, vy, kp, cfg):
     (``loc_shift``): both positions then carry the same error of my position.
     """
     d = kp.ball_decay
-    gap = s.time[r] - s.seen[r, BALL]
+    gap = s.time[r] - s.obs_time[r, BALL]
     dx = px - s.obs_pos[r, BALL, 0] - s.loc_shift[r, 0]
     dy = py - s.obs_pos[r, BALL, 1] - s.loc_shift[r, 1]
     if gap == 1:
@@ -498,6 +503,7 @@ def update_ball_row(r: int, s: ModelState, see: SeeBuffer, n_keepers: int, kp, c
     vx, vy = s.vel[r, BALL, 0], s.vel[r, BALL, 1]
     kickable = kickable_distance(kp)
     if not (math.isnan(dist_chg) or math.isnan(dir_chg)):
+        s.ball_chg[r] = s.time[r]
         cx, cy = _change_velocity(r, s, dist, ex, ey, dist_chg, dir_chg)
         agree = 2.0 * kp.ball_rand * math.hypot(vx, vy)
         if abs(cx - vx) <= agree and abs(cy - vy) <= agree:
@@ -643,6 +649,7 @@ def forget_row(r: int, s: ModelState) -> None:
     for obj in range(s.pos.shape[1]):
         if obj != me:
             s.seen[r, obj] = NEVER
+            s.obs_time[r, obj] = NEVER
             s.vel[r, obj, 0] = 0.0
             s.vel[r, obj, 1] = 0.0
             s.err[r, obj] = 0.0
@@ -756,6 +763,8 @@ class WorldModel:
                 s.effort[0] = p[9]
         s.seen[0, :] = cycle
         s.obs_pos[0] = s.pos[0]
+        s.obs_time[0, :] = cycle
+        s.ball_chg[0] = cycle
         s.err[0, :] = 0.0
 
     def on_own_commands(self, main: int, a1: float, a2: float, neck: float = 0.0) -> None:

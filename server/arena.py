@@ -22,7 +22,6 @@ from protocol.params import ServerParams
 from server import perception
 from server.physics import kick_possible
 from server.referee import END_CAUSES, new_referee_state, reset_field, start_game
-from server.rng import randint
 from server.simulation import new_causes, simulate_cycle
 from server.world import (
     CMD_CATCH,
@@ -264,7 +263,8 @@ class Arena:
         ball at the centre, parked players, body and neck angles, stamina, effort, recovery, capacity,
         collision and kick flags; no pending commands or says; every view normal, and every see timer
         restarted at ``now_ms`` as if the player connected now (spec 1: a see is due every period from
-        the connection time). Queued hears (the coach's advice) stay.
+        the connection time). Queued hears stay (the coach's advice) but for the players' says, which
+        belong to the old world.
         """
         w = self.world
         fresh = new_world(self.params, w.n_keepers, w.n_takers, batch=1, seed=seed)
@@ -274,6 +274,7 @@ class Arena:
         self.commands.clear()
         self.pending_says.clear()
         for s in self.slots:
+            s.hears = [h for h in s.hears if h.sender not in PLAYER_SENDERS]
             s.main_taken = s.neck_taken = False
             s.view_width = DEFAULT_VIEW_WIDTH
             s.see_phase_ms = now_ms
@@ -301,33 +302,29 @@ class Arena:
                                       message=payload))
 
     def _deliver_says(self) -> None:
-        """Says of cycle t are heard in t+1 (spec 4 Hearing): self always, others within
-        audio_cut_dist, at most hear_max per listener from each team, chosen at random."""
+        """Says of cycle t are heard in t+1 (spec 4 Hearing): self always, others as
+        ``perception.hear_picks`` draws them."""
         if not self.pending_says:
             return
         w, p = self.world, self.params
         self.pending_says.sort(key=lambda said: said[0])  # arrival order must not matter (determinism)
+        speakers = np.array([speaker for speaker, _ in self.pending_says], dtype=np.int64)
+        picks = np.empty(len(speakers), dtype=np.int64)
         for listener in self.connected_slots():
-            by_team: dict[str, list] = {"our": [], "opp": []}
-            lp = w.pos[0, listener.obj]
             for speaker, text in self.pending_says:
                 if speaker == listener.obj:
                     listener.hears.append(m.Hear(cycle=self.cycle, sender="self", direction=None,
                                                  unum=None, message=text))
-                    continue
+            n = perception.hear_picks(0, w, speakers, listener.obj, p.hear_max, p.audio_cut_dist, picks)
+            lp = w.pos[0, listener.obj]
+            for k in picks[:n]:
+                speaker, text = self.pending_says[k]
                 sp = w.pos[0, speaker]
-                dx, dy = sp[0] - lp[0], sp[1] - lp[1]
-                if math.hypot(dx, dy) > p.audio_cut_dist:
-                    continue
-                team = "our" if self.world.side(speaker) == listener.side else "opp"
-                direction = _normalize_deg(math.degrees(math.atan2(dy, dx)) - w.body[0, listener.obj])
-                by_team[team].append((speaker, direction, text))
-            for team, candidates in by_team.items():
-                for _ in range(min(int(p.hear_max), len(candidates))):
-                    speaker, direction, text = candidates.pop(randint(w.rng, 0, len(candidates)))
-                    listener.hears.append(m.Hear(
-                        cycle=self.cycle, sender=team, direction=int(round(direction)),
-                        unum=self.world.unum(speaker) if team == "our" else None, message=text))
+                team = "our" if w.side(speaker) == listener.side else "opp"
+                direction = _normalize_deg(math.degrees(math.atan2(sp[1] - lp[1], sp[0] - lp[0]))
+                                           - w.body[0, listener.obj])
+                listener.hears.append(m.Hear(cycle=self.cycle, sender=team, direction=int(round(direction)),
+                                             unum=w.unum(speaker) if team == "our" else None, message=text))
         self.pending_says.clear()
 
     # -- percepts -----------------------------------------------------------------------------------
@@ -375,6 +372,10 @@ class Arena:
 
     def landmarks(self) -> dict:
         return landmarks_to_wire()
+
+
+# hear senders that are players (protocol.messages.HEAR_SENDERS)
+PLAYER_SENDERS = ("self", "our", "opp")
 
 
 def _normalize_deg(a: float) -> float:

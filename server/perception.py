@@ -23,7 +23,7 @@ from core.jit import njit
 
 from protocol.landmarks import FLAG_POSITIONS, LINE_LEFT, LINE_RIGHT, LINE_TOP, N_FLAGS, N_LINES
 from protocol.params import KernelParams
-from server.rng import uniform
+from server.rng import randint, uniform
 from server.world import BALL, COLLIDED_BALL, COLLIDED_PLAYER, N_COUNTS, World
 
 # rcssserver's angle conversions (utility.h): multiply by these constants, not by math.degrees.
@@ -526,6 +526,40 @@ def see_payload(out: SeeBuffers, b: int, obs: int, n_keepers: int) -> dict:
     return {"flags": flags, "lines": lines, "ball": ball, "players": players}
 
 
+@njit(cache=True)
+def hear_picks(b: int, w: World, speakers: np.ndarray, listener: int, hear_max: float, cut: float,
+               picks: np.ndarray) -> int:
+    """Which of this cycle's says ``listener`` hears from other players (spec 4 "Hearing"): ``speakers``
+    holds the speaker of each say, in object order; of those other than the listener within ``cut``
+    (audio_cut_dist), at most ``hear_max`` from its own team, then at most ``hear_max`` from the other,
+    each drawn at random from arena ``b``'s stream. Writes their indices into ``speakers`` to ``picks``
+    in the order drawn; returns how many. The one rule of the server (``server.arena.Arena``) and the
+    batched mode."""
+    n_picked = 0
+    candidates = np.empty(speakers.shape[0], dtype=np.int64)
+    mine = listener <= w.n_keepers
+    for own_team in (True, False):
+        n = 0
+        for i in range(speakers.shape[0]):
+            speaker = speakers[i]
+            if speaker == listener or ((speaker <= w.n_keepers) == mine) != own_team:
+                continue
+            dx = w.pos[b, speaker, 0] - w.pos[b, listener, 0]
+            dy = w.pos[b, speaker, 1] - w.pos[b, listener, 1]
+            if math.hypot(dx, dy) > cut:
+                continue
+            candidates[n] = i
+            n += 1
+        for _ in range(min(int(hear_max), n)):
+            k = randint(w.rng, b, n)
+            picks[n_picked] = candidates[k]
+            n_picked += 1
+            n -= 1
+            for j in range(k, n):
+                candidates[j] = candidates[j + 1]
+    return n_picked
+
+
 def sense_body_payload(out: SenseBodyBuffers, b: int, obs: int, view_quality: str, view_width: str) -> dict:
     """One player's sense_body as the wire map (spec 4 "sense_body"); the view mode is server-side
     connection state, so the caller passes it."""
@@ -583,6 +617,7 @@ __all__ = [
     "cone_factor",
     "distance_table",
     "fullstate",
+    "hear_picks",
     "normalize_rad",
     "quantize",
     "quantize_distance",

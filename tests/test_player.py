@@ -92,7 +92,7 @@ def main_command(cmd):
 # ------------------------------------------------------------------------------------------ playing
 
 
-def test_every_player_answers_each_think_with_one_main_command_and_a_neck_turn():
+def test_every_player_answers_each_think_with_one_main_command_a_neck_turn_and_from_cycle_1_a_say():
     game = Game()
     for _ in range(30):
         cycle = game.arena.cycle
@@ -101,8 +101,10 @@ def test_every_player_answers_each_think_with_one_main_command_and_a_neck_turn()
         for cmd in commands.values():
             assert cmd.cycle == cycle
             names = [c.name for c in cmd.commands]
-            assert names[-1] == "turn_neck" and names[:-1] in (["dash"], ["turn"], ["kick"])
-            assert all(math.isfinite(a) for c in cmd.commands for a in c.args)
+            said = ["say"] if cycle > 0 else []
+            assert names[1:] == ["turn_neck"] + said and names[0] in ("dash", "turn", "kick")
+            assert all(math.isfinite(a) for c in cmd.commands for a in c.args if not isinstance(a, str))
+            assert all(len(c.args[0]) <= 10 for c in cmd.commands if c.name == "say")
 
 
 def test_keepers_pass_the_ball_around():

@@ -71,6 +71,7 @@ from agents.sarsa import (
     step as sarsa_step,
 )
 from agents.player import agent_seed_sequence, learner_seed as player_learner_seed
+from agents.say import Talk, hear_row, new_talk, say_row
 from agents.skills import (
     GETOPEN_POLICIES,
     PASS_POLICIES,
@@ -95,6 +96,7 @@ from protocol.params import ServerParams
 from server.arena import PlayerSlot
 from server.perception import (
     see_due,
+    hear_picks,
     FULL,
     PARTIAL,
     UNSEEN,
@@ -108,7 +110,7 @@ from server.physics import kick_possible
 from server.referee import END_NONE, RefereeState, new_referee_state, start_game
 from server.rng import seed_streams
 from server.simulation import step_arena
-from server.world import BALL, CMD_KICK, CMD_NONE, Commands, World, new_world
+from server.world import BALL, CMD_KICK, CMD_NONE, COUNT_SAY, Commands, World, new_world
 
 PASS_MODES = MODE_NAMES
 # The batched mode's Sarsa sizes (module docstring): a 2^16 weight table per keeper; 4,096 live traces
@@ -167,6 +169,7 @@ class Players(NamedTuple):
     belief: Belief  # the belief of the last decision
     memory: AgentMemory
     out: Decisions
+    talk: Talk  # say and hear (agents/say.py)
 
 
 class Bookkeeping(NamedTuple):
@@ -325,6 +328,7 @@ def decide(b: int, obs: int, row: int, w: World, c: Commands, theta: np.ndarray,
     remembered by its world model as sent (``WorldModel.on_own_commands``). With PASS_EXTERNAL the
     keeper's Pass decisions come from its Sarsa row (:func:`learn_pass`)."""
     out = pl.out
+    hear_row(row, pl.model, w.n_keepers, cfg, pl.talk)
     write_belief_row(row, pl.model, pl.belief, row)
     if obs <= w.n_keepers:
         out.decision[row] = keeper_decide(pl.belief, row, pl.memory, theta, kp, cfg, out.main, out.arg1,
@@ -348,6 +352,42 @@ def decide(b: int, obs: int, row: int, w: World, c: Commands, theta: np.ndarray,
     pl.model.cmd_args[row, 0] = out.arg1[row]
     pl.model.cmd_args[row, 1] = out.arg2[row]
     pl.model.cmd_args[row, 2] = out.neck[row]
+    say_row(row, pl.model, code, out.arg1[row], out.arg2[row], w.n_keepers, kp, cfg, pl.talk)
+    if pl.talk.said_len[row] > 0:
+        w.counts[b, obs, COUNT_SAY] += 1
+
+
+@njit(cache=True)
+def deliver_says(b: int, w: World, talk: Talk, kp) -> None:
+    """After the step, who heard which of this cycle's says, as the server delivers them
+    (``server.arena.Arena``: a say longer than say_msg_size is dropped, the rest go through
+    ``hear_picks``); a teammate's message becomes the listener's last heard one (an opponent's is drawn
+    for but ignored, as the players ignore it)."""
+    n_players = w.pos.shape[1] - 1
+    base = b * n_players
+    n = 0
+    for p in range(n_players):
+        if 0 < talk.said_len[base + p] <= kp.say_msg_size:
+            n += 1
+    if n == 0:
+        return
+    speakers = np.empty(n, dtype=np.int64)
+    n = 0
+    for p in range(n_players):
+        if 0 < talk.said_len[base + p] <= kp.say_msg_size:
+            speakers[n] = p + 1
+            n += 1
+    picks = np.empty(n, dtype=np.int64)
+    for listener in range(1, n_players + 1):
+        keeper = listener <= w.n_keepers
+        for k in picks[:hear_picks(b, w, speakers, listener, kp.hear_max, kp.audio_cut_dist, picks)]:
+            speaker = speakers[k]
+            if (speaker <= w.n_keepers) != keeper:
+                continue
+            src, dst = base + speaker - 1, base + listener - 1
+            talk.heard[dst, :] = talk.said[src, :]
+            talk.heard_len[dst] = talk.said_len[src]
+            talk.heard_new[dst] = True
 
 
 @njit(cache=True)
@@ -363,7 +403,9 @@ def arena_cycle(b: int, w: World, c: Commands, ref: RefereeState, theta: np.ndar
         row = b * n_players + p
         perceive(b, obs, row, w, with_see, episode_message, cone, kp, cfg, pl, see_out, body_out)
         decide(b, obs, row, w, c, theta, kp, cfg, pl, sarsa, sp)
-    return step_arena(b, w, c, ref, kp)
+    cause = step_arena(b, w, c, ref, kp)
+    deliver_says(b, w, pl.talk, kp)
+    return cause
 
 
 @njit(cache=True, nogil=True)
@@ -490,6 +532,7 @@ class BatchedArenas:
                 arg2=np.zeros(rows),
                 neck=np.zeros(rows),
             ),
+            talk=new_talk(rows),
         )
         self.book = Bookkeeping(
             episode_message=np.zeros(batch, dtype=np.bool_),

@@ -1,0 +1,234 @@
+"""Say and hear as the keepaway-0.6 C++ players (agents/say.py): the saymsglib code against hand-computed
+values, what a player says, what a listener takes in, and who hears whom (server.perception.hear_picks)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from agents.say import (
+    VALID_CHARS,
+    X_LOW,
+    X_SPAN,
+    Y_LOW,
+    Y_SPAN,
+    decode_value,
+    encode_position,
+    encode_velocity,
+    hear_row,
+    hear_text,
+    new_talk,
+    say_row,
+    to_text,
+)
+from agents.skills import AgentConfig
+from agents.worldmodel import new_model_state
+from protocol.params import parameter_set
+from server.perception import hear_picks
+from server.world import BALL, CMD_DASH, CMD_KICK, CMD_TURN, new_world
+
+K, T = 3, 2
+PARAMS = parameter_set("current")
+KP = PARAMS.kernel()
+CFG = AgentConfig().kernel()
+NOW = 50
+
+
+def model(me: int, positions: dict, seen: dict | None = None, ball_chg: int = NOW, vel: dict | None = None):
+    """A one-row world model of player ``me`` at cycle NOW: objects at ``positions`` (object -> (x, y)),
+    each seen at NOW unless ``seen`` says otherwise."""
+    s = new_model_state(1, K, T, me, PARAMS)
+    s.time[0] = NOW
+    for obj, xy in positions.items():
+        s.pos[0, obj] = xy
+        s.seen[0, obj] = (seen or {}).get(obj, NOW)
+        s.obs_time[0, obj] = s.seen[0, obj]
+    for obj, v in (vel or {}).items():
+        s.vel[0, obj] = v
+    s.ball_chg[0] = ball_chg
+    return s
+
+
+# ------------------------------------------------------------------------------------------ the code
+
+
+def test_position_codes_are_the_floor_of_73_levels():
+    # (0 + 53) / 106 * 73 = 36.5 -> 36, the 37th character 'A'; it decodes to 36/73*106 - 53 = -0.7260
+    assert encode_position(0.0, X_LOW, X_SPAN) == 36 and VALID_CHARS[36] == "A"
+    assert decode_value(36, X_LOW, X_SPAN) == pytest.approx(36 / 73 * 106 - 53, abs=1e-5)
+    # (10 + 34) / 68 * 73 = 47.235 -> 47; the field's ends clip to the first and last character
+    assert encode_position(10.0, Y_LOW, Y_SPAN) == 47
+    assert encode_position(-60.0, X_LOW, X_SPAN) == 0 and encode_position(60.0, X_LOW, X_SPAN) == 72
+
+
+def test_velocity_codes():
+    # (1.0 + 2.7) / 5.4 * 73 = 50.02 -> 50; decoded 50/73*5.4 - 2.7 = 0.99863
+    assert encode_velocity(1.0) == 50
+    assert decode_value(50, -2.7, 5.4) == pytest.approx(50 / 73 * 5.4 - 2.7, abs=1e-6)
+    # a pass faster than the range's end is sent as its last character (2.626 m/cycle)
+    assert encode_velocity(3.0) == 72 and encode_velocity(-3.0) == 0
+
+
+def test_positions_are_coded_in_single_precision():
+    # x = -53 + 106 * 30 / 73 is code 30 exactly in real arithmetic; in float its code is whatever the
+    # float expression gives, never off by more than one
+    x = -53.0 + 106.0 * 30 / 73
+    f = np.float32
+    expected = int(f(f(f(x) + f(53.0)) / f(106.0)) * f(73.0))
+    assert encode_position(x, X_LOW, X_SPAN) == expected and expected in (29, 30)
+
+
+# ----------------------------------------------------------------------------------------- saying
+
+
+def test_a_keeper_passing_says_the_ball_after_its_kick_with_cycleno_0_then_its_own_position():
+    # keeper 1 at the origin facing 0 deg, the ball 0.5 m ahead: kick at power 100 straight ahead
+    s = model(1, {BALL: (0.5, 0.0), 1: (0.0, 0.0), 2: (10.0, 0.0), 4: (8.0, 8.0)})
+    talk = new_talk(1)
+    say_row(0, s, CMD_KICK, 100.0, 0.0, K, KP, CFG, talk)
+    text = to_text(talk, 0)
+    # rate = 0.027 (1 - 0.25 * (0.5 - 0.385) / 0.7) = 0.025891; v = 2.5891 (under ball_speed_max 3.0)
+    rate = 0.027 * (1 - 0.25 * (0.5 - 0.3 - 0.085) / 0.7)
+    v = rate * 100
+    assert text[0] == "1" and len(text) == 9  # BallInfo, then OurPos: no opponent within 3 m
+    assert text[1] == VALID_CHARS[encode_position(0.5 + v, X_LOW, X_SPAN)]
+    assert text[3] == VALID_CHARS[encode_velocity(v * 0.94)]
+    assert text[5] == "0"  # a pass: the ball ends 3.09 m from me, beyond 1.085 + 0.2
+    assert text[6:] == "0" + VALID_CHARS[36] + VALID_CHARS[36]  # OurPos: still at (0, 0)
+
+
+def test_a_keeper_holding_says_the_ball_where_it_is_with_no_velocity_and_the_nearest_taker():
+    s = model(1, {BALL: (0.5, 0.0), 1: (0.0, 0.0), 4: (2.0, 0.0), 5: (2.5, 0.0)}, vel={BALL: (0.3, 0.0)})
+    talk = new_talk(1)
+    say_row(0, s, CMD_KICK, 10.0, 90.0, K, KP, CFG, talk)  # a small kick: the ball stays kickable
+    text = to_text(talk, 0)
+    assert text[:6] == "1" + VALID_CHARS[encode_position(0.5, X_LOW, X_SPAN)] + "A" + 2 * VALID_CHARS[
+        encode_velocity(0.0)] + "1"
+    # OppPos of taker 1 (object 4, 2 m away): id 8, then x, y and cycleno 1; no room for OurPos
+    assert text[6:] == "8" + VALID_CHARS[encode_position(2.0, X_LOW, X_SPAN)] + "A" + "1"
+
+
+def test_a_taker_speaks_in_its_mirrored_frame():
+    s = model(4, {BALL: (5.0, 2.0), 4: (0.0, 0.0)})
+    talk = new_talk(1)
+    say_row(0, s, CMD_DASH, 100.0, 0.0, K, KP, CFG, talk)
+    text = to_text(talk, 0)
+    assert text[1] == VALID_CHARS[encode_position(-5.0, X_LOW, X_SPAN)]
+    assert text[2] == VALID_CHARS[encode_position(-2.0, Y_LOW, Y_SPAN)]
+
+
+def test_nothing_is_said_in_cycle_0_without_a_ball_seen_or_when_silent():
+    talk = new_talk(1)
+    s = model(1, {BALL: (15.0, 0.0), 1: (0.0, 0.0)}, seen={BALL: NOW - 1})
+    say_row(0, s, CMD_TURN, 30.0, 0.0, K, KP, CFG, talk)
+    assert to_text(talk, 0) == "0AA"  # no fresh ball, no opponent: my position only
+    s.time[0] = 0
+    talk.last_say[0] = -5
+    say_row(0, s, CMD_TURN, 30.0, 0.0, K, KP, CFG, talk)
+    assert talk.said_len[0] == 0
+    s.time[0] = NOW
+    silent = AgentConfig(say_messages=False).kernel()
+    say_row(0, s, CMD_TURN, 30.0, 0.0, K, KP, silent, talk)
+    assert talk.said_len[0] == 0
+
+
+# ---------------------------------------------------------------------------------------- hearing
+
+
+def heard(s, text: str, cfg=CFG):
+    talk = new_talk(1)
+    hear_text(talk, 0, text)
+    hear_row(0, s, K, cfg, talk)
+    assert not talk.heard_new[0]  # processed once
+    return s
+
+
+def pass_message(x: float, y: float, vx: float, vy: float, cycleno: int) -> str:
+    return ("1" + VALID_CHARS[encode_position(x, X_LOW, X_SPAN)] + VALID_CHARS[encode_position(y, Y_LOW, Y_SPAN)]
+            + VALID_CHARS[encode_velocity(vx)] + VALID_CHARS[encode_velocity(vy)] + VALID_CHARS[cycleno])
+
+
+def test_a_pass_heard_in_a_cycle_without_a_see_replaces_a_ball_believed_still():
+    # keeper 2 at (10, 0) believes the ball still at keeper 1's feet (last change pair a cycle ago)
+    s = model(2, {BALL: (0.5, 0.0), 2: (10.0, 0.0)}, seen={BALL: NOW - 1}, ball_chg=NOW - 1)
+    heard(s, pass_message(3.0, 0.0, 2.4, 0.0, 0))
+    assert s.pos[0, BALL, 0] == pytest.approx(decode_value(encode_position(3.0, X_LOW, X_SPAN), X_LOW, X_SPAN))
+    assert s.vel[0, BALL, 0] == pytest.approx(decode_value(encode_velocity(2.4), -2.7, 5.4))
+    assert s.seen[0, BALL] == NOW - 1  # confidence 0.99: a cycle old
+
+
+def test_a_heard_ball_is_not_taken_after_a_see_close_by_or_when_it_agrees():
+    s = model(2, {BALL: (0.5, 0.0), 2: (10.0, 0.0)})  # seen with its change pair this cycle
+    heard(s, pass_message(3.0, 0.0, 2.4, 0.0, 0))
+    assert tuple(s.pos[0, BALL]) == (0.5, 0.0)
+    s = model(2, {BALL: (0.5, 0.0), 2: (2.0, 0.0)}, seen={BALL: NOW - 1}, ball_chg=NOW - 1)  # within 3 m
+    heard(s, pass_message(3.0, 0.0, 2.4, 0.0, 0))
+    assert tuple(s.pos[0, BALL]) == (0.5, 0.0)
+    # cycleno 1 (not a pass): the change pair must be over 3 cycles old
+    s = model(2, {BALL: (0.5, 0.0), 2: (10.0, 0.0)}, seen={BALL: NOW - 1}, ball_chg=NOW - 1)
+    heard(s, pass_message(3.0, 0.0, 2.4, 0.0, 1))
+    assert tuple(s.pos[0, BALL]) == (0.5, 0.0)
+
+
+def test_a_ball_never_seen_is_taken_rolled_on_by_cycleno():
+    s = model(2, {2: (10.0, 0.0)})
+    heard(s, pass_message(0.0, 0.0, 1.0, 0.0, 1))
+    v = decode_value(encode_velocity(1.0), -2.7, 5.4)
+    assert s.pos[0, BALL, 0] == pytest.approx(decode_value(36, X_LOW, X_SPAN) + v)
+    assert s.vel[0, BALL, 0] == pytest.approx(v * 0.94)
+    assert s.seen[0, BALL] == NOW - 2  # confidence 0.98
+
+
+def test_an_opponent_heard_is_taken_only_when_mine_is_older_and_our_pos_changes_nothing():
+    s = model(2, {4: (5.0, 5.0), 5: (1.0, 1.0)}, seen={4: NOW - 3, 5: NOW - 1}, vel={4: (0.5, 0.0)})
+    opp = "8" + VALID_CHARS[encode_position(6.0, X_LOW, X_SPAN)] + VALID_CHARS[encode_position(6.0, Y_LOW, Y_SPAN)] + "1"
+    opp2 = "9" + opp[1:]
+    heard(s, opp + "0AA")
+    assert s.pos[0, 4, 0] == pytest.approx(decode_value(encode_position(6.0, X_LOW, X_SPAN), X_LOW, X_SPAN))
+    assert tuple(s.vel[0, 4]) == (0.0, 0.0) and s.seen[0, 4] == NOW - 2
+    heard(s, opp2)  # taker 2 was seen a cycle ago: confidence 0.99 is not below 0.98
+    assert tuple(s.pos[0, 5]) == (1.0, 1.0)
+    before = s.pos.copy()
+    heard(s, "0" + "B" * 2)  # OurPos: the C++ applies it to the listener itself, i.e. not at all
+    assert np.array_equal(s.pos, before)
+
+
+@pytest.mark.parametrize("text", ["2aaa", "1aaaa", "1aaaa1x", "1aaaa1@", "1aaaa18aa1aaa"])
+def test_a_message_that_does_not_decode_is_dropped_whole(text):
+    s = model(2, {2: (10.0, 0.0)})
+    heard(s, text)
+    assert s.seen[0, BALL] < 0  # the ball (never seen) was not taken from a partly decoded message
+
+
+# -------------------------------------------------------------------------------- who hears whom
+
+
+def test_each_listener_hears_one_teammate_and_one_opponent_at_random():
+    w = new_world(PARAMS, K, T, batch=1, seed=3)
+    w.pos[0, 1:] = [(0, 0), (5, 0), (10, 0), (0, 5), (5, 5)]
+    speakers = np.arange(1, K + T + 1)
+    picks = np.empty(len(speakers), dtype=np.int64)
+    chosen = set()
+    for _ in range(40):
+        n = hear_picks(0, w, speakers, 1, KP.hear_max, KP.audio_cut_dist, picks)
+        assert n == 2
+        mate, opp = speakers[picks[:2]]
+        assert mate in (2, 3) and opp in (4, 5)
+        chosen.add(mate)
+    assert chosen == {2, 3}
+    # beyond audio_cut_dist nobody is heard
+    assert hear_picks(0, w, speakers, 1, KP.hear_max, 4.0, picks) == 0
+
+
+def test_says_reach_teammates_in_a_game_and_keepers_hear_passes():
+    from trainer.batched import BatchedArenas
+
+    arenas = BatchedArenas(PARAMS, 2, 11, pass_policy="random", threads=1)
+    arenas.run(total_episodes=6)
+    talk = arenas.players.talk
+    assert (talk.said_len > 0).all()  # everyone talks every cycle
+    heard_any = (talk.heard_len > 0)
+    assert heard_any.all()
+    assert math.isfinite(float(arenas.players.model.pos.sum()))
