@@ -487,6 +487,29 @@ def _ball_velocity_from_positions(r, s, px, py, vx, vy, kp, cfg):
 
 
 @njit(cache=True)
+def _opponent_controls_ball(r, s, px, py, my_dist, n_keepers, kp, cfg):
+    """A usable opponent is within kickable distance of the ball at (px, py) and I (``my_dist`` from it)
+    am not: he controls it, and the C++ believes it still (``calculateStateBall``)."""
+    first, last = opponent_range(s.me[r], n_keepers, s.pos.shape[1] - 1)
+    _, d_opp = _closest_player(r, s, px, py, first, last + 1, -1, cfg)
+    kickable = kickable_distance(kp)
+    return d_opp < kickable and my_dist > kickable
+
+
+@njit(cache=True)
+def hold_exact_ball_row(r: int, s: ModelState, n_keepers: int, kp, cfg) -> None:
+    """The rule of :func:`update_ball_row` on an exact (fullstate) ball: still if an opponent controls
+    it. Not in the C++, whose fullstate skips its see rules; without it takers with the exact state
+    chase every small kick of a keeper that holds the ball and turn for ever (docs/design.md)."""
+    me = s.me[r]
+    bx, by = s.pos[r, BALL, 0], s.pos[r, BALL, 1]
+    if _opponent_controls_ball(r, s, bx, by, math.hypot(bx - s.pos[r, me, 0], by - s.pos[r, me, 1]),
+                               n_keepers, kp, cfg):
+        s.vel[r, BALL, 0] = 0.0
+        s.vel[r, BALL, 1] = 0.0
+
+
+@njit(cache=True)
 def update_ball_row(r: int, s: ModelState, see: SeeBuffer, n_keepers: int, kp, cfg) -> None:
     """The ball from the see (spec 4), as the C++ ``WorldModel::calculateStateBall``: the velocity from
     the change pair, averaged with the predicted one if each component is within 2 ball_rand |v_pred| of
@@ -501,7 +524,6 @@ def update_ball_row(r: int, s: ModelState, see: SeeBuffer, n_keepers: int, kp, c
     dist_chg, dir_chg = see.ball_obs[r, 2], see.ball_obs[r, 3]
     px, py, ex, ey = _seen_point(r, s, dist, direction)
     vx, vy = s.vel[r, BALL, 0], s.vel[r, BALL, 1]
-    kickable = kickable_distance(kp)
     if not (math.isnan(dist_chg) or math.isnan(dir_chg)):
         s.ball_chg[r] = s.time[r]
         cx, cy = _change_velocity(r, s, dist, ex, ey, dist_chg, dir_chg)
@@ -512,10 +534,8 @@ def update_ball_row(r: int, s: ModelState, see: SeeBuffer, n_keepers: int, kp, c
             vx, vy = cx, cy
     elif dist < kp.visible_distance:
         vx, vy = _ball_velocity_from_positions(r, s, px, py, vx, vy, kp, cfg)
-    first, last = opponent_range(s.me[r], n_keepers, s.pos.shape[1] - 1)
-    _, d_opp = _closest_player(r, s, px, py, first, last + 1, -1, cfg)
     speed = math.hypot(vx, vy)
-    if d_opp < kickable and dist > kickable:
+    if _opponent_controls_ball(r, s, px, py, dist, n_keepers, kp, cfg):
         vx = vy = 0.0
     elif speed > (1.0 + kp.ball_rand) * kp.ball_speed_max:
         vx *= kp.ball_speed_max / speed
@@ -766,6 +786,7 @@ class WorldModel:
         s.obs_time[0, :] = cycle
         s.ball_chg[0] = cycle
         s.err[0, :] = 0.0
+        hold_exact_ball_row(0, s, self.n_keepers, self.kp, self.cfg)
 
     def on_own_commands(self, main: int, a1: float, a2: float, neck: float = 0.0) -> None:
         """The commands I sent this cycle (CMD_* code of `server/world.py`, its two arguments, the

@@ -566,3 +566,12 @@ def test_a_keepers_own_pass_arrays_of_the_wrong_size_are_a_one_line_error(tmp_pa
                        config={"keepers": K, "takers": T, "sarsa": {"table_size": 2**12}})
     with pytest.raises(PolicyFileError, match="keeper 2's Pass weights do not fit the Sarsa learner"):
         PlayerAgent("keepers", pass_policy="learned", policy=load_policy(path))
+
+
+def test_takers_with_the_exact_state_take_a_held_ball():
+    # With the fullstate the takers used to see every small kick of a keeper that holds the ball and turn
+    # after it for ever: always hold, CURRENT, seed 5 ended no episode in 40,000 cycles. The exact ball is
+    # now believed still where a keeper controls it, as after a see (agents.worldmodel.hold_exact_ball_row).
+    game = Game(seed=5, fullstate=True, keeper_kw={"pass_policy": "hold"})
+    ended = [record for _ in range(600) if (record := game.cycle()[1]) is not None]
+    assert len(ended) >= 5

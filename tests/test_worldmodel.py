@@ -666,3 +666,18 @@ def test_me_follows_side_and_unum():
     assert model_for(5).me == 5  # taker 2 = K + 2
     with pytest.raises(ValueError):
         WorldModel(PARAMS, "r", 3, K, T, FLAGS)
+
+
+def test_an_exact_ball_at_an_opponents_feet_is_believed_still():
+    # keeper 1 at (0, 0) with the ball 0.5 m ahead, moving after its kick; taker 1 at (3, 0)
+    pos = np.zeros((N, 2))
+    pos[0] = [0.5, 0.0]
+    pos[2:] = [[5.0, 5.0], [-5.0, 5.0], [3.0, 0.0], [3.0, 8.0]]
+    vel = np.zeros((N, 2))
+    vel[0] = [0.4, 0.2]
+    w = world(pos, vel, np.zeros(N), np.zeros(N))
+    taker, keeper = model_for(4), model_for(1)
+    for wm in (taker, keeper):
+        wm.on_fullstate({"cycle": 12, **fullstate(w, 0)})
+    assert taker.belief().vel[0, 0].tolist() == [0.0, 0.0]  # a keeper controls it
+    assert keeper.belief().vel[0, 0] == pytest.approx([0.4, 0.2])  # its own ball: exact
