@@ -110,11 +110,11 @@ class AgentMemory(NamedTuple):
     has_target: np.ndarray  # (B,) bool
     search_sign: np.ndarray  # (B,) float64 +1/-1 turning side of the ball search (spec 1 step 2)
     search_time: np.ndarray  # (B,) int64 cycle of the last search turn, -1 none
-    rng: np.ndarray  # (B,) uint64 per-agent random stream (`server/rng.py`)
+    rng: np.ndarray  # (B,) uint64 per-agent random stream (`core/rng.py`)
 
 
 def new_memory(batch: int, seeds: np.ndarray) -> AgentMemory:
-    """Fresh memories; ``seeds`` is one uint64 per row (e.g. ``server.rng.seed_streams(seed, batch)``)."""
+    """Fresh memories; ``seeds`` is one uint64 per row (e.g. ``core.rng.seed_streams(seed, batch)``)."""
     seeds = np.asarray(seeds, dtype=np.uint64).reshape(batch).copy()
     return AgentMemory(
         last_action=np.full(batch, -1, dtype=np.int64),

@@ -11,7 +11,7 @@ import math
 
 from core.jit import njit
 
-from server.world import CMD_DASH, CMD_TURN
+from core.objects import CMD_DASH, CMD_TURN
 
 
 @njit(cache=True)

@@ -30,7 +30,7 @@ from agents.skills import (
     turn_to_point,
 )
 from agents.state_vars import getopen_state, getopen_state_kinds, getopen_state_size
-from server.rng import randint
+from core.rng import randint
 
 NET_HIDDEN = 5  # keepaway-task.md 4: two hidden layers of 5 units
 SCALED_TANH_A = 1.7159  # keepaway-task.md 4: Haykin's scaled tanh a tanh(b x)

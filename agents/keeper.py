@@ -33,7 +33,7 @@ from agents.skills import (
     write_action,
 )
 from agents.state_vars import pass_state
-from server.rng import randint
+from core.rng import randint
 
 NO_PASS_DECISION = 0
 PASS_DECISION_START = 1  # learner: startEpisode(state)

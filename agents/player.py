@@ -88,7 +88,7 @@ from agents.worldmodel import SIDE_CODES, WorldModel
 from protocol import PROTOCOL_VERSION
 from protocol import messages as m
 from protocol.params import ServerParams
-from server.world import CMD_DASH, CMD_KICK, CMD_TURN
+from core.objects import CMD_DASH, CMD_KICK, CMD_TURN
 
 log = logging.getLogger("keepaway.player")
 

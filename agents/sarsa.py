@@ -28,7 +28,7 @@ import numpy as np
 from core.jit import njit
 
 from agents.keeper import PASS_DECISION_START, PASS_DECISION_STEP
-from server.rng import randint, seed_streams, uniform
+from core.rng import randint, seed_streams, uniform
 
 # Modes, switchable between episodes (spec `keepaway-agents.md` 5, evaluation mode).
 MODE_LEARN = 0  # epsilon-greedy actions, weight updates (player -e 1)
@@ -112,7 +112,7 @@ class SarsaMemory(NamedTuple):
     last_action: np.ndarray  # (R,) int64 action of the open SMDP step, -1 = none this episode
     last_state: np.ndarray  # (R, V) float64 the state it was taken in
     mode: np.ndarray  # (R,) int64 MODE_*
-    rng: np.ndarray  # (R,) uint64 exploration and tie-breaking streams (server/rng.py)
+    rng: np.ndarray  # (R,) uint64 exploration and tie-breaking streams (core/rng.py)
     log_state: np.ndarray  # (R, L, V) float64 transition ring buffer: state
     log_action: np.ndarray  # (R, L) int64 action taken in it
     log_reward: np.ndarray  # (R, L) float64 reward (cycles) until the next decision or the end
@@ -441,7 +441,7 @@ def new_memory(
     config: SarsaConfig, n_keepers: int, n_takers: int, rows: int, seed: int, mode: int = MODE_LEARN
 ) -> SarsaMemory:
     """``rows`` fresh learners (weights 0, empty collision tables and traces) for K vs T Pass states;
-    row r's exploration stream is ``seed``'s r-th child (server/rng.py)."""
+    row r's exploration stream is ``seed``'s r-th child (core/rng.py)."""
     n_vars = 4 * n_keepers + 2 * n_takers - 3
     m, log = config.table_size, config.transition_log_size
     return SarsaMemory(

@@ -51,7 +51,7 @@ from core.jit import njit
 from agents.geometry import kick_rate, normalize_angle
 from agents.skills import kickable_distance, opponent_range
 from agents.worldmodel import NEVER, ModelState
-from server.world import BALL, CMD_DASH, CMD_KICK, CMD_NONE
+from core.objects import BALL, CMD_DASH, CMD_KICK, CMD_NONE
 
 # saymsglib's alphabet (SayMsgDataTypes.h validchars): a character is its index, 0..72.
 VALID_CHARS = "0123456789abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ().+-*/?<>_"

@@ -34,7 +34,7 @@ from agents.geometry import (
     turn_effect,
     turn_moment,
 )
-from server.world import CMD_DASH, CMD_KICK, CMD_TURN
+from core.objects import CMD_DASH, CMD_KICK, CMD_TURN
 
 # Pass policies (spec `keepaway-task.md` 3); EXTERNAL: the caller's learner picks the action.
 PASS_RANDOM = 0

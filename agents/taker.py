@@ -32,7 +32,6 @@ from agents.skills import (
     turn_to_point,
     write_action,
 )
-from server.world import PARKED_Y
 
 # The chasers: the closest and the second-closest taker to the ball never mark (spec 3 step 3).
 CHASING_TAKERS = 2
@@ -69,7 +68,7 @@ def mark_point(bel: Belief, r: int, kp, cfg) -> tuple:
     target, fewest = -1, t + 1
     for i in range(1, k + 1):
         kx, ky = bel.pos[r, i, 0], bel.pos[r, i, 1]
-        if abs(ky) >= abs(PARKED_Y):
+        if abs(ky) > 0.5 * kp.pitch_width:  # off the pitch: not in play (a keeper that left is parked there)
             continue
         covered = 0
         for j in range(k + 1, k + t + 1):

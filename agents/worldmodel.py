@@ -46,7 +46,7 @@ from agents.belief import Belief, empty_belief
 from agents.geometry import kick_rate, normalize_angle, turn_effect
 from agents.skills import AgentConfig, kickable_distance, opponent_range
 from protocol.params import ServerParams
-from server.world import BALL, CMD_DASH, CMD_KICK, CMD_NONE, CMD_TURN
+from core.objects import BALL, CMD_DASH, CMD_KICK, CMD_NONE, CMD_TURN
 
 # Confidence falls to 0 after this many unseen cycles (spec `keepaway-agents.md` 1).
 CONF_HORIZON_CYCLES = 100.0

@@ -28,7 +28,8 @@ from protocol.params import parameter_set  # noqa: E402
 from server.perception import SeeBuffers, SenseBodyBuffers, see_batch, sense_body_batch  # noqa: E402
 from server.referee import new_referee_state, start_game  # noqa: E402
 from server.simulation import new_causes, simulate_cycle  # noqa: E402
-from server.world import CMD_DASH, CMD_TURN, Commands, new_world  # noqa: E402
+from core.objects import CMD_DASH, CMD_TURN
+from server.world import Commands, new_world  # noqa: E402
 
 
 def batched_throughput(batch: int, seconds: float) -> float:

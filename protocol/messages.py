@@ -400,7 +400,7 @@ class Advice(Message):
     payload: Any = wire(payload_value)
 
 
-# ``reset`` reseeds the arena's random stream with server.rng.seed_streams, which takes any int; the
+# ``reset`` reseeds the arena's random stream with core.rng.seed_streams, which takes any int; the
 # wire allows msgpack's non-negative signed 64-bit ints.
 MAX_SEED = 2**63 - 1
 SEED = integer(0, MAX_SEED)

@@ -23,20 +23,8 @@ from server import perception
 from server.physics import kick_possible
 from server.referee import END_CAUSES, new_referee_state, reset_field, start_game
 from server.simulation import new_causes, simulate_cycle
-from server.world import (
-    CMD_CATCH,
-    CMD_DASH,
-    CMD_KICK,
-    CMD_MOVE,
-    CMD_TACKLE,
-    CMD_TURN,
-    COUNT_CHANGE_VIEW,
-    COUNT_SAY,
-    PARKED_Y,
-    Commands,
-    World,
-    new_world,
-)
+from core.objects import CMD_CATCH, CMD_DASH, CMD_KICK, CMD_MOVE, CMD_TACKLE, CMD_TURN
+from server.world import COUNT_CHANGE_VIEW, COUNT_SAY, PARKED_Y, Commands, World, new_world
 from server.episode_log import EpisodeRecord
 
 TEAMS = {"keepers": "l", "takers": "r"}

@@ -23,8 +23,9 @@ from core.jit import njit
 
 from protocol.landmarks import FLAG_POSITIONS, LINE_LEFT, LINE_RIGHT, LINE_TOP, N_FLAGS, N_LINES
 from protocol.params import KernelParams
-from server.rng import randint, uniform
-from server.world import BALL, COLLIDED_BALL, COLLIDED_PLAYER, N_COUNTS, World
+from core.rng import randint, uniform
+from core.objects import BALL
+from server.world import COLLIDED_BALL, COLLIDED_PLAYER, N_COUNTS, World
 
 # rcssserver's angle conversions (utility.h): multiply by these constants, not by math.degrees.
 DEG2RAD = math.pi / 180.0

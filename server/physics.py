@@ -26,12 +26,9 @@ import numpy as np
 from core.jit import njit
 
 from protocol.params import NOISE_POLAR
-from server.rng import randint, uniform
+from core.rng import randint, uniform
+from core.objects import BALL, CMD_DASH, CMD_KICK, CMD_TURN
 from server.world import (
-    BALL,
-    CMD_DASH,
-    CMD_KICK,
-    CMD_TURN,
     COLLIDED_BALL,
     COLLIDED_PLAYER,
     COUNT_DASH,

@@ -15,8 +15,9 @@ import numpy as np
 from core.jit import njit
 
 from server import episode_log
-from server.rng import randint, uniform
-from server.world import BALL, World
+from core.rng import randint, uniform
+from core.objects import BALL
+from server.world import World
 
 # End causes (the kwy log's 'o' and 't').
 END_NONE = 0

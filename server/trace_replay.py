@@ -21,17 +21,8 @@ import click
 
 from protocol.params import ServerParams, parameter_set
 from server.physics import kick_possible, physics_step, place_object
-from server.world import (
-    BALL,
-    CMD_DASH,
-    CMD_KICK,
-    CMD_TURN,
-    COLLIDED_BALL,
-    COLLIDED_PLAYER,
-    Commands,
-    World,
-    new_world,
-)
+from core.objects import BALL, CMD_DASH, CMD_KICK, CMD_TURN
+from server.world import COLLIDED_BALL, COLLIDED_PLAYER, Commands, World, new_world
 
 RELATIVE_TOLERANCE = 1e-5  # 6 significant digits as printed by the server (traces README)
 ABSOLUTE_TOLERANCE = 1e-6

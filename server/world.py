@@ -11,19 +11,9 @@ from typing import NamedTuple
 
 import numpy as np
 
+from core.objects import BALL, CMD_NONE
+from core.rng import seed_streams
 from protocol.params import ServerParams
-from server.rng import seed_streams
-
-BALL = 0
-
-# Main-command codes (one per player per cycle: the shared dash/turn/kick/tackle/move/catch slot).
-CMD_NONE = 0
-CMD_DASH = 1
-CMD_TURN = 2
-CMD_KICK = 3
-CMD_TACKLE = 4
-CMD_MOVE = 5
-CMD_CATCH = 6
 
 # Command counters, in sense_body order: kick, dash, turn, catch, move, turn_neck, change_view, say.
 COUNT_KICK, COUNT_DASH, COUNT_TURN, COUNT_CATCH, COUNT_MOVE, COUNT_TURN_NECK, COUNT_CHANGE_VIEW, COUNT_SAY = range(8)

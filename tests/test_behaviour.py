@@ -13,7 +13,8 @@ import pytest
 
 from protocol.params import parameter_set
 from server.referee import END_OUT, END_TAKEN
-from server.world import BALL, COUNT_KICK
+from core.objects import BALL
+from server.world import COUNT_KICK
 from trainer.batched import BatchedArenas
 from trainer.behaviour import (
     CURVE_CYCLES,

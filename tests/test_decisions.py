@@ -21,8 +21,8 @@ from agents.keeper import (
 from agents.skills import PASS_EXTERNAL, AgentConfig, fastest_to_ball
 from agents.taker import mark_point, taker_decide
 from protocol.params import parameter_set
-from server.rng import seed_streams
-from server.world import CMD_DASH, CMD_KICK, CMD_NONE, CMD_TURN
+from core.rng import seed_streams
+from core.objects import CMD_DASH, CMD_KICK, CMD_NONE, CMD_TURN
 from beliefs import belief
 
 KP = parameter_set("classic").kernel()

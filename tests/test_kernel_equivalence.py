@@ -24,8 +24,8 @@ from agents.skills import AgentConfig, fastest_to_ball, interception_point
 from agents.worldmodel import ModelState, SeeBuffer, localise_row
 from protocol.landmarks import FLAG_POSITIONS
 from protocol.params import parameter_set
-from server.rng import seed_streams
-from server.world import CMD_DASH, CMD_TURN
+from core.rng import seed_streams
+from core.objects import CMD_DASH, CMD_TURN
 from trainer.batched import BatchedArenas
 
 PARAMS = parameter_set("classic")

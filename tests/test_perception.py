@@ -41,7 +41,8 @@ from server.perception import (
     table_distance,
     trunc_deg,
 )
-from server.world import BALL, COLLIDED_BALL, COLLIDED_PLAYER, COUNT_DASH, COUNT_TURN_NECK, new_world
+from core.objects import BALL
+from server.world import COLLIDED_BALL, COLLIDED_PLAYER, COUNT_DASH, COUNT_TURN_NECK, new_world
 
 REPO = Path(__file__).resolve().parent.parent
 CLASSIC = parameter_set("classic")  # keepaway launch: visible_angle 360

@@ -18,14 +18,9 @@ from server.physics import (
     resolve_collisions,
     update_stamina,
 )
-from server.rng import seed_streams
+from core.rng import seed_streams
+from core.objects import BALL, CMD_CATCH, CMD_DASH, CMD_KICK, CMD_MOVE, CMD_TURN
 from server.world import (
-    BALL,
-    CMD_CATCH,
-    CMD_DASH,
-    CMD_KICK,
-    CMD_MOVE,
-    CMD_TURN,
     COLLIDED_BALL,
     COLLIDED_PLAYER,
     COUNT_DASH,

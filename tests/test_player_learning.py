@@ -28,7 +28,7 @@ from protocol import encode
 from protocol import messages as m
 from protocol.endpoints import DEFAULT_MAX_MESSAGE_BYTES
 from protocol.messages import decode_from_player
-from server.rng import seed_streams
+from core.rng import seed_streams
 from test_player import K, Game, wire
 
 SMALL = SarsaConfig(table_size=1 << 15)

@@ -16,8 +16,9 @@ from server.referee import (
     reset_field,
     start_game,
 )
-from server.rng import randint, uniform
-from server.world import BALL, new_world
+from core.rng import randint, uniform
+from core.objects import BALL
+from server.world import new_world
 
 CLASSIC = parameter_set("classic")
 KP = CLASSIC.kernel()

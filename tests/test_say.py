@@ -27,7 +27,8 @@ from agents.skills import AgentConfig
 from agents.worldmodel import new_model_state
 from protocol.params import parameter_set
 from server.perception import hear_picks
-from server.world import BALL, CMD_DASH, CMD_KICK, CMD_TURN, new_world
+from core.objects import BALL, CMD_DASH, CMD_KICK, CMD_TURN
+from server.world import new_world
 
 K, T = 3, 2
 PARAMS = parameter_set("current")

@@ -32,8 +32,8 @@ from agents.skills import (
     search_ball,
 )
 from protocol.params import parameter_set
-from server.rng import seed_streams
-from server.world import CMD_DASH, CMD_KICK, CMD_TURN
+from core.rng import seed_streams
+from core.objects import CMD_DASH, CMD_KICK, CMD_TURN
 from beliefs import belief
 
 KP = parameter_set("classic").kernel()

@@ -26,7 +26,8 @@ from server.perception import (
     sense_body_arena,
     sense_body_payload,
 )
-from server.world import CMD_DASH, CMD_KICK, CMD_NONE, CMD_TURN, new_world
+from core.objects import CMD_DASH, CMD_KICK, CMD_NONE, CMD_TURN
+from server.world import new_world
 
 PARAMS = parameter_set("classic")  # keepaway launch: visible_angle 360
 KP = PARAMS.kernel()

@@ -108,9 +108,10 @@ from server.perception import (
 )
 from server.physics import kick_possible
 from server.referee import END_NONE, RefereeState, new_referee_state, start_game
-from server.rng import seed_streams
+from core.rng import seed_streams
 from server.simulation import step_arena
-from server.world import BALL, CMD_KICK, CMD_NONE, COUNT_SAY, Commands, World, new_world
+from core.objects import BALL, CMD_KICK, CMD_NONE
+from server.world import COUNT_SAY, Commands, World, new_world
 
 PASS_MODES = MODE_NAMES
 # The batched mode's Sarsa sizes (module docstring): a 2^16 weight table per keeper; 4,096 live traces

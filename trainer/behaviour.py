@@ -36,7 +36,8 @@ import numpy as np
 from agents.skills import AgentConfig
 from protocol.params import ServerParams
 from server.referee import END_OUT, END_TAKEN
-from server.world import BALL, COUNT_KICK
+from core.objects import BALL
+from server.world import COUNT_KICK
 from trainer.batched import BatchedArenas, EpisodeTable
 
 # The reference analysis's definitions (its stats.py docstring), not server parameters.
