@@ -2,7 +2,7 @@
 
 The world model (`agents/worldmodel.py`) turns noisy percepts into one row of a ``Belief``; the batched
 mode stacks the rows of all players of all arenas (spec `architecture.md`, Embedded and batched
-execution). Object indexing is the server's (`server/world.py`): 0 ball, 1..K keepers, K+1..K+T takers.
+execution). Object indexing is the server's (`core/objects.py`): 0 ball, 1..K keepers, K+1..K+T takers.
 Confidence follows the keepaway world model: conf = 1 - (cycles since seen)/100, 1 for myself
 (spec `keepaway-agents.md` 1).
 """

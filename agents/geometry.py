@@ -142,7 +142,7 @@ def player_step(
 ) -> tuple:
     """Noise-free player state after one command (`server-physics.md` 2-3): dash adds effort * power *
     dash_power_rate along the body (capped at accel/speed max), turn rotates with inertia, then the
-    player moves and decays. ``cmd`` is a CMD_* code of `server/world.py`; anything but a dash or a turn
+    player moves and decays. ``cmd`` is a CMD_* code of `core/objects.py`; anything but a dash or a turn
     leaves the player coasting. Returns (x, y, vx, vy, body)."""
     if cmd == CMD_DASH:
         rad = math.radians(body)

@@ -111,7 +111,7 @@ REPORT_SNAPSHOT = "snapshot"
 # Arena size when init_ok's config does not give it (spec `keepaway-task.md` 1: 3 keepers vs 2 takers).
 DEFAULT_KEEPERS = 3
 DEFAULT_TAKERS = 2
-# Atomic command name and number of arguments of each main command code (`server/world.py`).
+# Atomic command name and number of arguments of each main command code (`core/objects.py`).
 _MAIN_COMMANDS = {CMD_DASH: ("dash", 1), CMD_TURN: ("turn", 1), CMD_KICK: ("kick", 2)}
 
 

@@ -2,7 +2,7 @@
 
 A re-creation of the UvA Trilearn / keepaway-framework skills as described in `keepaway-agents.md` 2
 (section numbers below refer to it). Every skill is a numba kernel on one row ``r`` of a ``Belief``
-and returns a command triple ``(code, arg1, arg2)`` with the CMD_* codes of `server/world.py`
+and returns a command triple ``(code, arg1, arg2)`` with the CMD_* codes of `core/objects.py`
 (dash: power; turn: moment; kick: power, direction relative to the body). The neck is chosen separately
 (``neck_to_point``/``neck_with_body``) by the decision loops. Constants come from the server parameter
 record ``kp`` and from ``AgentConfig.kernel()`` (``cfg``).

@@ -22,7 +22,8 @@ differences is refused where a player could have kicked the ball. The players' o
 (``AgentConfig``: which players are usable) enter these rules as in the C++
 (``PlayerSettings::getPlayerConfThr``).
 
-Not modelled: collisions, the line observations (the flags suffice), fusing successive noisy sightings of
+What a teammate says is taken in by `agents/say.py` (on these arrays, after the see). Not modelled:
+collisions, the line observations (the flags suffice), fusing successive noisy sightings of
 a player (each see replaces the estimate), commands that arrive late and act a cycle later, the C++
 model's guesses about unseen players (moving the fastest opponent towards the ball) and its own position
 from the sense_body speed.
@@ -701,7 +702,7 @@ class WorldModel:
     the commands sent, read :meth:`belief` before deciding.
 
     ``flags`` is the landmark table of ``init_ok`` (``[[name, x, y], ...]``): see flag ids index it.
-    Keepers are side 'l', takers side 'r' (spec `keepaway-task.md`); ``me`` follows `server/world.py`.
+    Keepers are side 'l', takers side 'r' (spec `keepaway-task.md`); ``me`` follows `core/objects.py`.
     ``config``: the players' settings (default ``AgentConfig()``), of which the ball rules use
     ``player_conf_threshold``.
     """
@@ -789,7 +790,7 @@ class WorldModel:
         hold_exact_ball_row(0, s, self.n_keepers, self.kp, self.cfg)
 
     def on_own_commands(self, main: int, a1: float, a2: float, neck: float = 0.0) -> None:
-        """The commands I sent this cycle (CMD_* code of `server/world.py`, its two arguments, the
+        """The commands I sent this cycle (CMD_* code of `core/objects.py`, its two arguments, the
         turn_neck moment, 0 for none); they act in the next step."""
         self.state.cmd_main[0] = main
         self.state.cmd_args[0] = (a1, a2, neck)
