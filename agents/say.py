@@ -48,9 +48,9 @@ from typing import NamedTuple
 import numpy as np
 from core.jit import njit
 
-from agents.geometry import kick_rate, normalize_angle
-from agents.skills import kickable_distance, opponent_range
-from agents.worldmodel import NEVER, ModelState
+from agents.geometry import ball_after_kick, kick_rate, player_step
+from agents.skills import frame_sign, kickable_distance, opponent_range
+from agents.worldmodel import NEVER, ModelState, confidence
 from core.objects import BALL, CMD_DASH, CMD_KICK, CMD_NONE
 
 # saymsglib's alphabet (SayMsgDataTypes.h validchars): a character is its index, 0..72.
@@ -151,53 +151,28 @@ def decode_value(code: int, low: float, span: float) -> float:
 
 
 @njit(cache=True)
-def _frame_sign(r: int, s: ModelState, n_keepers: int) -> float:
-    """+1 for a keeper, -1 for a taker, whose C++ world model is mirrored (``skills.own_frame_sign``)."""
-    return 1.0 if s.me[r] <= n_keepers else -1.0
-
-
-@njit(cache=True)
 def _ball_after_command(r: int, s: ModelState, main: int, power: float, angle: float, kp) -> tuple:
     """``WorldModel::predictBallInfoAfterCommand``: the ball a step on, after my kick if I kick (power and
-    angle truncated to integers, the kick rate of the ball where it is, no acceleration cap, the speed
-    capped at ball_speed_max): position and velocity."""
+    angle truncated to integers as the C++ does, the kick rate of the ball where it is): position and
+    velocity."""
     me = s.me[r]
-    vx, vy = s.vel[r, BALL, 0], s.vel[r, BALL, 1]
-    if main == CMD_KICK:
-        rate = kick_rate(s.pos[r, me, 0], s.pos[r, me, 1], s.body[r, me], s.pos[r, BALL, 0], s.pos[r, BALL, 1], kp)
-        a = math.radians(normalize_angle(float(int(angle)) + s.body[r, me]))
-        vx += rate * int(power) * math.cos(a)
-        vy += rate * int(power) * math.sin(a)
-        speed = math.hypot(vx, vy)
-        if speed > kp.ball_speed_max:
-            vx *= kp.ball_speed_max / speed
-            vy *= kp.ball_speed_max / speed
-    return s.pos[r, BALL, 0] + vx, s.pos[r, BALL, 1] + vy, vx * kp.ball_decay, vy * kp.ball_decay
+    bx, by, vx, vy = s.pos[r, BALL, 0], s.pos[r, BALL, 1], s.vel[r, BALL, 0], s.vel[r, BALL, 1]
+    if main != CMD_KICK:
+        return bx + vx, by + vy, vx * kp.ball_decay, vy * kp.ball_decay
+    rate = kick_rate(s.pos[r, me, 0], s.pos[r, me, 1], s.body[r, me], bx, by, kp)
+    return ball_after_kick(bx, by, vx, vy, rate, float(int(power)), float(int(angle)), s.body[r, me], kp)
 
 
 @njit(cache=True)
-def _me_after_dash(r: int, s: ModelState, power: float, kp) -> tuple:
-    """``WorldModel::predictStateAfterDash`` for me: power x dash_power_rate x effort along the body (no
-    stamina limit, no acceleration cap), the speed capped at player_speed_max; my next position."""
+def _me_after(r: int, s: ModelState, main: int, power: float, kp) -> tuple:
+    """``WorldModel::predictAgentPosAfterCommand``: my next position after a dash of ``power``, any other
+    command coasting, no command (the C++ CMD_ILLEGAL) a dash of 0.01."""
     me = s.me[r]
-    acc = power * kp.dash_power_rate * s.effort[r]
-    a = math.radians(s.body[r, me])
-    vx = s.vel[r, me, 0] + acc * math.cos(a)
-    vy = s.vel[r, me, 1] + acc * math.sin(a)
-    speed = math.hypot(vx, vy)
-    if speed > kp.player_speed_max:
-        vx *= kp.player_speed_max / speed
-        vy *= kp.player_speed_max / speed
-    return s.pos[r, me, 0] + vx, s.pos[r, me, 1] + vy
-
-
-@njit(cache=True)
-def _me_after_command(r: int, s: ModelState, main: int, power: float, kp) -> tuple:
-    """``WorldModel::predictAgentPosAfterCommand``: a dash moves me with its power, a turn or a kick with
-    none, no command (the C++ CMD_ILLEGAL) with 0.01."""
-    if main == CMD_DASH:
-        return _me_after_dash(r, s, power, kp)
-    return _me_after_dash(r, s, 0.01 if main == CMD_NONE else 0.0, kp)
+    if main == CMD_NONE:
+        main, power = CMD_DASH, 0.01
+    x, y, _, _, _ = player_step(s.pos[r, me, 0], s.pos[r, me, 1], s.vel[r, me, 0], s.vel[r, me, 1],
+                                s.body[r, me], s.effort[r], main, power, kp)
+    return x, y
 
 
 @njit(cache=True)
@@ -219,12 +194,12 @@ def say_row(r: int, s: ModelState, main: int, a1: float, a2: float, n_keepers: i
         return
     talk.last_say[r] = now
     me = s.me[r]
-    sign = _frame_sign(r, s, n_keepers)
+    sign = frame_sign(me, n_keepers)
     kickable = kickable_distance(kp)
     ball_dist = math.hypot(s.pos[r, BALL, 0] - s.pos[r, me, 0], s.pos[r, BALL, 1] - s.pos[r, me, 1])
     ball_now = s.seen[r, BALL] == now
     pbx, pby, pvx, pvy = _ball_after_command(r, s, main, a1, a2, kp)
-    mx, my = _me_after_command(r, s, main, a1, kp)
+    mx, my = _me_after(r, s, main, a1, kp)
     at = 0
     if ((s.ball_chg[r] == now and ball_dist < cfg.say_ball_range and ball_now)
             or (ball_dist < kp.visible_distance and ball_now)
@@ -234,7 +209,7 @@ def say_row(r: int, s: ModelState, main: int, a1: float, a2: float, n_keepers: i
         if ball_dist < kickable:
             if main == CMD_KICK:
                 bx, by, vx, vy = pbx, pby, pvx, pvy
-                rx, ry = _me_after_dash(r, s, 0.0, kp)  # predictAgentPos(1, 0)
+                rx, ry = _me_after(r, s, CMD_KICK, 0.0, kp)  # predictAgentPos(1, 0): coasting
                 passed = math.hypot(bx - rx, by - ry) > kickable + cfg.say_pass_margin
             if not passed:
                 bx, by = s.pos[r, BALL, 0], s.pos[r, BALL, 1]
@@ -293,14 +268,6 @@ def _seen_for_confidence(now: int, conf: float) -> int:
 
 
 @njit(cache=True)
-def _object_confidence(r: int, s: ModelState, obj: int) -> float:
-    """``Object::getConfidence``: 0 if never seen (the C++'s time -1, ours NEVER)."""
-    if s.seen[r, obj] == NEVER:
-        return 0.0
-    return max(0.0, 1.0 - (s.time[r] - s.seen[r, obj]) / 100.0)
-
-
-@njit(cache=True)
 def _hear_ball(r: int, s: ModelState, codes: np.ndarray, at: int, sign: float, cfg) -> None:
     """``WMBallInfo::process`` and ``WorldModel::processPerfectHearInfoBall``."""
     px = sign * decode_value(codes[at + 1], X_LOW, X_SPAN)
@@ -321,7 +288,7 @@ def _hear_ball(r: int, s: ModelState, codes: np.ndarray, at: int, sign: float, c
             or (s.ball_chg[r] < now - cycles and differs and far)):
         return
     conf = _confidence_from_age(cycles) - 0.01
-    if _object_confidence(r, s, BALL) < conf or differs:
+    if confidence(r, s, BALL) < conf or differs:
         s.pos[r, BALL, 0], s.pos[r, BALL, 1] = px, py
         s.vel[r, BALL, 0], s.vel[r, BALL, 1] = vx, vy
         s.seen[r, BALL] = _seen_for_confidence(now, conf)
@@ -330,7 +297,7 @@ def _hear_ball(r: int, s: ModelState, codes: np.ndarray, at: int, sign: float, c
 @njit(cache=True)
 def _hear_player(r: int, s: ModelState, obj: int, px: float, py: float, conf: float) -> None:
     """``WorldModel::processPerfectHearInfo`` for a player other than me."""
-    if obj == s.me[r] or _object_confidence(r, s, obj) >= conf:
+    if obj == s.me[r] or confidence(r, s, obj) >= conf:
         return
     s.pos[r, obj, 0], s.pos[r, obj, 1] = px, py
     s.vel[r, obj, 0] = s.vel[r, obj, 1] = 0.0
@@ -348,7 +315,7 @@ def hear_row(r: int, s: ModelState, n_keepers: int, cfg, talk: Talk) -> None:
     if not _decodes(codes, n):
         return
     me = s.me[r]
-    sign = _frame_sign(r, s, n_keepers)
+    sign = frame_sign(me, n_keepers)
     opp_first, opp_last = opponent_range(me, n_keepers, s.pos.shape[1] - 1)
     mate_first, mate_last = opponent_range(opp_first, n_keepers, s.pos.shape[1] - 1)
     at = 0

@@ -147,11 +147,6 @@ def kickable_distance(kp) -> float:
 
 
 @njit(cache=True)
-def is_keeper(bel: Belief, obj: int) -> bool:
-    return 1 <= obj <= bel.n_keepers
-
-
-@njit(cache=True)
 def ball_in(bel: Belief, r: int, n: float, kp) -> tuple:
     """The believed ball position after ``n`` cycles (spec 2, shared geometry)."""
     return rolled_out(
@@ -215,12 +210,19 @@ def opponents(bel: Belief, obj: int) -> tuple:
 
 
 @njit(cache=True)
+def frame_sign(obj: int, n_keepers: int) -> float:
+    """+1 if player ``obj``'s own frame is the server's (a keeper), -1 if it is mirrored (a taker):
+    :func:`own_frame_sign` on an object index."""
+    return 1.0 if 1 <= obj <= n_keepers else -1.0
+
+
+@njit(cache=True)
 def own_frame_sign(bel: Belief, r: int) -> float:
     """+1 if my own frame is the server's, -1 if it is mirrored. The C++ players mirror the field for the
     right-hand team, the takers (rcssserver keepaway mode: keepers left), so where their code says
     "global 0", "forward in x" or "the opponent goal" a taker means the server's 180 deg, -x and the
     left goal."""
-    return 1.0 if is_keeper(bel, bel.me[r]) else -1.0
+    return frame_sign(bel.me[r], bel.n_keepers)
 
 
 @njit(cache=True)

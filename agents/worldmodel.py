@@ -191,7 +191,7 @@ def _flag_weight(dist, kp):
 
 
 @njit(cache=True)
-def _confidence(r, s, obj):
+def confidence(r: int, s: ModelState, obj: int) -> float:
     """conf = 1 - (cycles since seen)/100 in [0, 1], 1 for me (spec `keepaway-agents.md` 1)."""
     if obj == s.me[r]:
         return 1.0
@@ -206,7 +206,7 @@ def _closest_player(r, s, x, y, lo, hi, skip, cfg):
     best = -1
     best_d = np.inf
     for obj in range(lo, hi):
-        if obj == skip or _confidence(r, s, obj) < cfg.player_conf_threshold:
+        if obj == skip or confidence(r, s, obj) < cfg.player_conf_threshold:
             continue
         d = math.hypot(s.pos[r, obj, 0] - x, s.pos[r, obj, 1] - y)
         if d < best_d:
@@ -690,7 +690,7 @@ def write_belief_row(r: int, s: ModelState, out: Belief, row: int) -> None:
         out.vel[row, obj, 1] = s.vel[r, obj, 1]
         out.body[row, obj] = s.body[r, obj]
         out.neck[row, obj] = s.neck[r, obj]
-        out.conf[row, obj] = _confidence(r, s, obj)
+        out.conf[row, obj] = confidence(r, s, obj)
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -812,6 +812,7 @@ __all__ = [
     "WorldModel",
     "advance_row",
     "associate_row",
+    "confidence",
     "forget_row",
     "localise_row",
     "new_model_state",

@@ -52,6 +52,7 @@ VIEW_WIDTHS = ("narrow", "normal", "wide")
 VIEW_QUALITIES = ("high", "low")
 COLLISIONS = ("ball", "player", "post")
 HEAR_SENDERS = ("referee", "self", "coach", "our", "opp")
+PLAYER_HEAR_SENDERS = ("self", "our", "opp")  # the senders that are players
 ADVICE_GROUPS = ("keepers", "takers", "all")
 EPISODE_ACTIONS = ("reset", "pause", "resume", "stop")
 EPISODE_ENDS = ("out", "taken")

@@ -262,7 +262,7 @@ class Arena:
         self.commands.clear()
         self.pending_says.clear()
         for s in self.slots:
-            s.hears = [h for h in s.hears if h.sender not in PLAYER_SENDERS]
+            s.hears = [h for h in s.hears if h.sender not in m.PLAYER_HEAR_SENDERS]
             s.main_taken = s.neck_taken = False
             s.view_width = DEFAULT_VIEW_WIDTH
             s.see_phase_ms = now_ms
@@ -360,10 +360,6 @@ class Arena:
 
     def landmarks(self) -> dict:
         return landmarks_to_wire()
-
-
-# hear senders that are players (protocol.messages.HEAR_SENDERS)
-PLAYER_SENDERS = ("self", "our", "opp")
 
 
 def _normalize_deg(a: float) -> float:

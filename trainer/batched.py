@@ -366,18 +366,15 @@ def deliver_says(b: int, w: World, talk: Talk, kp) -> None:
     for but ignored, as the players ignore it)."""
     n_players = w.pos.shape[1] - 1
     base = b * n_players
+    said = np.empty(n_players, dtype=np.int64)
     n = 0
     for p in range(n_players):
         if 0 < talk.said_len[base + p] <= kp.say_msg_size:
+            said[n] = p + 1
             n += 1
     if n == 0:
         return
-    speakers = np.empty(n, dtype=np.int64)
-    n = 0
-    for p in range(n_players):
-        if 0 < talk.said_len[base + p] <= kp.say_msg_size:
-            speakers[n] = p + 1
-            n += 1
+    speakers = said[:n]
     picks = np.empty(n, dtype=np.int64)
     for listener in range(1, n_players + 1):
         keeper = listener <= w.n_keepers
