@@ -19,8 +19,10 @@ import pytest
 from click.testing import CliRunner
 
 import trainer.experiments as experiments
-import trainer.train as train_module
 from keepaway.cli import main
+from runner.batched_backend import BatchedBackend
+from runner.job import Behaviours
+from runner.report import dump_json
 from trainer.cem import CEMConfig
 from trainer.curves import CurvePoint, read_curve_csv, write_curve_csv
 from trainer.experiments import (
@@ -36,9 +38,7 @@ from trainer.experiments import (
     with_counterpart,
     write_final_evaluations,
 )
-from trainer.run import dump_json
 from trainer.schedule import GETOPEN, LEARNED, PASS, Phase
-from trainer.train import Behaviours
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 # Evaluations at 0, 8, ..., 48 (7 points); Algorithm 3 scaled to 48: getopen 8, pass 8, getopen 24, pass 8.
@@ -82,7 +82,7 @@ def forbid_playing(monkeypatch) -> None:
     def refuse(*args, **kwargs):
         raise AssertionError("played episodes although the work was finished")
 
-    monkeypatch.setattr(train_module, "play", refuse)
+    monkeypatch.setattr(BatchedBackend, "play", refuse)
     monkeypatch.setattr(experiments, "evaluate", refuse)
 
 

@@ -11,7 +11,7 @@ from typing import Any
 
 import click
 
-from trainer.cli import COUNT_TYPE, SEED_TYPE, Command, with_options
+from runner.cli import COUNT_TYPE, SEED_TYPE, Command, with_options
 from trainer.train_cli import learning_options
 
 
@@ -67,7 +67,7 @@ def _experiment(trials: int, episodes: int, eval_every: int | None, eval_episode
 
 
 def _report(run: Any) -> None:
-    from trainer.curves import format_hold
+    from runner.report import format_hold
 
     final = run.final()
     state = "finished before, skipped" if run.skipped else "done"
@@ -76,10 +76,10 @@ def _report(run: Any) -> None:
 
 
 def _run(what: Callable[..., Any], exp: Any, out: Path, threads: int | None, no_progress: bool) -> Any:
-    from trainer.kernels import BATCHED
+    from runner.kernels import kernel_sets
     from trainer.train_cli import prepare_kernels
 
-    prepare_kernels((BATCHED,))
+    prepare_kernels(kernel_sets("batched"))
     try:
         return what(exp, out, threads=threads, progress=not no_progress, on_configuration=_report)
     except ValueError as exc:

@@ -23,7 +23,7 @@ trial all play the same arena seeds (common random numbers).
 
 With one trial a standard error over trials does not exist: curves and finals carry the standard error
 over each evaluation's episodes (``trainer.curves.mean_curve``, named by ``stderr_over``), Table 2's
-entries none (``null``, printed ``n/a``). Every JSON written here is strict JSON (``trainer.run.dump_json``).
+entries none (``null``, printed ``n/a``). Every JSON written here is strict JSON (``runner.report.dump_json``).
 """
 
 from __future__ import annotations
@@ -38,6 +38,9 @@ from typing import Any
 
 from scipy import stats
 
+from runner.batched_backend import BatchedBackend
+from runner.job import STREAM_CROSS_TEST, STREAM_EVALUATION, Behaviours, Game, Progress, derive_seed
+from runner.report import dump_json
 from trainer.cem import CEMConfig
 from trainer.curves import (
     CurvePoint,
@@ -51,7 +54,6 @@ from trainer.curves import (
     write_atomic,
     write_curve_csv,
 )
-from trainer.run import dump_json
 from trainer.schedule import (
     ALGORITHM_3,
     GETOPEN,
@@ -63,12 +65,7 @@ from trainer.schedule import (
     training_schedule,
 )
 from trainer.train import (
-    STREAM_EVALUATION,
-    Behaviours,
-    Game,
-    Progress,
     TrainConfig,
-    derive_seed,
     evaluate,
     load_checkpoint,
     read_config,
@@ -79,7 +76,6 @@ from trainer.train import (
 POLICIES = ("random", "handcoded", LEARNED)  # the paper's R, HC, L, in its order
 SHORT = {"random": "R", "handcoded": "HC", LEARNED: "L"}
 SIGNIFICANCE = 0.05  # keepaway-task.md 8 / the issue: Welch's t-test, p < 0.05
-STREAM_CROSS_TEST = 5  # a trial's random stream for Table 2's tests (after trainer.train's streams 0-4)
 INTERVALS = 12  # keepaway-task.md 8: an evaluation every 2,500 of 30,000 episodes
 FIXED_RECORD = "fixed.json"  # a configuration that learns nothing records itself here (a training: config.json)
 # Figure 3's measured reference levels: the configurations that learn nothing at the paper's two extremes.
@@ -252,8 +248,8 @@ def _run_fixed(exp: ExperimentConfig, pass_policy: str, getopen_policy: str, whe
             trial_dir(where, trial).mkdir(exist_ok=True)
             for episodes in points[len(curve):]:
                 seed = derive_seed(record["seed"], trial, STREAM_EVALUATION, episodes)
-                result = evaluate(experiment_game(), Behaviours(pass_policy, getopen_policy), seed,
-                                  exp.eval_episodes, exp.arenas, threads, bar.update)
+                result = evaluate(BatchedBackend(experiment_game(), threads), Behaviours(pass_policy, getopen_policy),
+                                  seed, exp.eval_episodes, exp.arenas, bar.update)
                 summary = result.summary()
                 curve.append(CurvePoint(episodes, summary["mean_hold_time_s"], summary["stderr_hold_time_s"]))
                 write_curve_csv(trial_dir(where, trial) / "curve.csv", curve)
@@ -408,7 +404,7 @@ def cross_test_trial(exp: ExperimentConfig, out: Path, trial: int, threads: int 
                      progress: Progress | None = None) -> dict[str, list[list[float]]]:
     """Trial ``trial``'s mean hold times of Table 2: for each study, [trained with X][tested with Y].
     Every test plays the same arena seeds (common random numbers)."""
-    game = experiment_game()
+    backend = BatchedBackend(experiment_game(), threads)
     partner = _behaviours(out, LEARNED, LEARNED, trial)
     seed = derive_seed(exp.seed, trial, STREAM_CROSS_TEST)
     values: dict[str, list[list[float]]] = {}
@@ -417,8 +413,8 @@ def cross_test_trial(exp: ExperimentConfig, out: Path, trial: int, threads: int 
         for trained_with in POLICIES:
             trained = _behaviours(out, *trained_configuration(study, trained_with), trial)
             values[study].append([
-                evaluate(game, with_counterpart(trained, study, tested_with, partner), seed, exp.eval_episodes,
-                         exp.arenas, threads, progress).summary()["mean_hold_time_s"]
+                evaluate(backend, with_counterpart(trained, study, tested_with, partner), seed, exp.eval_episodes,
+                         exp.arenas, progress).summary()["mean_hold_time_s"]
                 for tested_with in POLICIES])
     return values
 

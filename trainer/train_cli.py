@@ -8,7 +8,7 @@ from pathlib import Path
 
 import click
 
-from trainer.cli import (
+from runner.cli import (
     COUNT_TYPE,
     FIELD_SIZE_HELP,
     FIELD_SIZE_TYPE,
@@ -20,16 +20,17 @@ from trainer.cli import (
     Command,
     with_options,
 )
-from trainer.kernels import BATCHED, PLAYERS, SERVER
+from runner.job import MODES
+from runner.kernels import kernel_sets
 from trainer.schedule import POLICY_NAMES
 
 POLICY_CHOICES = click.Choice(POLICY_NAMES)
 
 
 def prepare_kernels(kernel_sets: tuple[str, ...]) -> None:
-    """Compile the kernel sets this command's processes use, once, saying so (``trainer.kernels``)."""
-    from trainer.cli import announce
-    from trainer.kernels import CompileError, ensure_compiled
+    """Compile the kernel sets this command's processes use, once, saying so (``runner.kernels``)."""
+    from runner.cli import announce
+    from runner.kernels import CompileError, ensure_compiled
 
     try:
         ensure_compiled(kernel_sets, announce)
@@ -74,8 +75,9 @@ CONFIG_OPTIONS = ("pass_policy", "getopen_policy", "episodes", "schedule", "tria
 @click.option("--arenas", type=COUNT_TYPE, default=None,
               help="batched: arenas stepped at once per CEM candidate and per evaluation [25]; distributed: "
                    "arenas of processes started [2] (a Pass block learns in one arena).")
-@click.option("--mode", type=click.Choice(["batched", "distributed"]), default="batched", show_default=True,
-              help="batched: in-process arenas; distributed: arenas of server, coach and player processes.")
+@click.option("--mode", type=click.Choice(MODES), default="batched", show_default=True,
+              help="batched: in-process arenas stepped together; embedded: one in-process arena played as a "
+                   "distributed one (the same results); distributed: arenas of server, coach and player processes.")
 @click.option("--arena", "attach", multiple=True, metavar="ENDPOINT",
               help="distributed: drive this running arena (a coach's arena endpoint, e.g. tcp://host:6003) "
                    "instead of starting arenas; repeat for more.")
@@ -114,7 +116,7 @@ def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, s
     from agents.policy_file import getopen_theta_size
     from trainer.cem import CEMConfig
     from trainer.schedule import parse_schedule, training_schedule
-    from trainer.launch import ArenaFailure, interrupt_on_sigterm
+    from runner.launch import ArenaFailure, interrupt_on_sigterm
     from trainer.train import TrainConfig, load_checkpoint, read_config, train
 
     ctx = click.get_current_context()
@@ -153,7 +155,7 @@ def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, s
             raise click.UsageError(str(exc)) from None
     launcher = None
     if backend == "ray":
-        from trainer.ray_backend import ray_launcher
+        from runner.ray_backend import ray_launcher
 
         try:
             launcher = ray_launcher(ray_address)
@@ -161,10 +163,10 @@ def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, s
             raise click.UsageError(str(exc)) from None
     interrupt_on_sigterm()
     local_arenas = mode == "distributed" and not attach and backend == "local"
-    prepare_kernels((BATCHED,) if mode == "batched" else (SERVER, PLAYERS) if local_arenas else ())
+    prepare_kernels(kernel_sets(mode) if mode != "distributed" or local_arenas else ())
     try:
         summary = train(config, resume or out, resume=resume is not None, threads=threads,  # type: ignore[arg-type]
-                        progress=not no_progress, attach=list(attach) or None, launcher=launcher)
+                        progress=not no_progress, attach=attach, launcher=launcher)
     except (FileExistsError, FileNotFoundError) as exc:
         raise click.UsageError(str(exc)) from None
     except ArenaFailure as exc:
@@ -173,7 +175,8 @@ def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, s
     except KeyboardInterrupt:
         click.echo(f"keepaway train: interrupted; continue with --resume {resume or out}", err=True)
         sys.exit(130)
-    from trainer.curves import format_hold, stderr_basis
+    from runner.report import format_hold
+    from trainer.curves import stderr_basis
 
     trials = len(summary["trials"])
     basis = stderr_basis(trials, summary["config"]["eval_episodes"])
@@ -215,9 +218,11 @@ def evaluate_command(policy_path: Path, episodes: int, seed: int, pass_policy: s
     from agents.player import sarsa_config
     from agents.policy_file import PolicyFileError, load_policy
     from protocol.params import parameter_set
-    from trainer.run import dump_json, summary_table
     from agents.policy_file import unpack_pass_arrays
-    from trainer.train import Behaviours, Game, evaluate
+    from runner.batched_backend import BatchedBackend
+    from runner.job import Behaviours, Game
+    from runner.report import dump_json, summary_table
+    from trainer.train import evaluate
 
     plays = []  # every file is checked before the kernels are compiled and anything is played
     for path in _policy_files(policy_path):
@@ -240,13 +245,13 @@ def evaluate_command(policy_path: Path, episodes: int, seed: int, pass_policy: s
         if behaviours.pass_policy == "learned" and behaviours.pass_arrays is None:
             raise click.UsageError(f"{path}: --pass learned needs Pass weights; the file has no Pass weights")
         plays.append((path, game, behaviours))
-    prepare_kernels((BATCHED,))
+    prepare_kernels(kernel_sets("batched"))
     results = []
     for path, game, behaviours in plays:
         with tqdm(total=episodes, unit="ep", desc=str(path), disable=no_progress or as_json,
                   dynamic_ncols=True) as bar:
             try:
-                result = evaluate(game, behaviours, seed, episodes, arenas, threads, bar.update)
+                result = evaluate(BatchedBackend(game, threads), behaviours, seed, episodes, arenas, bar.update)
             except ValueError as exc:  # Pass weights that do not fit the batched learners
                 raise click.UsageError(f"{path}: {exc}") from None
         summary = {"policy": str(path), "pass": behaviours.pass_policy, "getopen": behaviours.getopen_policy,

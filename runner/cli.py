@@ -1,4 +1,5 @@
-"""``keepaway run``: the trainer package's part of the command line."""
+"""``keepaway run`` and ``keepaway compile``: the runner package's part of the command line, and the option
+types every command that plays shares."""
 
 from __future__ import annotations
 
@@ -11,8 +12,8 @@ import click
 
 from protocol.messages import MAX_SEED
 from protocol.params import KEEPAWAY_KEEPERS, KEEPAWAY_TAKERS
-from trainer.kernels import KERNEL_SETS
-from trainer.run import MODES
+from runner.kernels import KERNEL_SETS
+from runner.job import MODES
 
 # Option types shared by run, train, evaluate and experiment: what a seed, a count, a Keepaway team and
 # a region can be.
@@ -49,7 +50,7 @@ def with_options(options: Sequence[Callable[[Command], Command]], command: Comma
 @click.option("--params", "parameter_set", type=click.Choice(["classic", "current"]), default="classic",
               show_default=True, help="Server parameter set.")
 @click.option("--mode", type=click.Choice(MODES), default="distributed", show_default=True,
-              help="Separate processes over ZeroMQ, one process without sockets, or many arenas at once.")
+              help="Many arenas at once, one process without sockets, or separate processes over ZeroMQ.")
 @click.option("--batch", type=int, default=1024, show_default=True, help="Arenas stepped at once (batched mode).")
 @click.option("--realtime", is_flag=True, help="100 ms cycles (distributed mode) instead of synchronous stepping.")
 @click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=Path("out"), show_default=True,
@@ -62,10 +63,11 @@ def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str,
     """Play Keepaway: a whole arena (server, coach, keepers, takers) for --episodes episodes."""
     from agents.policy_file import PolicyFileError, load_policy
     from protocol.params import parameter_set as make_params
-    from trainer.embedded import ArenaSpec
-    from trainer.kernels import CompileError
-    from trainer.launch import ArenaFailure, interrupt_on_sigterm
-    from trainer.run import RunOptions, RunStopped, dump_json, run, summary_table
+    from runner.embedded import ArenaSpec
+    from runner.kernels import CompileError
+    from runner.launch import ArenaFailure, interrupt_on_sigterm
+    from runner.report import dump_json, summary_table
+    from runner.run import RunOptions, RunStopped, run
 
     if episodes < 1:
         raise click.UsageError("--episodes must be at least 1")
@@ -118,7 +120,7 @@ def compile_command(only: tuple[str, ...], quiet: bool) -> None:
     the cache instead of compiling (keepaway run and train also do this by themselves when needed).
     """
     from core.jit import cache_dir
-    from trainer.kernels import CompileError, compile_set, ensure_compiled
+    from runner.kernels import CompileError, compile_set, ensure_compiled
 
     if only:
         for kernel_set in only:
