@@ -24,7 +24,7 @@ from typing import Any
 _EXPORTS = {
     "runner.job": ("BATCHED_SARSA", "GREEDY", "LEARN", "LEARNED", "MODES", "Backend", "Behaviours", "EpisodeTable", "Game",
                    "Played", "Progress", "RunResult", "derive_seed"),
-    "runner.backends": ("open_backend",),
+    "runner.backends": ("Placement", "open_backend"),
     "runner.batched": ("BatchedArenas",),
     "runner.batched_backend": ("BatchedBackend",),
     "runner.embedded": ("ArenaSpec", "EmbeddedBackend", "EmbeddedGame"),

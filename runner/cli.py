@@ -1,5 +1,5 @@
-"""``keepaway run`` and ``keepaway compile``: the runner package's part of the command line, and the option
-types every command that plays shares."""
+"""``keepaway run`` and ``keepaway compile``: the runner package's part of the command line, and the options
+every command that plays shares: what a seed, a team or a region can be, and where the arenas run."""
 
 from __future__ import annotations
 
@@ -7,6 +7,7 @@ import functools
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
@@ -14,6 +15,9 @@ from protocol.messages import MAX_SEED
 from protocol.params import KEEPAWAY_KEEPERS, KEEPAWAY_TAKERS
 from runner.kernels import KERNEL_SETS
 from runner.job import MODES
+
+if TYPE_CHECKING:
+    from runner.backends import Placement
 
 # Option types shared by run, train, evaluate and experiment: what a seed, a count, a Keepaway team and
 # a region can be.
@@ -33,6 +37,55 @@ def with_options(options: Sequence[Callable[[Command], Command]], command: Comma
     """``command`` decorated with ``options`` in the order given (as if stacked above it top to bottom): a
     group of options that several commands share."""
     return functools.reduce(lambda f, option: option(f), reversed(options), command)
+
+
+def placement_options(command: Command) -> Command:
+    """Where the arenas of ``keepaway train``, ``evaluate`` and ``experiment`` run (``runner.backends``);
+    :func:`placement` checks them."""
+    options = [
+        click.option("--mode", type=click.Choice(MODES), default="batched", show_default=True,
+                     help="batched: in-process arenas stepped together; embedded: one in-process arena played as "
+                          "a distributed one (the same results); distributed: arenas of server, coach and player "
+                          "processes."),
+        click.option("--arena", "attach", multiple=True, metavar="ENDPOINT",
+                     help="distributed: drive this running arena (a coach's arena endpoint, e.g. tcp://host:6003) "
+                          "instead of starting arenas; repeat for more."),
+        click.option("--backend", type=click.Choice(["local", "ray"]), default="local", show_default=True,
+                     help="distributed: start the arenas on this machine, or on a Ray cluster (pip install "
+                          "'keepaway[ray]'; see --ray-address)."),
+        click.option("--ray-address", default=None, help="Ray cluster to join [RAY_ADDRESS, or a local Ray]."),
+        click.option("--threads", type=COUNT_TYPE, default=None,
+                     help="Threads stepping batched arenas [numba's thread count]."),
+    ]
+    return with_options(options, command)
+
+
+def placement(mode: str, attach: tuple[str, ...], backend: str, ray_address: str | None, threads: int | None,
+              stored_as: str | None = None) -> Placement:
+    """The placement :func:`placement_options` describe for ``mode`` (a mode read from a stored ``stored_as``,
+    e.g. "training", if it is one); a usage error in one line for options that do not go together."""
+    from runner.backends import Placement
+
+    if (attach or backend != "local") and mode != "distributed":
+        fix = f"this {stored_as} is {mode}" if stored_as else "add --mode distributed"
+        raise click.UsageError(f"--arena and --backend choose where distributed arenas run; {fix}")
+    if attach and backend != "local":
+        raise click.UsageError("--arena attaches to running arenas; --backend ray starts its own: choose one")
+    launcher = None
+    if backend == "ray":
+        from runner.ray_backend import ray_launcher
+
+        try:
+            launcher = ray_launcher(ray_address)
+        except RuntimeError as exc:
+            raise click.UsageError(str(exc)) from None
+    return Placement(threads, attach, launcher)
+
+
+def default_arenas(mode: str, attach: tuple[str, ...]) -> int:
+    """``--arenas`` when not given: the running arenas attached to, else 2 arenas of processes
+    (distributed) or 25 arenas stepped at once (batched; embedded plays in its one arena)."""
+    return len(attach) or (2 if mode == "distributed" else 25)
 
 
 @click.command("run")

@@ -114,9 +114,9 @@ def keeper_reports(done: list[EpisodesDone], kind: str) -> dict[int, list[dict]]
 def transitions_by_keeper(done: list[EpisodesDone]) -> Transitions:
     """Every keeper's SMDP transitions reported over ``done``, oldest first, as arrays (agents.player
     ``report_arrays``: state, action, reward, next_action, terminal) plus ``dropped``, the number lost
-    from a keeper's ring buffer between two reports."""
+    from a keeper's ring buffer between two reports; keeper by keeper, whatever order their reports came in."""
     out = {}
-    for unum, payloads in keeper_reports(done, "pass_transitions").items():
+    for unum, payloads in sorted(keeper_reports(done, "pass_transitions").items()):
         parts = [report_arrays(p) for p in payloads if p.get("learner") and p.get("count")]
         parts.sort(key=lambda p: p["first"])
         names = ("state", "action", "reward", "next_action", "terminal")

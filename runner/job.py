@@ -201,7 +201,8 @@ class Backend(Protocol):
 
     def play_candidates(self, candidates: list[Behaviours], seed: int, episodes: int, arenas: int,
                         progress: Progress | None = None) -> list[RunResult]:
-        """Every candidate frozen (greedy Pass) on the same seeds (common random numbers): one job each."""
+        """Every candidate frozen (greedy Pass) on the same seeds (common random numbers): one job each. The
+        candidates differ in GetOpen only (a CEM generation's)."""
         ...
 
     def close(self) -> None:

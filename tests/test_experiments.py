@@ -20,6 +20,7 @@ from click.testing import CliRunner
 
 import trainer.experiments as experiments
 from keepaway.cli import main
+from runner.backends import Placement
 from runner.batched_backend import BatchedBackend
 from runner.job import Behaviours
 from runner.report import dump_json
@@ -231,7 +232,7 @@ def test_an_unfinished_evaluation_continues_where_it_stopped(copy, monkeypatch):
     monkeypatch.setattr(experiments, "evaluate", counting)
     run = experiments.run_configuration(ExperimentConfig(trials=2, episodes=48, eval_every=8, eval_episodes=4,
                                                          arenas=4, seed=3), "handcoded", "handcoded", copy,
-                                        threads=1, progress=False)
+                                        Placement(threads=1), progress=False)
     assert len(played) == 2 and not run.skipped
     assert read_curve_csv(path) == complete  # the same seeds give the same evaluations
 

@@ -32,6 +32,7 @@ from trainer.schedule import (
     training_schedule,
 )
 from agents.policy_file import pack_pass_arrays, unpack_pass_arrays
+from runner.backends import Placement
 from runner.batched_backend import BatchedBackend
 from trainer.train import (
     TrainConfig,
@@ -294,20 +295,20 @@ def kill_at_play_call(monkeypatch, n: int) -> None:
 def test_a_killed_training_resumed_ends_as_an_uninterrupted_one(tmp_path, monkeypatch, kill_at):
     # A trial plays 11 games: 3 evaluations and 2 generations of 4 candidates.
     config = tiny_config()
-    train(config, tmp_path / "whole", threads=1, progress=False)
+    train(config, tmp_path / "whole", progress=False, placement=Placement(threads=1))
     kill_at_play_call(monkeypatch, kill_at)
     with pytest.raises(Killed):
-        train(config, tmp_path / "killed", threads=1, progress=False)
+        train(config, tmp_path / "killed", progress=False, placement=Placement(threads=1))
     monkeypatch.undo()
     state = load_checkpoint(tmp_path / "killed", 0)
     assert state is not None and state.episodes == (0 if kill_at == 3 else 32)
-    train(config, tmp_path / "killed", resume=True, threads=1, progress=False)
+    train(config, tmp_path / "killed", resume=True, progress=False, placement=Placement(threads=1))
     assert outputs(tmp_path / "killed", 2) == outputs(tmp_path / "whole", 2)
 
 
 def test_algorithm_3_alternates_cem_and_sarsa_and_resumes_inside_a_pass_phase(tmp_path, monkeypatch):
     config = algorithm_3_config()
-    train(config, tmp_path / "whole", threads=1, progress=False)
+    train(config, tmp_path / "whole", progress=False, placement=Placement(threads=1))
     trace = [json.loads(line) for line in (tmp_path / "whole/trial_000/trace.jsonl").read_text().splitlines()]
     assert [(r["phase"], r["episodes"]) for r in trace] == [(GETOPEN, 4), (GETOPEN, 8), (PASS, 12), (GETOPEN, 16),
                                                             (GETOPEN, 20), (PASS, 24)]
@@ -323,10 +324,10 @@ def test_algorithm_3_alternates_cem_and_sarsa_and_resumes_inside_a_pass_phase(tm
     # games: eval 0, 2 candidates, eval 4, 2 candidates, eval 8, Pass block (the 8th game) ...
     kill_at_play_call(monkeypatch, 8)
     with pytest.raises(Killed):
-        train(config, tmp_path / "killed", threads=1, progress=False)
+        train(config, tmp_path / "killed", progress=False, placement=Placement(threads=1))
     monkeypatch.undo()
     assert load_checkpoint(tmp_path / "killed", 0).episodes == 8
-    train(config, tmp_path / "killed", resume=True, threads=1, progress=False)
+    train(config, tmp_path / "killed", resume=True, progress=False, placement=Placement(threads=1))
     assert outputs(tmp_path / "killed", 1) == outputs(tmp_path / "whole", 1)
 
 
@@ -343,10 +344,9 @@ def test_an_annealed_pass_step_size_follows_its_half_life():
     config = pass_config(pass_alpha_halflife=4)
     assert [config.pass_alpha(n) for n in (0, 4, 8)] == [0.125, 0.0625, 0.125 / 3]
     assert pass_config().pass_alpha(8) == 0.125  # the paper's constant
-    with pytest.raises(ValueError, match="needs learned Pass in the batched mode"):
+    with pytest.raises(ValueError, match="needs learned Pass"):
         tiny_config(pass_alpha_halflife=4)
-    with pytest.raises(ValueError, match="needs learned Pass in the batched mode"):
-        pass_config(pass_alpha_halflife=4, mode="distributed")
+    assert pass_config(pass_alpha_halflife=4, mode="distributed").pass_alpha(4) == 0.0625  # every backend anneals
     # A configuration stored before the option existed reads back with it off.
     stored = pass_config().to_dict()
     del stored["pass_alpha_halflife"], stored["cem"]["extra_noise"], stored["cem"]["extra_noise_generations"]
@@ -355,8 +355,8 @@ def test_an_annealed_pass_step_size_follows_its_half_life():
 
 def test_pass_blocks_learn_with_the_annealed_step_size(tmp_path):
     annealed, constant = pass_config(pass_alpha_halflife=4), pass_config()
-    train(annealed, tmp_path / "annealed", threads=1, progress=False)
-    train(constant, tmp_path / "constant", threads=1, progress=False)
+    train(annealed, tmp_path / "annealed", progress=False, placement=Placement(threads=1))
+    train(constant, tmp_path / "constant", progress=False, placement=Placement(threads=1))
     traces = {}
     for name in ("annealed", "constant"):
         lines = (tmp_path / name / "trial_000/trace.jsonl").read_text().splitlines()

@@ -47,7 +47,7 @@ import io
 import json
 import os
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -58,7 +58,7 @@ from agents.getopen import RAW_INPUTS, SCALED_INPUTS, InputScaling, getopen_inpu
 from agents.policy_file import getopen_theta_size, pack_pass_arrays, read_npz, save_policy, unpack_pass_arrays
 from agents.sarsa import SarsaConfig
 from protocol.params import ServerParams, parameter_set
-from runner.backends import open_backend
+from runner.backends import Placement, open_backend
 from runner.job import (
     BATCHED_SARSA,
     GREEDY,
@@ -77,7 +77,6 @@ from runner.job import (
     Transitions,
     derive_seed,
 )
-from runner.ray_backend import Launcher
 from runner.report import dump_json
 from trainer.cem import CEM, CEMConfig
 from trainer.curves import (
@@ -144,9 +143,8 @@ class TrainConfig:
                              f"{self.keepers}v{self.takers} has {getopen_theta_size(self.keepers, self.takers)}")
         if self.pass_alpha_halflife < 0:
             raise ValueError(f"pass_alpha_halflife must be at least 0, not {self.pass_alpha_halflife}")
-        if self.pass_alpha_halflife and (self.pass_policy != LEARNED or self.mode != "batched"):
-            raise ValueError("an annealed Pass step size (--pass-alpha-halflife) needs learned Pass in the batched "
-                             "mode (player processes learn with the constant one)")
+        if self.pass_alpha_halflife and self.pass_policy != LEARNED:
+            raise ValueError("an annealed Pass step size (--pass-alpha-halflife) needs learned Pass")
         check_generations(self.schedule, self.eval_every, self.generation_episodes)
         self.params()
         self.input_scaling()
@@ -237,12 +235,10 @@ def evaluate(backend: Backend, behaviours: Behaviours, seed: int, episodes: int,
     return backend.play(behaviours, seed, episodes, arenas, GREEDY, progress).result
 
 
-def open_training_backend(config: TrainConfig, out: Path, threads: int | None = None,
-                          attach: Sequence[str] = (), launcher: Launcher | None = None) -> Backend:
-    """The backend of ``config.mode`` for the training ``config`` (``runner.backends.open_backend``; its
-    own arenas of processes log under ``out/arenas``)."""
-    return open_backend(config.mode, config.game(), config.parameter_set, config.arenas, out / "arenas", threads,
-                        attach, launcher)
+def open_training_backend(config: TrainConfig, out: Path, placement: Placement = Placement()) -> Backend:
+    """The backend of ``config.mode`` for the training ``config``, its arenas placed by ``placement``
+    (``runner.backends.open_backend``; arenas of processes started here log under ``out/arenas``)."""
+    return open_backend(config.mode, config.game(), config.parameter_set, config.arenas, out / "arenas", placement)
 
 
 def _point(episodes: int, result: RunResult) -> CurvePoint:
@@ -528,11 +524,11 @@ def planned_episodes(config: TrainConfig) -> int:
     return config.total_episodes + len(evaluation_points(config.schedule, config.eval_every)) * config.eval_episodes
 
 
-def train(config: TrainConfig, out: Path, resume: bool = False, threads: int | None = None,
-          progress: bool = True, attach: Sequence[str] = (), launcher: Launcher | None = None) -> dict[str, Any]:
+def train(config: TrainConfig, out: Path, resume: bool = False, progress: bool = True,
+          placement: Placement = Placement()) -> dict[str, Any]:
     """Run (or with ``resume`` continue) the training ``config`` in ``out``; returns the summary.
-    With ``resume`` the configuration is the one stored in ``out``. ``threads``, ``attach`` and
-    ``launcher`` choose where the arenas run (:func:`open_training_backend`)."""
+    With ``resume`` the configuration is the one stored in ``out``. ``placement`` says where the arenas
+    run (:func:`open_training_backend`)."""
     from tqdm import tqdm
 
     if resume:
@@ -555,7 +551,7 @@ def train(config: TrainConfig, out: Path, resume: bool = False, threads: int | N
         bar.set_postfix_str(f"{done}; last eval {last.mean_hold_time_s:.2f} s at {last.episodes}" if last else done)
 
     states: list[TrialState] = []
-    backend = open_training_backend(config, out, threads, attach, launcher)
+    backend = open_training_backend(config, out, placement)
     try:
         for state in run_trials(config, out, backend, steps, on_step):
             states.append(state)
