@@ -18,8 +18,7 @@ Names are imported on first use (PEP 562), so loading the command line does not 
 
 from __future__ import annotations
 
-from importlib import import_module
-from typing import Any
+from core.exports import lazy_exports
 
 _EXPORTS = {
     "runner.job": ("BATCHED_SARSA", "GREEDY", "LEARN", "LEARNED", "MODES", "Backend", "Behaviours", "EpisodeTable", "Game",
@@ -31,19 +30,4 @@ _EXPORTS = {
     "runner.distributed": ("DistributedBackend",),
     "runner.launch": ("ArenaFailure", "ArenaProcesses"),
 }
-_MODULE_OF = {name: module for module, names in _EXPORTS.items() for name in names}
-
-__all__ = sorted(_MODULE_OF)
-
-
-def __getattr__(name: str) -> Any:
-    module = _MODULE_OF.get(name)
-    if module is None:
-        raise AttributeError(f"module 'runner' has no attribute {name!r}")
-    value = getattr(import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__all__, __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

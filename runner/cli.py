@@ -39,6 +39,18 @@ def with_options(options: Sequence[Callable[[Command], Command]], command: Comma
     return functools.reduce(lambda f, option: option(f), reversed(options), command)
 
 
+def game_options(command: Command) -> Command:
+    """The game of ``keepaway run`` and ``train``: the teams, the region and the parameter set."""
+    options = [
+        click.option("--keepers", type=KEEPERS_TYPE, default=3, show_default=True, help=KEEPERS_HELP),
+        click.option("--takers", type=TAKERS_TYPE, default=2, show_default=True, help=TAKERS_HELP),
+        click.option("--field-size", type=FIELD_SIZE_TYPE, default=20.0, show_default=True, help=FIELD_SIZE_HELP),
+        click.option("--params", "parameter_set", type=click.Choice(["classic", "current"]), default="classic",
+                     show_default=True, help="Server parameter set."),
+    ]
+    return with_options(options, command)
+
+
 def placement_options(command: Command) -> Command:
     """Where the arenas of ``keepaway train``, ``evaluate`` and ``experiment`` run (``runner.backends``);
     :func:`placement` checks them."""
@@ -97,11 +109,7 @@ def default_arenas(mode: str, attach: tuple[str, ...]) -> int:
               default="handcoded", show_default=True, help="Keepers' GetOpen policy.")
 @click.option("--policy", "policy_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Policy file (.npz) for learned policies.")
-@click.option("--keepers", type=KEEPERS_TYPE, default=3, show_default=True, help=KEEPERS_HELP)
-@click.option("--takers", type=TAKERS_TYPE, default=2, show_default=True, help=TAKERS_HELP)
-@click.option("--field-size", type=FIELD_SIZE_TYPE, default=20.0, show_default=True, help=FIELD_SIZE_HELP)
-@click.option("--params", "parameter_set", type=click.Choice(["classic", "current"]), default="classic",
-              show_default=True, help="Server parameter set.")
+@game_options
 @click.option("--mode", type=click.Choice(MODES), default="distributed", show_default=True,
               help="Many arenas at once, one process without sockets, or separate processes over ZeroMQ.")
 @click.option("--batch", type=int, default=1024, show_default=True, help="Arenas stepped at once (batched mode).")

@@ -143,7 +143,10 @@ class EmbeddedBackend(CoachedBackend):
         answers = []
         for chunk in chunks:
             request = _wire(chunk.request(), decode_from_trainer)
-            answers.append(_wire(self.arena.serve(request), decode_for_trainer))
+            assert isinstance(request, RunEpisodes)
+            answer = _wire(self.arena.serve(request), decode_for_trainer)
+            assert isinstance(answer, EpisodesDone)
+            answers.append(answer)
             if progress is not None:
                 progress(chunk.episodes)
         return answers

@@ -27,15 +27,14 @@ distributed; ``runner.backends.open_backend``): ``play`` (one job, possibly lear
 
 Every random stream is derived from ``(seed, trial, stream, index)`` (the registry: ``runner.job``), and
 each step starts fresh arenas (or arenas restarted) from such a seed; so a step's outcome depends only on
-the trial's state before it. After every step the
-trial's state is written atomically to ``checkpoint.npz`` and the outputs are derived from it; a killed
-training resumed from the last checkpoint (``resume=True``) therefore ends exactly as an uninterrupted
-one.
+the trial's state before it. After every step the trial's state is written atomically to
+``checkpoint.npz`` and the outputs are derived from it; a killed training resumed from the last checkpoint
+(``resume=True``) therefore ends exactly as an uninterrupted one.
 
 Output directory: ``config.json``, ``summary.json``, ``curves.png`` and per trial ``trial_NNN/`` with
 ``curve.csv`` (episodes trained, mean hold time, standard error), ``trace.jsonl`` (one line per
 generation / Pass block: CEM fitness values, training hold times), ``policy.npz`` (the learned policies,
-``agents.policy_file`` format) and ``checkpoint.npz``; in the distributed mode also
+``agents.policy_file`` format) and ``checkpoint.npz``; in the embedded and distributed modes also
 ``transitions/pass_to_NNNNNN.npz``, the SMDP transitions every keeper reported during the Pass block that
 ended at that many episodes (``keeper<k>_state``, ``_action``, ``_reward``, ``_next_action``,
 ``_terminal``, ``_dropped``).

@@ -12,15 +12,10 @@ import click
 
 from runner.cli import (
     COUNT_TYPE,
-    FIELD_SIZE_HELP,
-    FIELD_SIZE_TYPE,
-    KEEPERS_HELP,
-    KEEPERS_TYPE,
     SEED_TYPE,
-    TAKERS_HELP,
-    TAKERS_TYPE,
     Command,
     default_arenas,
+    game_options,
     placement,
     placement_options,
     with_options,
@@ -88,11 +83,7 @@ CONFIG_OPTIONS = ("pass_policy", "getopen_policy", "episodes", "schedule", "tria
               help="CEM candidates refitted to (at most --population).")
 @click.option("--candidate-episodes", type=COUNT_TYPE, default=125, show_default=True,
               help="Episodes per CEM candidate.")
-@click.option("--keepers", type=KEEPERS_TYPE, default=3, show_default=True, help=KEEPERS_HELP)
-@click.option("--takers", type=TAKERS_TYPE, default=2, show_default=True, help=TAKERS_HELP)
-@click.option("--field-size", type=FIELD_SIZE_TYPE, default=20.0, show_default=True, help=FIELD_SIZE_HELP)
-@click.option("--params", "parameter_set", type=click.Choice(["classic", "current"]), default="classic",
-              show_default=True, help="Server parameter set.")
+@game_options
 @click.option("--getopen-inputs", type=click.Choice(["scaled", "raw"]), default="scaled", show_default=True,
               help="GO:L net inputs: scaled by agents.getopen.GetOpenScaling, or raw metres and degrees.")
 @learning_options
