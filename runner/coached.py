@@ -24,8 +24,9 @@ episodes and learn the same weights.
 from __future__ import annotations
 
 import time
+from abc import ABC, abstractmethod
 from dataclasses import dataclass, replace
-from typing import Any, Self
+from typing import Any, ClassVar, Self
 
 import numpy as np
 
@@ -126,22 +127,22 @@ def transitions_by_keeper(done: list[EpisodesDone]) -> Transitions:
     return out
 
 
-class CoachedBackend:
+class CoachedBackend(ABC):
     """A ``runner.job.Backend`` whose jobs are chunks of requests (module docstring); a subclass serves them
     (:meth:`serve`), names its :attr:`mode` and the arena that plays its learning jobs."""
 
-    mode = ""
+    mode: ClassVar[str]  # RunResult.mode
 
     def __init__(self, game: Game, learning_arena: str, chunk_episodes: int = CHUNK_EPISODES) -> None:
         self.game = game
         self.learning_arena = learning_arena
         self.chunk_episodes = chunk_episodes
 
+    @abstractmethod
     def serve(self, chunks: list[Chunk], progress: Progress | None, in_order: bool) -> list[EpisodesDone]:
         """The answers to ``chunks``, in their order; ``in_order``: one arena plays them one after the other
         (learning keepers go on from one chunk to the next), else any arena may take any chunk. Raises
         ArenaFailure naming the arena that failed."""
-        raise NotImplementedError
 
     def close(self) -> None:
         """Stop whatever the backend started."""
