@@ -8,6 +8,7 @@ COPY core ./core
 COPY server ./server
 COPY agents ./agents
 COPY coach ./coach
+COPY runner ./runner
 COPY trainer ./trainer
 # every kernel compiled once into the image's cache: containers start playing at once
 RUN pip install --no-cache-dir . && keepaway compile

@@ -10,8 +10,7 @@ numba or the kernels.
 
 from __future__ import annotations
 
-from importlib import import_module
-from typing import Any
+from core.exports import lazy_exports
 
 _EXPORTS = {
     "agents.belief": ("AgentMemory", "Belief", "belief_from_truth", "empty_belief", "forget_episode",
@@ -28,19 +27,4 @@ _EXPORTS = {
     "agents.player": ("GETOPEN_POLICIES", "PASS_POLICIES", "PassLearner",
                       "PlayerAgent", "compile_kernels", "greedy_pass_factory", "sarsa_config"),
 }
-_MODULE_OF = {name: module for module, names in _EXPORTS.items() for name in names}
-
-__all__ = sorted(_MODULE_OF)
-
-
-def __getattr__(name: str) -> Any:
-    module = _MODULE_OF.get(name)
-    if module is None:
-        raise AttributeError(f"module 'agents' has no attribute {name!r}")
-    value = getattr(import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__all__, __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

@@ -17,8 +17,8 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from protocol.params import parameter_set  # noqa: E402
-from trainer.embedded import ArenaSpec  # noqa: E402
-from trainer.run import RunOptions, run  # noqa: E402
+from runner.embedded import ArenaSpec  # noqa: E402
+from runner.run import RunOptions, run  # noqa: E402
 
 
 def measure(mode: str, episodes: int, batch: int, seed: int) -> dict:

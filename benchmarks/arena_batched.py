@@ -1,4 +1,4 @@
-"""Throughput of the batched mode (trainer/batched.py): episodes/s and arena-cycles/s of P:HC-GO:HC.
+"""Throughput of the batched mode (runner/batched.py): episodes/s and arena-cycles/s of P:HC-GO:HC.
 
 Called by ``benchmarks/arena.py``; also runs alone: ``python benchmarks/arena_batched.py [--threads N]``.
 Compilation (or loading numba's cache) is done before the clock starts; each measurement plays
@@ -15,7 +15,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # the repository, before benchmarks/
 
 from protocol.params import parameter_set  # noqa: E402
-from trainer.batched import BatchedArenas  # noqa: E402
+from runner.batched import BatchedArenas  # noqa: E402
 
 # (batch, cycles per arena): about 3000 arena-cycles at batch 1, 300k at batch 1024.
 DEFAULT_RUNS = ((1, 3000), (1024, 300))

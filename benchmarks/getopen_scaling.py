@@ -41,7 +41,7 @@ from agents.getopen import (  # noqa: E402
 from agents.skills import AgentConfig, ball_kickable, fastest_to_ball  # noqa: E402
 from agents.state_vars import GETOPEN_KINDS, getopen_state, getopen_state_kinds, getopen_state_size  # noqa: E402
 from protocol.params import parameter_set  # noqa: E402
-from trainer.batched import BatchedArenas  # noqa: E402
+from runner.batched import BatchedArenas  # noqa: E402
 
 SATURATED = 0.99  # |tanh| above this: the unit acts as a threshold
 

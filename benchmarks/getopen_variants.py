@@ -36,7 +36,8 @@ from agents.skills import AgentConfig  # noqa: E402
 from trainer.cem import CEMConfig  # noqa: E402
 from trainer.curves import CurvePoint  # noqa: E402
 from trainer.schedule import GETOPEN, Phase  # noqa: E402
-from trainer.train import BatchedBackend, Behaviours, TrainConfig, TrialState, evaluate, step  # noqa: E402
+from runner.batched_backend import BatchedBackend  # noqa: E402
+from trainer.train import TrainConfig, TrialState, evaluate, initial_behaviours, step  # noqa: E402
 
 VARIANTS = {
     "scaled": (SCALED_INPUTS, AgentConfig()),
@@ -55,10 +56,10 @@ def run_trial(variant: str, seed: int, generations: int, cem: CEMConfig, arenas:
                          eval_every=episodes, eval_episodes=eval_episodes, arenas=arenas, seed=seed, cem=cem,
                          getopen_inputs=inputs)
     backend = BatchedBackend(replace(config.game(), agent=agent), threads)
-    state = TrialState(0, Behaviours.initial(config, 0), curve=[CurvePoint(0, 0.0, 0.0)])  # no evaluation at 0
+    state = TrialState(0, initial_behaviours(config, 0), curve=[CurvePoint(0, 0.0, 0.0)])  # no evaluation at 0
     while state.episodes < episodes:
         step(config, state, backend)
-    result = evaluate(backend.game, state.behaviours, EVAL_SEED + seed, eval_episodes, arenas, threads)
+    result = evaluate(backend, state.behaviours, EVAL_SEED + seed, eval_episodes, arenas)
     summary = result.summary()
     return {"variant": variant, "seed": seed, "population_mean": [float(np.mean(t["fitness"])) for t in state.trace],
             "best_fitness": state.cem.best_fitness, "eval_mean_s": summary["mean_hold_time_s"],

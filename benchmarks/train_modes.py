@@ -24,9 +24,11 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from trainer.distributed import DistributedBackend  # noqa: E402
+from runner.batched_backend import BatchedBackend  # noqa: E402
+from runner.distributed import DistributedBackend  # noqa: E402
+from runner.job import Backend, Behaviours  # noqa: E402
 from trainer.schedule import PASS, Phase  # noqa: E402
-from trainer.train import BatchedBackend, Behaviours, TrainConfig  # noqa: E402
+from trainer.train import TrainConfig  # noqa: E402
 
 DEFAULT_HOLD_S = 14.0
 TRIAL_EPISODES = 30_000
@@ -34,10 +36,10 @@ EVALUATIONS = 13
 EVAL_EPISODES = 500
 
 
-def rate(backend, behaviours: Behaviours, episodes: int, arenas: int, mode: str) -> float:
+def rate(backend: Backend, behaviours: Behaviours, episodes: int, arenas: int, mode: str) -> float:
     """Simulated cycles per second of wall time."""
     start = time.perf_counter()
-    result = backend.play(behaviours, 7, episodes, arenas, mode)[0]
+    result = backend.play(behaviours, 7, episodes, arenas, mode).result
     elapsed = time.perf_counter() - start
     return sum(e.end_cycle - e.start_cycle for e in result.episodes) / elapsed
 

@@ -1,4 +1,6 @@
-"""What the simulation's numeric layers share below the protocol: the numba set-up (``core.jit``).
+"""What the layers above share below the protocol: the numba set-up (``core.jit``) and lazy package
+exports (``core.exports``).
 
-A leaf: it imports nothing of the project, so ``server``, ``agents`` and ``trainer`` can all build on it.
+A leaf: it imports nothing of the project, so ``server``, ``agents``, ``runner`` and ``trainer`` can all
+build on it.
 """

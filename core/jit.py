@@ -4,7 +4,7 @@ numba's own ``cache=True`` checks only the timestamp of the file that defines a 
 to a file the kernel calls into (``agents/geometry.py`` under ``agents/skills.py``, say) it would load
 stale machine code. So every kernel module imports :func:`njit` from here, which first points numba's
 cache at a directory named after a digest of the kernel packages' source (content, size and mtime of
-every ``.py`` file of ``protocol``, ``core``, ``server``, ``agents`` and ``trainer/batched.py``) and of
+every ``.py`` file of ``protocol``, ``core``, ``server``, ``agents`` and ``runner/batched.py``) and of
 the numba, llvmlite and Python versions and the CPU. Any change there selects a fresh directory, so
 stale code can never run; the few most recently used directories are kept, older ones deleted.
 
@@ -34,7 +34,7 @@ from numba import njit
 
 ROOT = Path(__file__).resolve().parent.parent
 # Every file a kernel is defined in or calls into (kernels are compiled from these sources).
-KERNEL_SOURCES = ("protocol", "core", "server", "agents", "trainer/batched.py")
+KERNEL_SOURCES = ("protocol", "core", "server", "agents", "runner/batched.py")
 KEEP_DIRECTORIES = 5  # the most recently used cache directories kept (a developer switching branches)
 LAST_USED = "last-used"
 

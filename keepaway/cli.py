@@ -14,12 +14,12 @@ def main() -> None:
 def _register() -> None:
     from agents.cli import commands as agent_commands
     from coach.cli import commands as coach_commands
+    from runner.cli import commands as runner_commands
     from server.cli import commands as server_commands
-    from trainer.cli import commands as trainer_commands
     from trainer.experiment_cli import commands as experiment_commands
     from trainer.train_cli import commands as train_commands
 
-    for command in (server_commands + agent_commands + coach_commands + trainer_commands + train_commands
+    for command in (server_commands + agent_commands + coach_commands + runner_commands + train_commands
                     + experiment_commands):
         main.add_command(command)
 

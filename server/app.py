@@ -464,22 +464,11 @@ class Server:
             self._send_raw(self.coach, ident, encode(m.LookOk(cycle=self.arena.cycle, state=truth_state(self.arena),
                                                               paused=self.standing_still)))
         elif isinstance(msg, m.Advice):
-            self.arena.advise(self._targets(msg.target), msg.payload)
+            self.arena.advise(self.arena.advice_targets(msg.target), msg.payload)
         elif isinstance(msg, m.EpisodeControl):
             self._on_episode_control(ident, msg)
         elif isinstance(msg, m.CoachBye):
             self.coaches.discard(ident)
-
-    def _targets(self, target: Any) -> list[int]:
-        slots = self.arena.slots
-        if target == "keepers":
-            return [s.obj for s in slots if s.side == "l"]
-        if target == "takers":
-            return [s.obj for s in slots if s.side == "r"]
-        if target == "all":
-            return [s.obj for s in slots]
-        side, unum = target
-        return [s.obj for s in slots if s.side == side and s.unum == unum]
 
     def _on_episode_control(self, ident: bytes, msg: m.EpisodeControl) -> None:
         if msg.action == "stop":

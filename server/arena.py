@@ -281,6 +281,18 @@ class Arena:
         out, s.hears = s.hears, []
         return out
 
+    def advice_targets(self, target: Any) -> list[int]:
+        """The player objects a coach's advice ``target`` names: "keepers", "takers", "all", or one player
+        as [side, unum] (docs/protocol.md 7, ``advice``)."""
+        if target == "keepers":
+            return [s.obj for s in self.slots if s.side == "l"]
+        if target == "takers":
+            return [s.obj for s in self.slots if s.side == "r"]
+        if target == "all":
+            return [s.obj for s in self.slots]
+        side, unum = target
+        return [s.obj for s in self.slots if s.side == side and s.unum == unum]
+
     def advise(self, objs: list[int], payload: Any) -> None:
         """Coach advice, heard by ``objs`` in their next percepts."""
         for obj in objs:

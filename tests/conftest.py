@@ -211,6 +211,6 @@ def compiled_kernels(tmp_path_factory):
     """Every numba kernel set compiled into the cache once, before any test starts processes: otherwise
     the first tests' server and five players would each compile the same kernels at once (``keepaway
     compile``; a no-op when this source's cache is already warm)."""
-    from trainer.kernels import KERNEL_SETS, ensure_compiled
+    from runner.kernels import KERNEL_SETS, ensure_compiled
 
     ensure_compiled(KERNEL_SETS, log_dir=tmp_path_factory.mktemp("compile"))

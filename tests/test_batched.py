@@ -1,9 +1,9 @@
-"""The batched mode (trainer/batched.py): many arenas with full noisy players in one process.
+"""The batched mode (runner/batched.py): many arenas with full noisy players in one process.
 
 Spec `architecture.md`, "Embedded and batched execution": one arena of the batched mode must play the
-game the distributed server and its player processes play. The reference here is the embedded game of
-``tests/test_player.py``: a ``server.arena.Arena`` and five ``agents.player.PlayerAgent`` exchanging
-encoded messages in the synchronous order.
+game the distributed server and its player processes play. The reference here is the embedded game
+(``runner.embedded.EmbeddedGame``): a ``server.arena.Arena`` and five ``agents.player.PlayerAgent``
+exchanging encoded messages in the synchronous order.
 """
 
 from __future__ import annotations
@@ -12,22 +12,22 @@ import numpy as np
 import pytest
 
 from agents.getopen import net_size
-from agents.player import PlayerAgent
 from agents.sarsa import SarsaConfig
 from agents.skills import AgentConfig
 from agents.worldmodel import WorldModel, new_model_state, new_see_buffer, see_row, write_belief_row
 from agents.belief import empty_belief
-from protocol import PROTOCOL_VERSION, encode
+from protocol import encode
 from protocol import messages as m
 from protocol.landmarks import FLAG_POSITIONS, N_FLAGS, to_wire
-from protocol.messages import decode_for_player, decode_from_player
+from protocol.messages import decode_for_player
 from protocol.params import parameter_set
 from server.arena import Arena
 from server.perception import CLOSE, FULL, NAMELESS, PARTIAL, UNSEEN, SeeBuffers, cone_factor, see_arena, see_payload
 from server.referee import END_OUT, END_TAKEN
 from server.world import new_world
 from server.perception import see_due
-from trainer.batched import CHUNK_CYCLES, BatchedArenas, see_to_model_row
+from runner.batched import CHUNK_CYCLES, BatchedArenas, see_to_model_row
+from runner.embedded import ArenaSpec, EmbeddedGame
 from trainer.experiments import welch_p_value
 
 PARAMS = parameter_set("classic")
@@ -40,35 +40,6 @@ THETA_SIZE = 91  # 10-5-5-1 net: 10*5 + 5 + 5*5 + 5 + 5 + 1
 def wire(msg):
     """A message as the other side receives it (encoded, then decoded)."""
     return decode_for_player(encode(msg))
-
-
-class EmbeddedGame:
-    """One arena and its five player agents in synchronous mode without sockets (as
-    ``tests/test_player.py``): the reference for one arena of the batched mode."""
-
-    def __init__(self, seed: int, **agent_kw) -> None:
-        self.arena = Arena(PARAMS, K, T, seed)
-        self.players = []
-        for team, count in (("keepers", K), ("takers", T)):
-            for _ in range(count):
-                slot = self.arena.connect(team)
-                agent = PlayerAgent(team, seed=seed, **(agent_kw if team == "keepers" else {}))
-                agent.on_message(wire(m.InitOk(
-                    version=PROTOCOL_VERSION, cycle=0, side=slot.side, unum=slot.unum, team=team,
-                    play_mode=self.arena.play_mode, params=PARAMS.to_dict(), landmarks=self.arena.landmarks(),
-                    config={"mode": "sync", "keepers": K, "takers": T, "seed": seed})))
-                self.players.append((slot, agent))
-        self.arena.start()
-
-    def cycle(self):
-        """Percepts, think, submit, step; returns the record of an episode that ended, if any."""
-        for slot, agent in self.players:
-            for msg in self.arena.cycle_percepts(slot, self.arena.see_due(slot, self.arena.cycle)):
-                agent.on_message(wire(msg))
-        for slot, agent in self.players:
-            cmd = decode_from_player(encode(agent.on_message(wire(m.Think(cycle=self.arena.cycle)))))
-            self.arena.submit(slot.obj, cmd.commands)
-        return self.arena.step()
 
 
 def table_rows(table, arena=None):
@@ -132,7 +103,7 @@ def test_direct_see_gives_the_belief_of_the_wire_see(params, levels_seen):
 def test_batched_arena_plays_the_embedded_game_with_the_same_beliefs():
     # Every player's belief after each cycle's percepts, and the episodes, of batched arena 0 (seed 3)
     # equal those of the embedded game seeded 3 (server stream and agents' streams alike).
-    game = EmbeddedGame(3)
+    game = EmbeddedGame(ArenaSpec(PARAMS, K, T, 3))
     batched = BatchedArenas(PARAMS, 1, 3, threads=1)
     records = []
     table_parts = []

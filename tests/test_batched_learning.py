@@ -1,4 +1,4 @@
-"""Pass learning in the batched mode (trainer/batched.py, ``pass_policy="learned"``).
+"""Pass learning in the batched mode (runner/batched.py, ``pass_policy="learned"``).
 
 Spec `keepaway-agents.md` 1 and 5, `keepaway-task.md` 5: each keeper of each arena learns its own SMDP
 Sarsa Pass policy; rewards are cycles between its decisions, the terminal reward runs to the new
@@ -14,9 +14,11 @@ import pytest
 from agents.player import sarsa_pass_factory
 from agents.sarsa import MODE_EXPLORE, MODE_GREEDY, MODE_LEARN, NO_ACTION, SarsaConfig
 from protocol.params import parameter_set
-from trainer.batched import BATCHED_SARSA, BatchedArenas
+from runner.batched import BatchedArenas
+from runner.job import BATCHED_SARSA
 from trainer.experiments import welch_p_value
-from test_batched import EmbeddedGame, table_rows, wire
+from runner.embedded import ArenaSpec, EmbeddedGame
+from test_batched import table_rows
 
 PARAMS = parameter_set("classic")
 K, T = 3, 2
@@ -33,7 +35,7 @@ def test_a_learning_arena_learns_the_weights_of_the_embedded_game_with_learning_
     # zero weights: the same episodes, the same transitions and, once the keepers have heard the
     # boundary of the fifth episode (their terminal update), the same weights and collision tables.
     factory = sarsa_pass_factory(None, MODE_LEARN, SMALL)
-    game = EmbeddedGame(4, pass_policy="learned", pass_learner=factory)
+    game = EmbeddedGame(ArenaSpec(PARAMS, K, T, 4, pass_policy="learned"), pass_learner=factory)
     batched = learning(1, 4)
     records = []
     while len(records) < 5:
@@ -42,9 +44,7 @@ def test_a_learning_arena_learns_the_weights_of_the_embedded_game_with_learning_
             records.append(record)
     table = batched.run(episodes_per_arena=5)
     assert table_rows(table)[:, :3].tolist() == [[r.episode, r.start_cycle, r.end_cycle] for r in records]
-    for slot, agent in game.players:  # the next cycle's percepts carry the referee's episode message
-        for msg in game.arena.cycle_percepts(slot, game.arena.see_due(slot, game.arena.cycle)):
-            agent.on_message(wire(msg))
+    game.perceive()  # the next cycle's percepts carry the referee's episode message
     decided = 0
     for k in range(K):
         mem = game.players[k][1].learner.memory
@@ -151,7 +151,7 @@ def test_policies_export_and_import_per_keeper_or_shared():
 
 def test_the_batched_default_table_is_small_and_holds_a_keepers_tiles():
     # 2^16 slots: 16 B per slot (weight 8, check 4, trace slot 4) = 1 MiB per keeper, against 16 MiB at
-    # the original 2^20 (trainer/batched.py docstring).
+    # the original 2^20 (runner/batched.py docstring).
     assert BATCHED_SARSA.table_size == 1 << 16
     arenas = BatchedArenas(PARAMS, 1, 1, pass_policy="learned")
     per_row = sum(a[0].nbytes for a in (arenas.sarsa.weights, arenas.sarsa.hash_check, arenas.sarsa.trace_slot))

@@ -15,7 +15,7 @@ from protocol.params import parameter_set
 from server.referee import END_OUT, END_TAKEN
 from core.objects import BALL
 from server.world import COUNT_KICK
-from trainer.batched import BatchedArenas
+from runner.batched import BatchedArenas
 from trainer.behaviour import (
     CURVE_CYCLES,
     Compared,

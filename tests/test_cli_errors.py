@@ -187,7 +187,7 @@ def training(tmp_path):
     """A training directory as ``keepaway train`` leaves it after its first step (P:HC-GO:L, one trial)."""
     from trainer.cem import CEMConfig
     from trainer.schedule import GETOPEN, Phase
-    from trainer.train import Behaviours, TrainConfig, TrialState, save_checkpoint, trial_dir, write_config
+    from trainer.train import TrainConfig, TrialState, initial_behaviours, save_checkpoint, trial_dir, write_config
 
     config = TrainConfig("handcoded", "learned", (Phase(GETOPEN, 50),), eval_every=50, eval_episodes=2, arenas=2,
                          cem=CEMConfig(n_params=getopen_theta_size(), population=2, elite=1,
@@ -195,7 +195,7 @@ def training(tmp_path):
     out = tmp_path / "training"
     write_config(config, out)
     trial_dir(out, 0).mkdir()
-    save_checkpoint(out, TrialState(0, Behaviours.initial(config, 0), episodes=50))
+    save_checkpoint(out, TrialState(0, initial_behaviours(config, 0), episodes=50))
     return out
 
 

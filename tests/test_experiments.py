@@ -19,8 +19,11 @@ import pytest
 from click.testing import CliRunner
 
 import trainer.experiments as experiments
-import trainer.train as train_module
 from keepaway.cli import main
+from runner.backends import Placement
+from runner.batched_backend import BatchedBackend
+from runner.job import Behaviours
+from runner.report import dump_json
 from trainer.cem import CEMConfig
 from trainer.curves import CurvePoint, read_curve_csv, write_curve_csv
 from trainer.experiments import (
@@ -36,9 +39,7 @@ from trainer.experiments import (
     with_counterpart,
     write_final_evaluations,
 )
-from trainer.run import dump_json
 from trainer.schedule import GETOPEN, LEARNED, PASS, Phase
-from trainer.train import Behaviours
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 # Evaluations at 0, 8, ..., 48 (7 points); Algorithm 3 scaled to 48: getopen 8, pass 8, getopen 24, pass 8.
@@ -82,7 +83,7 @@ def forbid_playing(monkeypatch) -> None:
     def refuse(*args, **kwargs):
         raise AssertionError("played episodes although the work was finished")
 
-    monkeypatch.setattr(train_module, "play", refuse)
+    monkeypatch.setattr(BatchedBackend, "play", refuse)
     monkeypatch.setattr(experiments, "evaluate", refuse)
 
 
@@ -231,7 +232,7 @@ def test_an_unfinished_evaluation_continues_where_it_stopped(copy, monkeypatch):
     monkeypatch.setattr(experiments, "evaluate", counting)
     run = experiments.run_configuration(ExperimentConfig(trials=2, episodes=48, eval_every=8, eval_episodes=4,
                                                          arenas=4, seed=3), "handcoded", "handcoded", copy,
-                                        threads=1, progress=False)
+                                        Placement(threads=1), progress=False)
     assert len(played) == 2 and not run.skipped
     assert read_curve_csv(path) == complete  # the same seeds give the same evaluations
 

@@ -24,8 +24,8 @@ from agents.skills import AgentConfig
 from agents.state_vars import getopen_state_kinds, getopen_state_size
 from protocol.params import parameter_set
 from trainer.curves import CurvePoint
-from trainer.distributed import policy_advice
-from trainer.train import Behaviours, TrainConfig, TrialState, load_checkpoint, save_checkpoint, trial_dir
+from runner.coached import policy_advice
+from trainer.train import TrainConfig, TrialState, initial_behaviours, load_checkpoint, save_checkpoint, trial_dir
 from trainer.train import write_trial_outputs
 from beliefs import belief
 
@@ -235,7 +235,7 @@ CONFIG = TrainConfig(pass_policy="handcoded", getopen_policy="learned")
 
 def test_training_searches_nets_on_scaled_inputs_and_plays_them_folded():
     assert CONFIG.getopen_inputs == SCALED_INPUTS
-    start = Behaviours.initial(CONFIG, 0)
+    start = initial_behaviours(CONFIG, 0)
     assert start.getopen_inputs == GetOpenScaling().inputs(3, 2, 20.0)
     np.testing.assert_array_equal(start.getopen_net, start.getopen_inputs.fold(start.getopen_theta))
     advice = policy_advice(start)[0][1]
@@ -252,7 +252,7 @@ def test_training_begun_before_scaling_resumes_with_raw_inputs():
 
 
 def test_checkpoint_and_policy_file_keep_the_scaling(tmp_path):
-    state = TrialState(0, Behaviours.initial(CONFIG, 0), curve=[CurvePoint(0, 5.0, 0.1)])
+    state = TrialState(0, initial_behaviours(CONFIG, 0), curve=[CurvePoint(0, 5.0, 0.1)])
     trial_dir(tmp_path, 0).mkdir()
     save_checkpoint(tmp_path, state)
     restored = load_checkpoint(tmp_path, 0)

@@ -1,5 +1,5 @@
 """numba's kernel cache (``core.jit``): keyed on every kernel source, so stale machine code never runs,
-and compiled once per source before the processes that load it start (``trainer.kernels``)."""
+and compiled once per source before the processes that load it start (``runner.kernels``)."""
 
 from __future__ import annotations
 

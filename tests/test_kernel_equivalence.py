@@ -26,7 +26,7 @@ from protocol.landmarks import FLAG_POSITIONS
 from protocol.params import parameter_set
 from core.rng import seed_streams
 from core.objects import CMD_DASH, CMD_TURN
-from trainer.batched import BatchedArenas
+from runner.batched import BatchedArenas
 
 PARAMS = parameter_set("classic")
 KP = PARAMS.kernel()

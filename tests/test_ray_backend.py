@@ -12,7 +12,8 @@ import pytest
 from click.testing import CliRunner
 
 from keepaway.cli import main
-from trainer.train import Behaviours, TrainConfig
+from runner.job import Behaviours
+from trainer.train import TrainConfig
 
 HAVE_RAY = importlib.util.find_spec("ray") is not None
 
@@ -29,13 +30,13 @@ def test_without_ray_the_backend_is_refused_in_one_line(tmp_path):
 def test_ray_places_arenas_that_play_like_local_ones(tmp_path):
     import ray
 
-    from trainer.distributed import DistributedBackend
-    from trainer.ray_backend import ray_launcher
+    from runner.distributed import DistributedBackend
+    from runner.ray_backend import ray_launcher
 
     config = TrainConfig(mode="distributed", arenas=2)
     job = Behaviours("random", "handcoded")
     try:
-        backend = ray_launcher(None)(config)
+        backend = ray_launcher(None)(config.game(), config.parameter_set, config.arenas)
         try:
             on_ray = backend.play(job, 21, 4, 2, "greedy")[0]
         finally:

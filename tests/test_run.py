@@ -163,13 +163,13 @@ SLOW_STOP = ("import subprocess, sys, time; code = subprocess.call(sys.argv[3:])
 def test_clean_exits_while_a_slow_server_stops_are_not_deaths(tmp_path, monkeypatch):
     """Players and coach exit 0 right after the server's shutdown; the server's process then takes
     longer than the launcher's grace period to go. That is success, not a death."""
-    import trainer.launch
-    from trainer.launch import CLEAN_EXIT_GRACE_S
+    import runner.launch
+    from runner.launch import CLEAN_EXIT_GRACE_S
     from protocol.params import parameter_set
-    from trainer.embedded import ArenaSpec
-    from trainer.run import RunOptions, run
+    from runner.embedded import ArenaSpec
+    from runner.run import RunOptions, run
 
-    real_argv = trainer.launch.keepaway_argv
+    real_argv = runner.launch.keepaway_argv
     exited = tmp_path / "server-exited"
 
     def slow_server(*args: str) -> list[str]:
@@ -177,7 +177,7 @@ def test_clean_exits_while_a_slow_server_stops_are_not_deaths(tmp_path, monkeypa
         slow = str(CLEAN_EXIT_GRACE_S + 3)
         return [sys.executable, "-c", SLOW_STOP, str(exited), slow, *argv] if args[0] == "server" else argv
 
-    monkeypatch.setattr(trainer.launch, "keepaway_argv", slow_server)
+    monkeypatch.setattr(runner.launch, "keepaway_argv", slow_server)
     spec = ArenaSpec(parameter_set("classic"), 3, 2, 5, "handcoded", "handcoded", None)
     result = run(RunOptions(spec, 3, out=tmp_path / "out"), progress=False)
     stopped_at = time.monotonic()
@@ -196,7 +196,8 @@ def strict_json(text: str):
 
 def test_a_one_episode_summary_has_no_nan_and_says_why_it_has_no_standard_error():
     from server.episode_log import EpisodeRecord
-    from trainer.run import RunResult, dump_json, summary_table
+    from runner.job import RunResult
+    from runner.report import dump_json, summary_table
 
     # one episode of 43 cycles, no measured time: no standard error, no rates
     summary = RunResult("batched", 3, [EpisodeRecord(1, 0, 43, "taken")], 0.0, 0, 1).summary()
@@ -221,16 +222,16 @@ def test_a_batched_run_of_one_episode_prints_strict_json(processes, tmp_path):
 
 def batched_chunks(episodes: int, batch: int, seed: int) -> list:
     from protocol.params import parameter_set
-    from trainer.batched import BatchedArenas
+    from runner.batched import BatchedArenas
 
     return list(BatchedArenas(parameter_set("classic"), batch, seed).chunks(total_episodes=episodes))
 
 
 def test_batched_episodes_come_out_chunk_by_chunk_as_they_end(monkeypatch, tmp_path):
     from protocol.params import parameter_set
-    from trainer.batched import BatchedArenas
-    from trainer.embedded import ArenaSpec
-    from trainer.run import RunOptions, batched_episodes
+    from runner.batched import BatchedArenas
+    from runner.embedded import ArenaSpec
+    from runner.run import RunOptions, batched_episodes
 
     played = []
     real_chunk = BatchedArenas._run_chunk
@@ -253,8 +254,8 @@ def test_batched_episodes_come_out_chunk_by_chunk_as_they_end(monkeypatch, tmp_p
 
 def test_batched_rates_count_the_episodes_and_arena_cycles_after_the_first_chunk_with_an_episode(tmp_path):
     from protocol.params import parameter_set
-    from trainer.embedded import ArenaSpec
-    from trainer.run import RunOptions, run
+    from runner.embedded import ArenaSpec
+    from runner.run import RunOptions, run
 
     result = run(RunOptions(ArenaSpec(parameter_set("classic"), 3, 2, 4), 12, "batched", 3, out=tmp_path),
                  progress=False)

@@ -224,7 +224,7 @@ def test_each_listener_hears_one_teammate_and_one_opponent_at_random():
 
 
 def test_says_reach_teammates_in_a_game_and_keepers_hear_passes():
-    from trainer.batched import BatchedArenas
+    from runner.batched import BatchedArenas
 
     arenas = BatchedArenas(PARAMS, 2, 11, pass_policy="random", threads=1)
     arenas.run(total_episodes=6)

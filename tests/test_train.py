@@ -32,10 +32,12 @@ from trainer.schedule import (
     training_schedule,
 )
 from agents.policy_file import pack_pass_arrays, unpack_pass_arrays
+from runner.backends import Placement
+from runner.batched_backend import BatchedBackend
 from trainer.train import (
-    Behaviours,
     TrainConfig,
     TrialState,
+    initial_behaviours,
     load_checkpoint,
     read_config,
     step,
@@ -245,11 +247,11 @@ def test_curves_png_marks_the_random_level_only_where_the_training_measured_it(t
     monkeypatch.setattr(train_module, "plot_curves", lambda path, curves, title, references: drawn.update(references))
     curve = [CurvePoint(0, 3.7, 0.1), CurvePoint(4, 5.0, 0.2)]
     both = algorithm_3_config()  # Algorithm 3 starts from P:R-GO:R: its evaluation at 0 measures them
-    train_module.write_summary(both, tmp_path, [TrialState(0, Behaviours.initial(both, 0), curve=curve)])
+    train_module.write_summary(both, tmp_path, [TrialState(0, initial_behaviours(both, 0), curve=curve)])
     assert drawn == {"P:R-GO:R (evaluation at 0)": 3.7}
     drawn.clear()
     alone = tiny_config()  # GO:L alone starts from a random net, not from GO:R: nothing to mark
-    train_module.write_summary(alone, tmp_path, [TrialState(0, Behaviours.initial(alone, 0), curve=curve)])
+    train_module.write_summary(alone, tmp_path, [TrialState(0, initial_behaviours(alone, 0), curve=curve)])
     assert drawn == {}
 
 
@@ -276,7 +278,7 @@ class Killed(Exception):
 
 def kill_at_play_call(monkeypatch, n: int) -> None:
     """Make the n-th game played (a candidate, a Pass block or an evaluation) die halfway through."""
-    real = train_module.play
+    real = BatchedBackend.play
     calls = 0
 
     def play(*args, **kwargs):
@@ -286,27 +288,27 @@ def kill_at_play_call(monkeypatch, n: int) -> None:
             raise Killed
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(train_module, "play", play)
+    monkeypatch.setattr(BatchedBackend, "play", play)
 
 
 @pytest.mark.parametrize("kill_at", [3, 13])  # mid-generation in trial 0; in trial 1 after trial 0 ended
 def test_a_killed_training_resumed_ends_as_an_uninterrupted_one(tmp_path, monkeypatch, kill_at):
     # A trial plays 11 games: 3 evaluations and 2 generations of 4 candidates.
     config = tiny_config()
-    train(config, tmp_path / "whole", threads=1, progress=False)
+    train(config, tmp_path / "whole", progress=False, placement=Placement(threads=1))
     kill_at_play_call(monkeypatch, kill_at)
     with pytest.raises(Killed):
-        train(config, tmp_path / "killed", threads=1, progress=False)
+        train(config, tmp_path / "killed", progress=False, placement=Placement(threads=1))
     monkeypatch.undo()
     state = load_checkpoint(tmp_path / "killed", 0)
     assert state is not None and state.episodes == (0 if kill_at == 3 else 32)
-    train(config, tmp_path / "killed", resume=True, threads=1, progress=False)
+    train(config, tmp_path / "killed", resume=True, progress=False, placement=Placement(threads=1))
     assert outputs(tmp_path / "killed", 2) == outputs(tmp_path / "whole", 2)
 
 
 def test_algorithm_3_alternates_cem_and_sarsa_and_resumes_inside_a_pass_phase(tmp_path, monkeypatch):
     config = algorithm_3_config()
-    train(config, tmp_path / "whole", threads=1, progress=False)
+    train(config, tmp_path / "whole", progress=False, placement=Placement(threads=1))
     trace = [json.loads(line) for line in (tmp_path / "whole/trial_000/trace.jsonl").read_text().splitlines()]
     assert [(r["phase"], r["episodes"]) for r in trace] == [(GETOPEN, 4), (GETOPEN, 8), (PASS, 12), (GETOPEN, 16),
                                                             (GETOPEN, 20), (PASS, 24)]
@@ -322,10 +324,10 @@ def test_algorithm_3_alternates_cem_and_sarsa_and_resumes_inside_a_pass_phase(tm
     # games: eval 0, 2 candidates, eval 4, 2 candidates, eval 8, Pass block (the 8th game) ...
     kill_at_play_call(monkeypatch, 8)
     with pytest.raises(Killed):
-        train(config, tmp_path / "killed", threads=1, progress=False)
+        train(config, tmp_path / "killed", progress=False, placement=Placement(threads=1))
     monkeypatch.undo()
     assert load_checkpoint(tmp_path / "killed", 0).episodes == 8
-    train(config, tmp_path / "killed", resume=True, threads=1, progress=False)
+    train(config, tmp_path / "killed", resume=True, progress=False, placement=Placement(threads=1))
     assert outputs(tmp_path / "killed", 1) == outputs(tmp_path / "whole", 1)
 
 
@@ -342,10 +344,9 @@ def test_an_annealed_pass_step_size_follows_its_half_life():
     config = pass_config(pass_alpha_halflife=4)
     assert [config.pass_alpha(n) for n in (0, 4, 8)] == [0.125, 0.0625, 0.125 / 3]
     assert pass_config().pass_alpha(8) == 0.125  # the paper's constant
-    with pytest.raises(ValueError, match="needs learned Pass in the batched mode"):
+    with pytest.raises(ValueError, match="needs learned Pass"):
         tiny_config(pass_alpha_halflife=4)
-    with pytest.raises(ValueError, match="needs learned Pass in the batched mode"):
-        pass_config(pass_alpha_halflife=4, mode="distributed")
+    assert pass_config(pass_alpha_halflife=4, mode="distributed").pass_alpha(4) == 0.0625  # every backend anneals
     # A configuration stored before the option existed reads back with it off.
     stored = pass_config().to_dict()
     del stored["pass_alpha_halflife"], stored["cem"]["extra_noise"], stored["cem"]["extra_noise_generations"]
@@ -354,8 +355,8 @@ def test_an_annealed_pass_step_size_follows_its_half_life():
 
 def test_pass_blocks_learn_with_the_annealed_step_size(tmp_path):
     annealed, constant = pass_config(pass_alpha_halflife=4), pass_config()
-    train(annealed, tmp_path / "annealed", threads=1, progress=False)
-    train(constant, tmp_path / "constant", threads=1, progress=False)
+    train(annealed, tmp_path / "annealed", progress=False, placement=Placement(threads=1))
+    train(constant, tmp_path / "constant", progress=False, placement=Placement(threads=1))
     traces = {}
     for name in ("annealed", "constant"):
         lines = (tmp_path / name / "trial_000/trace.jsonl").read_text().splitlines()
@@ -376,12 +377,12 @@ def test_an_annealed_step_size_without_learned_pass_is_a_one_line_usage_error(tm
 
 def test_before_learning_algorithm_3_plays_random_policies_and_go_l_alone_a_small_random_net():
     # keepaway-task.md 7: start from P:R and GO:R; 6: a random-initialised net draws from U[-0.5, 0.5].
-    start = Behaviours.initial(algorithm_3_config(), 0)
+    start = initial_behaviours(algorithm_3_config(), 0)
     assert (start.pass_policy, start.getopen_policy, start.getopen_theta) == ("random", "random", None)
-    alone = Behaviours.initial(tiny_config(), 0)
+    alone = initial_behaviours(tiny_config(), 0)
     assert alone.getopen_policy == "learned" and alone.getopen_theta.shape == (91,)
     assert np.all(np.abs(alone.getopen_theta) <= 0.5) and np.std(alone.getopen_theta) > 0.2
-    assert not np.array_equal(alone.getopen_theta, Behaviours.initial(tiny_config(), 1).getopen_theta)
+    assert not np.array_equal(alone.getopen_theta, initial_behaviours(tiny_config(), 1).getopen_theta)
 
 
 # -- evaluate --------------------------------------------------------------------------------------------
@@ -418,9 +419,10 @@ def population_means(seed: int, getopen_inputs: str, generations: int = 7) -> li
                          eval_every=episodes, eval_episodes=1, arenas=10, seed=seed,
                          cem=CEMConfig(population=12, elite=3, episodes_per_candidate=10),
                          getopen_inputs=getopen_inputs)
-    state = TrialState(0, Behaviours.initial(config, 0), curve=[CurvePoint(0, 0.0, 0.0)])  # no evaluation
+    state = TrialState(0, initial_behaviours(config, 0), curve=[CurvePoint(0, 0.0, 0.0)])  # no evaluation
+    backend = BatchedBackend(config.game())
     while state.episodes < config.total_episodes:
-        step(config, state)
+        step(config, state, backend)
     assert state.trace[-1]["generation"] == generations - 1
     assert state.cem.best_fitness == max(max(r["fitness"]) for r in state.trace)
     return [float(np.mean(r["fitness"])) for r in state.trace]

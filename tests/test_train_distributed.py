@@ -1,5 +1,5 @@
 """`keepaway train --mode distributed`: arenas of real server, coach and player processes driven through
-the coaches' arena ports (trainer/distributed.py)."""
+the coaches' arena ports (runner/distributed.py, runner/coached.py)."""
 
 from __future__ import annotations
 
@@ -20,12 +20,14 @@ from conftest import keepaway_command
 from protocol import encode
 from protocol import messages as m
 from protocol.arena import RunEpisodes, decode_from_trainer
-from trainer import distributed
+from runner import distributed
+from runner.coached import chunk_seeds
+from runner.distributed import DistributedBackend
+from runner.job import Behaviours
+from runner.launch import ArenaFailure
 from trainer.cem import CEMConfig
-from trainer.distributed import DistributedBackend, chunk_seeds
-from trainer.launch import ArenaFailure
 from trainer.schedule import PASS, Phase
-from trainer.train import Behaviours, TrainConfig, train
+from trainer.train import TrainConfig, train
 
 pytestmark = pytest.mark.timeout(600)
 

@@ -18,7 +18,7 @@ a row of the episode):
   over all rows and keepers (pooled) and the mean of the episodes' means.
 
 :func:`behaviour_statistics` is the sans-IO core (arrays in, statistics out); :func:`record_batched`
-plays a :class:`trainer.batched.BatchedArenas` one cycle at a time to record its episodes without
+plays a :class:`runner.batched.BatchedArenas` one cycle at a time to record its episodes without
 changing them; :func:`load_reference` reads the reference file and :func:`compare` sets the two side by
 side. ``benchmarks/side_by_side.py`` prints the comparison.
 """
@@ -38,7 +38,8 @@ from protocol.params import ServerParams
 from server.referee import END_OUT, END_TAKEN
 from core.objects import BALL
 from server.world import COUNT_KICK
-from trainer.batched import BatchedArenas, EpisodeTable
+from runner.batched import BatchedArenas
+from runner.job import EpisodeTable
 
 # The reference analysis's definitions (its stats.py docstring), not server parameters.
 TAKER_REACH_M = 1.0

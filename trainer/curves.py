@@ -23,6 +23,8 @@ from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
+from runner.report import finite_or_none
+
 CSV_HEADER = ("episodes", "mean_hold_time_s", "stderr_hold_time_s")
 OVER_TRIALS = "trials"  # a mean curve's standard errors: over its trials' means
 OVER_EPISODES = "episodes"  # ... or, with one trial, over each evaluation's episodes
@@ -71,11 +73,6 @@ def read_curve_csv(path: Path) -> list[CurvePoint]:
     return [CurvePoint(int(e), float(m), finite_or_none(float(s)) if s else None) for e, m, s in rows[1:]]
 
 
-def finite_or_none(value: float | None) -> float | None:
-    """``value`` if it is a finite number, else None (what JSON and our CSV can hold)."""
-    return value if value is not None and math.isfinite(value) else None
-
-
 def mean_curve(trials: Sequence[Sequence[CurvePoint]]) -> list[CurvePoint]:
     """Point by point over trials: the mean of the trials' mean hold times and its standard error
     (sample standard deviation / sqrt(trials)). Only points every trial has. One trial is its own curve,
@@ -107,13 +104,6 @@ def stderr_basis(trials: int, eval_episodes: int) -> str:
     if stderr_over(trials) == OVER_TRIALS:
         return f"s.e. over {trials} trials"
     return f"s.e. over {eval_episodes} episode{'s' if eval_episodes > 1 else ''} of 1 trial"
-
-
-def format_hold(mean: float | None, stderr: float | None, basis: str) -> str:
-    """A mean hold time with its standard error and what that is over (``basis``, e.g.
-    :func:`stderr_basis`): ``4.30 s +- 0.25 (s.e. over 20 trials)``; ``n/a`` for an undefined value."""
-    m, se = finite_or_none(mean), finite_or_none(stderr)
-    return f"{'n/a' if m is None else f'{m:.2f} s'} +- {'n/a' if se is None else f'{se:.2f}'} ({basis})"
 
 
 def curve_summary(trials: Sequence[Sequence[CurvePoint]]) -> dict[str, Any]:
@@ -173,5 +163,5 @@ def plot_curves(path: Path, curves: dict[str, Sequence[CurvePoint]], title: str,
 
 
 __all__ = ["CSV_HEADER", "OVER_EPISODES", "OVER_TRIALS", "CurvePoint", "curve_summary", "draw_curve", "draw_references",
-           "finite_or_none", "format_hold", "mean_curve", "plot_curves", "read_curve_csv", "stderr_basis",
-           "stderr_over", "write_atomic", "write_curve_csv"]
+           "mean_curve", "plot_curves", "read_curve_csv", "stderr_basis", "stderr_over", "write_atomic",
+           "write_curve_csv"]

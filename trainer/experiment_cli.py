@@ -1,5 +1,5 @@
-"""``keepaway experiment figure3`` and ``keepaway experiment table2``: the paper's experiments in the
-batched mode (spec `keepaway-task.md` 8; :mod:`trainer.experiments`)."""
+"""``keepaway experiment figure3`` and ``keepaway experiment table2``: the paper's experiments on any backend
+(spec `keepaway-task.md` 8; :mod:`trainer.experiments`)."""
 
 from __future__ import annotations
 
@@ -7,12 +7,15 @@ import functools
 import sys
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
 
-from trainer.cli import COUNT_TYPE, SEED_TYPE, Command, with_options
+from runner.cli import COUNT_TYPE, SEED_TYPE, Command, default_arenas, placement, placement_options, with_options
 from trainer.train_cli import learning_options
+
+if TYPE_CHECKING:
+    from runner.backends import Placement
 
 
 def experiment_options(command: Command) -> Command:
@@ -27,8 +30,9 @@ def experiment_options(command: Command) -> Command:
                      help="Training episodes between frozen evaluations [--episodes / 12: the paper's 2,500]."),
         click.option("--eval-episodes", type=COUNT_TYPE, default=500, show_default=True,
                      help="Episodes per evaluation."),
-        click.option("--arenas", type=COUNT_TYPE, default=25, show_default=True,
-                     help="Arenas per CEM candidate and per evaluation."),
+        click.option("--arenas", type=COUNT_TYPE, default=None,
+                     help="batched: arenas per CEM candidate and per evaluation [25]; distributed: arenas of "
+                          "processes started [2]."),
         click.option("--population", type=COUNT_TYPE, default=20, show_default=True,
                      help="CEM candidates per generation."),
         click.option("--elite", type=COUNT_TYPE, default=5, show_default=True,
@@ -41,33 +45,36 @@ def experiment_options(command: Command) -> Command:
         click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=Path("experiment_out"),
                      show_default=True, help="Directory of the experiment: one subdirectory per configuration; "
                                              "running again continues it."),
-        click.option("--threads", type=COUNT_TYPE, default=None,
-                     help="Threads stepping arenas [numba's thread count]."),
+        placement_options,
         click.option("--no-progress", is_flag=True, help="No progress bars."),
     ]
     return with_options(options, command)
 
 
-def _experiment(trials: int, episodes: int, eval_every: int | None, eval_episodes: int, arenas: int,
+def _experiment(trials: int, episodes: int, eval_every: int | None, eval_episodes: int, arenas: int | None,
                 population: int, elite: int, candidate_episodes: int, seed: int, pass_alpha_halflife: int,
-                cem_extra_noise: float, cem_noise_generations: int) -> Any:
-    """The experiment the shared options describe (:func:`experiment_options`); a usage error if it cannot run."""
+                cem_extra_noise: float, cem_noise_generations: int, mode: str, attach: tuple[str, ...],
+                backend: str, ray_address: str | None, threads: int | None) -> tuple[Any, Placement]:
+    """The experiment the shared options describe (:func:`experiment_options`) and where its arenas run; a
+    usage error if it cannot run."""
     from trainer.cem import CEMConfig
     from trainer.experiments import ExperimentConfig, default_eval_every
 
+    where = placement(mode, attach, backend, ray_address, threads)
     try:
         cem = CEMConfig(population=population, elite=elite, episodes_per_candidate=candidate_episodes,
                         extra_noise=cem_extra_noise, extra_noise_generations=cem_noise_generations)
         exp = ExperimentConfig(trials, episodes, default_eval_every(episodes) if eval_every is None else eval_every,
-                               eval_episodes, arenas, seed, cem, pass_alpha_halflife)
+                               eval_episodes, arenas or default_arenas(mode, attach), seed, cem, pass_alpha_halflife,
+                               mode)
         exp.check()
     except ValueError as exc:
         raise click.UsageError(str(exc)) from None
-    return exp
+    return exp, where
 
 
 def _report(run: Any) -> None:
-    from trainer.curves import format_hold
+    from runner.report import format_hold
 
     final = run.final()
     state = "finished before, skipped" if run.skipped else "done"
@@ -75,15 +82,20 @@ def _report(run: Any) -> None:
                f"{format_hold(final.mean_hold_time_s, final.stderr_hold_time_s, run.stderr_basis())}")
 
 
-def _run(what: Callable[..., Any], exp: Any, out: Path, threads: int | None, no_progress: bool) -> Any:
-    from trainer.kernels import BATCHED
+def _run(what: Callable[..., Any], exp: Any, where: Placement, out: Path, no_progress: bool) -> Any:
+    from runner.launch import ArenaFailure, interrupt_on_sigterm
     from trainer.train_cli import prepare_kernels
 
-    prepare_kernels((BATCHED,))
+    interrupt_on_sigterm()
+    prepare_kernels(where.kernel_sets(exp.mode))
     try:
-        return what(exp, out, threads=threads, progress=not no_progress, on_configuration=_report)
+        return what(exp, out, placement=where, progress=not no_progress, on_configuration=_report)
     except ValueError as exc:
         raise click.UsageError(str(exc)) from None
+    except ArenaFailure as exc:
+        click.echo(f"keepaway experiment: an arena failed: {exc}; run the same command again to continue in {out}",
+                   err=True)
+        sys.exit(1)
     except KeyboardInterrupt:
         click.echo(f"keepaway experiment: interrupted; run the same command again to continue in {out}", err=True)
         sys.exit(130)
@@ -99,17 +111,16 @@ def experiment_group() -> None:
 @click.option("--only", "only", multiple=True, metavar="P:X-GO:Y",
               help="Run just this configuration (repeat for more) and draw nothing: split the nine across "
                    "processes sharing --out, then run once without --only to draw the figure.")
-def figure3_command(out: Path, threads: int | None, no_progress: bool, only: tuple[str, ...],
-                    **settings: Any) -> None:
+def figure3_command(out: Path, no_progress: bool, only: tuple[str, ...], **settings: Any) -> None:
     """Train the nine Pass x GetOpen configurations and plot them grouped by Pass and by GetOpen."""
     from trainer.experiments import figure3, parse_configurations
 
-    exp = _experiment(**settings)
+    exp, where = _experiment(**settings)
     try:
         chosen = parse_configurations(only) if only else None
     except ValueError as exc:
         raise click.BadParameter(str(exc), param_hint="--only") from None
-    _run(functools.partial(figure3, only=chosen), exp, out, threads, no_progress)
+    _run(functools.partial(figure3, only=chosen), exp, where, out, no_progress)
     if chosen is None:
         click.echo(f"figure: {out / 'figure3.png'}; final evaluations: {out / 'figure3.csv'}, {out / 'figure3.json'}")
     else:
@@ -118,12 +129,12 @@ def figure3_command(out: Path, threads: int | None, no_progress: bool, only: tup
 
 @experiment_group.command("table2")
 @experiment_options
-def table2_command(out: Path, threads: int | None, no_progress: bool, **settings: Any) -> None:
+def table2_command(out: Path, no_progress: bool, **settings: Any) -> None:
     """Test each learned Pass policy with every GetOpen and each learned GetOpen with every Pass."""
     from trainer.experiments import table2
 
-    exp = _experiment(**settings)
-    tables = _run(table2, exp, out, threads, no_progress)
+    exp, where = _experiment(**settings)
+    tables = _run(table2, exp, where, out, no_progress)
     click.echo("")
     for table in tables:
         click.echo(table.markdown())

@@ -23,7 +23,7 @@ trial all play the same arena seeds (common random numbers).
 
 With one trial a standard error over trials does not exist: curves and finals carry the standard error
 over each evaluation's episodes (``trainer.curves.mean_curve``, named by ``stderr_over``), Table 2's
-entries none (``null``, printed ``n/a``). Every JSON written here is strict JSON (``trainer.run.dump_json``).
+entries none (``null``, printed ``n/a``). Every JSON written here is strict JSON (``runner.report.dump_json``).
 """
 
 from __future__ import annotations
@@ -38,6 +38,9 @@ from typing import Any
 
 from scipy import stats
 
+from runner.backends import Placement, open_backend
+from runner.job import STREAM_CROSS_TEST, STREAM_EVALUATION, Backend, Behaviours, Game, Progress, derive_seed
+from runner.report import dump_json
 from trainer.cem import CEMConfig
 from trainer.curves import (
     CurvePoint,
@@ -51,7 +54,6 @@ from trainer.curves import (
     write_atomic,
     write_curve_csv,
 )
-from trainer.run import dump_json
 from trainer.schedule import (
     ALGORITHM_3,
     GETOPEN,
@@ -63,12 +65,7 @@ from trainer.schedule import (
     training_schedule,
 )
 from trainer.train import (
-    STREAM_EVALUATION,
-    Behaviours,
-    Game,
-    Progress,
     TrainConfig,
-    derive_seed,
     evaluate,
     load_checkpoint,
     read_config,
@@ -79,7 +76,6 @@ from trainer.train import (
 POLICIES = ("random", "handcoded", LEARNED)  # the paper's R, HC, L, in its order
 SHORT = {"random": "R", "handcoded": "HC", LEARNED: "L"}
 SIGNIFICANCE = 0.05  # keepaway-task.md 8 / the issue: Welch's t-test, p < 0.05
-STREAM_CROSS_TEST = 5  # a trial's random stream for Table 2's tests (after trainer.train's streams 0-4)
 INTERVALS = 12  # keepaway-task.md 8: an evaluation every 2,500 of 30,000 episodes
 FIXED_RECORD = "fixed.json"  # a configuration that learns nothing records itself here (a training: config.json)
 # Figure 3's measured reference levels: the configurations that learn nothing at the paper's two extremes.
@@ -109,10 +105,11 @@ class ExperimentConfig:
     episodes: int = TRAINING_EPISODES
     eval_every: int = 2_500
     eval_episodes: int = 500
-    arenas: int = 25  # ours: arenas per CEM candidate and per evaluation (trainer.train)
+    arenas: int = 25  # ours: batched, arenas per CEM candidate and per evaluation; distributed, of processes
     seed: int = 0
     cem: CEMConfig = CEMConfig()
     pass_alpha_halflife: int = 0  # ours, off by default (trainer.train.TrainConfig.pass_alpha)
+    mode: str = "batched"  # the backend (runner.job.MODES): batched and the others draw different games
 
     def schedule(self, pass_policy: str, getopen_policy: str) -> tuple[Phase, ...]:
         """The phases of a learning configuration: one phase of ``episodes``, or with both behaviours
@@ -134,7 +131,7 @@ class ExperimentConfig:
         """The training of a configuration in which at least one behaviour learns."""
         return TrainConfig(pass_policy, getopen_policy, self.schedule(pass_policy, getopen_policy), self.trials,
                            self.eval_every, self.eval_episodes, self.arenas,
-                           self.configuration_seed(pass_policy, getopen_policy), cem=self.cem,
+                           self.configuration_seed(pass_policy, getopen_policy), cem=self.cem, mode=self.mode,
                            pass_alpha_halflife=self.pass_alpha_halflife if pass_policy == LEARNED else 0)
 
     def points(self) -> list[int]:
@@ -146,7 +143,7 @@ class ExperimentConfig:
         return {"name": configuration_name(pass_policy, getopen_policy), "pass_policy": pass_policy,
                 "getopen_policy": getopen_policy, "trials": self.trials, "points": self.points(),
                 "eval_episodes": self.eval_episodes, "arenas": self.arenas,
-                "seed": self.configuration_seed(pass_policy, getopen_policy)}
+                "seed": self.configuration_seed(pass_policy, getopen_policy), "mode": self.mode}
 
     def check(self) -> None:
         """ValueError (one line) unless every configuration of Figure 3 can be built."""
@@ -162,6 +159,19 @@ def experiment_game() -> Game:
     """The game every configuration plays: :class:`TrainConfig`'s default (3v2 on 20 m x 20 m, classic
     parameters), which the experiments do not change."""
     return TrainConfig().game()
+
+
+def experiment_backend(exp: ExperimentConfig, where: Path, placement: Placement) -> Backend:
+    """A backend of the experiment's mode for :func:`experiment_game`, for the evaluations that are not
+    a training's (arenas of processes started here log under ``where/arenas``)."""
+    return open_backend(exp.mode, experiment_game(), TrainConfig().parameter_set, exp.arenas, where / "arenas",
+                        placement)
+
+
+def with_modes(record: dict[str, Any]) -> dict[str, Any]:
+    """A stored record as it reads since experiments run on every backend: one written before played in
+    the batched mode."""
+    return {"mode": "batched", **record}
 
 
 @dataclass(frozen=True)
@@ -207,13 +217,14 @@ def _finished(summary: dict[str, Any] | None, trials: int) -> bool:
 
 
 def run_configuration(exp: ExperimentConfig, pass_policy: str, getopen_policy: str, out: Path,
-                      threads: int | None = None, progress: bool = True) -> ConfigurationRun:
-    """Train (or evaluate) one configuration in its directory of ``out``, skipping it when finished and
-    continuing it when not; ValueError if the directory holds a different configuration."""
+                      placement: Placement = Placement(), progress: bool = True) -> ConfigurationRun:
+    """Train (or evaluate) one configuration in its directory of ``out``, its arenas placed by
+    ``placement``, skipping it when finished and continuing it when not; ValueError if the directory holds
+    a different configuration."""
     where = configuration_dir(out, pass_policy, getopen_policy)
     name = configuration_name(pass_policy, getopen_policy)
     if LEARNED not in (pass_policy, getopen_policy):
-        return _run_fixed(exp, pass_policy, getopen_policy, where, threads, progress)
+        return _run_fixed(exp, pass_policy, getopen_policy, where, placement, progress)
     config = exp.train_config(pass_policy, getopen_policy)
     started = (where / "config.json").is_file()
     if started and read_config(where) != config:
@@ -221,23 +232,21 @@ def run_configuration(exp: ExperimentConfig, pass_policy: str, getopen_policy: s
     summary = _read_json(where / "summary.json") if started else None
     skipped = _finished(summary, config.trials)
     if not skipped:
-        summary = train(config, where, resume=started, threads=threads, progress=progress)
+        summary = train(config, where, resume=started, progress=progress, placement=placement)
     return ConfigurationRun(name, pass_policy, getopen_policy, _trial_curves(summary), skipped,
                             config.eval_episodes)
 
 
-def _run_fixed(exp: ExperimentConfig, pass_policy: str, getopen_policy: str, where: Path, threads: int | None,
+def _run_fixed(exp: ExperimentConfig, pass_policy: str, getopen_policy: str, where: Path, placement: Placement,
                progress: bool) -> ConfigurationRun:
     """A configuration that learns nothing: its policies evaluated at every evaluation point of the
     trainings, with the seeds a training of its seed would evaluate with; a trial's ``curve.csv`` grows
     point by point, so a killed run continues where it stopped."""
-    from tqdm import tqdm
-
     record = exp.fixed_record(pass_policy, getopen_policy)
     name = record["name"]
     where.mkdir(parents=True, exist_ok=True)
     stored = _read_json(where / FIXED_RECORD)
-    if stored is not None and stored != record:
+    if stored is not None and with_modes(stored) != record:
         raise ValueError(f"{where} holds a different evaluation of {name}; use another --out or the same settings")
     write_atomic(where / FIXED_RECORD, json.dumps(record, indent=1).encode())
     points = record["points"]
@@ -246,22 +255,37 @@ def _run_fixed(exp: ExperimentConfig, pass_policy: str, getopen_policy: str, whe
         path = trial_dir(where, trial) / "curve.csv"
         curves.append(read_curve_csv(path) if path.is_file() else [])
     skipped = all(len(c) == len(points) for c in curves)
-    with tqdm(total=exp.trials * len(points) * exp.eval_episodes, unit="ep", dynamic_ncols=True, desc=name,
-              initial=sum(len(c) for c in curves) * exp.eval_episodes, disable=not progress or skipped) as bar:
-        for trial, curve in enumerate(curves):
-            trial_dir(where, trial).mkdir(exist_ok=True)
-            for episodes in points[len(curve):]:
-                seed = derive_seed(record["seed"], trial, STREAM_EVALUATION, episodes)
-                result = evaluate(experiment_game(), Behaviours(pass_policy, getopen_policy), seed,
-                                  exp.eval_episodes, exp.arenas, threads, bar.update)
-                summary = result.summary()
-                curve.append(CurvePoint(episodes, summary["mean_hold_time_s"], summary["stderr_hold_time_s"]))
-                write_curve_csv(trial_dir(where, trial) / "curve.csv", curve)
+    if not skipped:
+        _evaluate_fixed(exp, Behaviours(pass_policy, getopen_policy), where, record["seed"], curves,
+                        experiment_backend(exp, where, placement), progress)
     trials = [{"trial": t, "episodes": exp.episodes, "finished": True, "curve": [asdict(p) for p in c]}
               for t, c in enumerate(curves)]
     write_atomic(where / "summary.json", dump_json(
         {"name": name, "config": record, "trials": trials, **curve_summary(curves)}, indent=1).encode())
     return ConfigurationRun(name, pass_policy, getopen_policy, curves, skipped, exp.eval_episodes)
+
+
+def _evaluate_fixed(exp: ExperimentConfig, behaviours: Behaviours, where: Path, seed: int,
+                    curves: list[list[CurvePoint]], backend: Backend, progress: bool) -> None:
+    """The evaluations of ``behaviours`` that ``curves`` lack (:func:`_run_fixed`), each written to its
+    trial's ``curve.csv`` as it is measured, on ``backend``, which is closed after."""
+    from tqdm import tqdm
+
+    points = exp.points()
+    try:
+        with tqdm(total=exp.trials * len(points) * exp.eval_episodes, unit="ep", dynamic_ncols=True,
+                  desc=configuration_name(behaviours.pass_policy, behaviours.getopen_policy),
+                  initial=sum(len(c) for c in curves) * exp.eval_episodes, disable=not progress) as bar:
+            for trial, curve in enumerate(curves):
+                trial_dir(where, trial).mkdir(exist_ok=True)
+                for episodes in points[len(curve):]:
+                    result = evaluate(backend, behaviours, derive_seed(seed, trial, STREAM_EVALUATION, episodes),
+                                      exp.eval_episodes, exp.arenas, bar.update)
+                    summary = result.summary()
+                    curve.append(CurvePoint(episodes, summary["mean_hold_time_s"], summary["stderr_hold_time_s"]))
+                    write_curve_csv(trial_dir(where, trial) / "curve.csv", curve)
+    finally:
+        backend.close()
 
 
 # -- Figure 3 ----------------------------------------------------------------------------------------
@@ -281,7 +305,7 @@ def parse_configurations(names: Sequence[str]) -> list[tuple[str, str]]:
     return [c for c in CONFIGURATIONS if c in chosen]
 
 
-def figure3(exp: ExperimentConfig, out: Path, threads: int | None = None, progress: bool = True,
+def figure3(exp: ExperimentConfig, out: Path, placement: Placement = Placement(), progress: bool = True,
             on_configuration: Callable[[ConfigurationRun], None] | None = None,
             only: Sequence[tuple[str, str]] | None = None) -> list[ConfigurationRun]:
     """Run the nine configurations in ``out`` (each skipped when finished), then write ``figure3.png``
@@ -293,7 +317,7 @@ def figure3(exp: ExperimentConfig, out: Path, threads: int | None = None, progre
     out.mkdir(parents=True, exist_ok=True)
     runs = []
     for pass_policy, getopen_policy in CONFIGURATIONS if only is None else only:
-        run = run_configuration(exp, pass_policy, getopen_policy, out, threads, progress)
+        run = run_configuration(exp, pass_policy, getopen_policy, out, placement, progress)
         runs.append(run)
         if on_configuration is not None:
             on_configuration(run)
@@ -404,11 +428,10 @@ def _behaviours(out: Path, pass_policy: str, getopen_policy: str, trial: int) ->
     return state.behaviours
 
 
-def cross_test_trial(exp: ExperimentConfig, out: Path, trial: int, threads: int | None = None,
+def cross_test_trial(exp: ExperimentConfig, out: Path, trial: int, backend: Backend,
                      progress: Progress | None = None) -> dict[str, list[list[float]]]:
-    """Trial ``trial``'s mean hold times of Table 2: for each study, [trained with X][tested with Y].
-    Every test plays the same arena seeds (common random numbers)."""
-    game = experiment_game()
+    """Trial ``trial``'s mean hold times of Table 2 on ``backend``: for each study, [trained with X][tested
+    with Y]. Every test plays the same arena seeds (common random numbers)."""
     partner = _behaviours(out, LEARNED, LEARNED, trial)
     seed = derive_seed(exp.seed, trial, STREAM_CROSS_TEST)
     values: dict[str, list[list[float]]] = {}
@@ -417,8 +440,8 @@ def cross_test_trial(exp: ExperimentConfig, out: Path, trial: int, threads: int 
         for trained_with in POLICIES:
             trained = _behaviours(out, *trained_configuration(study, trained_with), trial)
             values[study].append([
-                evaluate(game, with_counterpart(trained, study, tested_with, partner), seed, exp.eval_episodes,
-                         exp.arenas, threads, progress).summary()["mean_hold_time_s"]
+                evaluate(backend, with_counterpart(trained, study, tested_with, partner), seed, exp.eval_episodes,
+                         exp.arenas, progress).summary()["mean_hold_time_s"]
                 for tested_with in POLICIES])
     return values
 
@@ -519,7 +542,7 @@ class CrossTable:
                             "values": list(c.values)} for c in row] for row in self.cells]}
 
 
-def table2(exp: ExperimentConfig, out: Path, threads: int | None = None, progress: bool = True,
+def table2(exp: ExperimentConfig, out: Path, placement: Placement = Placement(), progress: bool = True,
            on_configuration: Callable[[ConfigurationRun], None] | None = None) -> list[CrossTable]:
     """Train the five configurations Table 2 needs (as :func:`figure3` would, in the same directories),
     cross-test every trial's learned policies (cached per trial in ``table2_tests/``, so a re-run only
@@ -531,7 +554,7 @@ def table2(exp: ExperimentConfig, out: Path, threads: int | None = None, progres
     out.mkdir(parents=True, exist_ok=True)
     needed = {trained_configuration(s, p) for s in STUDIES for p in POLICIES}
     for pass_policy, getopen_policy in sorted(needed, key=lambda c: (POLICIES.index(c[0]), POLICIES.index(c[1]))):
-        run = run_configuration(exp, pass_policy, getopen_policy, out, threads, progress)
+        run = run_configuration(exp, pass_policy, getopen_policy, out, placement, progress)
         if on_configuration is not None:
             on_configuration(run)
     tests = out / "table2_tests"
@@ -539,18 +562,24 @@ def table2(exp: ExperimentConfig, out: Path, threads: int | None = None, progres
     settings = asdict(exp)
     per_trial = []
     cells_per_trial = len(STUDIES) * len(POLICIES) ** 2
-    with tqdm(total=exp.trials * cells_per_trial * exp.eval_episodes, unit="ep", dynamic_ncols=True,
-              desc="Table 2 tests", disable=not progress) as bar:
-        for trial in range(exp.trials):
-            path = tests / f"trial_{trial:03d}.json"
-            stored = _read_json(path)
-            if stored is None or stored["experiment"] != settings:
-                stored = {"experiment": settings, "trial": trial,
-                          "values": cross_test_trial(exp, out, trial, threads, bar.update)}
-                write_atomic(path, dump_json(stored).encode())
-            else:
-                bar.update(cells_per_trial * exp.eval_episodes)
-            per_trial.append(stored["values"])
+    backend: Backend | None = None  # opened when a trial's tests are missing
+    try:
+        with tqdm(total=exp.trials * cells_per_trial * exp.eval_episodes, unit="ep", dynamic_ncols=True,
+                  desc="Table 2 tests", disable=not progress) as bar:
+            for trial in range(exp.trials):
+                path = tests / f"trial_{trial:03d}.json"
+                stored = _read_json(path)
+                if stored is None or with_modes(stored["experiment"]) != settings:
+                    backend = backend or experiment_backend(exp, tests, placement)
+                    stored = {"experiment": settings, "trial": trial,
+                              "values": cross_test_trial(exp, out, trial, backend, bar.update)}
+                    write_atomic(path, dump_json(stored).encode())
+                else:
+                    bar.update(cells_per_trial * exp.eval_episodes)
+                per_trial.append(stored["values"])
+    finally:
+        if backend is not None:
+            backend.close()
     tables = [CrossTable(study, table_cells([[[v[study][r][c] for v in per_trial] for c in range(len(POLICIES))]
                                              for r in range(len(POLICIES))]))
               for study in STUDIES]

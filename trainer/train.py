@@ -21,22 +21,20 @@ phase to the next. The nets drawn and searched see their inputs scaled (``TrainC
 ``agents.getopen.GetOpenScaling`` by default, or raw; docs/design.md, GetOpen inputs) and play with the
 scaling folded into their first layer (``Behaviours.getopen_net``); the policy file records the scaling.
 
-The steps are played by a backend: :class:`BatchedBackend` steps in-process arenas
-(``trainer.batched``), ``trainer.distributed.DistributedBackend`` drives arenas of separate processes
-through their coaches (``mode`` "distributed"); both offer ``play`` (one job, possibly learning Pass)
-and ``play_candidates`` (a CEM generation's frozen candidates on common seeds).
+The steps are played by a backend of ``config.mode`` (``runner.job.Backend``: batched, embedded or
+distributed; ``runner.backends.open_backend``): ``play`` (one job, possibly learning Pass) and
+``play_candidates`` (a CEM generation's frozen candidates on common seeds).
 
-Every random stream is derived from ``(seed, trial, stream, index)``, and each step starts fresh arenas
-(or, distributed, arenas restarted) from such a seed; so a step's outcome depends only on the trial's
-state before it. After every step the
-trial's state is written atomically to ``checkpoint.npz`` and the outputs are derived from it; a killed
-training resumed from the last checkpoint (``resume=True``) therefore ends exactly as an uninterrupted
-one.
+Every random stream is derived from ``(seed, trial, stream, index)`` (the registry: ``runner.job``), and
+each step starts fresh arenas (or arenas restarted) from such a seed; so a step's outcome depends only on
+the trial's state before it. After every step the trial's state is written atomically to
+``checkpoint.npz`` and the outputs are derived from it; a killed training resumed from the last checkpoint
+(``resume=True``) therefore ends exactly as an uninterrupted one.
 
 Output directory: ``config.json``, ``summary.json``, ``curves.png`` and per trial ``trial_NNN/`` with
 ``curve.csv`` (episodes trained, mean hold time, standard error), ``trace.jsonl`` (one line per
 generation / Pass block: CEM fitness values, training hold times), ``policy.npz`` (the learned policies,
-``agents.policy_file`` format) and ``checkpoint.npz``; in the distributed mode also
+``agents.policy_file`` format) and ``checkpoint.npz``; in the embedded and distributed modes also
 ``transitions/pass_to_NNNNNN.npz``, the SMDP transitions every keeper reported during the Pass block that
 ended at that many episodes (``keeper<k>_state``, ``_action``, ``_reward``, ``_next_action``,
 ``_terminal``, ``_dropped``).
@@ -58,11 +56,27 @@ import numpy as np
 from agents.getopen import RAW_INPUTS, SCALED_INPUTS, InputScaling, getopen_input_scaling
 from agents.policy_file import getopen_theta_size, pack_pass_arrays, read_npz, save_policy, unpack_pass_arrays
 from agents.sarsa import SarsaConfig
-from agents.skills import AgentConfig
 from protocol.params import ServerParams, parameter_set
-from server.episode_log import EpisodeRecord
-from server.referee import END_OUT
-from trainer.batched import BATCHED_SARSA, BatchedArenas
+from runner.backends import Placement, open_backend
+from runner.job import (
+    BATCHED_SARSA,
+    GREEDY,
+    LEARN,
+    MODES,
+    STREAM_CEM,
+    STREAM_EVALUATION,
+    STREAM_GENERATION,
+    STREAM_INITIAL_NET,
+    STREAM_PASS_BLOCK,
+    Backend,
+    Behaviours,
+    Game,
+    Progress,
+    RunResult,
+    Transitions,
+    derive_seed,
+)
+from runner.report import dump_json
 from trainer.cem import CEM, CEMConfig
 from trainer.curves import (
     CurvePoint,
@@ -73,7 +87,6 @@ from trainer.curves import (
     write_atomic,
     write_curve_csv,
 )
-from trainer.run import RunResult, dump_json
 from trainer.schedule import (
     GETOPEN,
     LEARNED,
@@ -88,34 +101,7 @@ from trainer.schedule import (
 )
 
 CHECKPOINT_VERSION = 1
-LEARN = "learn"  # Sarsa modes of trainer.batched.PASS_MODES
-GREEDY = "greedy"  # the frozen Pass policy: greedy actions, no updates (keepaway-agents.md 5)
 INITIAL_NET_RANGE = 0.5  # keepaway-task.md 6: a random-initialised GO:L net draws from U[-0.5, 0.5]
-# Random streams of a trial: derive_seed(seed, trial, stream, index).
-STREAM_CEM = 0
-STREAM_GENERATION = 1  # index: generation
-STREAM_PASS_BLOCK = 2  # index: episodes trained when the block starts
-STREAM_EVALUATION = 3  # index: episodes trained at the evaluation
-STREAM_INITIAL_NET = 4
-MODES = ("batched", "distributed")
-
-
-def derive_seed(seed: int, *path: int) -> int:
-    """An arena or CEM seed below 2^31 for the random stream ``path`` of the training seeded ``seed``."""
-    return int(np.random.SeedSequence([int(seed), *path]).generate_state(1, dtype=np.uint32)[0] >> 1)
-
-
-@dataclass(frozen=True)
-class Game:
-    """What an arena of the batched mode is built from, besides the policies."""
-
-    params: ServerParams
-    keepers: int = 3
-    takers: int = 2
-    sarsa: SarsaConfig = BATCHED_SARSA
-    # the players' constants (the policies are set per play); batched mode only: the player processes of
-    # the distributed mode use the defaults
-    agent: AgentConfig = AgentConfig()
 
 
 @dataclass(frozen=True)
@@ -135,8 +121,8 @@ class TrainConfig:
     field_size: float = 20.0
     parameter_set: str = "classic"
     cem: CEMConfig = CEMConfig()
-    sarsa: SarsaConfig = BATCHED_SARSA  # the batched mode's table size (trainer/batched.py), in both modes
-    mode: str = "batched"  # MODES
+    sarsa: SarsaConfig = BATCHED_SARSA  # the batched mode's table size (runner/batched.py), in every mode
+    mode: str = "batched"  # runner.job.MODES
     getopen_inputs: str = SCALED_INPUTS  # ours: how GO:L's inputs are scaled (agents.getopen.GETOPEN_INPUTS)
     # Ours, off (0) by default: Sarsa's step size annealed over Pass learning (:meth:`pass_alpha`).
     pass_alpha_halflife: int = 0
@@ -156,9 +142,8 @@ class TrainConfig:
                              f"{self.keepers}v{self.takers} has {getopen_theta_size(self.keepers, self.takers)}")
         if self.pass_alpha_halflife < 0:
             raise ValueError(f"pass_alpha_halflife must be at least 0, not {self.pass_alpha_halflife}")
-        if self.pass_alpha_halflife and (self.pass_policy != LEARNED or self.mode != "batched"):
-            raise ValueError("an annealed Pass step size (--pass-alpha-halflife) needs learned Pass in the batched "
-                             "mode (player processes learn with the constant one)")
+        if self.pass_alpha_halflife and self.pass_policy != LEARNED:
+            raise ValueError("an annealed Pass step size (--pass-alpha-halflife) needs learned Pass")
         check_generations(self.schedule, self.eval_every, self.generation_episodes)
         self.params()
         self.input_scaling()
@@ -211,39 +196,16 @@ class TrainConfig:
         return cls(**values)
 
 
-@dataclass
-class Behaviours:
-    """The policies the keepers play now: a policy name each, with the learned parameters if any:
-    ``getopen_theta`` the GO:L net on the inputs scaled by ``getopen_inputs`` (None: raw inputs; the net
-    that plays is :attr:`getopen_net`); ``pass_arrays`` holds every keeper's own Pass policy
-    (``agents.sarsa.policy_arrays``), None with Pass learned means fresh learners."""
-
-    pass_policy: str
-    getopen_policy: str
-    getopen_theta: np.ndarray | None = None
-    pass_arrays: list[dict[str, np.ndarray]] | None = None
-    getopen_inputs: InputScaling | None = None
-
-    @property
-    def getopen_net(self) -> np.ndarray | None:
-        """The GO:L parameters on the raw state variables (the scaling folded in): what the arenas and
-        the coach's advice take."""
-        if self.getopen_theta is None or self.getopen_inputs is None:
-            return self.getopen_theta
-        return self.getopen_inputs.fold(self.getopen_theta)
-
-    @classmethod
-    def initial(cls, config: TrainConfig, trial: int) -> Behaviours:
-        """What a trial plays before it has learned anything (module docstring)."""
-        both = config.pass_policy == LEARNED and config.getopen_policy == LEARNED
-        if both:
-            return cls("random", "random")
-        theta = None
-        if config.getopen_policy == LEARNED:
-            rng = np.random.default_rng(derive_seed(config.seed, trial, STREAM_INITIAL_NET))
-            theta = rng.uniform(-INITIAL_NET_RANGE, INITIAL_NET_RANGE, config.cem.n_params)
-            return cls(config.pass_policy, config.getopen_policy, theta, getopen_inputs=config.input_scaling())
-        return cls(config.pass_policy, config.getopen_policy)
+def initial_behaviours(config: TrainConfig, trial: int) -> Behaviours:
+    """What a trial plays before it has learned anything (module docstring)."""
+    both = config.pass_policy == LEARNED and config.getopen_policy == LEARNED
+    if both:
+        return Behaviours("random", "random")
+    if config.getopen_policy == LEARNED:
+        rng = np.random.default_rng(derive_seed(config.seed, trial, STREAM_INITIAL_NET))
+        theta = rng.uniform(-INITIAL_NET_RANGE, INITIAL_NET_RANGE, config.cem.n_params)
+        return Behaviours(config.pass_policy, config.getopen_policy, theta, getopen_inputs=config.input_scaling())
+    return Behaviours(config.pass_policy, config.getopen_policy)
 
 
 @dataclass
@@ -257,106 +219,25 @@ class TrialState:
     trace: list[dict[str, Any]] = field(default_factory=list)
     cem: CEM | None = None
     wall_s: float = 0.0  # wall-clock seconds its steps took (a resumed trial adds up its runs)
-    # the last Pass block's keeper transitions (distributed mode), until written; not checkpointed
-    transitions: dict[int, dict[str, np.ndarray]] | None = field(default=None, repr=False)
+    # the last Pass block's keeper transitions (backends that report them), until written; not checkpointed
+    transitions: Transitions | None = field(default=None, repr=False)
 
     def finished(self, config: TrainConfig) -> bool:
         return len(self.curve) == len(evaluation_points(config.schedule, config.eval_every))
 
 
-Progress = Callable[[int], None]  # called with the number of episodes just played
-Played = tuple[RunResult, list[dict[str, np.ndarray]] | None, dict[int, dict[str, np.ndarray]] | None]
-
-
 # -- playing -----------------------------------------------------------------------------------------
-def episode_records(table: Any, simulator_step_ms: float) -> list[EpisodeRecord]:
-    """A batched run's episodes (``trainer.batched.EpisodeTable``) as records, numbered from 1 in the
-    order they ended."""
-    return [EpisodeRecord(i + 1, int(s), int(e), "out" if end == END_OUT else "taken",
-                          simulator_step_ms=simulator_step_ms)
-            for i, (s, e, end) in enumerate(zip(table.start_cycle, table.end_cycle, table.end))]
-
-
-def play(game: Game, behaviours: Behaviours, seed: int, episodes: int, batch: int,
-         pass_mode: str = GREEDY, threads: int | None = None,
-         progress: Progress | None = None) -> tuple[RunResult, list[dict[str, np.ndarray]] | None]:
-    """``episodes`` episodes of ``behaviours`` in ``min(batch, episodes)`` fresh arenas seeded ``seed``
-    (arena b: ``seed + b``), every arena's keepers starting from ``behaviours.pass_arrays``; the learned
-    Pass policy in Sarsa mode ``pass_mode`` (frozen: greedy). Returns the result and, when Pass learned
-    (mode learn), the first arena's keepers' new Pass policies."""
-    params = game.params
-    extra: dict[str, Any] = {}
-    if behaviours.pass_policy == LEARNED:
-        extra = {"sarsa": game.sarsa, "pass_mode": pass_mode}
-    arenas = BatchedArenas(params, min(batch, episodes), seed, keepers=game.keepers, takers=game.takers,
-                           pass_policy=behaviours.pass_policy, getopen_policy=behaviours.getopen_policy,
-                           getopen_theta=behaviours.getopen_net, agent_config=game.agent, threads=threads,
-                           **extra)
-    if behaviours.pass_arrays is not None:
-        arenas.load_pass_arrays(behaviours.pass_arrays)
-    done = 0
-
-    def report(collected: int) -> None:
-        nonlocal done
-        if progress is not None:
-            progress(collected - done)
-        done = collected
-
-    start = time.perf_counter()
-    table = arenas.run(total_episodes=episodes, progress=report)
-    result = RunResult("batched", seed, episode_records(table, params.simulator_step_ms),
-                       time.perf_counter() - start, table.cycles, len(table))
-    learned = arenas.pass_policy_arrays()[0] if behaviours.pass_policy == LEARNED and pass_mode == LEARN else None
-    return result, learned
-
-
-def evaluate(game: Game, behaviours: Behaviours, seed: int, episodes: int, arenas: int,
-             threads: int | None = None, progress: Progress | None = None) -> RunResult:
+def evaluate(backend: Backend, behaviours: Behaviours, seed: int, episodes: int, arenas: int,
+             progress: Progress | None = None) -> RunResult:
     """The frozen policies (no learning, greedy Pass) over ``episodes`` episodes in up to ``arenas``
     arenas (keepaway-task.md 8)."""
-    return play(game, behaviours, seed, episodes, arenas, GREEDY, threads, progress)[0]
+    return backend.play(behaviours, seed, episodes, arenas, GREEDY, progress).result
 
 
-class BatchedBackend:
-    """Plays a training's steps in in-process arenas (:func:`play`); transitions are not reported."""
-
-    def __init__(self, game: Game, threads: int | None = None) -> None:
-        self.game = game
-        self.threads = threads
-
-    def play(self, behaviours: Behaviours, seed: int, episodes: int, arenas: int, pass_mode: str,
-             progress: Progress | None = None, alpha: float | None = None) -> Played:
-        """:func:`play`; ``alpha`` replaces the Sarsa step size of learning keepers (default: the game's)."""
-        game = self.game if alpha is None else replace(self.game, sarsa=replace(self.game.sarsa, alpha=alpha))
-        result, learned = play(game, behaviours, seed, episodes, arenas, pass_mode, self.threads, progress)
-        return result, learned, None
-
-    def play_candidates(self, candidates: list[Behaviours], seed: int, episodes: int, arenas: int,
-                        progress: Progress | None = None) -> list[RunResult]:
-        """Each candidate frozen in fresh arenas with the same seeds (common random numbers)."""
-        return [self.play(c, seed, episodes, arenas, GREEDY, progress)[0] for c in candidates]
-
-    def close(self) -> None:
-        pass
-
-
-def open_backend(config: TrainConfig, out: Path, threads: int | None = None,
-                 attach: list[str] | None = None, launcher: Callable[..., Any] | None = None) -> Any:
-    """The backend of ``config.mode``: batched with ``threads``; distributed on arenas started here
-    (``config.arenas`` of them, logs under ``out/arenas``), by ``launcher(config)`` (e.g. on a Ray
-    cluster: ``trainer.ray_backend``), or attached to running ones at the ``attach`` endpoints."""
-    if config.mode == "batched":
-        if attach or launcher is not None:
-            raise ValueError("running arenas (--arena) and --backend ray are for distributed trainings; "
-                             "this one is batched")
-        return BatchedBackend(config.game(), threads)
-    from trainer.distributed import DistributedBackend
-
-    if attach:
-        return DistributedBackend.attach(config.game(), attach)
-    if launcher is not None:
-        return launcher(config)
-    return DistributedBackend.start_local(config.game(), config.arenas, out / "arenas", config.parameter_set)
+def open_training_backend(config: TrainConfig, out: Path, placement: Placement = Placement()) -> Backend:
+    """The backend of ``config.mode`` for the training ``config``, its arenas placed by ``placement``
+    (``runner.backends.open_backend``; arenas of processes started here log under ``out/arenas``)."""
+    return open_backend(config.mode, config.game(), config.parameter_set, config.arenas, out / "arenas", placement)
 
 
 def _point(episodes: int, result: RunResult) -> CurvePoint:
@@ -375,15 +256,14 @@ def phase_at(schedule: tuple[Phase, ...], episodes: int) -> tuple[Phase, int]:
     raise ValueError(f"episode {episodes} is past the schedule's end ({end})")
 
 
-def step(config: TrainConfig, state: TrialState, backend: Any = None, progress: Progress | None = None) -> str:
-    """Advance ``state`` by one step (an evaluation, a CEM generation or a Pass block) on ``backend``
-    (default: :class:`BatchedBackend`); returns what it was, for the progress display."""
-    backend = backend or BatchedBackend(config.game())
+def step(config: TrainConfig, state: TrialState, backend: Backend, progress: Progress | None = None) -> str:
+    """Advance ``state`` by one step (an evaluation, a CEM generation or a Pass block) on ``backend``;
+    returns what it was, for the progress display."""
     points = evaluation_points(config.schedule, config.eval_every)
     seed, trial = config.seed, state.trial
     if state.episodes == points[len(state.curve)]:
-        result, _, _ = backend.play(state.behaviours, derive_seed(seed, trial, STREAM_EVALUATION, state.episodes),
-                                    config.eval_episodes, config.arenas, GREEDY, progress)
+        result = evaluate(backend, state.behaviours, derive_seed(seed, trial, STREAM_EVALUATION, state.episodes),
+                          config.eval_episodes, config.arenas, progress)
         state.curve.append(_point(state.episodes, result))
         return f"evaluation at {state.episodes}"
     phase, phase_end = phase_at(config.schedule, state.episodes)
@@ -393,7 +273,7 @@ def step(config: TrainConfig, state: TrialState, backend: Any = None, progress: 
                        progress)
 
 
-def _cem_generation(config: TrainConfig, state: TrialState, backend: Any, progress: Progress | None) -> str:
+def _cem_generation(config: TrainConfig, state: TrialState, backend: Backend, progress: Progress | None) -> str:
     """One CEM generation (keepaway-task.md 6): every candidate plays the same arena seeds with the
     current Pass policy frozen."""
     if state.cem is None:
@@ -418,15 +298,15 @@ def _cem_generation(config: TrainConfig, state: TrialState, backend: Any, progre
     return f"GetOpen generation {generation + 1}"
 
 
-def _pass_block(config: TrainConfig, state: TrialState, episodes: int, backend: Any,
+def _pass_block(config: TrainConfig, state: TrialState, episodes: int, backend: Backend,
                 progress: Progress | None) -> str:
     """Sarsa learns Pass for ``episodes`` episodes in one fresh arena, GetOpen fixed (keepaway-task.md 5, 7)."""
     learner = replace(state.behaviours, pass_policy=LEARNED)
     seed = derive_seed(config.seed, state.trial, STREAM_PASS_BLOCK, state.episodes)
     learned_before = sum(r["block_episodes"] for r in state.trace if r["phase"] == PASS)
     alpha = config.pass_alpha(learned_before)
-    annealed = {"alpha": alpha} if config.pass_alpha_halflife else {}
-    result, arrays, transitions = backend.play(learner, seed, episodes, 1, LEARN, progress, **annealed)
+    result, arrays, transitions = backend.play(learner, seed, episodes, 1, LEARN, progress,
+                                               alpha if config.pass_alpha_halflife else None)
     state.behaviours.pass_policy = LEARNED
     state.behaviours.pass_arrays = arrays
     state.transitions = transitions
@@ -565,7 +445,7 @@ def write_summary(config: TrainConfig, out: Path, states: list[TrialState]) -> d
     summary = summarise(config, states)
     write_atomic(out / "summary.json", dump_json(summary, indent=1).encode())
     curve = mean_curve([s.curve for s in states])
-    start = Behaviours.initial(config, 0)
+    start = initial_behaviours(config, 0)
     references = {}
     if curve and curve[0].episodes == 0 and (start.pass_policy, start.getopen_policy) == ("random", "random"):
         references["P:R-GO:R (evaluation at 0)"] = curve[0].mean_hold_time_s
@@ -609,16 +489,16 @@ def read_config(out: Path) -> TrainConfig:
                          f"or start a new training in another --out directory") from None
 
 
-def run_trials(config: TrainConfig, out: Path, backend: Any = None,
+def run_trials(config: TrainConfig, out: Path, backend: Backend,
                steps: Callable[[int, int], Progress] | None = None,
                on_step: Callable[[TrialState, str], None] | None = None) -> Iterator[TrialState]:
-    """Train every trial of the training in ``out`` (begun by :func:`write_config`) on ``backend``
-    (default: batched), continuing each from its last checkpoint; yield each trial's final state.
+    """Train every trial of the training in ``out`` (begun by :func:`write_config`) on ``backend``,
+    continuing each from its last checkpoint; yield each trial's final state.
     ``steps(trial, done)`` gives the progress callback of a trial that has ``done`` of its episodes
     behind it; ``on_step`` hears of every step."""
     for trial in range(config.trials):
         trial_dir(out, trial).mkdir(exist_ok=True)
-        state = load_checkpoint(out, trial) or TrialState(trial, Behaviours.initial(config, trial))
+        state = load_checkpoint(out, trial) or TrialState(trial, initial_behaviours(config, trial))
         progress = None if steps is None else steps(trial, played_episodes(config, state))
         while not state.finished(config):
             start = time.perf_counter()
@@ -643,12 +523,11 @@ def planned_episodes(config: TrainConfig) -> int:
     return config.total_episodes + len(evaluation_points(config.schedule, config.eval_every)) * config.eval_episodes
 
 
-def train(config: TrainConfig, out: Path, resume: bool = False, threads: int | None = None,
-          progress: bool = True, attach: list[str] | None = None,
-          launcher: Callable[..., Any] | None = None) -> dict[str, Any]:
+def train(config: TrainConfig, out: Path, resume: bool = False, progress: bool = True,
+          placement: Placement = Placement()) -> dict[str, Any]:
     """Run (or with ``resume`` continue) the training ``config`` in ``out``; returns the summary.
-    With ``resume`` the configuration is the one stored in ``out``. ``threads``, ``attach`` and
-    ``launcher`` choose where the arenas run (:func:`open_backend`)."""
+    With ``resume`` the configuration is the one stored in ``out``. ``placement`` says where the arenas
+    run (:func:`open_training_backend`)."""
     from tqdm import tqdm
 
     if resume:
@@ -671,7 +550,7 @@ def train(config: TrainConfig, out: Path, resume: bool = False, threads: int | N
         bar.set_postfix_str(f"{done}; last eval {last.mean_hold_time_s:.2f} s at {last.episodes}" if last else done)
 
     states: list[TrialState] = []
-    backend = open_backend(config, out, threads, attach, launcher)
+    backend = open_training_backend(config, out, placement)
     try:
         for state in run_trials(config, out, backend, steps, on_step):
             states.append(state)
@@ -684,18 +563,13 @@ def train(config: TrainConfig, out: Path, resume: bool = False, threads: int | N
 
 
 __all__ = [
-    "BatchedBackend",
-    "Behaviours",
-    "Game",
     "TrainConfig",
     "TrialState",
-    "derive_seed",
-    "episode_records",
     "evaluate",
+    "initial_behaviours",
     "load_checkpoint",
-    "open_backend",
+    "open_training_backend",
     "phase_at",
-    "play",
     "read_config",
     "run_trials",
     "save_checkpoint",

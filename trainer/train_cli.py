@@ -3,33 +3,35 @@
 
 from __future__ import annotations
 
+import os
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
-from trainer.cli import (
+from runner.cli import (
     COUNT_TYPE,
-    FIELD_SIZE_HELP,
-    FIELD_SIZE_TYPE,
-    KEEPERS_HELP,
-    KEEPERS_TYPE,
     SEED_TYPE,
-    TAKERS_HELP,
-    TAKERS_TYPE,
     Command,
+    default_arenas,
+    game_options,
+    placement,
+    placement_options,
     with_options,
 )
-from trainer.kernels import BATCHED, PLAYERS, SERVER
 from trainer.schedule import POLICY_NAMES
+
+if TYPE_CHECKING:
+    from runner.job import Backend, Behaviours
 
 POLICY_CHOICES = click.Choice(POLICY_NAMES)
 
 
 def prepare_kernels(kernel_sets: tuple[str, ...]) -> None:
-    """Compile the kernel sets this command's processes use, once, saying so (``trainer.kernels``)."""
-    from trainer.cli import announce
-    from trainer.kernels import CompileError, ensure_compiled
+    """Compile the kernel sets this command's processes use, once, saying so (``runner.kernels``)."""
+    from runner.cli import announce
+    from runner.kernels import CompileError, ensure_compiled
 
     try:
         ensure_compiled(kernel_sets, announce)
@@ -40,7 +42,7 @@ def learning_options(command: Command) -> Command:
     and the CEM's variance change as learning goes on. ``keepaway train`` and ``keepaway experiment``."""
     options = [
         click.option("--pass-alpha-halflife", type=click.IntRange(min=0), default=0, show_default=True,
-                     help="Learned Pass, batched: Sarsa's alpha 0.125 h / (h + n) after n Pass-learning "
+                     help="Learned Pass: Sarsa's alpha 0.125 h / (h + n) after n Pass-learning "
                           "episodes (0: constant, the paper)."),
         click.option("--cem-extra-noise", type=click.FloatRange(min=0.0), default=0.0, show_default=True,
                      help="Noisy CEM: variance added to each refit (0: the paper's CEM)."),
@@ -74,26 +76,14 @@ CONFIG_OPTIONS = ("pass_policy", "getopen_policy", "episodes", "schedule", "tria
 @click.option("--arenas", type=COUNT_TYPE, default=None,
               help="batched: arenas stepped at once per CEM candidate and per evaluation [25]; distributed: "
                    "arenas of processes started [2] (a Pass block learns in one arena).")
-@click.option("--mode", type=click.Choice(["batched", "distributed"]), default="batched", show_default=True,
-              help="batched: in-process arenas; distributed: arenas of server, coach and player processes.")
-@click.option("--arena", "attach", multiple=True, metavar="ENDPOINT",
-              help="distributed: drive this running arena (a coach's arena endpoint, e.g. tcp://host:6003) "
-                   "instead of starting arenas; repeat for more.")
-@click.option("--backend", type=click.Choice(["local", "ray"]), default="local", show_default=True,
-              help="distributed: start the arenas on this machine, or on a Ray cluster (pip install "
-                   "'keepaway[ray]'; see --ray-address).")
-@click.option("--ray-address", default=None, help="Ray cluster to join [RAY_ADDRESS, or a local Ray].")
+@placement_options
 @click.option("--seed", type=SEED_TYPE, default=0, show_default=True, help="Seed of the whole training.")
 @click.option("--population", type=COUNT_TYPE, default=20, show_default=True, help="CEM candidates per generation.")
 @click.option("--elite", type=COUNT_TYPE, default=5, show_default=True,
               help="CEM candidates refitted to (at most --population).")
 @click.option("--candidate-episodes", type=COUNT_TYPE, default=125, show_default=True,
               help="Episodes per CEM candidate.")
-@click.option("--keepers", type=KEEPERS_TYPE, default=3, show_default=True, help=KEEPERS_HELP)
-@click.option("--takers", type=TAKERS_TYPE, default=2, show_default=True, help=TAKERS_HELP)
-@click.option("--field-size", type=FIELD_SIZE_TYPE, default=20.0, show_default=True, help=FIELD_SIZE_HELP)
-@click.option("--params", "parameter_set", type=click.Choice(["classic", "current"]), default="classic",
-              show_default=True, help="Server parameter set.")
+@game_options
 @click.option("--getopen-inputs", type=click.Choice(["scaled", "raw"]), default="scaled", show_default=True,
               help="GO:L net inputs: scaled by agents.getopen.GetOpenScaling, or raw metres and degrees.")
 @learning_options
@@ -101,20 +91,18 @@ CONFIG_OPTIONS = ("pass_policy", "getopen_policy", "episodes", "schedule", "tria
               show_default=True, help="Directory for curves, policies, traces and the summary.")
 @click.option("--resume", type=click.Path(file_okay=False, exists=True, path_type=Path), default=None,
               help="Continue the training in this directory from its last checkpoint.")
-@click.option("--threads", type=COUNT_TYPE, default=None, help="Threads stepping arenas [numba's thread count].")
 @click.option("--no-progress", is_flag=True, help="No progress bars.")
 def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, schedule: str | None, trials: int,
                   eval_every: int, eval_episodes: int, arenas: int | None, mode: str, attach: tuple[str, ...],
-                  backend: str, ray_address: str | None, seed: int, population: int,
+                  backend: str, ray_address: str | None, threads: int | None, seed: int, population: int,
                   elite: int, candidate_episodes: int, keepers: int, takers: int, field_size: float,
                   parameter_set: str, getopen_inputs: str, pass_alpha_halflife: int, cem_extra_noise: float,
-                  cem_noise_generations: int, out: Path, resume: Path | None, threads: int | None,
-                  no_progress: bool) -> None:
+                  cem_noise_generations: int, out: Path, resume: Path | None, no_progress: bool) -> None:
     """Learn GetOpen (CEM), Pass (Sarsa) or both (Algorithm 3) with frozen evaluations along the way."""
     from agents.policy_file import getopen_theta_size
     from trainer.cem import CEMConfig
     from trainer.schedule import parse_schedule, training_schedule
-    from trainer.launch import ArenaFailure, interrupt_on_sigterm
+    from runner.launch import ArenaFailure, interrupt_on_sigterm
     from trainer.train import TrainConfig, load_checkpoint, read_config, train
 
     ctx = click.get_current_context()
@@ -126,11 +114,7 @@ def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, s
         except (FileNotFoundError, ValueError) as exc:
             raise click.UsageError(str(exc)) from None
         mode = stored.mode
-    if (attach or backend != "local") and mode != "distributed":
-        raise click.UsageError("--arena and --backend choose where a distributed training runs; "
-                               + ("this training is batched" if resume else "add --mode distributed"))
-    if attach and backend != "local":
-        raise click.UsageError("--arena attaches to running arenas; --backend ray starts its own: choose one")
+    where = placement(mode, attach, backend, ray_address, threads, "training" if resume else None)
     if resume is not None:
         given = [f"--{name.replace('_', '-')}" for name in CONFIG_OPTIONS
                  if ctx.get_parameter_source(name) is not click.core.ParameterSource.DEFAULT]
@@ -144,27 +128,17 @@ def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, s
             cem = CEMConfig(n_params=getopen_theta_size(keepers, takers), population=population, elite=elite,
                             episodes_per_candidate=candidate_episodes, extra_noise=cem_extra_noise,
                             extra_noise_generations=cem_noise_generations)
-            if arenas is None:
-                arenas = len(attach) or (2 if mode == "distributed" else 25)
-            config = TrainConfig(pass_policy, getopen_policy, phases, trials, eval_every, eval_episodes, arenas,
+            config = TrainConfig(pass_policy, getopen_policy, phases, trials, eval_every, eval_episodes,
+                                 arenas or default_arenas(mode, attach),
                                  seed, keepers, takers, field_size, parameter_set, cem, mode=mode,
                                  getopen_inputs=getopen_inputs, pass_alpha_halflife=pass_alpha_halflife)
         except ValueError as exc:
             raise click.UsageError(str(exc)) from None
-    launcher = None
-    if backend == "ray":
-        from trainer.ray_backend import ray_launcher
-
-        try:
-            launcher = ray_launcher(ray_address)
-        except RuntimeError as exc:
-            raise click.UsageError(str(exc)) from None
     interrupt_on_sigterm()
-    local_arenas = mode == "distributed" and not attach and backend == "local"
-    prepare_kernels((BATCHED,) if mode == "batched" else (SERVER, PLAYERS) if local_arenas else ())
+    prepare_kernels(where.kernel_sets(mode))
     try:
-        summary = train(config, resume or out, resume=resume is not None, threads=threads,  # type: ignore[arg-type]
-                        progress=not no_progress, attach=list(attach) or None, launcher=launcher)
+        summary = train(config, resume or out, resume=resume is not None,  # type: ignore[arg-type]
+                        progress=not no_progress, placement=where)
     except (FileExistsError, FileNotFoundError) as exc:
         raise click.UsageError(str(exc)) from None
     except ArenaFailure as exc:
@@ -173,7 +147,8 @@ def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, s
     except KeyboardInterrupt:
         click.echo(f"keepaway train: interrupted; continue with --resume {resume or out}", err=True)
         sys.exit(130)
-    from trainer.curves import format_hold, stderr_basis
+    from runner.report import format_hold
+    from trainer.curves import stderr_basis
 
     trials = len(summary["trials"])
     basis = stderr_basis(trials, summary["config"]["eval_episodes"])
@@ -202,31 +177,39 @@ def _policy_files(path: Path) -> list[Path]:
               help="Pass policy to play [the one the file was trained with].")
 @click.option("--getopen", "getopen_policy", type=POLICY_CHOICES, default=None,
               help="GetOpen policy to play [the one the file was trained with].")
-@click.option("--arenas", type=COUNT_TYPE, default=25, show_default=True, help="Arenas stepped at once.")
-@click.option("--threads", type=COUNT_TYPE, default=None, help="Threads stepping arenas [numba's thread count].")
+@click.option("--arenas", type=COUNT_TYPE, default=None,
+              help="batched: arenas stepped at once [25]; distributed: arenas of processes started [2].")
+@placement_options
 @click.option("--json", "as_json", is_flag=True, help="Print machine-readable summaries.")
 @click.option("--no-progress", is_flag=True, help="No progress bar.")
 def evaluate_command(policy_path: Path, episodes: int, seed: int, pass_policy: str | None,
-                     getopen_policy: str | None, arenas: int, threads: int | None, as_json: bool,
+                     getopen_policy: str | None, arenas: int | None, mode: str, attach: tuple[str, ...],
+                     backend: str, ray_address: str | None, threads: int | None, as_json: bool,
                      no_progress: bool) -> None:
-    """Play saved policies frozen (greedy Pass, no learning) for --episodes episodes each; print the summary."""
-    from tqdm import tqdm
+    """Play saved policies frozen (greedy Pass, no learning) for --episodes episodes each; print the summary.
+
+    The batched mode and the others draw different games from one seed; the embedded and the distributed
+    mode play the same episodes."""
+    import tempfile
+    from itertools import groupby
 
     from agents.player import sarsa_config
-    from agents.policy_file import PolicyFileError, load_policy
-    from protocol.params import parameter_set
-    from trainer.run import dump_json, summary_table
-    from agents.policy_file import unpack_pass_arrays
-    from trainer.train import Behaviours, Game, evaluate
+    from agents.policy_file import PolicyFileError, load_policy, unpack_pass_arrays
+    from protocol.params import parameter_set as make_params
+    from runner.backends import open_backend
+    from runner.job import Behaviours, Game
+    from runner.launch import ArenaFailure, interrupt_on_sigterm
+    from runner.report import dump_json, summary_table
 
+    where = placement(mode, attach, backend, ray_address, threads)
     plays = []  # every file is checked before the kernels are compiled and anything is played
     for path in _policy_files(policy_path):
         try:
             policy = load_policy(path)
             config = policy.config
-            params = parameter_set(config.get("parameter_set", "classic"),
-                                   keepaway_length=config.get("field_size", 20.0),
-                                   keepaway_width=config.get("field_size", 20.0))
+            parameter_set = config.get("parameter_set", "classic")
+            params = make_params(parameter_set, keepaway_length=config.get("field_size", 20.0),
+                                 keepaway_width=config.get("field_size", 20.0))
             game = Game(params, policy.n_keepers, policy.n_takers, sarsa_config(policy))
         except (PolicyFileError, ValueError) as exc:
             raise click.UsageError(str(exc)) from None
@@ -239,24 +222,48 @@ def evaluate_command(policy_path: Path, episodes: int, seed: int, pass_policy: s
             raise click.UsageError(f"{path}: --getopen learned needs GetOpen parameters; the file has none")
         if behaviours.pass_policy == "learned" and behaviours.pass_arrays is None:
             raise click.UsageError(f"{path}: --pass learned needs Pass weights; the file has no Pass weights")
-        plays.append((path, game, behaviours))
-    prepare_kernels((BATCHED,))
+        plays.append((path, game, parameter_set, behaviours))
+    interrupt_on_sigterm()
+    prepare_kernels(where.kernel_sets(mode))
+    arenas = arenas or default_arenas(mode, attach)
+    logs = Path(tempfile.gettempdir()) / f"keepaway-evaluate-{os.getpid()}"  # arenas of processes started here
     results = []
-    for path, game, behaviours in plays:
-        with tqdm(total=episodes, unit="ep", desc=str(path), disable=no_progress or as_json,
-                  dynamic_ncols=True) as bar:
+    try:
+        for (game, parameter_set), group in groupby(plays, key=lambda play: play[1:3]):  # one backend per game
+            backend = open_backend(mode, game, parameter_set, arenas, logs, where)
             try:
-                result = evaluate(game, behaviours, seed, episodes, arenas, threads, bar.update)
-            except ValueError as exc:  # Pass weights that do not fit the batched learners
-                raise click.UsageError(f"{path}: {exc}") from None
-        summary = {"policy": str(path), "pass": behaviours.pass_policy, "getopen": behaviours.getopen_policy,
-                   **result.summary()}
-        results.append(summary)
-        if not as_json:
-            click.echo(f"{path}  (Pass {behaviours.pass_policy}, GetOpen {behaviours.getopen_policy})")
-            click.echo(summary_table(summary) + "\n")
+                for path, _, _, behaviours in group:
+                    results.append(_evaluate_one(backend, path, behaviours, seed, episodes, arenas,
+                                                 no_progress or as_json))
+                    if not as_json:
+                        click.echo(f"{path}  (Pass {behaviours.pass_policy}, GetOpen {behaviours.getopen_policy})")
+                        click.echo(summary_table(results[-1]) + "\n")
+            finally:
+                backend.close()
+    except ArenaFailure as exc:
+        click.echo(f"keepaway evaluate: an arena failed: {exc}", err=True)
+        sys.exit(1)
+    except KeyboardInterrupt:
+        click.echo("keepaway evaluate: interrupted; every arena was stopped", err=True)
+        sys.exit(130)
     if as_json:
         click.echo(dump_json(results[0] if len(results) == 1 else results))
+
+
+def _evaluate_one(backend: Backend, path: Path, behaviours: Behaviours, seed: int, episodes: int, arenas: int,
+                  quiet: bool) -> dict:
+    """The summary of one policy file's frozen evaluation, with a progress bar unless ``quiet``."""
+    from tqdm import tqdm
+
+    from trainer.train import evaluate
+
+    with tqdm(total=episodes, unit="ep", desc=str(path), disable=quiet, dynamic_ncols=True) as bar:
+        try:
+            result = evaluate(backend, behaviours, seed, episodes, arenas, bar.update)
+        except ValueError as exc:  # Pass weights that do not fit the game's learners
+            raise click.UsageError(f"{path}: {exc}") from None
+    return {"policy": str(path), "pass": behaviours.pass_policy, "getopen": behaviours.getopen_policy,
+            **result.summary()}
 
 
 commands = [train_command, evaluate_command]

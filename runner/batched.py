@@ -36,7 +36,7 @@ of the batched mode learns the very weights of the embedded game with learning p
 
 The Sarsa mode (learn / greedy / explore) is per arena and changes only at an episode start
 (:meth:`BatchedArenas.set_pass_mode`), like the coach's ``pass_mode`` advice to a player process. The
-weight table defaults to 2^16 slots per keeper (:data:`BATCHED_SARSA`), not the original 2^20: a 3v2
+weight table defaults to 2^16 slots per keeper (``runner.job.BATCHED_SARSA``), not the original 2^20: a 3v2
 keeper touches some 15,000 distinct tiles (13 variables x 3 actions x 32 tilings x ~12 coordinates), so
 2^16 holds them with few re-probes (the table is collision-safe: distinct tiles never share a weight),
 while 2^20 would cost 18 MB per keeper, 55 GB for 1024 arenas. At 2^16 a keeper costs ~1.1 MB (weights
@@ -49,7 +49,6 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
@@ -112,11 +111,9 @@ from core.rng import seed_streams
 from server.simulation import step_arena
 from core.objects import BALL, CMD_KICK, CMD_NONE
 from server.world import COUNT_SAY, Commands, World, new_world
+from runner.job import BATCHED_SARSA, EpisodeTable
 
 PASS_MODES = MODE_NAMES
-# The batched mode's Sarsa sizes (module docstring): a 2^16 weight table per keeper; 4,096 live traces
-# are ample for lambda = 0 (one action's 416 tiles at a time); the transition log is not reported here.
-BATCHED_SARSA = SarsaConfig(table_size=1 << 16, max_traces=4096, transition_log_size=64)
 # The learner memory of arenas without Pass learning: no rows (kernels never touch it).
 _NO_LEARNERS = SarsaConfig(table_size=2, max_traces=1, transition_log_size=1)
 # Cycles per compiled call: Python collects the ended episodes and checks the stop rules in between.
@@ -187,34 +184,6 @@ class Bookkeeping(NamedTuple):
     start_cycle: np.ndarray  # (B, CHUNK_CYCLES) int64
     end_cycle: np.ndarray  # (B, CHUNK_CYCLES) int64
     end: np.ndarray  # (B, CHUNK_CYCLES) int8 END_OUT / END_TAKEN
-
-
-@dataclass(frozen=True)
-class EpisodeTable:
-    """Episodes in the order they ended (ties in a cycle: by arena); ``cycles``: arena-cycles simulated
-    in total (every arena's cycles summed)."""
-
-    arena: np.ndarray  # int64
-    episode: np.ndarray  # int64, per arena from 1
-    start_cycle: np.ndarray  # int64
-    end_cycle: np.ndarray  # int64
-    end: np.ndarray  # int8: 1 out of the region, 2 taken (server.referee END_*)
-    cycles: int
-
-    def __len__(self) -> int:
-        return len(self.arena)
-
-    @property
-    def hold_cycles(self) -> np.ndarray:
-        """Episode lengths in cycles (hold time, spec `keepaway-task.md` 1)."""
-        return self.end_cycle - self.start_cycle
-
-    @classmethod
-    def concatenate(cls, parts: list[EpisodeTable]) -> EpisodeTable:
-        """The episodes of consecutive chunks (:meth:`BatchedArenas.chunks`), in one table."""
-        return cls(*(np.concatenate([getattr(p, name) for p in parts])
-                     for name in ("arena", "episode", "start_cycle", "end_cycle", "end")),
-                   cycles=sum(p.cycles for p in parts))
 
 
 # --------------------------------------------------------------------------------------------------
@@ -471,7 +440,7 @@ class BatchedArenas:
     results do not depend on it. The games continue across :meth:`run` calls.
 
     ``pass_policy="learned"``: each keeper of each arena learns its own Pass policy by SMDP Sarsa
-    (module docstring) with the constants and sizes of ``sarsa`` (default :data:`BATCHED_SARSA`), from
+    (module docstring) with the constants and sizes of ``sarsa`` (default ``runner.job.BATCHED_SARSA``), from
     zero weights, in ``pass_mode`` (:data:`PASS_MODES`) until :meth:`set_pass_mode` says otherwise.
     Arenas learn independently: a trainer that wants more experience per policy picks the best row
     (:meth:`pass_policy_arrays`) and shares it with :meth:`load_pass_arrays`. Averaging weights is only

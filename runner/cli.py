@@ -1,4 +1,5 @@
-"""``keepaway run``: the trainer package's part of the command line."""
+"""``keepaway run`` and ``keepaway compile``: the runner package's part of the command line, and the options
+every command that plays shares: what a seed, a team or a region can be, and where the arenas run."""
 
 from __future__ import annotations
 
@@ -6,13 +7,17 @@ import functools
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
 from protocol.messages import MAX_SEED
 from protocol.params import KEEPAWAY_KEEPERS, KEEPAWAY_TAKERS
-from trainer.kernels import KERNEL_SETS
-from trainer.run import MODES
+from runner.kernels import KERNEL_SETS
+from runner.job import MODES
+
+if TYPE_CHECKING:
+    from runner.backends import Placement
 
 # Option types shared by run, train, evaluate and experiment: what a seed, a count, a Keepaway team and
 # a region can be.
@@ -34,6 +39,67 @@ def with_options(options: Sequence[Callable[[Command], Command]], command: Comma
     return functools.reduce(lambda f, option: option(f), reversed(options), command)
 
 
+def game_options(command: Command) -> Command:
+    """The game of ``keepaway run`` and ``train``: the teams, the region and the parameter set."""
+    options = [
+        click.option("--keepers", type=KEEPERS_TYPE, default=3, show_default=True, help=KEEPERS_HELP),
+        click.option("--takers", type=TAKERS_TYPE, default=2, show_default=True, help=TAKERS_HELP),
+        click.option("--field-size", type=FIELD_SIZE_TYPE, default=20.0, show_default=True, help=FIELD_SIZE_HELP),
+        click.option("--params", "parameter_set", type=click.Choice(["classic", "current"]), default="classic",
+                     show_default=True, help="Server parameter set."),
+    ]
+    return with_options(options, command)
+
+
+def placement_options(command: Command) -> Command:
+    """Where the arenas of ``keepaway train``, ``evaluate`` and ``experiment`` run (``runner.backends``);
+    :func:`placement` checks them."""
+    options = [
+        click.option("--mode", type=click.Choice(MODES), default="batched", show_default=True,
+                     help="batched: in-process arenas stepped together; embedded: one in-process arena played as "
+                          "a distributed one (the same results); distributed: arenas of server, coach and player "
+                          "processes."),
+        click.option("--arena", "attach", multiple=True, metavar="ENDPOINT",
+                     help="distributed: drive this running arena (a coach's arena endpoint, e.g. tcp://host:6003) "
+                          "instead of starting arenas; repeat for more."),
+        click.option("--backend", type=click.Choice(["local", "ray"]), default="local", show_default=True,
+                     help="distributed: start the arenas on this machine, or on a Ray cluster (pip install "
+                          "'keepaway[ray]'; see --ray-address)."),
+        click.option("--ray-address", default=None, help="Ray cluster to join [RAY_ADDRESS, or a local Ray]."),
+        click.option("--threads", type=COUNT_TYPE, default=None,
+                     help="Threads stepping batched arenas [numba's thread count]."),
+    ]
+    return with_options(options, command)
+
+
+def placement(mode: str, attach: tuple[str, ...], backend: str, ray_address: str | None, threads: int | None,
+              stored_as: str | None = None) -> Placement:
+    """The placement :func:`placement_options` describe for ``mode`` (a mode read from a stored ``stored_as``,
+    e.g. "training", if it is one); a usage error in one line for options that do not go together."""
+    from runner.backends import Placement
+
+    if (attach or backend != "local") and mode != "distributed":
+        fix = f"this {stored_as} is {mode}" if stored_as else "add --mode distributed"
+        raise click.UsageError(f"--arena and --backend choose where distributed arenas run; {fix}")
+    if attach and backend != "local":
+        raise click.UsageError("--arena attaches to running arenas; --backend ray starts its own: choose one")
+    launcher = None
+    if backend == "ray":
+        from runner.ray_backend import ray_launcher
+
+        try:
+            launcher = ray_launcher(ray_address)
+        except RuntimeError as exc:
+            raise click.UsageError(str(exc)) from None
+    return Placement(threads, attach, launcher)
+
+
+def default_arenas(mode: str, attach: tuple[str, ...]) -> int:
+    """``--arenas`` when not given: the running arenas attached to, else 2 arenas of processes
+    (distributed) or 25 arenas stepped at once (batched; embedded plays in its one arena)."""
+    return len(attach) or (2 if mode == "distributed" else 25)
+
+
 @click.command("run")
 @click.option("--episodes", type=int, default=20, show_default=True, help="Episodes to play.")
 @click.option("--seed", type=SEED_TYPE, default=0, show_default=True, help="Seed of the whole run.")
@@ -43,13 +109,9 @@ def with_options(options: Sequence[Callable[[Command], Command]], command: Comma
               default="handcoded", show_default=True, help="Keepers' GetOpen policy.")
 @click.option("--policy", "policy_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Policy file (.npz) for learned policies.")
-@click.option("--keepers", type=KEEPERS_TYPE, default=3, show_default=True, help=KEEPERS_HELP)
-@click.option("--takers", type=TAKERS_TYPE, default=2, show_default=True, help=TAKERS_HELP)
-@click.option("--field-size", type=FIELD_SIZE_TYPE, default=20.0, show_default=True, help=FIELD_SIZE_HELP)
-@click.option("--params", "parameter_set", type=click.Choice(["classic", "current"]), default="classic",
-              show_default=True, help="Server parameter set.")
+@game_options
 @click.option("--mode", type=click.Choice(MODES), default="distributed", show_default=True,
-              help="Separate processes over ZeroMQ, one process without sockets, or many arenas at once.")
+              help="Many arenas at once, one process without sockets, or separate processes over ZeroMQ.")
 @click.option("--batch", type=int, default=1024, show_default=True, help="Arenas stepped at once (batched mode).")
 @click.option("--realtime", is_flag=True, help="100 ms cycles (distributed mode) instead of synchronous stepping.")
 @click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=Path("out"), show_default=True,
@@ -62,10 +124,11 @@ def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str,
     """Play Keepaway: a whole arena (server, coach, keepers, takers) for --episodes episodes."""
     from agents.policy_file import PolicyFileError, load_policy
     from protocol.params import parameter_set as make_params
-    from trainer.embedded import ArenaSpec
-    from trainer.kernels import CompileError
-    from trainer.launch import ArenaFailure, interrupt_on_sigterm
-    from trainer.run import RunOptions, RunStopped, dump_json, run, summary_table
+    from runner.embedded import ArenaSpec
+    from runner.kernels import CompileError
+    from runner.launch import ArenaFailure, interrupt_on_sigterm
+    from runner.report import dump_json, summary_table
+    from runner.run import RunOptions, RunStopped, run
 
     if episodes < 1:
         raise click.UsageError("--episodes must be at least 1")
@@ -118,7 +181,7 @@ def compile_command(only: tuple[str, ...], quiet: bool) -> None:
     the cache instead of compiling (keepaway run and train also do this by themselves when needed).
     """
     from core.jit import cache_dir
-    from trainer.kernels import CompileError, compile_set, ensure_compiled
+    from runner.kernels import CompileError, compile_set, ensure_compiled
 
     if only:
         for kernel_set in only:

@@ -4,7 +4,7 @@
 Ray only places the arenas. Each arena is a Ray actor that starts the arena's processes (server, coach,
 five players) on its node exactly as the local backend does, with the coach's arena port bound on the
 node's address; the trainer then drives every arena over ZeroMQ like any other
-(``trainer.distributed``). So results do not depend on where the arenas run. Every node needs this
+(``runner.distributed``). So results do not depend on where the arenas run. Every node needs this
 package installed (same version), and the trainer must reach the nodes' ports. The default backend
 needs no Ray; this module imports it only when asked.
 """
@@ -14,7 +14,10 @@ from __future__ import annotations
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+
+from runner.distributed import ARENA_PLAYER_ARGS, DistributedBackend, arena_server_args
+from runner.job import Game
+from runner.launch import ArenaProcesses
 
 ARENA_CPUS = 1.0  # a synchronous arena's seven processes mostly wait for one another
 
@@ -22,17 +25,14 @@ ARENA_CPUS = 1.0  # a synchronous arena's seven processes mostly wait for one an
 class ArenaHost:
     """The actor behind one arena: starts its processes on the node it lands on and stops them."""
 
-    def __init__(self, game: Any, parameter_set: str, index: int) -> None:
+    def __init__(self, game: Game, parameter_set: str, index: int) -> None:
         import ray
-
-        from trainer.distributed import arena_server_args
-        from trainer.launch import ArenaProcesses
 
         log_dir = Path(tempfile.mkdtemp(prefix=f"keepaway-arena-{index:02d}-"))
         self.processes = ArenaProcesses(log_dir).__enter__()
         try:
             endpoints = self.processes.start_arena(arena_server_args(game, parameter_set, log_dir),
-                                                   ["--pass", "handcoded", "--getopen", "handcoded"],
+                                                   list(ARENA_PLAYER_ARGS),
                                                    game.keepers, game.takers,
                                                    arena_host=ray.util.get_node_ip_address())
         except BaseException:
@@ -47,21 +47,22 @@ class ArenaHost:
         self.processes.stop()
 
 
-def ray_launcher(address: str | None = None) -> Callable[[Any], Any]:
-    """A ``launcher`` for ``trainer.train.open_backend``: joins the Ray cluster at ``address`` (None:
-    ``RAY_ADDRESS`` or a new local Ray) and places ``config.arenas`` arenas on it. Raises RuntimeError in
-    one line when Ray is not installed."""
+Launcher = Callable[[Game, str, int], DistributedBackend]
+
+
+def ray_launcher(address: str | None = None) -> Launcher:
+    """A ``launcher`` for ``runner.backends.open_backend``: joins the Ray cluster at ``address`` (None:
+    ``RAY_ADDRESS`` or a new local Ray); ``launch(game, parameter_set, arenas)`` places that many arenas
+    of ``game`` on it. Raises RuntimeError in one line when Ray is not installed."""
     try:
         import ray
     except ImportError:
         raise RuntimeError("--backend ray needs Ray: pip install 'keepaway[ray]'") from None
 
-    def launch(config: Any) -> Any:
-        from trainer.distributed import DistributedBackend
-
+    def launch(game: Game, parameter_set: str, arenas: int) -> DistributedBackend:
         ray.init(address=address, ignore_reinit_error=True, log_to_driver=False)
         actor = ray.remote(num_cpus=ARENA_CPUS)(ArenaHost)
-        hosts = [actor.remote(config.game(), config.parameter_set, i) for i in range(config.arenas)]
+        hosts = [actor.remote(game, parameter_set, i) for i in range(arenas)]
 
         def stop_hosts() -> None:
             ray.get([host.stop.remote() for host in hosts])
@@ -73,11 +74,11 @@ def ray_launcher(address: str | None = None) -> Callable[[Any], Any]:
         except BaseException:
             stop_hosts()
             raise
-        backend = DistributedBackend.attach(config.game(), endpoints)
+        backend = DistributedBackend.attach(game, endpoints)
         backend.on_close = stop_hosts
         return backend
 
     return launch
 
 
-__all__ = ["ARENA_CPUS", "ArenaHost", "ray_launcher"]
+__all__ = ["ARENA_CPUS", "ArenaHost", "Launcher", "ray_launcher"]

@@ -23,7 +23,7 @@ from typing import Iterator
 import numpy as np
 
 from core.jit import cache_dir, is_warm, mark_warm
-from trainer.launch import die_with_parent, keepaway_argv
+from runner.launch import die_with_parent, keepaway_argv
 
 SERVER, PLAYERS, BATCHED = "server", "players", "batched"
 KERNEL_SETS = (SERVER, PLAYERS, BATCHED)
@@ -65,7 +65,7 @@ def _compile_batched() -> None:
     from agents.getopen import net_size
     from agents.state_vars import getopen_state_size
     from protocol.params import parameter_set
-    from trainer.batched import BatchedArenas
+    from runner.batched import BatchedArenas
 
     theta = np.zeros(net_size(getopen_state_size(3, 2)))
     arenas = BatchedArenas(parameter_set("classic"), 2, 0, pass_policy="learned", getopen_policy="learned",
@@ -74,6 +74,12 @@ def _compile_batched() -> None:
     arenas.load_pass_arrays(arenas.pass_policy_arrays()[0])
     arenas.set_pass_mode("greedy")
     arenas.run(total_episodes=2)
+
+
+def kernel_sets(mode: str) -> tuple[str, ...]:
+    """The kernel sets that the arenas of ``mode`` use where they run: the batched loop, or the server's
+    and the players' (in their processes or, embedded, in this one)."""
+    return (BATCHED,) if mode == "batched" else (SERVER, PLAYERS)
 
 
 def missing(kernel_sets: Sequence[str]) -> list[str]:
@@ -149,4 +155,4 @@ def _compile_side_by_side(kernel_sets: list[str], logs: Path) -> None:
                 proc.wait()
 
 
-__all__ = ["KERNEL_SETS", "CompileError", "compile_set", "ensure_compiled", "estimate_s"]
+__all__ = ["KERNEL_SETS", "CompileError", "compile_set", "ensure_compiled", "estimate_s", "kernel_sets"]

@@ -8,28 +8,23 @@ progress bar, a summary table, the logs and the machine-readable summary of the 
 
 from __future__ import annotations
 
-import json
-import math
 import time
 from collections.abc import Callable, Iterator
 from itertools import islice
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
 
 import zmq
 
 from protocol import MONITOR_EPISODE_TOPIC
 from protocol import messages as m
 from protocol.messages import decode_monitor
+from runner.batched import BatchedArenas
+from runner.embedded import ArenaSpec, embedded_episodes
+from runner.job import RunResult
+from runner.kernels import ensure_compiled, kernel_sets
+from runner.launch import ArenaFailure, ArenaProcesses
 from server.episode_log import EpisodeRecord, JsonlLog, KwyLog, read_jsonl
-from trainer.curves import finite_or_none, format_hold
-from trainer.embedded import ArenaSpec, embedded_episodes
-from trainer.kernels import BATCHED, PLAYERS, SERVER, ensure_compiled
-from trainer.launch import ArenaFailure, ArenaProcesses
-
-MODES = ("distributed", "embedded", "batched")
-
 
 @dataclass(frozen=True)
 class RunOptions:
@@ -41,66 +36,6 @@ class RunOptions:
     out: Path = Path("out")
     policy_path: Path | None = None
     parameter_set: str = "classic"
-
-
-@dataclass
-class RunResult:
-    mode: str
-    seed: int
-    episodes: list[EpisodeRecord]
-    elapsed_s: float  # wall time over which cycles_per_s / episodes_per_s are measured
-    cycles: int  # simulated cycles in that time
-    rate_episodes: int  # episodes ended in that time
-
-    @property
-    def hold_times(self) -> list[float]:
-        return [e.hold_time_s for e in self.episodes]
-
-    def summary(self) -> dict:
-        """The machine-readable summary (module docstring). A value that is undefined is None, never NaN:
-        the mean without episodes, the standard error with fewer than two, the rates without elapsed time."""
-        holds = self.hold_times
-        n = len(holds)
-        mean = sum(holds) / n if n else None
-        stderr = None
-        if mean is not None and n > 1:
-            stderr = math.sqrt(sum((h - mean) ** 2 for h in holds) / (n - 1) / n)
-        return {
-            "mode": self.mode,
-            "seed": self.seed,
-            "episodes": [{"episode": e.episode, "start_cycle": e.start_cycle, "end_cycle": e.end_cycle,
-                          "hold_time_s": e.hold_time_s, "end": e.end} for e in self.episodes],
-            "mean_hold_time_s": mean,
-            "stderr_hold_time_s": stderr,
-            "cycles_per_s": self.cycles / self.elapsed_s if self.elapsed_s > 0 else None,
-            "episodes_per_s": self.rate_episodes / self.elapsed_s if self.elapsed_s > 0 else None,
-        }
-
-
-def summary_table(summary: dict) -> str:
-    """A short human-readable table of a run's summary; an undefined value reads ``n/a``."""
-    eps = summary["episodes"]
-    n = len(eps)
-    taken = sum(e["end"] == "taken" for e in eps)
-    hold = format_hold(summary["mean_hold_time_s"], summary["stderr_hold_time_s"],
-                       f"s.e. over {n} episode{'' if n == 1 else 's'}")
-    rows = [
-        ("mode", summary["mode"]),
-        ("seed", str(summary["seed"])),
-        ("episodes", str(n)),
-        ("mean hold time", hold),
-        ("ended by take", f"{taken} ({taken / n:.0%})" if n else "0"),
-        ("ended out", f"{n - taken} ({(n - taken) / n:.0%})" if n else "0"),
-        ("cycles / s", _rate(summary["cycles_per_s"], ",.0f")),
-        ("episodes / s", _rate(summary["episodes_per_s"], ",.2f")),
-    ]
-    width = max(len(k) for k, _ in rows)
-    return "\n".join(f"{k:<{width}}  {v}" for k, v in rows)
-
-
-def _rate(value: float | None, spec: str) -> str:
-    value = finite_or_none(value)
-    return "n/a" if value is None else format(value, spec)
 
 
 # -- modes ------------------------------------------------------------------------------------------
@@ -172,9 +107,6 @@ def batched_episodes(opts: RunOptions) -> Iterator[tuple[EpisodeRecord, int]]:
     """Step ``opts.batch`` arenas in one process; yield episodes in the order they end, numbered from 1,
     each chunk's as soon as it is played, with the arena-cycles simulated so far (the first chunk's
     include the kernels' compilation, so rates are measured from its end)."""
-    from trainer.batched import BatchedArenas
-    from trainer.train import episode_records
-
     spec = opts.spec
     theta = spec.policy.getopen_net if spec.policy is not None else None
     arenas = BatchedArenas(spec.params, opts.batch, spec.seed, keepers=spec.keepers, takers=spec.takers,
@@ -183,7 +115,7 @@ def batched_episodes(opts: RunOptions) -> Iterator[tuple[EpisodeRecord, int]]:
     ended = cycles = 0
     for chunk in arenas.chunks(total_episodes=opts.episodes):
         cycles += chunk.cycles
-        for record in episode_records(chunk, spec.params.simulator_step_ms):
+        for record in chunk.records(spec.params.simulator_step_ms):
             ended += 1
             yield replace(record, episode=ended), cycles
 
@@ -196,11 +128,6 @@ class RunStopped(Exception):
         super().__init__(str(cause))
         self.result = result
         self.cause = cause
-
-
-def kernel_sets(mode: str) -> tuple[str, ...]:
-    """The numba kernel sets (``trainer.kernels``) a run in ``mode`` uses."""
-    return (BATCHED,) if mode == "batched" else (SERVER, PLAYERS)
 
 
 def run(opts: RunOptions, progress: bool = True, announce: Callable[[str], None] | None = None) -> RunResult:
@@ -284,21 +211,4 @@ def _write_logs(opts: RunOptions, records: list[EpisodeRecord]) -> None:
         jsonl.close()
 
 
-def dump_json(value: Any, indent: int | None = None) -> str:
-    """``value`` as strict JSON (RFC 8259: no NaN or Infinity): every non-finite number becomes ``null``,
-    so any JSON parser reads what the trainer prints and writes."""
-    return json.dumps(_finite(value), indent=indent, allow_nan=False)
-
-
-def _finite(value: Any) -> Any:
-    if isinstance(value, float):
-        return finite_or_none(value)
-    if isinstance(value, dict):
-        return {k: _finite(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_finite(v) for v in value]
-    return value
-
-
-__all__ = ["MODES", "ArenaFailure", "RunOptions", "RunResult", "RunStopped", "dump_json", "kernel_sets", "logged_episodes", "run",
-           "summary_table"]
+__all__ = ["RunOptions", "RunStopped", "logged_episodes", "run"]

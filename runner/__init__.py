@@ -1,0 +1,33 @@
+"""Where Keepaway games are played for a learner or a user: every execution mode behind one interface.
+
+``runner.job`` is the leaf: the value types of a job (the game, the policies, the episodes that come
+back, the seeds) and the :class:`runner.job.Backend` protocol, "play N episodes of these policies in this
+learning mode, from this seed". The backends implement it: batched (``runner.batched`` steps many arenas
+in compiled kernels; ``runner.batched_backend``), embedded (``runner.embedded``: the server's arena and
+the players' agents in this process) and distributed (``runner.distributed``: arenas of processes,
+started by ``runner.launch``, placed on Ray by ``runner.ray_backend``), both of the latter fed by the same
+chunks of coach requests (``runner.coached``). ``runner.run`` is ``keepaway run``; ``runner.kernels``
+compiles the numba kernels before processes load them.
+
+The name: ``server.arena`` is one game's world and referee, ``protocol.arena`` the trainer's messages to
+an arena's coach; this package runs arenas, in any mode, and knows nothing of learning. ``trainer``
+builds on it (CEM, Sarsa phases, schedules, checkpoints, experiments) and it never imports ``trainer``.
+
+Names are imported on first use (PEP 562), so loading the command line does not import numba.
+"""
+
+from __future__ import annotations
+
+from core.exports import lazy_exports
+
+_EXPORTS = {
+    "runner.job": ("BATCHED_SARSA", "GREEDY", "LEARN", "LEARNED", "MODES", "Backend", "Behaviours", "EpisodeTable", "Game",
+                   "Played", "Progress", "RunResult", "derive_seed"),
+    "runner.backends": ("Placement", "open_backend"),
+    "runner.batched": ("BatchedArenas",),
+    "runner.batched_backend": ("BatchedBackend",),
+    "runner.embedded": ("ArenaSpec", "EmbeddedBackend", "EmbeddedGame"),
+    "runner.distributed": ("DistributedBackend",),
+    "runner.launch": ("ArenaFailure", "ArenaProcesses"),
+}
+__all__, __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
