@@ -2,6 +2,12 @@
 
 Both write one line per episode and flush it at once, so nothing already logged is lost if the process
 is killed (spec `server-physics.md` 5 "kwy log"; agents spec 6 for what an episode's hold time is).
+
+A log never overwrites an earlier one: a log file that already exists when a new one opens under its
+name (a resumed training, a second server on the same log directory) is first moved to the next free
+numbered name beside it, ``keepaway.jsonl`` to ``keepaway.1.jsonl``, then ``keepaway.2.jsonl``, ...
+(numbered in the order they were set aside; :func:`set_aside`), so the newest log is always under the
+plain name and every earlier one is kept whole.
 """
 
 from __future__ import annotations
@@ -60,11 +66,37 @@ def cpp_number(value: float) -> str:
     return format(value, ".6g")
 
 
+def numbered(path: Path, number: int) -> Path:
+    """``dir/keepaway.jsonl`` numbered 2: ``dir/keepaway.2.jsonl``."""
+    return path.with_name(f"{path.stem}.{number}{path.suffix}")
+
+
+def free_name(path: Path) -> Path:
+    """``path`` if nothing is there, else its first numbered name (:func:`numbered`) that is free."""
+    candidate, number = path, 0
+    while candidate.exists():
+        number += 1
+        candidate = numbered(path, number)
+    return candidate
+
+
+def set_aside(path: Path) -> Path | None:
+    """Move an existing file at ``path`` to its first free numbered name (module docstring) and return
+    that name; None when there was nothing to move."""
+    if not path.exists():
+        return None
+    target = free_name(path)
+    path.rename(target)
+    return target
+
+
 class _LineLog:
-    """A text file written one flushed line at a time; ``close`` is idempotent."""
+    """A text file written one flushed line at a time; ``close`` is idempotent. An earlier file under
+    the same name is set aside first (:func:`set_aside`), never overwritten."""
 
     def __init__(self, path: Path) -> None:
         path.parent.mkdir(parents=True, exist_ok=True)
+        set_aside(path)
         self._path = path
         self._file: TextIO | None = open(path, "w", encoding="utf-8", newline="\n")
 
@@ -139,6 +171,7 @@ class KwyLog(_LineLog):
                            for team, score in zip(self._teams, (left_score, right_score)))
             final = self._directory / (time.strftime(KWY_DATE_FORMAT, self._opened_at)
                                        + f"{left}-vs-{right}{KWY_SUFFIX}")
+            final = free_name(final)
             self._path.rename(final)
             self._path = final
 
@@ -221,6 +254,8 @@ __all__ = [
     "JsonlLog",
     "KwyLog",
     "cpp_number",
+    "free_name",
     "kwy_header",
     "read_jsonl",
+    "set_aside",
 ]
