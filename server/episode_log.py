@@ -42,6 +42,9 @@ class EpisodeRecord:
     end_cycle: int
     end: str
     simulator_step_ms: float = CLASSIC.simulator_step_ms
+    # (player, cycles): the players some steps of the episode were played without ("keeper 1"), and
+    # how many (an empty seat, a given-up connection, a synchronous-mode cycle not answered in time)
+    missed: tuple[tuple[str, int], ...] = ()
 
     def __post_init__(self) -> None:
         if self.end not in _KWY_CODES:
@@ -204,17 +207,20 @@ class JsonlLog(_LineLog):
                                      "seed": seed, "config": dict(config), "params": dict(params)}))
 
     def write(self, record: EpisodeRecord) -> None:
+        """One episode line; ``missed`` maps the players some of its steps were played without to how
+        many (``{}``: a full episode; logs written before the field existed have no ``missed``)."""
         self._write_line(json.dumps({"type": "episode", "episode": record.episode,
                                      "start_cycle": record.start_cycle, "end_cycle": record.end_cycle,
                                      "duration": record.duration, "hold_time_s": record.hold_time_s,
-                                     "end": record.end}))
+                                     "end": record.end, "missed": dict(record.missed)}))
 
 
 def read_jsonl(path: Path | str) -> tuple[dict[str, Any], list[EpisodeRecord]]:
     """The header and the episodes of a :class:`JsonlLog` file.
 
     A last line without its newline (the writer was killed mid-line) is skipped when it does not
-    parse; any other malformed line is a ValueError.
+    parse; any other malformed line is a ValueError. An episode line without ``missed`` (written before
+    the field existed) reads as a full episode.
     """
     text = Path(path).read_text(encoding="utf-8")
     lines = text.split("\n")
@@ -232,7 +238,8 @@ def read_jsonl(path: Path | str) -> tuple[dict[str, Any], list[EpisodeRecord]]:
         raise ValueError(f"{path}: unsupported {JSONL_FORMAT} version {header.get('version')!r}")
     step_ms = header.get("params", {}).get("simulator_step_ms", CLASSIC.simulator_step_ms)
     episodes = [EpisodeRecord(episode=e["episode"], start_cycle=e["start_cycle"], end_cycle=e["end_cycle"],
-                              end=e["end"], simulator_step_ms=step_ms)
+                              end=e["end"], simulator_step_ms=step_ms,
+                              missed=tuple((str(k), int(v)) for k, v in e.get("missed", {}).items()))
                 for e in entries[1:] if e.get("type") == "episode"]
     return header, episodes
 

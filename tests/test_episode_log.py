@@ -119,7 +119,7 @@ def test_jsonl_header_and_episode_lines(tmp_path):
     assert lines[0] == {"type": "header", "format": "keepaway-episodes", "version": 1, "seed": 42,
                         "config": {"keepers": 3, "takers": 2}, "params": CLASSIC.to_dict()}
     assert lines[3] == {"type": "episode", "episode": 3, "start_cycle": 28, "end_cycle": 93,
-                        "duration": 65, "hold_time_s": 6.5, "end": "taken"}
+                        "duration": 65, "hold_time_s": 6.5, "end": "taken", "missed": {}}
     header, episodes = read_jsonl(path)
     assert header["seed"] == 42
     assert episodes == EPISODES
@@ -158,6 +158,27 @@ def test_read_jsonl_uses_the_logged_step_length(tmp_path):
         log.write(EPISODES[2])
     _, episodes = read_jsonl(path)
     assert episodes[0].hold_time_s == pytest.approx(3.25)  # 65 cycles x 50 ms
+
+
+def test_jsonl_marks_the_players_an_episode_was_played_without(tmp_path):
+    short = EpisodeRecord(4, 93, 150, "out", missed=(("keeper 2", 25), ("taker 1", 3)))
+    with JsonlLog(tmp_path / "e.jsonl", seed=1, config={}, params=CLASSIC.to_dict()) as log:
+        log.write(EPISODES[0])
+        log.write(short)
+    lines = [json.loads(line) for line in (tmp_path / "e.jsonl").read_text().splitlines()]
+    assert lines[1]["missed"] == {} and lines[2]["missed"] == {"keeper 2": 25, "taker 1": 3}
+    assert read_jsonl(tmp_path / "e.jsonl")[1] == [EPISODES[0], short]
+
+
+def test_a_log_written_before_missed_existed_reads_as_full_episodes(tmp_path):
+    path, log = _jsonl(tmp_path)
+    log.close()
+    old = [json.loads(line) for line in path.read_text().splitlines()]
+    for entry in old[1:]:
+        del entry["missed"]
+    path.write_text("".join(json.dumps(entry) + "\n" for entry in old))
+    assert read_jsonl(path)[1] == EPISODES
+    assert all(e.missed == () for e in read_jsonl(path)[1])
 
 
 def test_a_new_log_sets_an_earlier_one_aside_instead_of_overwriting_it(tmp_path):
