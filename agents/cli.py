@@ -4,8 +4,10 @@ The socket edge of :class:`agents.player.PlayerAgent` (style guide, "Sockets at 
 socket (LINGER 0 but for a bounded wait after ``bye``, the protocol's size limit), one poll loop, every
 frame decoded by ``protocol`` before the agent sees it. Exit codes: 0 when the server shuts down or on
 SIGTERM/SIGINT (after saying ``bye``), 2 when the player cannot start (bad policy file, no server within
-``--connect-timeout``, ``init`` refused). Expected conditions end with one line on stderr, never a
-traceback.
+``--connect-timeout``, ``init`` or ``reconnect`` refused). Expected conditions end with one line on
+stderr, never a traceback. With ``--reconnect UNUM`` the player takes back the seat of a player of its
+team that is gone (crashed, killed, or given up by the server) instead of joining anew
+(docs/protocol.md 12 "Rejoin").
 """
 
 from __future__ import annotations
@@ -61,12 +63,15 @@ class _StopFlag:
             raise PlayerExit(EXIT_OK)
 
 
-def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop: _StopFlag) -> int:
-    """Connect, send ``init`` and feed ``agent`` until the server shuts down or ``stop`` is set.
-    Returns the exit code; raises :class:`PlayerExit` when the player cannot start."""
+def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop: _StopFlag,
+               reconnect: int | None = None) -> int:
+    """Connect, send ``init`` (or with ``reconnect`` a uniform number, ``reconnect`` to it) and feed
+    ``agent`` until the server shuts down or ``stop`` is set. Returns the exit code; raises
+    :class:`PlayerExit` when the player cannot start."""
     import zmq
 
     from agents.policy_file import PolicyFileError
+    from protocol import PROTOCOL_VERSION
     from protocol import messages as m
     from protocol.codec import encode
     from protocol.endpoints import configure
@@ -92,7 +97,11 @@ def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop
             send(m.Bye())
             linger_ms = BYE_LINGER_MS
 
-        send(m.Init(team=agent.team, client=CLIENT_NAME, fullstate=agent.fullstate))
+        if reconnect is None:
+            send(m.Init(team=agent.team, client=CLIENT_NAME, fullstate=agent.fullstate))
+        else:
+            send(m.Reconnect(version=PROTOCOL_VERSION, team=agent.team, unum=reconnect))
+        joining = "init" if reconnect is None else "reconnect"
         deadline = time.monotonic() + connect_timeout_s
         while True:
             if stop.signal_name is not None:
@@ -119,7 +128,8 @@ def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop
                     return EXIT_OK
                 if isinstance(msg, m.Error):
                     if not agent.ready:
-                        raise PlayerExit(EXIT_START_FAILED, f"the server refused init: {msg.code}: {msg.message}")
+                        raise PlayerExit(EXIT_START_FAILED,
+                                         f"the server refused {joining}: {msg.code}: {msg.message}")
                     log.warning("server error at cycle %d: %s: %s", msg.cycle, msg.code, msg.message)
                     continue
                 try:
@@ -159,11 +169,16 @@ def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop
 @click.option("--seed", type=click.IntRange(0, MAX_SEED), default=0, show_default=True,
               help="Seed of the player's own randomness (combined with its side and uniform number).")
 @click.option("--fullstate", is_flag=True, help="Use the exact fullstate percepts instead of seeing.")
+@click.option("--reconnect", type=click.IntRange(1, 11), default=None, metavar="UNUM",
+              help="Take back the seat of this uniform number of the team, whose player is gone (crashed, "
+                   "killed, or given up by the server), instead of joining anew; the seat keeps the "
+                   "settings of its first init (--fullstate).")
 @click.option("--connect-timeout", "connect_timeout_s", type=click.FloatRange(min=0.0, min_open=True), default=60.0,
               show_default=True, help="Seconds to wait for the server's init_ok before giving up (exit 2).")
 @click.option("-v", "--verbose", count=True, help="More log output (-v info, -vv debug).")
 def player_command(team: str, pass_policy: str, getopen_policy: str, policy_path: Path | None, endpoint: str,
-                   seed: int, fullstate: bool, connect_timeout_s: float, verbose: int) -> None:
+                   seed: int, fullstate: bool, reconnect: int | None, connect_timeout_s: float,
+                   verbose: int) -> None:
     """Run one Keepaway player: connect to the server, play until it ends, exit.
 
     Exits 0 when the server shuts down or on SIGTERM/SIGINT (after saying bye), 2 when it cannot start.
@@ -188,7 +203,7 @@ def player_command(team: str, pass_policy: str, getopen_policy: str, policy_path
             log.warning("--getopen learned without --policy: GetOpen uses zero weights until the coach "
                         "sends a policy")
         compile_kernels()
-        code = run_player(agent, endpoint, connect_timeout_s, stop)
+        code = run_player(agent, endpoint, connect_timeout_s, stop, reconnect)
     except PolicyFileError as exc:
         click.echo(f"keepaway player: {exc}", err=True)
         sys.exit(EXIT_START_FAILED)

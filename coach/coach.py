@@ -16,6 +16,15 @@ served in three steps:
    chunk of each (or with an error after :data:`REPORT_TIMEOUT_S`).
 
 Sockets stay in this one loop; every frame is decoded by ``protocol`` before it is acted on.
+
+Frame limits agree end to end (docs/protocol.md 1): the coach forwards a request's advice only if each
+``hear`` it becomes fits the server's ``max_message_bytes`` (from ``coach_init_ok``'s config), and answers
+a reply that would not fit the arena port's limit with an error; either is ``too_large``, one line.
+The coach keeps its session: while a run is pending it looks at the server at least every
+:data:`HEARTBEAT_S`; a ``not_initialised`` answer (the server no longer knows this connection, e.g.
+ZeroMQ reconnected it) makes it send ``coach_init`` again, then a run not yet begun starts over, a run
+under way is answered ``session_lost`` (its episodes may have gone to the old connection), and a pending
+``stop_arena`` is sent again.
 """
 
 from __future__ import annotations
@@ -28,10 +37,10 @@ from typing import Any
 
 import zmq
 
-from protocol import PROTOCOL_VERSION, ProtocolError, bind, configure, encode
+from protocol import DEFAULT_MAX_MESSAGE_BYTES, PROTOCOL_VERSION, ProtocolError, bind, configure, encode
 from protocol import messages as m
 from protocol.arena import ARENA_MAX_MESSAGE_BYTES, EpisodesDone, RunEpisodes, StopArena, decode_from_trainer
-from protocol.messages import decode_for_coach
+from protocol.messages import advice_hear, decode_for_coach
 
 log = logging.getLogger("keepaway.coach")
 
@@ -41,6 +50,8 @@ log = logging.getLogger("keepaway.coach")
 REPORT_TIMEOUT_S = 60.0
 # How often the coach asks the server whether the game has started while a run waits for it.
 LOOK_INTERVAL_S = 0.1
+# How often at least the coach looks at the server while a run is under way (module docstring).
+HEARTBEAT_S = 1.0
 
 
 @dataclass
@@ -95,26 +106,31 @@ class Coach:
     def __post_init__(self) -> None:
         self.ctx = zmq.Context()
         self.server = self.ctx.socket(zmq.DEALER)
-        configure(self.server)
+        # the server is trusted: what it relays (a player's report, a little larger than the report the
+        # server took) is taken up to the arena port's limit, where it goes next
+        configure(self.server, ARENA_MAX_MESSAGE_BYTES)
         self.arena: zmq.Socket | None = None
         self.pending: PendingRun | None = None
         self.bound_arena_port: int | None = None
         self.keepers = 0
+        self.server_max_bytes = DEFAULT_MAX_MESSAGE_BYTES  # the server's decoder limit (coach_init_ok)
         self.server_paused = False  # known to stand still between cycles (step 1 of a run)
+        self.rejoining = False  # coach_init sent again after the server forgot this connection
+        self.stop_requested = False  # a trainer's stop_arena (sent again after a rejoin)
         self._last_look = 0.0
 
     def connect(self) -> m.CoachInitOk:
         """Say hello to the server; raises ConnectionError in one line if it does not answer."""
         self.server.connect(self.server_endpoint)
-        self.server.send(encode(m.CoachInit(version=PROTOCOL_VERSION, client="keepaway-coach")))
+        self.server.send(self._coach_init())
         if not self.server.poll(int(self.connect_timeout_s * 1000)):
             raise ConnectionError(f"no server at {self.server_endpoint} after {self.connect_timeout_s:g} s")
-        reply = decode_for_coach(self.server.recv())
+        reply = decode_for_coach(self.server.recv(), ARENA_MAX_MESSAGE_BYTES)
         if isinstance(reply, m.Error):
             raise ConnectionError(f"server refused the coach: {reply.code}: {reply.message}")
         if not isinstance(reply, m.CoachInitOk):
             raise ConnectionError(f"unexpected answer to init: {reply.TYPE}")
-        self.keepers = int(reply.config.get("keepers", 0))
+        self._take_config(reply)
         if self.arena_port is not None and self.idle:
             self.server.send(encode(m.EpisodeControl(action="pause")))
         if self.arena_port is not None:
@@ -158,6 +174,40 @@ class Coach:
         self.ctx.term()
 
     # -- server port --------------------------------------------------------------------------------
+    @staticmethod
+    def _coach_init() -> bytes:
+        return encode(m.CoachInit(version=PROTOCOL_VERSION, client="keepaway-coach"))
+
+    def _take_config(self, reply: m.CoachInitOk) -> None:
+        self.keepers = int(reply.config.get("keepers", 0))
+        limit = reply.config.get("max_message_bytes")
+        if type(limit) is int and limit > 0:
+            self.server_max_bytes = limit
+
+    def _rejoin(self) -> None:
+        """The server no longer knows this connection: say coach_init again (once until answered)."""
+        if not self.rejoining:
+            self.rejoining = True
+            log.warning("the server lost this coach's session; joining again")
+            self.server.send(self._coach_init())
+
+    def _rejoined(self, reply: m.CoachInitOk) -> None:
+        """Take up the session again (module docstring)."""
+        self.rejoining = False
+        self._take_config(reply)
+        log.warning("joined the server again at cycle %d", reply.cycle)
+        run = self.pending
+        if run is not None and run.begun:
+            self.pending = None
+            self._reply(run.identity, m.Error(cycle=reply.cycle, code="session_lost",
+                                              message="the coach lost its server session during the run; "
+                                                      "it has joined again: send the request again"))
+        elif run is not None:
+            run.pause_sent = False
+            self.server_paused = False
+        if self.stop_requested:
+            self.server.send(encode(m.EpisodeControl(action="stop")))
+
     def _drain_server(self) -> None:
         while True:
             try:
@@ -165,7 +215,7 @@ class Coach:
             except zmq.Again:
                 return
             try:
-                msg = decode_for_coach(data)
+                msg = decode_for_coach(data, ARENA_MAX_MESSAGE_BYTES)
             except ProtocolError as exc:
                 log.warning("bad message from the server: %s: %s", exc.code, exc.message)
                 continue
@@ -177,6 +227,10 @@ class Coach:
                 self.server_paused = self.server_paused or msg.paused
             elif isinstance(msg, m.Shutdown):
                 self.stop_reason = f"server shut down: {msg.reason}"
+            elif isinstance(msg, m.CoachInitOk) and self.rejoining:
+                self._rejoined(msg)
+            elif isinstance(msg, m.Error) and msg.code == "not_initialised":
+                self._rejoin()
             elif isinstance(msg, m.Error):
                 log.warning("server error: %s: %s", msg.code, msg.message)
 
@@ -215,10 +269,24 @@ class Coach:
                 if self.pending is not None:
                     self._reply(ident, m.Error(cycle=0, code="busy", message="a run is already in progress"))
                     continue
+                too_large = self._advice_too_large(msg)
+                if too_large is not None:
+                    self._reply(ident, m.Error(cycle=0, code="too_large", message=too_large))
+                    continue
                 self.pending = PendingRun(ident, msg)
                 self._tick()
             elif isinstance(msg, StopArena):
+                self.stop_requested = True
                 self.server.send(encode(m.EpisodeControl(action="stop")))
+
+    def _advice_too_large(self, request: RunEpisodes) -> str | None:
+        """Why the request's advice cannot be forwarded (a ``hear`` above the server's limit), or None."""
+        for i, (target, payload) in enumerate(request.advice):
+            size = len(encode(advice_hear(payload)))
+            if size > self.server_max_bytes:
+                return (f"advice {i} (to {target}) would reach the players as a {size}-byte hear; "
+                        f"the server takes at most {self.server_max_bytes} bytes per message")
+        return None
 
     def _tick(self) -> None:
         """Time-driven steps of a pending run: pause the server and wait until it stands still (step 1);
@@ -227,6 +295,9 @@ class Coach:
         if run is None:
             return
         now = time.monotonic()
+        if run.begun and now - self._last_look >= HEARTBEAT_S:
+            self._last_look = now
+            self.server.send(encode(m.Look()))  # answered not_initialised if the session is lost
         if not run.begun and not self.server_paused:
             if not run.pause_sent:
                 run.pause_sent = True
@@ -263,10 +334,18 @@ class Coach:
         self.server.send(encode(m.EpisodeControl(action="resume")))
 
     def _reply(self, ident: bytes, msg: Any) -> None:
+        """Answer a trainer; an answer above the arena port's limit becomes a ``too_large`` error (the
+        trainer's ZeroMQ would drop the connection, and the answer, without a word)."""
         if self.arena is None:
             return
+        data = encode(msg)
+        if len(data) > ARENA_MAX_MESSAGE_BYTES:
+            log.warning("an answer of %d bytes is over the arena port's limit", len(data))
+            data = encode(m.Error(cycle=getattr(msg, "cycle", 0), code="too_large",
+                                  message=f"the answer would be {len(data)} bytes; the arena port takes at "
+                                          f"most {ARENA_MAX_MESSAGE_BYTES}: ask for fewer episodes or reports"))
         try:
-            self.arena.send_multipart([ident, encode(msg)], zmq.NOBLOCK)
+            self.arena.send_multipart([ident, data], zmq.NOBLOCK)
         except zmq.ZMQError:
             log.warning("trainer %s vanished before its answer", ident.hex()[:10])
 

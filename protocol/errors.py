@@ -22,6 +22,27 @@ CODEC_ERROR_CODES: tuple[str, ...] = (
 )
 """The codes :func:`protocol.codec.decode` uses (docs/protocol.md, "Errors")."""
 
+REQUEST_ERROR_CODES: tuple[str, ...] = (
+    "not_initialised",  # a player or coach message before init / coach_init (or after bye)
+    "already_initialised",  # init or reconnect on a connection that already is a player
+    "no_more_player",  # init when the team (or the requested number) is full
+    "no_such_player",  # reconnect to a number the team does not have
+    "cannot_reconnect",  # reconnect to a number whose client still answers
+    "illegal_teamname",  # the arena's own check of a team name (the decoder refuses it first)
+    "bad_cycle",  # a command for a cycle the server has not reached
+    "dropped",  # a warning: part of a command was not applied (a bad say, a low-quality view)
+    "missed_cycles",  # a warning: the server stopped waiting for this player
+    "over_budget",  # messages beyond the peer's budget of a cycle were dropped (counted)
+    "busy",  # arena port: a run_episodes while another is served
+    "reports_missing",  # arena port: the keepers' reports did not all arrive
+    "arena_stopped",  # arena port: the coach stopped with a run pending
+    "session_lost",  # arena port: the coach lost its server session during the run
+)
+"""The codes of messages that were decoded but refused, or of warnings (docs/rules.md 10)."""
+
+ERROR_CODES: tuple[str, ...] = CODEC_ERROR_CODES + REQUEST_ERROR_CODES
+"""Every code an ``error`` message may carry."""
+
 
 class ProtocolError(Exception):
     """A message that cannot be accepted: ``code`` is short snake_case, ``message`` one line saying why."""

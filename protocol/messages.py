@@ -401,6 +401,13 @@ class Advice(Message):
     payload: Any = wire(payload_value)
 
 
+def advice_hear(payload: Any, cycle: int = MAX_CYCLE) -> Hear:
+    """The ``hear`` that delivers an ``advice`` payload to a player. Encoded with the default cycle it
+    is the largest frame that payload can become: the coach checks it against the server's
+    ``max_message_bytes`` before forwarding a trainer's advice (docs/protocol.md 1)."""
+    return Hear(cycle=cycle, sender="coach", direction=None, unum=None, message=payload)
+
+
 # ``reset`` reseeds the arena's random stream with core.rng.seed_streams, which takes any int; the
 # wire allows msgpack's non-negative signed 64-bit ints.
 MAX_SEED = 2**63 - 1

@@ -75,7 +75,7 @@ class ArenaProcesses:
         self.stop()
 
     def start(self, name: str, argv: list[str], capture_stdout: bool = False) -> Member:
-        stderr = open(self.log_dir / f"{name.replace(' ', '_')}.log", "wb")
+        stderr = open(self.log_dir / f"{name.replace(' ', '_')}.log", "ab")  # a resumed run appends
         proc = subprocess.Popen(argv, stdout=subprocess.PIPE if capture_stdout else subprocess.DEVNULL,
                                 stderr=stderr, start_new_session=True,
                                 preexec_fn=die_with_parent if sys.platform == "linux" else None)

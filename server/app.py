@@ -2,7 +2,14 @@
 
 Socket handling lives here and only here (zguide style): one poller loop, explicit linger, every frame
 decoded and validated by ``protocol`` before the game (``server/arena.py``) sees it. A bad message gets
-a one-line ``error`` reply and a log line; it never stops the loop.
+a one-line ``error`` reply and a (rate-limited, counted) log line; it never stops the loop. Input is read
+fairly and in bounded amounts (``server/intake.py``): no client, however fast it sends, holds the loop
+away from the game.
+
+Rejoin (docs/protocol.md 12): a player whose connection is gone (unreachable, or given up after
+``max_missed_cycles``) loses its seat to a ``reconnect`` for its number; the body stays on the pitch as
+it was. The cycles of an episode stepped without a player's command are counted per player and logged
+with the episode (``EpisodeRecord.missed``), so short-handed episodes are marked.
 
 Pausing (docs/protocol.md 12 "Coach"): the clock stands still between cycles, before any percept of the
 next cycle, so a pause that falls due at an episode's end (``pause`` with ``episodes_left``) holds the
@@ -13,6 +20,7 @@ the players take the boundary and the advice while the clock stands still.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import signal
 import time
@@ -24,14 +32,15 @@ import zmq
 
 from protocol import messages as m
 from protocol.codec import encode
-from protocol.messages import decode_from_coach, decode_from_player
+from protocol.messages import advice_hear, decode_from_coach, decode_from_player
 from protocol.endpoints import MONITOR_EPISODE_TOPIC, MONITOR_FRAME_TOPIC, bind, configure
 from protocol.errors import ProtocolError
 from protocol import PROTOCOL_VERSION
-from server.arena import Arena, ArenaError, PlayerSlot, compile_kernels, truth_state
+from server.arena import TEAMS, Arena, ArenaError, PlayerSlot, compile_kernels, player_name, truth_state
 from server.config import ServerConfig
 from server.episode_log import EpisodeRecord, JsonlLog, KwyLog
-from server.log_limit import RepeatLimit
+from server.intake import ROUND_MESSAGES, WINDOW_S, Intake
+from server.log_limit import KIND_ATTR, RepeatLimit
 
 log = logging.getLogger("keepaway.server")
 # A hung player's "missed cycle" would otherwise be logged every cycle timeout (server/log_limit.py).
@@ -53,12 +62,11 @@ class Connection:
     slot: PlayerSlot
     answered: int = -1  # last cycle this client answered (sync mode)
     missed: int = 0  # consecutive missed cycles
-    hung: bool = False  # missed more than max_missed_cycles: no longer waited for
+    hung: bool = False  # given up (missed max_missed_cycles, or unreachable): no longer waited for
 
     @property
     def name(self) -> str:
-        team = "keeper" if self.slot.side == "l" else "taker"
-        return f"{team} {self.slot.unum}"
+        return player_name(self.slot)
 
 
 @dataclass
@@ -98,6 +106,11 @@ class Server:
         self.standing_still = False  # paused between two cycles, no command pending (look_ok.paused)
         self.pause_after: int | None = None  # pause once this many more episodes have ended
         self.next_see: dict[bytes, float] = {}  # real-time mode: each player's next see (monotonic s)
+        self.intakes = {self.players: Intake(cfg.player_budget, cfg.unseated_budget),
+                        self.coach: Intake(None, cfg.unseated_budget)}
+        self.window_opened = time.monotonic()  # of the wall-time budget window (server/intake.py)
+        self.percepts_cycle = -1  # the last cycle whose percepts went out
+        self.absent: dict[int, int] = {}  # object -> cycles of this episode stepped without its command
         self._t0 = time.monotonic()
 
     # -- lifecycle -----------------------------------------------------------------------------------
@@ -153,6 +166,8 @@ class Server:
 
     def close(self) -> None:
         reason = self.stop_reason or "server stopped"
+        self._close_budget_windows(seated=True)
+        self._close_budget_windows(seated=False)
         shutdown = encode(m.Shutdown(cycle=self.arena.cycle, reason=reason))
         for ident in list(self.conns) + list(self.coaches):
             sock = self.coach if ident in self.coaches else self.players
@@ -246,7 +261,10 @@ class Server:
         log.info("game started with %d players", len(self.conns))
 
     def _all_answered(self, cycle: int) -> bool:
-        return all(c.answered >= cycle or c.hung for c in self.conns.values())
+        """Every player has answered ``cycle``, or is not waited for: given up, or its budget of the
+        cycle spent (server/intake.py)."""
+        intake = self.intakes[self.players]
+        return all(c.answered >= cycle or c.hung or intake.spent(c.identity) for c in self.conns.values())
 
     def _missed_cycle(self, cycle: int) -> None:
         cfg = self.config
@@ -271,7 +289,9 @@ class Server:
 
     # -- the cycle -----------------------------------------------------------------------------------
     def _step(self) -> None:
+        self._count_absent()
         record = self.arena.step()
+        self._close_budget_windows(seated=True)
         if self.monitor_subscribers:
             self._publish(MONITOR_FRAME_TOPIC, m.Frame(cycle=self.arena.cycle, **truth_state(self.arena)))
         if record is not None:
@@ -280,8 +300,23 @@ class Server:
         if cfg.max_cycles is not None and self.arena.cycle >= cfg.max_cycles:
             self.request_stop(f"reached {cfg.max_cycles} cycles")
 
+    def _count_absent(self) -> None:
+        """Before a step: count, per player, the step played without its command for this cycle (an
+        empty seat, a given-up connection, or in synchronous mode no answer in time)."""
+        cycle = self.arena.cycle
+        sync = self.config.mode == "sync"
+        present = {c.slot.obj for c in self.conns.values()
+                   if not c.hung and (not sync or c.answered >= cycle)}
+        for s in self.arena.slots:
+            if s.obj not in present:
+                self.absent[s.obj] = self.absent.get(s.obj, 0) + 1
+
     def _episode_ended(self, record: EpisodeRecord) -> None:
         self.episodes_done += 1
+        if self.absent:
+            record = dataclasses.replace(record, missed=tuple(
+                (player_name(self.arena.slot(obj)), n) for obj, n in sorted(self.absent.items())))
+            self.absent = {}
         for logger in (self.kwy, self.jsonl):
             if logger is not None:
                 logger.write(record)
@@ -307,6 +342,7 @@ class Server:
     def _send_cycle_percepts(self, think: bool, see: bool = True) -> None:
         arena = self.arena
         cycle = arena.cycle
+        self.percepts_cycle = cycle
         # object order, not connection order: the see draws identity-loss randomness from the arena's
         # one stream, so the order must not depend on which process connected first (determinism)
         for conn in sorted(self.conns.values(), key=lambda c: c.slot.obj):
@@ -318,29 +354,63 @@ class Server:
 
     # -- sockets -------------------------------------------------------------------------------------
     def _poll(self, poller: zmq.Poller, timeout_ms: int) -> None:
-        events = dict(poller.poll(timeout_ms))
-        if self.players in events:
-            self._drain(self.players, self._on_player)
-        if self.coach in events:
-            self._drain(self.coach, self._on_coach)
+        """One poll round (``server/intake.py``): the seated peers' waiting messages that fit this
+        window, then at most ROUND_MESSAGES frames per socket, each peer within its budget; the seated
+        peers' messages are served first, then the others'."""
+        seated = [(sock, frames) for sock, intake in self.intakes.items() for frames in intake.due()]
+        unseated: list[tuple[zmq.Socket, list[bytes]]] = []
+        wait_ms = 0 if seated else min(timeout_ms, int(WINDOW_S * 1000))  # windows end on time
+        events = dict(poller.poll(wait_ms))
         if self.monitor in events:
             self._drain_monitor()
+        for sock, members in ((self.players, self.conns), (self.coach, self.coaches)):
+            if sock in events:
+                self._read_round(sock, members, seated, unseated)
+        for sock, frames in seated + unseated:
+            self._serve(sock, frames)
+        if time.monotonic() - self.window_opened >= WINDOW_S:
+            self.window_opened = time.monotonic()
+            self._close_budget_windows(seated=True)
+            self._close_budget_windows(seated=False)
 
-    def _drain(self, sock: zmq.Socket, handler: Callable[[bytes, bytes], None]) -> None:
-        while True:
+    def _read_round(self, sock: zmq.Socket, members: Any, seated: list, unseated: list) -> None:
+        """Read up to ROUND_MESSAGES frames of ``sock``; those within their peer's budget go to
+        ``seated`` or ``unseated`` (``members``: the peers that have joined), the rest wait or are
+        dropped."""
+        intake = self.intakes[sock]
+        for _ in range(ROUND_MESSAGES):
             try:
                 frames = sock.recv_multipart(zmq.NOBLOCK)
             except zmq.Again:
                 return
-            if len(frames) != 2:
-                log.warning("dropped a message of %d frames (expected one msgpack frame)", len(frames) - 1)
-                if frames:
-                    self._error_raw(sock, frames[0], "malformed", "send exactly one msgpack frame per message")
-                continue
-            handler(frames[0], frames[1])
+            member = frames[0] in members
+            if intake.admit(frames[0], member, frames):
+                (seated if member else unseated).append((sock, frames))
+
+    def _serve(self, sock: zmq.Socket, frames: list[bytes]) -> None:
+        if len(frames) != 2:
+            self._error_raw(sock, frames[0], "malformed", "send exactly one msgpack frame per message")
+            return
+        (self._on_player if sock is self.players else self._on_coach)(frames[0], frames[1])
+
+    def _close_budget_windows(self, seated: bool) -> None:
+        """End the seated (or unseated) peers' budget window: each peer that went over its budget gets
+        one counted ``over_budget`` error and the log one (rate-limited) line."""
+        window = "cycle" if seated else f"{WINDOW_S:g} s"
+        for sock, intake in self.intakes.items():
+            budget = intake.budget(seated)
+            for ident, count in intake.close_window(seated).items():
+                conn = self.conns.get(ident) if sock is self.players else None
+                who = conn.name if conn is not None else f"client {ident.hex()[:10]}"
+                log.warning("%s: over_budget: dropped %d messages beyond its budget of %d per %s",
+                            who, count, budget, window)
+                self._send_raw(sock, ident, encode(m.Error(
+                    cycle=self.arena.cycle, code="over_budget",
+                    message=f"dropped {count} messages beyond your budget of {budget} per {window}")))
 
     def _drain_monitor(self) -> None:
-        while True:
+        """Count the monitor's (un)subscriptions: at most ROUND_MESSAGES a round, like the other ports."""
+        for _ in range(ROUND_MESSAGES):
             try:
                 event = self.monitor.recv(zmq.NOBLOCK)
             except zmq.Again:
@@ -357,12 +427,20 @@ class Server:
         try:
             sock.send_multipart([ident, data], zmq.NOBLOCK)
         except zmq.ZMQError as exc:  # peer gone (ROUTER_MANDATORY) or its queue is full
+            if exc.errno != zmq.EHOSTUNREACH:
+                return
+            if sock is self.coach:
+                self.coaches.discard(ident)
+                return
             conn = self.conns.get(ident)
-            if conn is not None and exc.errno == zmq.EHOSTUNREACH and not conn.hung:
+            if conn is not None and not conn.hung:
                 self._give_up_on(conn, f"{conn.name} is unreachable (disconnected?)")
 
     def _error_raw(self, sock: zmq.Socket, ident: bytes, code: str, message: str) -> None:
-        log.warning("client %s: %s: %s", ident.hex()[:10], code, message)
+        """Answer a refused message; the log line's kind is the client and the code, whatever the
+        message says (server/log_limit.py), so a flood of varied bad input costs one line a second."""
+        who = ident.hex()[:10]
+        log.warning("client %s: %s: %s", who, code, message, extra={KIND_ATTR: (who, code)})
         self._send_raw(sock, ident, encode(m.Error(cycle=self.arena.cycle, code=code, message=message)))
 
     def _publish(self, topic: bytes, msg: Any) -> None:
@@ -406,14 +484,34 @@ class Server:
                 slot = self.arena.connect(msg.team, msg.unum, fullstate=msg.fullstate,
                                           synch_see=msg.synch_see, now_ms=now_ms)
             else:
+                self._release_if_gone(msg.team, msg.unum)
                 slot = self.arena.reconnect(msg.team, msg.unum, now_ms=now_ms)
         except ArenaError as exc:
             self._error_raw(self.players, ident, exc.code, exc.message)
             return
-        conn = Connection(ident, slot, answered=self.arena.cycle - 1)
+        # waited for in this cycle only if its percepts are still to come
+        cycle = self.arena.cycle
+        conn = Connection(ident, slot, answered=cycle if self.percepts_cycle == cycle else cycle - 1)
         self.conns[ident] = conn
         log.info("%s connected (%s)", conn.name, "reconnect" if isinstance(msg, m.Reconnect) else "init")
         self._send(conn, self.arena.init_ok(slot, msg.team, self._client_config()))
+
+    def _release_if_gone(self, team: str, unum: int) -> None:
+        """Before a ``reconnect``: free the seat of ``team`` ``unum`` if its connection is gone. One
+        given up (unreachable, or ``max_missed_cycles`` missed) is; another is probed first: it gets a
+        one-line ``error``, and the send fails (ROUTER_MANDATORY) if the client has disconnected."""
+        holder = next((c for c in self.conns.values()
+                       if c.slot.side == TEAMS.get(team) and c.slot.unum == unum), None)
+        if holder is None:
+            return
+        if not holder.hung:
+            self._send(holder, m.Error(cycle=self.arena.cycle, code="cannot_reconnect",
+                                       message=f"another client asked to reconnect as {holder.name}"))
+        if holder.hung:
+            log.warning("%s: its seat is taken back by a reconnect", holder.name)
+            self.arena.release(holder.slot.obj)
+            del self.conns[holder.identity]
+            self.next_see.pop(holder.identity, None)
 
     def _on_command(self, conn: Connection, msg: m.Command) -> None:
         cycle = self.arena.cycle
@@ -425,13 +523,16 @@ class Server:
         for text in warnings:
             self._send(conn, m.Error(cycle=cycle, code="dropped", message=text))
         if msg.cycle == cycle:
+            if conn.hung:
+                log.warning("%s answers again (cycle %d); waiting for it again", conn.name, cycle)
             conn.answered = cycle
             conn.missed = 0
             conn.hung = False
 
     def _client_config(self) -> dict:
         cfg = self.config
-        return {"mode": cfg.mode, "keepers": cfg.keepers, "takers": cfg.takers, "seed": cfg.seed}
+        return {"mode": cfg.mode, "keepers": cfg.keepers, "takers": cfg.takers, "seed": cfg.seed,
+                "max_message_bytes": cfg.max_message_bytes}
 
     def _virtual_ms(self) -> float:
         if self.config.mode == "sync":
@@ -464,6 +565,12 @@ class Server:
             self._send_raw(self.coach, ident, encode(m.LookOk(cycle=self.arena.cycle, state=truth_state(self.arena),
                                                               paused=self.standing_still)))
         elif isinstance(msg, m.Advice):
+            size = len(encode(advice_hear(msg.payload, self.arena.cycle)))
+            if size > self.config.max_message_bytes:
+                self._error_raw(self.coach, ident, "too_large",
+                                f"advice: its hear would be {size} bytes; players take at most "
+                                f"{self.config.max_message_bytes}")
+                return
             self.arena.advise(self.arena.advice_targets(msg.target), msg.payload)
         elif isinstance(msg, m.EpisodeControl):
             self._on_episode_control(ident, msg)
@@ -487,6 +594,7 @@ class Server:
             log.info("resumed at cycle %d", self.arena.cycle)
         elif msg.action == "reset":
             self.arena.reset_episode(msg.seed, now_ms=self._virtual_ms())
+            self.absent = {}  # the restarted episode is not the one logged so far
             if msg.seed is not None:
                 self.next_see.clear()  # real-time see timers restart as on connect, like the arena's
             log.info("episode reset at cycle %d%s", self.arena.cycle,

@@ -133,6 +133,12 @@ class Arena:
         self.world.enabled[0, s.obj] = True
         return s
 
+    def release(self, obj: int) -> None:
+        """Free the seat of a client that is gone without ``bye`` (docs/protocol.md 12 "Rejoin"), for a
+        ``reconnect``: unlike :meth:`disconnect` the player stays on the pitch as it is, so for the game
+        the rejoining client only takes over a player that missed some cycles."""
+        self.slot(obj).connected = False
+
     def disconnect(self, obj: int) -> None:
         """bye: the player is disabled and parked off the pitch (spec 6)."""
         s = self.slot(obj)
@@ -298,8 +304,7 @@ class Arena:
         for obj in objs:
             s = self.slot(obj)
             if s.connected:
-                s.hears.append(m.Hear(cycle=self.cycle, sender="coach", direction=None, unum=None,
-                                      message=payload))
+                s.hears.append(m.advice_hear(payload, self.cycle))
 
     def _deliver_says(self) -> None:
         """Says of cycle t are heard in t+1 (spec 4 Hearing): self always, others as
@@ -374,6 +379,11 @@ class Arena:
         return landmarks_to_wire()
 
 
+def player_name(s: PlayerSlot) -> str:
+    """How logs name a player: ``keeper 1``, ``taker 2``."""
+    return f"{'keeper' if s.side == 'l' else 'taker'} {s.unum}"
+
+
 def _normalize_deg(a: float) -> float:
     a = math.fmod(a + 180.0, 360.0)
     if a < 0:
@@ -401,4 +411,4 @@ def compile_kernels(params: ServerParams, keepers: int, takers: int) -> None:
     scratch.step()
 
 
-__all__ = ["Arena", "ArenaError", "PlayerSlot", "compile_kernels", "truth_state"]
+__all__ = ["Arena", "ArenaError", "PlayerSlot", "TEAMS", "compile_kernels", "player_name", "truth_state"]

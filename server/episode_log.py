@@ -2,6 +2,12 @@
 
 Both write one line per episode and flush it at once, so nothing already logged is lost if the process
 is killed (spec `server-physics.md` 5 "kwy log"; agents spec 6 for what an episode's hold time is).
+
+A log never overwrites an earlier one: a log file that already exists when a new one opens under its
+name (a resumed training, a second server on the same log directory) is first moved to the next free
+numbered name beside it, ``keepaway.jsonl`` to ``keepaway.1.jsonl``, then ``keepaway.2.jsonl``, ...
+(numbered in the order they were set aside; :func:`set_aside`), so the newest log is always under the
+plain name and every earlier one is kept whole.
 """
 
 from __future__ import annotations
@@ -36,6 +42,9 @@ class EpisodeRecord:
     end_cycle: int
     end: str
     simulator_step_ms: float = CLASSIC.simulator_step_ms
+    # (player, cycles): the players some steps of the episode were played without ("keeper 1"), and
+    # how many (an empty seat, a given-up connection, a synchronous-mode cycle not answered in time)
+    missed: tuple[tuple[str, int], ...] = ()
 
     def __post_init__(self) -> None:
         if self.end not in _KWY_CODES:
@@ -60,11 +69,37 @@ def cpp_number(value: float) -> str:
     return format(value, ".6g")
 
 
+def numbered(path: Path, number: int) -> Path:
+    """``dir/keepaway.jsonl`` numbered 2: ``dir/keepaway.2.jsonl``."""
+    return path.with_name(f"{path.stem}.{number}{path.suffix}")
+
+
+def free_name(path: Path) -> Path:
+    """``path`` if nothing is there, else its first numbered name (:func:`numbered`) that is free."""
+    candidate, number = path, 0
+    while candidate.exists():
+        number += 1
+        candidate = numbered(path, number)
+    return candidate
+
+
+def set_aside(path: Path) -> Path | None:
+    """Move an existing file at ``path`` to its first free numbered name (module docstring) and return
+    that name; None when there was nothing to move."""
+    if not path.exists():
+        return None
+    target = free_name(path)
+    path.rename(target)
+    return target
+
+
 class _LineLog:
-    """A text file written one flushed line at a time; ``close`` is idempotent."""
+    """A text file written one flushed line at a time; ``close`` is idempotent. An earlier file under
+    the same name is set aside first (:func:`set_aside`), never overwritten."""
 
     def __init__(self, path: Path) -> None:
         path.parent.mkdir(parents=True, exist_ok=True)
+        set_aside(path)
         self._path = path
         self._file: TextIO | None = open(path, "w", encoding="utf-8", newline="\n")
 
@@ -139,6 +174,7 @@ class KwyLog(_LineLog):
                            for team, score in zip(self._teams, (left_score, right_score)))
             final = self._directory / (time.strftime(KWY_DATE_FORMAT, self._opened_at)
                                        + f"{left}-vs-{right}{KWY_SUFFIX}")
+            final = free_name(final)
             self._path.rename(final)
             self._path = final
 
@@ -171,17 +207,20 @@ class JsonlLog(_LineLog):
                                      "seed": seed, "config": dict(config), "params": dict(params)}))
 
     def write(self, record: EpisodeRecord) -> None:
+        """One episode line; ``missed`` maps the players some of its steps were played without to how
+        many (``{}``: a full episode; logs written before the field existed have no ``missed``)."""
         self._write_line(json.dumps({"type": "episode", "episode": record.episode,
                                      "start_cycle": record.start_cycle, "end_cycle": record.end_cycle,
                                      "duration": record.duration, "hold_time_s": record.hold_time_s,
-                                     "end": record.end}))
+                                     "end": record.end, "missed": dict(record.missed)}))
 
 
 def read_jsonl(path: Path | str) -> tuple[dict[str, Any], list[EpisodeRecord]]:
     """The header and the episodes of a :class:`JsonlLog` file.
 
     A last line without its newline (the writer was killed mid-line) is skipped when it does not
-    parse; any other malformed line is a ValueError.
+    parse; any other malformed line is a ValueError. An episode line without ``missed`` (written before
+    the field existed) reads as a full episode.
     """
     text = Path(path).read_text(encoding="utf-8")
     lines = text.split("\n")
@@ -199,7 +238,8 @@ def read_jsonl(path: Path | str) -> tuple[dict[str, Any], list[EpisodeRecord]]:
         raise ValueError(f"{path}: unsupported {JSONL_FORMAT} version {header.get('version')!r}")
     step_ms = header.get("params", {}).get("simulator_step_ms", CLASSIC.simulator_step_ms)
     episodes = [EpisodeRecord(episode=e["episode"], start_cycle=e["start_cycle"], end_cycle=e["end_cycle"],
-                              end=e["end"], simulator_step_ms=step_ms)
+                              end=e["end"], simulator_step_ms=step_ms,
+                              missed=tuple((str(k), int(v)) for k, v in e.get("missed", {}).items()))
                 for e in entries[1:] if e.get("type") == "episode"]
     return header, episodes
 
@@ -221,6 +261,8 @@ __all__ = [
     "JsonlLog",
     "KwyLog",
     "cpp_number",
+    "free_name",
     "kwy_header",
     "read_jsonl",
+    "set_aside",
 ]

@@ -9,6 +9,12 @@ with the count of the others, so no line vanishes without being counted.
 Two lines are of one kind when they share logger, level, template (``record.msg``) and the arguments
 that are not numbers: "keeper 1 missed cycle 7 (3 in a row)" and "... cycle 8 (4 in a row)" are, the
 same line about keeper 2 is not, nor are two protocol errors of different codes logged with one template.
+A caller may name the kind itself (``extra={KIND_ATTR: ...}``) when a line carries text that varies
+without making it another kind, e.g. a decoder's message naming the bad value.
+
+A flood of lines costs little: a held-back line is a dictionary look-up and a counter, and the kinds
+whose window has passed without held-back lines are forgotten once more than :data:`MAX_KINDS` are kept,
+so lines of ever new kinds (a client under ever new identities) cannot grow the filter without bound.
 """
 
 from __future__ import annotations
@@ -22,6 +28,10 @@ from typing import Callable
 
 # Set on a record that flush() lets out, so that the filter passes it on the way through the logger.
 FLUSHED_ATTR = "repeat_limit_flushed"
+# Set on a record (``extra=``) to name its kind instead of deriving it (module docstring).
+KIND_ATTR = "repeat_kind"
+# Kinds kept before those without held-back lines and past their window are forgotten.
+MAX_KINDS = 1024
 
 
 @dataclass
@@ -39,6 +49,9 @@ def held_back_note(count: int, span_s: float) -> str:
 
 def kind_of(record: logging.LogRecord) -> tuple:
     """What makes two records repetitions of each other (module docstring)."""
+    named = getattr(record, KIND_ATTR, None)
+    if named is not None:
+        return record.name, record.levelno, named
     args = record.args if isinstance(record.args, tuple) else (record.args,)
     words = tuple(str(a) for a in args if not isinstance(a, numbers.Number))
     return record.name, record.levelno, str(record.msg), words
@@ -66,10 +79,18 @@ class RepeatLimit(logging.Filter):
                 window.held += 1
                 window.latest = record
                 return False
+            if window is None and len(self._windows) >= MAX_KINDS:
+                self._forget_quiet(now)
             self._windows[key] = _Window(opened=now)
         if window is not None and window.held:
             record.msg = f"{record.msg}{held_back_note(window.held, now - window.opened)}"
         return True
+
+    def _forget_quiet(self, now: float) -> None:
+        """Drop the kinds past their window with nothing held back (they would pass at once anyway)."""
+        quiet = [k for k, w in self._windows.items() if not w.held and now - w.opened >= self.interval_s]
+        for key in quiet:
+            del self._windows[key]
 
     def flush(self) -> None:
         """Let out the latest held-back line of each kind, noting how many others were held back."""

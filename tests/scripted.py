@@ -91,6 +91,20 @@ class ScriptedPlayer(ScriptedClient):
         return seen
 
 
+TEAMS = ["keepers"] * 3 + ["takers"] * 2
+
+
+def connect_all(endpoint: str, **init: Any) -> list[ScriptedPlayer]:
+    """Three keepers and two takers, joined in that order (keepers 1..3, takers 1..2)."""
+    players = []
+    for team in TEAMS:
+        p = ScriptedPlayer(endpoint)
+        reply = p.init(team, **init)
+        assert isinstance(reply, m.InitOk), reply
+        players.append(p)
+    return players
+
+
 class ScriptedCoach(ScriptedClient):
     def __init__(self, endpoint: str) -> None:
         super().__init__(endpoint, SERVER_TO_COACH)

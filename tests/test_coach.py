@@ -5,15 +5,19 @@ from __future__ import annotations
 import re
 import signal
 import subprocess
+import threading
 import time
 
 import pytest
 import zmq
 
+from coach.coach import Coach
 from conftest import keepaway_command, read_until_match
-from protocol import encode
+from protocol import PROTOCOL_VERSION, encode, parameter_set
 from protocol import messages as m
 from protocol.arena import EpisodesDone, RunEpisodes, StopArena, decode_for_trainer
+from protocol.landmarks import to_wire as landmarks_to_wire
+from protocol.messages import decode_from_coach
 from scripted import ScriptedCoach
 
 ARENA_RE = re.compile(r"arena=(tcp://\S+)\n")
@@ -113,3 +117,99 @@ def test_an_idle_arena_waits_paused_for_its_first_request(processes, tmp_path):
     finally:
         trainer.close(linger=0)
         watcher.close()
+
+
+class FakeServer:
+    """The server's coach port played by the test (a ROUTER), to drive the coach through a lost session."""
+
+    def __init__(self) -> None:
+        self.sock = zmq.Context.instance().socket(zmq.ROUTER)
+        self.sock.setsockopt(zmq.LINGER, 0)
+        self.endpoint = f"tcp://127.0.0.1:{self.sock.bind_to_random_port('tcp://127.0.0.1')}"
+        self.coach: bytes | None = None
+
+    def take(self, kind: type, timeout_s: float = 20.0):
+        """The coach's next message of ``kind`` (others, e.g. repeated looks, are passed over)."""
+        deadline = time.monotonic() + timeout_s
+        while True:
+            assert self.sock.poll(max(1, int((deadline - time.monotonic()) * 1000))), f"no {kind.__name__}"
+            self.coach, data = self.sock.recv_multipart()
+            msg = decode_from_coach(data)
+            if isinstance(msg, kind):
+                return msg
+
+    def send(self, msg) -> None:
+        self.sock.send_multipart([self.coach, encode(msg)])
+
+    def welcome(self) -> None:
+        self.take(m.CoachInit)
+        self.send(m.CoachInitOk(cycle=0, version=PROTOCOL_VERSION, params=parameter_set("classic").to_dict(),
+                                landmarks=landmarks_to_wire(), play_mode="play_on",
+                                config={"keepers": 3, "takers": 2, "max_message_bytes": 1 << 20}))
+
+    def forget(self, kind: type) -> None:
+        """Answer the coach's next ``kind`` as a server that no longer knows the connection."""
+        self.take(kind)
+        self.send(m.Error(cycle=0, code="not_initialised", message="send init first"))
+
+    def stand_still(self) -> None:
+        self.take(m.Look)
+        self.send(m.LookOk(cycle=7, paused=True, state={"ball": [0.0, 0.0, 0.0, 0.0], "players": [],
+                                                        "play_mode": "play_on", "episode": 1, "take_count": 0}))
+
+    def actions(self, n: int) -> list[str]:
+        return [self.take(m.EpisodeControl).action for _ in range(n)]
+
+
+def test_the_coach_refuses_what_it_cannot_forward_and_rejoins_a_server_that_lost_its_session():
+    server = FakeServer()
+    coach = Coach(server.endpoint, arena_port=0)
+    runner = threading.Thread(target=lambda: (coach.connect(), coach.run()), daemon=True)
+    runner.start()
+    server.welcome()
+    deadline = time.monotonic() + 20
+    while coach.bound_arena_port is None:
+        assert time.monotonic() < deadline
+        time.sleep(0.01)
+    trainer = zmq.Context.instance().socket(zmq.DEALER)
+    trainer.setsockopt(zmq.LINGER, 0)
+    trainer.connect(f"tcp://127.0.0.1:{coach.bound_arena_port}")
+
+    def answer() -> object:
+        assert trainer.poll(20_000), "no answer from the coach"
+        return decode_for_trainer(trainer.recv())
+
+    try:
+        # an advice above the server's limit (1 MiB here) is refused at once, in one line; nothing jams
+        trainer.send(encode(RunEpisodes(episodes=1, advice=(("keepers", {"kind": "x", "blob": b"x" * (1 << 20)}),))))
+        refused = answer()
+        assert isinstance(refused, m.Error) and refused.code == "too_large" and "1048576" in refused.message
+        # the session is lost before the run begins: the coach joins again and serves the run
+        trainer.send(encode(RunEpisodes(episodes=1)))
+        assert server.take(m.EpisodeControl).action == "pause"
+        server.forget(m.Look)
+        server.welcome()
+        assert server.take(m.EpisodeControl).action == "pause"  # step 1 starts over
+        server.stand_still()
+        assert server.actions(3) == ["reset", "pause", "resume"]
+        server.send(m.EpisodeEnd(cycle=40, episode=1, start_cycle=7, end_cycle=40, end="out"))
+        done = answer()
+        assert isinstance(done, EpisodesDone) and [list(e) for e in done.episodes] == [[1, 7, 40, "out"]]
+        # lost while the run is under way: its episodes may be gone, so the trainer is told
+        trainer.send(encode(RunEpisodes(episodes=1)))
+        assert server.actions(3) == ["reset", "pause", "resume"]  # it stood still since the last run
+        server.forget(m.Look)  # the heartbeat
+        server.welcome()
+        lost = answer()
+        assert isinstance(lost, m.Error) and lost.code == "session_lost"
+        # a stop lost with the session is sent again once the coach has joined again
+        trainer.send(encode(StopArena()))
+        server.forget(m.EpisodeControl)
+        server.welcome()
+        assert server.take(m.EpisodeControl).action == "stop"
+        server.send(m.Shutdown(cycle=41, reason="coach asked to stop"))
+        runner.join(20)
+        assert not runner.is_alive()
+    finally:
+        trainer.close(linger=0)
+        server.sock.close(linger=0)

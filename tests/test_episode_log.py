@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import json
 import re
+import time
 
 import pytest
 
 from protocol.params import CLASSIC
-from server.episode_log import EpisodeRecord, JsonlLog, KwyLog, cpp_number, read_jsonl
+from server.episode_log import EpisodeRecord, JsonlLog, KwyLog, cpp_number, free_name, read_jsonl
 
 # The spec's example, byte for byte (tab-separated episode lines).
 SPEC_EXAMPLE = (
@@ -118,7 +119,7 @@ def test_jsonl_header_and_episode_lines(tmp_path):
     assert lines[0] == {"type": "header", "format": "keepaway-episodes", "version": 1, "seed": 42,
                         "config": {"keepers": 3, "takers": 2}, "params": CLASSIC.to_dict()}
     assert lines[3] == {"type": "episode", "episode": 3, "start_cycle": 28, "end_cycle": 93,
-                        "duration": 65, "hold_time_s": 6.5, "end": "taken"}
+                        "duration": 65, "hold_time_s": 6.5, "end": "taken", "missed": {}}
     header, episodes = read_jsonl(path)
     assert header["seed"] == 42
     assert episodes == EPISODES
@@ -157,3 +158,61 @@ def test_read_jsonl_uses_the_logged_step_length(tmp_path):
         log.write(EPISODES[2])
     _, episodes = read_jsonl(path)
     assert episodes[0].hold_time_s == pytest.approx(3.25)  # 65 cycles x 50 ms
+
+
+def test_jsonl_marks_the_players_an_episode_was_played_without(tmp_path):
+    short = EpisodeRecord(4, 93, 150, "out", missed=(("keeper 2", 25), ("taker 1", 3)))
+    with JsonlLog(tmp_path / "e.jsonl", seed=1, config={}, params=CLASSIC.to_dict()) as log:
+        log.write(EPISODES[0])
+        log.write(short)
+    lines = [json.loads(line) for line in (tmp_path / "e.jsonl").read_text().splitlines()]
+    assert lines[1]["missed"] == {} and lines[2]["missed"] == {"keeper 2": 25, "taker 1": 3}
+    assert read_jsonl(tmp_path / "e.jsonl")[1] == [EPISODES[0], short]
+
+
+def test_a_log_written_before_missed_existed_reads_as_full_episodes(tmp_path):
+    path, log = _jsonl(tmp_path)
+    log.close()
+    old = [json.loads(line) for line in path.read_text().splitlines()]
+    for entry in old[1:]:
+        del entry["missed"]
+    path.write_text("".join(json.dumps(entry) + "\n" for entry in old))
+    assert read_jsonl(path)[1] == EPISODES
+    assert all(e.missed == () for e in read_jsonl(path)[1])
+
+
+def test_a_new_log_sets_an_earlier_one_aside_instead_of_overwriting_it(tmp_path):
+    for run in range(3):
+        with KwyLog(tmp_path, 3, 2, 20.0, 20.0, fixed_name="keepaway") as kwy:
+            kwy.write(EPISODES[run])
+        with JsonlLog(tmp_path / "keepaway.jsonl", seed=run, config={}, params=CLASSIC.to_dict()) as jsonl:
+            jsonl.write(EPISODES[run])
+    # the newest log under the plain name, the earlier ones numbered in the order they were set aside
+    for name, run in [("keepaway", 2), ("keepaway.1", 0), ("keepaway.2", 1)]:
+        header, episodes = read_jsonl(tmp_path / f"{name}.jsonl")
+        assert (header["seed"], episodes) == (run, [EPISODES[run]])
+        kwy_lines = (tmp_path / f"{name}.kwy").read_text().splitlines()
+        assert kwy_lines[0] == "# Keepers: 3" and kwy_lines[-1].startswith(f"{EPISODES[run].episode}\t")
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
+        f"{n}.{ext}" for n in ("keepaway", "keepaway.1", "keepaway.2") for ext in ("kwy", "jsonl"))
+
+
+def test_an_unfixed_kwy_never_renames_over_another_log(tmp_path, monkeypatch):
+    import server.episode_log as episode_log
+
+    moment = time.localtime()
+    monkeypatch.setattr(episode_log.time, "localtime", lambda: moment)  # both opened in the same second
+    paths = []
+    for record in EPISODES[:2]:
+        with KwyLog(tmp_path, 3, 2, 20.0, 20.0) as log:
+            log.write(record)
+        paths.append(log.path)
+    assert paths[1] == paths[0].with_name(paths[0].stem + ".1.kwy")
+    assert [p.read_text().splitlines()[-1][0] for p in paths] == ["1", "2"]
+
+
+def test_free_name_numbers_past_the_taken_names(tmp_path):
+    for name in ("k.jsonl", "k.1.jsonl", "k.3.jsonl"):
+        (tmp_path / name).write_text("")
+    assert free_name(tmp_path / "k.jsonl") == tmp_path / "k.2.jsonl"
+    assert free_name(tmp_path / "other.jsonl") == tmp_path / "other.jsonl"

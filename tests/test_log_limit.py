@@ -10,7 +10,7 @@ import pytest
 
 from protocol import messages as m
 from scripted import ScriptedCoach, ScriptedPlayer
-from server.log_limit import RepeatLimit
+from server.log_limit import KIND_ATTR, MAX_KINDS, RepeatLimit
 
 MISSED = "%s missed cycle %d (%d in a row)"
 
@@ -69,6 +69,28 @@ def test_lines_of_other_kinds_are_not_held_back(limited):
     assert lines == ["keeper 1 missed cycle 0 (1 in a row)", "keeper 2 missed cycle 0 (1 in a row)",
                      "keeper 1 missed cycle 0 (1 in a row)", "client ab12: malformed: not msgpack",
                      "client ab12: bad_value: dash power is NaN"]
+
+
+def test_a_named_kind_holds_back_lines_whose_text_varies(limited):
+    logger, clock, limit, lines = limited
+    for n in range(5):  # a decoder's message names the bad position: the kind is the client and the code
+        logger.warning("client %s: %s: %s", "ab12", "bad_value", f"commands[{n}] is NaN",
+                       extra={KIND_ATTR: ("ab12", "bad_value")})
+    logger.warning("client %s: %s: %s", "ab12", "malformed", "x", extra={KIND_ATTR: ("ab12", "malformed")})
+    clock.now = 1.0
+    logger.warning("client %s: %s: %s", "ab12", "bad_value", "commands[9] is NaN",
+                   extra={KIND_ATTR: ("ab12", "bad_value")})
+    assert lines == ["client ab12: bad_value: commands[0] is NaN", "client ab12: malformed: x",
+                     "client ab12: bad_value: commands[9] is NaN ... and 4 more like this in the last 1.0 s"]
+
+
+def test_kinds_of_ever_new_clients_do_not_pile_up(limited):
+    logger, clock, limit, lines = limited
+    for n in range(3 * MAX_KINDS):  # a client under ever new identities, one line each
+        clock.now = n * 0.01
+        logger.warning("client %s: %s: %s", f"{n:x}", "not_initialised", "send init first")
+    assert len(lines) == 3 * MAX_KINDS  # every line is of a new kind: none is held back
+    assert len(limit._windows) <= MAX_KINDS + 100  # those past their second are forgotten
 
 
 def test_a_line_after_a_quiet_spell_reports_what_was_held_back_since_the_last(limited):

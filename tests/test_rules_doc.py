@@ -7,7 +7,7 @@ import re
 from dataclasses import fields
 from pathlib import Path
 
-from protocol.errors import CODEC_ERROR_CODES
+from protocol.errors import CODEC_ERROR_CODES, ERROR_CODES
 from protocol.params import CLASSIC, CURRENT, KEEPAWAY_LAUNCH, ServerParams
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -81,3 +81,4 @@ def test_error_table_lists_every_code_the_code_sends():
     source = codes_in_source()
     assert {"not_initialised", "bad_cycle", "dropped", "busy", "missed_cycles"} <= source  # the regexes work
     assert set(documented) == source
+    assert source == set(ERROR_CODES) and len(ERROR_CODES) == len(set(ERROR_CODES))  # each declared once

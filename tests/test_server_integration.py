@@ -12,19 +12,7 @@ import pytest
 from protocol import PROTOCOL_VERSION, ServerParams
 from protocol import messages as m
 from protocol.landmarks import FLAGS
-from scripted import ScriptedCoach, ScriptedPlayer, play_chasers
-
-TEAMS = ["keepers"] * 3 + ["takers"] * 2
-
-
-def connect_all(endpoint: str, **init) -> list[ScriptedPlayer]:
-    players = []
-    for team in TEAMS:
-        p = ScriptedPlayer(endpoint)
-        reply = p.init(team, **init)
-        assert isinstance(reply, m.InitOk), reply
-        players.append(p)
-    return players
+from scripted import ScriptedCoach, ScriptedPlayer, connect_all, play_chasers
 
 
 def test_init_handshake_assigns_numbers_and_sends_the_parameter_table(processes, tmp_path):
