@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import re
 import selectors
 import signal
 import statistics
@@ -29,6 +28,9 @@ import sys
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(REPO))  # the repository, before benchmarks/
+
+from runner.launch import LISTEN_RE  # noqa: E402
 
 # A player: answers every think with one dash; with a flood rate > 0 it also sends that many extra
 # commands a second (in bursts every 10 ms). The reporting player prints "start" `warm` seconds after its
@@ -117,7 +119,7 @@ def cycles_per_second(unseated_rate: float, seated_rate: float, seconds: float, 
     others: list[subprocess.Popen] = []
     try:
         line = server.stdout.readline().decode()
-        match = re.search(r"players=(tcp://[\d.]+:\d+)", line)
+        match = LISTEN_RE.search(line)
         if not match:
             raise RuntimeError(f"server did not start: {line!r}")
         endpoint = match.group(1)

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import re
 import subprocess
 import sys
 import time
@@ -25,6 +24,7 @@ REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
 from protocol.params import parameter_set  # noqa: E402
+from runner.launch import LISTEN_RE  # noqa: E402
 from server.perception import SeeBuffers, SenseBodyBuffers, see_batch, sense_body_batch  # noqa: E402
 from server.referee import new_referee_state, start_game  # noqa: E402
 from server.simulation import new_causes, simulate_cycle  # noqa: E402
@@ -120,7 +120,7 @@ def sync_cycles_per_second(server_args: list[str], n_players: int = 5) -> float:
     clients: list[subprocess.Popen] = []
     try:
         line = server.stdout.readline().decode()
-        match = re.search(r"players=(tcp://[\d.]+:\d+)", line)
+        match = LISTEN_RE.search(line)
         if not match:
             raise RuntimeError(f"server did not start: {line!r}")
         teams = (["keepers"] * 3 + ["takers"] * 2)[:n_players]
