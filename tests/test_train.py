@@ -8,6 +8,7 @@ Trainings here are tiny (a few candidates of a few episodes) so each runs in sec
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -22,6 +23,7 @@ from trainer.cem import CEMConfig
 from trainer.curves import CSV_HEADER, CurvePoint, mean_curve, plot_curves, read_curve_csv, write_curve_csv
 from trainer.schedule import (
     ALGORITHM_3,
+    BOTH,
     GETOPEN,
     PASS,
     Phase,
@@ -34,6 +36,7 @@ from trainer.schedule import (
 from agents.policy_file import pack_pass_arrays, unpack_pass_arrays
 from runner.backends import Placement
 from runner.batched_backend import BatchedBackend
+from runner.job import LEARN
 from trainer.train import (
     TrainConfig,
     TrialState,
@@ -329,6 +332,33 @@ def test_algorithm_3_alternates_cem_and_sarsa_and_resumes_inside_a_pass_phase(tm
     assert load_checkpoint(tmp_path / "killed", 0).episodes == 8
     train(config, tmp_path / "killed", resume=True, progress=False, placement=Placement(threads=1))
     assert outputs(tmp_path / "killed", 1) == outputs(tmp_path / "whole", 1)
+
+
+def test_a_both_phase_runs_cem_generations_whose_candidates_also_train_pass(tmp_path, monkeypatch):
+    # both:8 = 2 generations of 2 candidates x 2 episodes; each candidate learns Pass in one arena, from
+    # the learners the one before it left, so Pass has learned in all 8 episodes; then a Pass phase.
+    config = replace(algorithm_3_config(), schedule=parse_schedule("both:8,pass:4"))
+    played = []
+    real_play = BatchedBackend.play
+
+    def spy(self, behaviours, seed, episodes, arenas, mode, *args, **kwargs):
+        played.append((behaviours.pass_policy, behaviours.pass_arrays is None, episodes, arenas, mode))
+        return real_play(self, behaviours, seed, episodes, arenas, mode, *args, **kwargs)
+
+    monkeypatch.setattr(BatchedBackend, "play", spy)
+    train(config, tmp_path / "both", progress=False, placement=Placement(threads=1))
+    trace = [json.loads(line) for line in (tmp_path / "both/trial_000/trace.jsonl").read_text().splitlines()]
+    assert [(r["phase"], r["episodes"], r.get("block_episodes")) for r in trace] == [
+        (BOTH, 4, 4), (BOTH, 8, 4), (PASS, 12, 4)]
+    assert [r["generation"] for r in trace if r["phase"] == BOTH] == [0, 1]
+    learning = [p for p in played if p[4] == LEARN]
+    # 4 candidates, one arena and 2 episodes each, the first from fresh learners; then the Pass block.
+    assert learning == [("learned", True, 2, 1, LEARN)] + [("learned", False, 2, 1, LEARN)] * 3 + [
+        ("learned", False, 4, 1, LEARN)]
+    policy = load_policy(tmp_path / "both/trial_000/policy.npz")
+    assert policy.getopen_theta is not None and policy.config["pass"] == "learned"
+    with pytest.raises(ValueError, match="needs Pass and GetOpen learned"):
+        training_schedule("learned", "handcoded", schedule=parse_schedule("both:8"))
 
 
 def pass_config(**overrides) -> TrainConfig:

@@ -4,6 +4,11 @@ A schedule is a sequence of phases, each one behaviour learning for a number of 
 stays fixed at its current value. Algorithm 3 alternates GetOpen (CEM) and Pass (Sarsa) phases; the
 single-behaviour trainings (P:L with GetOpen fixed, GO:L with Pass fixed) are one phase. Written on the
 command line as ``getopen:5000,pass:5000,getopen:15000,pass:5000``.
+
+Ours, beyond the paper: a ``both`` phase learns the two behaviours at once. It runs CEM generations as a
+GetOpen phase does, but its candidates play one after another with Sarsa learning Pass in every episode,
+the learners carried from candidate to candidate (``trainer.train``); so each behaviour learns in every
+episode of the phase instead of in its share of them (docs/design.md, Learning options).
 """
 
 from __future__ import annotations
@@ -12,7 +17,9 @@ from dataclasses import dataclass
 
 GETOPEN = "getopen"
 PASS = "pass"
-BEHAVIOURS = (GETOPEN, PASS)
+BOTH = "both"  # ours: GetOpen's CEM and Pass's Sarsa learn in the same episodes (module docstring)
+BEHAVIOURS = (GETOPEN, PASS, BOTH)
+CEM_PHASES = (GETOPEN, BOTH)  # phases that advance one CEM generation per step
 LEARNED = "learned"
 POLICY_NAMES = ("random", "handcoded", LEARNED)  # what train and evaluate offer for Pass and for GetOpen
 TRAINING_EPISODES = 30_000  # keepaway-task.md 8: training length
@@ -20,7 +27,7 @@ TRAINING_EPISODES = 30_000  # keepaway-task.md 8: training length
 
 @dataclass(frozen=True)
 class Phase:
-    """``behaviour`` learns for ``episodes`` episodes; the other behaviour is fixed."""
+    """``behaviour`` learns for ``episodes`` episodes; the other behaviour is fixed (``both``: neither is)."""
 
     behaviour: str
     episodes: int
@@ -66,9 +73,10 @@ def training_schedule(pass_policy: str, getopen_policy: str, episodes: int | Non
             schedule = ALGORITHM_3
         else:
             schedule = (Phase(learners[0], TRAINING_EPISODES if episodes is None else episodes),)
-    fixed = sorted({p.behaviour for p in schedule} - set(learners))
+    fixed = sorted({p.behaviour for p in schedule} - set(learners + ((BOTH,) if len(learners) == 2 else ())))
     if fixed:
-        raise ValueError(f"the schedule trains {', '.join(fixed)}, which is not learned in this configuration")
+        raise ValueError(f"the schedule trains {', '.join(fixed)}, which is not learned in this configuration"
+                         + (" (a both phase needs Pass and GetOpen learned)" if BOTH in fixed else ""))
     total = sum(p.episodes for p in schedule)
     if episodes is not None and episodes != total:
         raise ValueError(f"--episodes {episodes} differs from the schedule's {total} episodes")
@@ -91,7 +99,7 @@ def check_generations(phases: tuple[Phase, ...], eval_every: int, generation_epi
     start = 0
     for p in phases:
         end = start + p.episodes
-        if p.behaviour == GETOPEN:
+        if p.behaviour in CEM_PHASES:
             for e in [end] + [e for e in points if start < e < end]:
                 if (e - start) % generation_episodes:
                     raise ValueError(f"episode {e} falls inside a CEM generation of {generation_episodes} "
@@ -103,6 +111,8 @@ def check_generations(phases: tuple[Phase, ...], eval_every: int, generation_epi
 __all__ = [
     "ALGORITHM_3",
     "BEHAVIOURS",
+    "BOTH",
+    "CEM_PHASES",
     "GETOPEN",
     "LEARNED",
     "PASS",

@@ -88,6 +88,8 @@ from trainer.curves import (
     write_curve_csv,
 )
 from trainer.schedule import (
+    BOTH,
+    CEM_PHASES,
     GETOPEN,
     LEARNED,
     PASS,
@@ -131,6 +133,7 @@ class TrainConfig:
         if self.pass_policy not in POLICY_NAMES or self.getopen_policy not in POLICY_NAMES:
             raise ValueError(f"Pass and GetOpen must each be one of {', '.join(POLICY_NAMES)}")
         learned = {GETOPEN: self.getopen_policy == LEARNED, PASS: self.pass_policy == LEARNED}
+        learned[BOTH] = learned[GETOPEN] and learned[PASS]
         if not self.schedule or not all(learned[p.behaviour] for p in self.schedule):
             raise ValueError(f"the schedule {format_schedule(self.schedule)!r} must train learned behaviours only")
         if self.mode not in MODES:
@@ -267,15 +270,17 @@ def step(config: TrainConfig, state: TrialState, backend: Backend, progress: Pro
         state.curve.append(_point(state.episodes, result))
         return f"evaluation at {state.episodes}"
     phase, phase_end = phase_at(config.schedule, state.episodes)
-    if phase.behaviour == GETOPEN:
-        return _cem_generation(config, state, backend, progress)
+    if phase.behaviour in CEM_PHASES:
+        return _cem_generation(config, state, backend, progress, learn_pass=phase.behaviour == BOTH)
     return _pass_block(config, state, min(phase_end, points[len(state.curve)]) - state.episodes, backend,
                        progress)
 
 
-def _cem_generation(config: TrainConfig, state: TrialState, backend: Backend, progress: Progress | None) -> str:
+def _cem_generation(config: TrainConfig, state: TrialState, backend: Backend, progress: Progress | None,
+                    learn_pass: bool = False) -> str:
     """One CEM generation (keepaway-task.md 6): every candidate plays the same arena seeds with the
-    current Pass policy frozen."""
+    current Pass policy frozen; or, with ``learn_pass`` (a ``both`` phase), one after another in one arena
+    each, Sarsa learning Pass in every episode and handing its learners on to the next candidate."""
     if state.cem is None:
         state.cem = CEM(config.cem, seed=derive_seed(config.seed, state.trial, STREAM_CEM))
     cem = state.cem
@@ -284,7 +289,22 @@ def _cem_generation(config: TrainConfig, state: TrialState, backend: Backend, pr
     inputs = config.input_scaling()
     candidates = [replace(state.behaviours, getopen_policy=LEARNED, getopen_theta=theta, getopen_inputs=inputs)
                   for theta in cem.ask()]
-    results = backend.play_candidates(candidates, seed, config.cem.episodes_per_candidate, config.arenas, progress)
+    entry: dict[str, Any] = {"phase": BOTH if learn_pass else GETOPEN, "generation": generation}
+    if learn_pass:
+        alpha = config.pass_alpha(_pass_episodes_learned(state))
+        results = []
+        for candidate in candidates:
+            learner = replace(candidate, pass_policy=LEARNED, pass_arrays=state.behaviours.pass_arrays)
+            result, arrays, state.transitions = backend.play(learner, seed, config.cem.episodes_per_candidate, 1,
+                                                             LEARN, progress,
+                                                             alpha if config.pass_alpha_halflife else None)
+            state.behaviours.pass_policy = LEARNED
+            state.behaviours.pass_arrays = arrays
+            results.append(result)
+        entry.update(block_episodes=config.generation_episodes, alpha=alpha)
+    else:
+        results = backend.play_candidates(candidates, seed, config.cem.episodes_per_candidate, config.arenas,
+                                          progress)
     fitness = [result.summary()["mean_hold_time_s"] for result in results]
     cem.tell(np.array(fitness))
     assert cem.best_params is not None
@@ -292,10 +312,15 @@ def _cem_generation(config: TrainConfig, state: TrialState, backend: Backend, pr
     state.behaviours.getopen_theta = cem.best_params.copy()
     state.behaviours.getopen_inputs = inputs
     state.episodes += config.generation_episodes
-    state.trace.append({"phase": GETOPEN, "generation": generation, "episodes": state.episodes,
-                        "fitness": fitness, "best_fitness": cem.best_fitness,
-                        "mean_variance": float(cem.variance.mean())})
-    return f"GetOpen generation {generation + 1}"
+    entry.update(episodes=state.episodes, fitness=fitness, best_fitness=cem.best_fitness,
+                 mean_variance=float(cem.variance.mean()))
+    state.trace.append(entry)
+    return f"{'GetOpen and Pass' if learn_pass else 'GetOpen'} generation {generation + 1}"
+
+
+def _pass_episodes_learned(state: TrialState) -> int:
+    """Episodes of Pass learning so far (Pass blocks and ``both`` generations), for the annealed alpha."""
+    return sum(r["block_episodes"] for r in state.trace if r["phase"] in (PASS, BOTH))
 
 
 def _pass_block(config: TrainConfig, state: TrialState, episodes: int, backend: Backend,
@@ -303,8 +328,7 @@ def _pass_block(config: TrainConfig, state: TrialState, episodes: int, backend: 
     """Sarsa learns Pass for ``episodes`` episodes in one fresh arena, GetOpen fixed (keepaway-task.md 5, 7)."""
     learner = replace(state.behaviours, pass_policy=LEARNED)
     seed = derive_seed(config.seed, state.trial, STREAM_PASS_BLOCK, state.episodes)
-    learned_before = sum(r["block_episodes"] for r in state.trace if r["phase"] == PASS)
-    alpha = config.pass_alpha(learned_before)
+    alpha = config.pass_alpha(_pass_episodes_learned(state))
     result, arrays, transitions = backend.play(learner, seed, episodes, 1, LEARN, progress,
                                                alpha if config.pass_alpha_halflife else None)
     state.behaviours.pass_policy = LEARNED

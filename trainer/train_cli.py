@@ -68,7 +68,7 @@ CONFIG_OPTIONS = ("pass_policy", "getopen_policy", "episodes", "schedule", "tria
               help="Training episodes [30,000; with both learned: the schedule's length].")
 @click.option("--schedule", default=None, metavar="B:N,...",
               help="Phases, e.g. getopen:5000,pass:5000,getopen:15000,pass:5000 (Algorithm 3, the default "
-                   "when both learn).")
+                   "when both learn); ours: both:N learns GetOpen and Pass in the same N episodes.")
 @click.option("--trials", type=COUNT_TYPE, default=1, show_default=True, help="Independent trials.")
 @click.option("--eval-every", type=COUNT_TYPE, default=2500, show_default=True,
               help="Training episodes between frozen evaluations.")
