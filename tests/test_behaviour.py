@@ -18,6 +18,7 @@ from server.world import COUNT_KICK
 from runner.batched import BatchedArenas
 from trainer.behaviour import (
     CURVE_CYCLES,
+    REFERENCE_CAMPAIGNS,
     Compared,
     Episode,
     Estimate,
@@ -143,7 +144,9 @@ def test_tolerance_is_three_standard_errors_or_ten_percent_whichever_is_larger()
 
 
 def test_the_reference_file_reads_into_the_same_statistics():
-    assert sorted(REFERENCE) == ["hand", "hand14", "hold", "rand"]
+    assert sorted(REFERENCE) == ["hand", "hand14", "hold", "hold12", "rand", "rand21"]
+    assert sorted(c for campaigns in REFERENCE_CAMPAIGNS.values() for c in campaigns) == sorted(REFERENCE)
+    assert REFERENCE["rand21"].episodes == 1006 and REFERENCE["rand21"].hold_s.value == pytest.approx(5.21, abs=0.005)
     hold = REFERENCE["hold"]
     assert hold.episodes == 601 and hold.hold_s.value == pytest.approx(2.80, abs=0.005)
     assert hold.curve_takers.shape == (T, CURVE_CYCLES) and hold.curve_running[0] == 601
