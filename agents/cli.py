@@ -4,7 +4,9 @@ The socket edge of :class:`agents.player.PlayerAgent` (style guide, "Sockets at 
 socket (LINGER 0 but for a bounded wait after ``bye``, the protocol's size limit), one poll loop, every
 frame decoded by ``protocol`` before the agent sees it. Exit codes: 0 when the server shuts down or on
 SIGTERM/SIGINT (after saying ``bye``), 2 when the player cannot start (bad policy file, no server within
-``--connect-timeout``, ``init`` or ``reconnect`` refused). Expected conditions end with one line on
+``--connect-timeout``, ``init`` or ``reconnect`` refused), 4 when a joined player's server has sent
+nothing for ``--server-silence`` seconds (it sends a ``waiting`` every second while no cycle is played, so
+only a dead or frozen server is silent that long). Expected conditions end with one line on
 stderr, never a traceback. With ``--reconnect UNUM`` the player takes back the seat of a player of its
 team that is gone (crashed, killed, or given up by the server) instead of joining anew
 (docs/protocol.md 12 "Rejoin").
@@ -26,6 +28,10 @@ from protocol.endpoints import DEFAULT_PORTS, parse_endpoint
 
 EXIT_OK = 0
 EXIT_START_FAILED = 2
+EXIT_SERVER_SILENT = 4
+# A joined player gives the server up after this long without a message from it (``--server-silence``):
+# a playing server sends percepts every cycle, a waiting or paused one a ``waiting`` every second.
+SERVER_SILENCE_S = 30.0
 POLL_MS = 100  # longest wait between checks of the stop flag and the connect deadline
 # Sockets have LINGER 0, except after a bye: closing then waits this long for the bye to leave, so it
 # is not discarded unsent (and never longer, should the server be gone).
@@ -64,7 +70,7 @@ class _StopFlag:
 
 
 def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop: _StopFlag,
-               reconnect: int | None = None) -> int:
+               reconnect: int | None = None, silence_s: float = SERVER_SILENCE_S) -> int:
     """Connect, send ``init`` (or with ``reconnect`` a uniform number, ``reconnect`` to it) and feed
     ``agent`` until the server shuts down or ``stop`` is set. Returns the exit code; raises
     :class:`PlayerExit` when the player cannot start."""
@@ -103,6 +109,7 @@ def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop
             send(m.Reconnect(version=PROTOCOL_VERSION, team=agent.team, unum=reconnect))
         joining = "init" if reconnect is None else "reconnect"
         deadline = time.monotonic() + connect_timeout_s
+        last_heard = time.monotonic()  # of the last message from the server
         while True:
             if stop.signal_name is not None:
                 log.info("%s: saying bye", stop.signal_name)
@@ -111,8 +118,12 @@ def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop
                 return EXIT_OK
             if not agent.ready and time.monotonic() > deadline:
                 raise PlayerExit(EXIT_START_FAILED, f"no server at {endpoint} after {connect_timeout_s:g} s")
+            if agent.ready and time.monotonic() - last_heard > silence_s:
+                raise PlayerExit(EXIT_SERVER_SILENT, f"the server at {endpoint} has sent nothing for "
+                                                     f"{silence_s:g} s; giving it up")
             if not sock.poll(POLL_MS):
                 continue
+            last_heard = time.monotonic()
             while True:
                 try:
                     data = sock.recv(zmq.NOBLOCK)
@@ -175,13 +186,18 @@ def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop
                    "settings of its first init (--fullstate).")
 @click.option("--connect-timeout", "connect_timeout_s", type=click.FloatRange(min=0.0, min_open=True), default=60.0,
               show_default=True, help="Seconds to wait for the server's init_ok before giving up (exit 2).")
+@click.option("--server-silence", "silence_s", type=click.FloatRange(min=0.0, min_open=True),
+              default=SERVER_SILENCE_S, show_default=True,
+              help="Seconds without any message from the server after which a joined player gives it up "
+                   "(exit 4); a live server sends something at least every second.")
 @click.option("-v", "--verbose", count=True, help="More log output (-v info, -vv debug).")
 def player_command(team: str, pass_policy: str, getopen_policy: str, policy_path: Path | None, endpoint: str,
                    seed: int, fullstate: bool, reconnect: int | None, connect_timeout_s: float,
-                   verbose: int) -> None:
+                   silence_s: float, verbose: int) -> None:
     """Run one Keepaway player: connect to the server, play until it ends, exit.
 
-    Exits 0 when the server shuts down or on SIGTERM/SIGINT (after saying bye), 2 when it cannot start.
+    Exits 0 when the server shuts down or on SIGTERM/SIGINT (after saying bye), 2 when it cannot start,
+    4 when the server falls silent (--server-silence).
     """
     logging.basicConfig(level=logging.WARNING - 10 * min(verbose, 2) if verbose else logging.WARNING,
                         format="%(asctime)s %(name)s %(levelname)s %(message)s", stream=sys.stderr)
@@ -203,7 +219,7 @@ def player_command(team: str, pass_policy: str, getopen_policy: str, policy_path
             log.warning("--getopen learned without --policy: GetOpen uses zero weights until the coach "
                         "sends a policy")
         compile_kernels()
-        code = run_player(agent, endpoint, connect_timeout_s, stop, reconnect)
+        code = run_player(agent, endpoint, connect_timeout_s, stop, reconnect, silence_s)
     except PolicyFileError as exc:
         click.echo(f"keepaway player: {exc}", err=True)
         sys.exit(EXIT_START_FAILED)

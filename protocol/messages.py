@@ -56,6 +56,8 @@ PLAYER_HEAR_SENDERS = ("self", "our", "opp")  # the senders that are players
 ADVICE_GROUPS = ("keepers", "takers", "all")
 EPISODE_ACTIONS = ("reset", "pause", "resume", "stop")
 EPISODE_ENDS = ("out", "taken")
+WAITING_REASONS = ("players", "coach", "paused")  # why no cycle is played (``waiting``)
+WAITING_INTERVAL_S = 1.0  # a ``waiting`` goes to every player this often while no cycle is played
 COMMAND_COUNTS = ("kick", "dash", "turn", "catch", "move", "turn_neck", "change_view", "say")
 
 # ------------------------------------------------------------------------------------------------ limits
@@ -351,10 +353,24 @@ class Fullstate(Message):
 
 @message
 class Think(Message):
-    """Synchronous mode: every percept of this cycle has been sent; answer now."""
+    """Every percept of this cycle has been sent: in synchronous mode, answer now; in real-time mode,
+    the end-of-cycle marker (after the cycle's see, if one is due before the next step)."""
 
     TYPE: ClassVar[str] = "think"
     cycle: int = wire(CYCLE)
+
+
+@message
+class Waiting(Message):
+    """No cycle is being played, and why: before the kick-off, players still to connect (``players``)
+    or the coach's ``start`` to come (``coach``); or the game is ``paused``. Sent to every player every
+    WAITING_INTERVAL_S while it lasts, so a client can tell a slow start from a dead server."""
+
+    TYPE: ClassVar[str] = "waiting"
+    cycle: int = wire(CYCLE)
+    reason: str = wire(choice(*WAITING_REASONS))
+    connected: int = wire(integer(0, MAX_PLAYERS))  # players seated now
+    expected: int = wire(integer(0, MAX_PLAYERS))  # seats of the arena
 
 
 @message
@@ -527,7 +543,7 @@ def _by_type(*classes: type[Message]) -> Mapping[str, type[Message]]:
 
 
 PLAYER_TO_SERVER = _by_type(Init, Reconnect, Command, Report, Bye)
-SERVER_TO_PLAYER = _by_type(InitOk, Error, SenseBody, See, Hear, Fullstate, Think, Shutdown)
+SERVER_TO_PLAYER = _by_type(InitOk, Error, SenseBody, See, Hear, Fullstate, Think, Waiting, Shutdown)
 COACH_TO_SERVER = _by_type(CoachInit, Start, Look, Advice, EpisodeControl, CoachBye)
 SERVER_TO_COACH = _by_type(CoachInitOk, LookOk, Error, EpisodeEnd, PlayerReport, PlayerSaid, Shutdown)
 MONITOR_TOPICS: Mapping[bytes, type[Message]] = MappingProxyType(

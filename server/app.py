@@ -106,6 +106,7 @@ class Server:
         self.standing_still = False  # paused between two cycles, no command pending (look_ok.paused)
         self.pause_after: int | None = None  # pause once this many more episodes have ended
         self.next_see: dict[bytes, float] = {}  # real-time mode: each player's next see (monotonic s)
+        self.next_waiting = 0.0  # when the next ``waiting`` is due while no cycle is played (monotonic s)
         self.intakes = {self.players: Intake(cfg.player_budget, cfg.unseated_budget),
                         self.coach: Intake(None, cfg.unseated_budget)}
         self.window_opened = time.monotonic()  # of the wall-time budget window (server/intake.py)
@@ -156,6 +157,7 @@ class Server:
             for sock in (self.players, self.coach, self.monitor):
                 poller.register(sock, zmq.POLLIN)
             while self.stop_reason is None and not self._ready_to_start():
+                self._send_waiting_if_due(self.config.start_on)
                 self._poll(poller, 50)
             if self.stop_reason is None:
                 self._start_game()
@@ -205,11 +207,13 @@ class Server:
 
     def _run_realtime(self, poller: zmq.Poller) -> None:
         """Real-time mode: a step every simulator_step_ms of wall time; sense_body right after it; each
-        player's see on its own period from its connect time (asynchronous with the cycle, spec 1).
-        A pause stops the step and see timers; they go on from where they stood on resume."""
+        player's see on its own period from its connect time (asynchronous with the cycle, spec 1);
+        ``think``, the end-of-cycle marker, once no see of the player falls before the next step. A pause
+        stops the step and see timers; they go on from where they stood on resume."""
         step_s = self.config.params.simulator_step_ms / 1000.0
         next_step = time.monotonic() + step_s
         sent_cycle = -1  # the last cycle whose sense_bodies went out
+        to_think: set[bytes] = set()
         while self.stop_reason is None:
             if self.paused:
                 held = self._hold_while_paused(poller)
@@ -220,19 +224,32 @@ class Server:
             if sent_cycle < self.arena.cycle:
                 sent_cycle = self.arena.cycle
                 self._send_cycle_percepts(think=False, see=False)
+                to_think = set(self.conns)  # who got this cycle's sense_body and has no think yet
             now = time.monotonic()
             for ident, conn in list(self.conns.items()):
                 due = self.next_see.setdefault(ident, now)  # a new player's (or a reset's) first see: now
                 if now >= due:
                     self._send(conn, self.arena.see_message(conn.slot))
                     self.next_see[ident] = due + conn.slot.see_period_ms(self.config.params.send_step_ms) / 1000.0
+            # the end-of-cycle marker: once no see of this player falls before the next step
+            self._send_thinks(to_think, lambda ident: self.next_see.get(ident, 0.0) >= next_step)
             wake = min([next_step] + list(self.next_see.values()))
             self._poll(poller, max(0, int((wake - time.monotonic()) * 1000)))
             if not self.paused and time.monotonic() >= next_step:
+                self._send_thinks(to_think, lambda ident: True)  # a see the loop was late for goes with t+1
                 self._step()
                 next_step += step_s
                 if next_step < time.monotonic():  # a slow cycle is not caught up (rcssserver)
                     next_step = time.monotonic() + step_s
+
+    def _send_thinks(self, to_think: set[bytes], done: Callable[[bytes], bool]) -> None:
+        """Real-time mode: ``think`` for the current cycle to each player in ``to_think`` whose percepts
+        of the cycle are all out (``done``), in object order; they leave the set."""
+        ready = [self.conns[ident] for ident in to_think if ident in self.conns and done(ident)]
+        for conn in sorted(ready, key=lambda c: c.slot.obj):
+            self._send(conn, m.Think(cycle=self.arena.cycle))
+            to_think.discard(conn.identity)
+        to_think.intersection_update(self.conns)
 
     def _hold_while_paused(self, poller: zmq.Poller) -> float:
         """Stand still while paused (both modes): serve the sockets and send each player its queued
@@ -247,9 +264,22 @@ class Server:
                 self._send_queued_hears()
                 if not self.paused or self.stop_reason is not None:
                     return time.monotonic() - start
+                self._send_waiting_if_due("paused")
                 self._poll(poller, PAUSE_POLL_MS)
         finally:
             self.standing_still = False
+
+    def _send_waiting_if_due(self, reason: str) -> None:
+        """While no cycle is played: a ``waiting`` to every player each WAITING_INTERVAL_S (the first at
+        once), so that a client can tell a slow start or a pause from a dead server."""
+        now = time.monotonic()
+        if now < self.next_waiting:
+            return
+        self.next_waiting = now + m.WAITING_INTERVAL_S
+        msg = m.Waiting(cycle=self.arena.cycle, reason=reason, connected=len(self.arena.connected_slots()),
+                        expected=len(self.arena.slots))
+        for conn in sorted(self.conns.values(), key=lambda c: c.slot.obj):
+            self._send(conn, msg)
 
     def _ready_to_start(self) -> bool:
         if self.config.start_on == "players":

@@ -18,13 +18,15 @@ BARRIER = msgpack.packb({"type": "warp"})
 class ScriptedClient:
     """A DEALER socket that sends protocol messages and collects what the server sends back."""
 
-    def __init__(self, endpoint: str, allowed: Any = SERVER_TO_PLAYER) -> None:
+    def __init__(self, endpoint: str, allowed: Any = SERVER_TO_PLAYER, ignore: tuple[type, ...] = ()) -> None:
         self.ctx = zmq.Context.instance()
         self.sock = self.ctx.socket(zmq.DEALER)
         self.sock.setsockopt(zmq.LINGER, 0)
         self.sock.connect(endpoint)
         self.allowed = allowed
+        self.ignore = ignore  # message types recv sets aside in ``ignored`` instead of returning
         self.received: list = []
+        self.ignored: list = []
 
     def send(self, msg: Any) -> None:
         self.sock.send(encode(msg))
@@ -33,11 +35,15 @@ class ScriptedClient:
         self.sock.send(data)
 
     def recv(self, timeout: float = 20.0) -> Any:
-        if not self.sock.poll(int(timeout * 1000)):
-            raise TimeoutError("no message from the server")
-        msg = decode(self.sock.recv(), self.allowed)
-        self.received.append(msg)
-        return msg
+        deadline = time.monotonic() + timeout
+        while True:
+            if not self.sock.poll(max(0, int((deadline - time.monotonic()) * 1000))):
+                raise TimeoutError("no message from the server")
+            msg = decode(self.sock.recv(), self.allowed)
+            if not isinstance(msg, self.ignore):
+                self.received.append(msg)
+                return msg
+            self.ignored.append(msg)
 
     def recv_until(self, kind: type, timeout: float = 20.0) -> Any:
         deadline = time.monotonic() + timeout

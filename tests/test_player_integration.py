@@ -88,6 +88,26 @@ def test_a_player_without_a_server_exits_2_after_the_connect_timeout(processes):
     assert err.strip() == f"keepaway player: no server at {endpoint} after 2 s"
 
 
+def test_a_player_waits_through_a_slow_start_and_gives_a_frozen_server_up(processes, tmp_path):
+    # Before the coach's start the server sends only `waiting`, every second: a player with a 3 s
+    # silence limit stays for 5 s; once the server is frozen (SIGSTOP) it exits 4 with one line.
+    server = processes.start_server(tmp_path, "--start-on", "coach")
+    proc = processes.popen(keepaway_command("player", "--team", "takers", "--server", server.players_endpoint,
+                                            "--server-silence", "3", "-v"),
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    read_until_match(proc.stderr, re.compile("joined as takers 1"), PROCESS_TIMEOUT_S)
+    with pytest.raises(subprocess.TimeoutExpired):
+        proc.wait(5)
+    server.proc.send_signal(signal.SIGSTOP)
+    try:
+        assert proc.wait(PROCESS_TIMEOUT_S) == 4
+    finally:
+        server.proc.send_signal(signal.SIGCONT)
+    err = proc.stderr.read().decode()
+    assert err.strip().splitlines()[-1] == (f"keepaway player: the server at {server.players_endpoint} has "
+                                            f"sent nothing for 3 s; giving it up")
+
+
 def test_a_bad_policy_file_stops_the_player_with_one_line(processes, tmp_path):
     policy = tmp_path / "broken.npz"
     np.save(tmp_path / "broken.npy", np.zeros(3))

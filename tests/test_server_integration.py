@@ -81,6 +81,56 @@ def test_realtime_mode_sends_two_sees_per_three_cycles(processes, tmp_path):
     assert srv.wait() == 0
 
 
+def test_realtime_think_ends_each_cycle_after_its_percepts(processes, tmp_path):
+    srv = processes.start_server(tmp_path, "--mode", "realtime", "--max-cycles", "16")
+    players = connect_all(srv.players_endpoint)
+    seen: list[tuple[str, int]] = []
+    while True:
+        msg = players[0].recv(10)
+        if isinstance(msg, m.Shutdown):
+            break
+        if isinstance(msg, (m.SenseBody, m.See, m.Think)):
+            seen.append((msg.TYPE, msg.cycle))
+    cycles = sorted({c for _, c in seen if _ == "sense_body"})
+    assert len(cycles) >= 15
+    for cycle in cycles[:-1]:  # the last cycle may be cut by the shutdown
+        kinds = [kind for kind, c in seen if c == cycle]
+        assert kinds[0] == "sense_body" and kinds.count("think") == 1, (cycle, kinds)
+        # every percept of the cycle comes before its think, and the think before the next cycle's
+        assert kinds.index("think") == len(kinds) - 1, (cycle, kinds)
+        assert seen.index(("think", cycle)) < seen.index(("sense_body", cycle + 1))
+    assert srv.wait() == 0
+
+
+def test_waiting_tells_joined_players_why_no_cycle_is_played(processes, tmp_path):
+    srv = processes.start_server(tmp_path, "--start-on", "coach", "--max-cycles", "200")
+    keeper = ScriptedPlayer(srv.players_endpoint)
+    keeper.init("keepers")
+    first, second = keeper.recv_until(m.Waiting, 5), keeper.recv_until(m.Waiting, 5)  # about 1 s apart
+    assert (first.reason, first.connected, first.expected, first.cycle) == ("coach", 1, 5, 0)
+    assert second.reason == "coach"
+    taker = ScriptedPlayer(srv.players_endpoint)
+    taker.init("takers")
+    while keeper.recv_until(m.Waiting, 5).connected != 2:
+        pass
+    coach = ScriptedCoach(srv.coach_endpoint)
+    coach.init()
+    coach.send(m.Start())
+    for p in (keeper, taker):
+        p.play_cycles(2)
+    coach.send(m.EpisodeControl(action="pause"))
+    paused = None
+    while paused is None:  # answer the cycles played until the pause takes effect
+        for p in (keeper, taker):
+            msg = p.recv(5)
+            if isinstance(msg, m.Think):
+                p.answer(msg.cycle)
+            elif isinstance(msg, m.Waiting) and p is keeper:
+                paused = msg
+    assert (paused.reason, paused.connected, paused.expected) == ("paused", 2, 5) and paused.cycle >= 2
+    assert isinstance(keeper.recv_until(m.Waiting, 5), m.Waiting)  # again while it lasts
+
+
 def test_reconnect_takes_back_the_uniform_number(processes, tmp_path):
     srv = processes.start_server(tmp_path, "--start-on", "coach", "--max-cycles", "3")
     p = ScriptedPlayer(srv.players_endpoint)

@@ -149,8 +149,8 @@ class Table:
         return self.coach.recv_until(m.LookOk)
 
     def connect(self) -> None:
-        for team in TEAMS:
-            p = ScriptedPlayer(self.srv.players_endpoint)
+        for team in TEAMS:  # the `waiting`s of a pause are set aside (assert_quiet checks them)
+            p = ScriptedPlayer(self.srv.players_endpoint, ignore=(m.Waiting,))
             assert isinstance(p.init(team, fullstate=True), m.InitOk)
             self.players.append(p)
 
@@ -184,14 +184,16 @@ class Table:
                 if players is None or i in players]
 
     def assert_quiet(self) -> None:
-        """Nothing more reaches any player while the server stands still: for QUIET_S, round after
+        """Nothing but `waiting`s reaches any player while the server stands still: for QUIET_S, round after
         round, each player's barrier is answered with nothing before it (a barrier's answer follows all
         the server sent that player before, so nothing is in flight when a round ends)."""
         deadline = time.monotonic() + QUIET_S
+        before = [len(p.ignored) for p in self.players]
         while True:
-            for p in self.players:
+            for p, n in zip(self.players, before):
                 sent = p.until_barrier()
                 assert not sent, f"a paused server sent {sent}"
+                assert all(w.reason == "paused" for w in p.ignored[n:]), p.ignored[n:]
             if time.monotonic() >= deadline:
                 return
             time.sleep(QUIET_ROUND_S)
