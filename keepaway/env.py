@@ -44,7 +44,8 @@ from agents.state_vars import getopen_state_size, pass_state_size
 from core.objects import CMD_DASH, CMD_KICK, CMD_TURN
 from protocol import messages as m
 from protocol.params import ServerParams, parameter_set
-from runner.embedded import ArenaSpec, EmbeddedGame
+from runner.embedded import ArenaSpec
+from runner.outside import AttachedKeepers, EmbeddedKeepers
 
 AGENT_PREFIX = "keeper_"
 # The low-level commands in the order of the action's first element.
@@ -54,42 +55,6 @@ OBJECT_FEATURES = 5
 SEED_WORDS = 2**63  # reset seeds drawn by the environment are in 0 .. 2^63 - 1 (protocol.messages.MAX_SEED)
 
 
-class _Embedded:
-    """The keepers of an embedded arena (module docstring): ``advance`` plays until a keeper waits or the
-    episode ends."""
-
-    def __init__(self, spec: ArenaSpec, outside: Collection[str]) -> None:
-        self.game = EmbeddedGame(spec, outside=outside)
-        self.slots = [slot for slot, player in self.game.players if player.is_keeper]
-        self.keepers = [player for _, player in self.game.players if player.is_keeper]
-        self.params = spec.params
-        self.episode_start = self.game.arena.cycle  # the kick-off
-        self._mid_cycle = False
-
-    def advance(self) -> int | None:
-        """Finish the cycle the keepers' decisions were awaited in and play on until some keeper waits
-        (None) or the running episode ends (its end cycle, which starts the next one)."""
-        game = self.game
-        while True:
-            if self._mid_cycle:
-                if any(k.awaiting is not None for k in self.keepers):
-                    return None
-                self._mid_cycle = False
-                record = game.arena.step()
-                if record is not None:
-                    self.episode_start = record.end_cycle
-                    return record.end_cycle
-            game.perceive()
-            game.think()
-            self._mid_cycle = True
-
-    def send(self, index: int, command: m.Command) -> None:
-        self.game.submit(self.slots[index], command)
-
-    def close(self) -> None:
-        pass
-
-
 class KeepawayParallelEnv(ParallelEnv):
     """The environment of :func:`parallel_env` (module docstring)."""
 
@@ -97,7 +62,7 @@ class KeepawayParallelEnv(ParallelEnv):
 
     def __init__(self, keepers: int = 3, takers: int = 2, field_size: float = 20.0,
                  params: str | ServerParams = "classic", getopen_action: bool = False, low_level: bool = False,
-                 getopen: str = "handcoded") -> None:
+                 getopen: str = "handcoded", server: str | None = None) -> None:
         if getopen_action and low_level:
             raise ValueError("low_level already leaves GetOpen to the keepers: choose one of getopen_action "
                              "and low_level")
@@ -107,6 +72,7 @@ class KeepawayParallelEnv(ParallelEnv):
         self.n_keepers, self.n_takers = keepers, takers
         self.getopen_action, self.low_level = getopen_action, low_level
         self.getopen_policy = getopen
+        self.server = server
         self.outside = ((OUTSIDE_BODY,) if low_level
                         else (OUTSIDE_PASS, OUTSIDE_GETOPEN) if getopen_action else (OUTSIDE_PASS,))
         self.possible_agents = [f"{AGENT_PREFIX}{k}" for k in range(1, keepers + 1)]
@@ -117,7 +83,7 @@ class KeepawayParallelEnv(ParallelEnv):
         self.n_points = grid_size(AgentConfig().kernel())
         self.n_actions = keepers + (self.n_points if getopen_action else 0) + 1
         self.noop = self.n_actions - 1
-        self._game: _Embedded | None = None
+        self._game: EmbeddedKeepers | AttachedKeepers | None = None
         self._in_episode = False
         self._last_cycle = 0
         self._np_random = np.random.default_rng()
@@ -152,27 +118,43 @@ class KeepawayParallelEnv(ParallelEnv):
         return self._action_space
 
     # -- the game ------------------------------------------------------------------------------------
-    def _new_game(self, seed: int) -> _Embedded:
+    def _new_game(self, seed: int) -> EmbeddedKeepers | AttachedKeepers:
+        if self.server is not None:
+            return AttachedKeepers(self.server, self.n_keepers, lambda: PlayerAgent(
+                "keepers", getopen_policy=self.getopen_policy, seed=seed, outside=self.outside))
         spec = ArenaSpec(self.params, self.n_keepers, self.n_takers, seed=seed, getopen_policy=self.getopen_policy)
-        return _Embedded(spec, self.outside)
+        return EmbeddedKeepers(spec, self.outside)
 
     def reset(self, seed: int | None = None, options: dict | None = None) -> tuple[dict, dict]:
         """Start an episode: with ``seed`` a fresh arena seeded with it (the same seed and the same actions
         give the same episodes); without, the arena's next episode, or, mid-episode or before any game, a
-        fresh arena whose seed comes from the last seed given. ``options`` are not used."""
+        fresh arena whose seed comes from the last seed given. Attached to a server (``server=``), the
+        keepers join at the first reset (seeded with its seed, else 0) and stay: the server's game cannot
+        be reseeded from here, and a reset mid-episode plays the running episode out with random allowed
+        actions first. ``options`` are not used."""
         if seed is not None:
             self._np_random = np.random.default_rng(seed)
-        if seed is not None or self._game is None or self._in_episode:
-            if self._game is not None:
-                self._game.close()
+        if self.server is not None:
+            if self._game is None:
+                self._game = self._new_game(seed or 0)
+            elif self._in_episode:
+                self._play_out()
+        elif seed is not None or self._game is None or self._in_episode:
+            self.close()
             self._game = self._new_game(seed if seed is not None else int(self._np_random.integers(SEED_WORDS)))
         self.agents = list(self.possible_agents)
         self._in_episode = True
-        while True:
-            self._last_cycle = self._game.episode_start
-            if self._game.advance() is None:  # an episode over before any decision has no step
-                break
+        while self._game.advance() is not None:  # an episode over before any decision has no step
+            pass
+        self._last_cycle = self._game.episode_start
         return self._observations(), self._infos()
+
+    def _play_out(self) -> None:
+        """The running episode to its end with random allowed actions (from the seeded stream)."""
+        observations = self._observations()
+        while self.agents:
+            observations = self.step({agent: random_action(self._action_space, obs, self._np_random)
+                                      for agent, obs in observations.items()})[0]
 
     def step(self, actions: dict[str, Any]) -> tuple[dict, dict, dict, dict, dict]:
         """Every keeper waiting for a decision takes its action; the others must send the no-op (the
@@ -259,6 +241,14 @@ class KeepawayParallelEnv(ParallelEnv):
                 for agent, keeper in zip(self.possible_agents, self._game.keepers)}
 
 
+def random_action(space: spaces.Space, observation: Any, rng: np.random.Generator) -> Any:
+    """A uniformly drawn action of ``space`` allowed by ``observation``'s action mask, if it has one, from
+    ``rng`` (a low-level action: a command and uniform parameters)."""
+    if isinstance(observation, dict):
+        return int(rng.choice(np.flatnonzero(observation["action_mask"])))
+    return int(rng.integers(space[0].n)), rng.uniform(space[1].low, space[1].high)
+
+
 def body_observation(keeper: PlayerAgent) -> np.ndarray:
     """A low-level keeper's view (module docstring): x, y, vx, vy and confidence of the ball, itself, the
     other keepers (uniform-number order) and the takers, then its body angle and neck angle (degrees)."""
@@ -275,4 +265,4 @@ def parallel_env(**kwargs: Any) -> KeepawayParallelEnv:
     return KeepawayParallelEnv(**kwargs)
 
 
-__all__ = ["KeepawayParallelEnv", "body_observation", "parallel_env"]
+__all__ = ["KeepawayParallelEnv", "body_observation", "parallel_env", "random_action"]

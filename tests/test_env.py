@@ -15,20 +15,12 @@ from agents.getopen import grid_point, handcoded_target
 from agents.keeper import handcoded_pass
 from agents.player import OUTSIDE_BODY, OUTSIDE_PASS, PlayerAgent
 from agents.skills import fastest_to_ball
-from keepaway.env import parallel_env
+from conftest import keepaway_command
+from keepaway.env import parallel_env, random_action
 from protocol.params import parameter_set
 from runner.embedded import ArenaSpec, embedded_episodes
 
 MODES = {"pass": {}, "getopen": {"getopen_action": True}, "low_level": {"low_level": True}}
-
-
-def random_action(env, obs: dict, agent: str, rng: np.random.Generator):
-    """A uniformly drawn allowed action (the action mask, where there is one), from ``rng``."""
-    space = env.action_space(agent)
-    if isinstance(obs[agent], dict):
-        return int(rng.choice(np.flatnonzero(obs[agent]["action_mask"])))
-    command = int(rng.integers(space[0].n))
-    return command, rng.uniform(space[1].low, space[1].high)
 
 
 def play(env, episodes: int, choose, seed: int | None = None) -> list[tuple[float, list]]:
@@ -48,6 +40,19 @@ def play(env, episodes: int, choose, seed: int | None = None) -> list[tuple[floa
     return played
 
 
+def handcoded_pass_choice(env):
+    """P:HC's choice on each keeper's observation, the no-op for a keeper without a decision."""
+    cfg = PlayerAgent("keepers").config.kernel()
+
+    def choose(obs, agent):
+        o = obs[agent]
+        if o["action_mask"][-1]:
+            return env.noop
+        return handcoded_pass(o["observation"], env.n_keepers, env.n_takers, cfg)
+
+    return choose
+
+
 @pytest.mark.parametrize("mode", sorted(MODES))
 def test_every_mode_passes_pettingzoos_parallel_api_test_without_a_warning(mode):
     with warnings.catch_warnings():
@@ -59,7 +64,7 @@ def test_every_mode_passes_pettingzoos_parallel_api_test_without_a_warning(mode)
 def test_random_actions_play_whole_episodes_inside_the_declared_spaces(mode):
     env = parallel_env(**MODES[mode])
     rng = np.random.default_rng(1)
-    played = play(env, 4, lambda obs, a: random_action(env, obs, a, rng), seed=11)
+    played = play(env, 4, lambda obs, a: random_action(env.action_space(a), obs[a], rng), seed=11)
     for ret, seen in played:
         assert ret > 0.0
         for obs in seen:
@@ -78,7 +83,7 @@ def test_the_same_seed_and_actions_give_the_same_observations():
     for _ in range(2):
         env = parallel_env(getopen_action=True)
         rng = np.random.default_rng(3)
-        runs.append(play(env, 3, lambda obs, a: random_action(env, obs, a, rng), seed=5))
+        runs.append(play(env, 3, lambda obs, a: random_action(env.action_space(a), obs[a], rng), seed=5))
     for (ret_a, seen_a), (ret_b, seen_b) in zip(*runs):
         assert ret_a == ret_b and len(seen_a) == len(seen_b)
         for obs_a, obs_b in zip(seen_a, seen_b):
@@ -87,7 +92,7 @@ def test_the_same_seed_and_actions_give_the_same_observations():
                     np.testing.assert_array_equal(obs_a[agent][key], obs_b[agent][key])
     other = parallel_env(getopen_action=True)
     rng = np.random.default_rng(3)
-    assert [r for r, _ in play(other, 3, lambda obs, a: random_action(other, obs, a, rng), seed=6)] \
+    assert [r for r, _ in play(other, 3, lambda obs, a: random_action(other.action_space(a), obs[a], rng), seed=6)] \
         != [r for r, _ in runs[0]]
 
 
@@ -96,15 +101,7 @@ def test_the_hand_coded_pass_fed_through_the_env_plays_the_embedded_arenas_episo
     with hand-coded Pass, the same seed: the environment plays the same game and its returns are the
     hold times."""
     env = parallel_env()
-    cfg = PlayerAgent("keepers").config.kernel()
-
-    def handcoded(obs, agent):
-        o = obs[agent]
-        if o["action_mask"][-1]:
-            return env.noop
-        return handcoded_pass(o["observation"], env.n_keepers, env.n_takers, cfg)
-
-    returns = [ret for ret, _ in play(env, 6, handcoded, seed=21)]
+    returns = [ret for ret, _ in play(env, 6, handcoded_pass_choice(env), seed=21)]
     records = [rec for rec, _ in itertools.islice(embedded_episodes(ArenaSpec(parameter_set("classic"), seed=21)), 6)]
     assert returns == pytest.approx([rec.hold_time_s for rec in records], abs=1e-9)
 
@@ -114,12 +111,11 @@ def test_the_hand_coded_getopen_fed_through_the_env_plays_the_embedded_arenas_ep
     cfg = PlayerAgent("keepers").config.kernel()
     points = {grid_point(k, env.params.kernel(), cfg): k for k in range(env.n_points)}
 
+    pass_choice = handcoded_pass_choice(env)
+
     def handcoded(obs, agent):
-        o = obs[agent]
-        if o["action_mask"][-1]:
-            return env.noop
-        if o["action_mask"][0]:
-            return handcoded_pass(o["observation"], env.n_keepers, env.n_takers, cfg)
+        if not obs[agent]["action_mask"][env.n_keepers]:  # a Pass decision or none
+            return pass_choice(obs, agent)
         keeper = env._game.keepers[env.possible_agents.index(agent)]
         bel = keeper.wm.belief()
         _, ball_cycles = fastest_to_ball(bel, 0, 1, bel.n_keepers, keeper.kp, cfg)
@@ -155,3 +151,25 @@ def test_a_keeper_leaves_only_known_decisions_outside():
         PlayerAgent("keepers", outside=(OUTSIDE_PASS,)).act(0)
     with pytest.raises(ValueError, match="choose one of getopen_action and low_level"):
         parallel_env(getopen_action=True, low_level=True)
+
+
+def test_attached_to_a_running_server_the_env_passes_the_api_test_and_plays_the_embedded_games(processes, tmp_path):
+    """The keepers join a real ``keepaway server`` (port 0) beside two real taker processes: PettingZoo's
+    API test passes, and the hand-coded Pass fed through the env plays the episodes of the embedded arena
+    with the server's seed."""
+    seed = 21
+    server = processes.start_server(tmp_path, "--mode", "sync", "--seed", str(seed), "--cycle-timeout", "600")
+    for _ in range(2):
+        processes.popen(keepaway_command("player", "--team", "takers", "--server", server.players_endpoint,
+                                         "--seed", str(seed)))
+    env = parallel_env(server=server.players_endpoint)
+    try:
+        returns = [ret for ret, _ in play(env, 4, handcoded_pass_choice(env), seed=seed)]
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            parallel_api_test(env, num_cycles=1000)
+    finally:
+        env.close()
+    records = itertools.islice(embedded_episodes(ArenaSpec(parameter_set("classic"), seed=seed)), 4)
+    assert returns == pytest.approx([rec.hold_time_s for rec, _ in records], abs=1e-9)
+    assert server.proc.poll() is None, server.stderr_text()
