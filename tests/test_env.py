@@ -5,6 +5,9 @@ embedded arena when the caller feeds it the project's own hand-coded choices."""
 from __future__ import annotations
 
 import itertools
+import re
+import subprocess
+import sys
 import warnings
 
 import numpy as np
@@ -15,7 +18,7 @@ from agents.getopen import grid_point, handcoded_target
 from agents.keeper import handcoded_pass
 from agents.player import OUTSIDE_BODY, OUTSIDE_PASS, PlayerAgent
 from agents.skills import fastest_to_ball
-from conftest import keepaway_command
+from conftest import REPO, keepaway_command
 from keepaway.env import parallel_env, random_action
 from protocol.params import parameter_set
 from runner.embedded import ArenaSpec, embedded_episodes
@@ -173,3 +176,12 @@ def test_attached_to_a_running_server_the_env_passes_the_api_test_and_plays_the_
     records = itertools.islice(embedded_episodes(ArenaSpec(parameter_set("classic"), seed=seed)), 4)
     assert returns == pytest.approx([rec.hold_time_s for rec, _ in records], abs=1e-9)
     assert server.proc.poll() is None, server.stderr_text()
+
+
+def test_the_pass_training_example_prints_its_blocks_of_hold_times():
+    done = subprocess.run([sys.executable, str(REPO / "examples" / "train_pass.py"), "--episodes", "4", "--trials",
+                           "2", "--block", "2"], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-3000:]
+    rows = re.findall(r"^episodes +(\d+)- +(\d+): +([\d.]+) \+- ([\d.]+) s", done.stdout, flags=re.MULTILINE)
+    assert [(int(a), int(b)) for a, b, _, _ in rows] == [(1, 2), (3, 4)]
+    assert all(float(mean) > 0.0 for _, _, mean, _ in rows)
