@@ -26,6 +26,7 @@ from agents.skills import (
     GETOPEN_RANDOM,
     ball_in,
     closest_to_ball,
+    fastest_to_ball,
     go_to_point,
     turn_to_point,
 )
@@ -281,6 +282,18 @@ def learned_target(bel: Belief, r: int, theta, ball_cycles: int, kp, cfg) -> tup
         if v > best or (v == best and d < best_d):
             best_x, best_y, best, best_d = px, py, v, d
     return best_x, best_y
+
+
+@njit(cache=True)
+def grid_states(bel: Belief, r: int, kp, cfg, out) -> None:
+    """The GetOpen variables of every grid point into ``out`` (one row per point, ``grid_point`` order,
+    3K + T - 1 columns) for the deciding keeper of row ``r``: what GO:L scores (:func:`learned_target`),
+    for a GetOpen decided outside (``agents.skills.GETOPEN_EXTERNAL``)."""
+    _, ball_cycles = fastest_to_ball(bel, r, 1, bel.n_keepers, kp, cfg)
+    ox, oy = lane_origin(bel, r, ball_cycles, kp, cfg)
+    for k in range(grid_size(cfg)):
+        px, py = grid_point(k, kp, cfg)
+        getopen_state(bel, r, px, py, ox, oy, out[k])
 
 
 @njit(cache=True)

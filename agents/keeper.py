@@ -8,7 +8,9 @@ Pass learners plug in from outside: with ``PASS_EXTERNAL`` the kernel stops at a
 leaves the outputs unwritten and returns PASS_DECISION_START or PASS_DECISION_STEP with the state
 vector written; the caller computes the reward ``bel.time[r] - mem.t_last[r]`` (for a step), asks its
 learner for an action and calls ``execute_pass_action``. The built-in policies (random, hand-coded,
-always hold) decide and act inside the kernel and return the same codes for information.
+always hold) decide and act inside the kernel and return the same codes for information. GetOpen plugs in
+the same way: with ``GETOPEN_EXTERNAL`` the kernel returns GETOPEN_DECISION at a GetOpen decision and
+the caller picks a grid point and calls ``execute_getopen_action``.
 """
 
 from __future__ import annotations
@@ -16,8 +18,9 @@ from __future__ import annotations
 from core.jit import njit
 
 from agents.belief import AgentMemory, Belief
-from agents.getopen import getopen
+from agents.getopen import getopen, grid_point, move_to_spot
 from agents.skills import (
+    GETOPEN_EXTERNAL,
     PASS_EXTERNAL,
     PASS_HANDCODED,
     PASS_RANDOM,
@@ -38,6 +41,7 @@ from core.rng import randint
 NO_PASS_DECISION = 0
 PASS_DECISION_START = 1  # learner: startEpisode(state)
 PASS_DECISION_STEP = 2  # learner: step(reward = time - t_last, state)
+GETOPEN_DECISION = 3  # GETOPEN_EXTERNAL: the caller picks a grid point (execute_getopen_action)
 
 
 @njit(cache=True)
@@ -74,12 +78,23 @@ def execute_pass_action(
 
 
 @njit(cache=True)
+def execute_getopen_action(
+    bel: Belief, r: int, point: int, kp, cfg, out_main, out_a1, out_a2, out_neck
+) -> None:
+    """Move towards grid point ``point`` (``agents.getopen.grid_point``) as every GetOpen policy does,
+    neck to the region centre (spec `keepaway-agents.md` 2.5 steps 6-7)."""
+    px, py = grid_point(point, kp, cfg)
+    code, a1, a2 = move_to_spot(bel, r, px, py, kp, cfg)
+    write_action(r, code, a1, a2, neck_to_point(bel, r, code, a1, 0.0, 0.0, kp), out_main, out_a1, out_a2, out_neck)
+
+
+@njit(cache=True)
 def keeper_decide(
     bel: Belief, r: int, mem: AgentMemory, theta, kp, cfg, out_main, out_a1, out_a2, out_neck, out_state
 ) -> int:
     """One keeper decision for row ``r`` (spec `keepaway-agents.md` 1 steps 2-5). ``theta`` is the row's
     GetOpen net parameters, ``out_state`` its Pass state row. Returns NO_PASS_DECISION,
-    PASS_DECISION_START or PASS_DECISION_STEP (module docstring)."""
+    PASS_DECISION_START, PASS_DECISION_STEP or GETOPEN_DECISION (module docstring)."""
     me = bel.me[r]
     if bel.conf[r, 0] < cfg.ball_conf_threshold:
         code, a1, a2 = search_ball(bel, r, mem, kp, cfg)
@@ -113,6 +128,8 @@ def keeper_decide(
         code, a1, a2 = intercept(bel, r, mem, kp, cfg, ball_cycles)
         write_action(r, code, a1, a2, neck_to_ball(bel, r, code, a1, kp), out_main, out_a1, out_a2, out_neck)
         return NO_PASS_DECISION
+    if int(cfg.getopen_policy) == GETOPEN_EXTERNAL:
+        return GETOPEN_DECISION
     code, a1, a2 = getopen(bel, r, mem, theta, ball_cycles, kp, cfg)
     neck = neck_to_point(bel, r, code, a1, 0.0, 0.0, kp)
     write_action(r, code, a1, a2, neck, out_main, out_a1, out_a2, out_neck)

@@ -46,20 +46,35 @@ The coach's advice (``hear`` with sender ``"coach"``, a map with ``kind``; docs/
   or its whole Pass policy in the sparse form of ``pass_load``; a keeper without a Sarsa learner answers
   one empty payload with ``"learner": false``.
 
+Decisions made outside (``outside``, for an environment that hands them to its caller: ``keepaway.env``):
+a keeper may leave its Pass decisions (``"pass"``), its GetOpen decisions (``"getopen"``: a grid point)
+or its whole body (``"body"``: the main command of every cycle) to the code that drives it. At such a
+decision the message that calls for a command returns None and :attr:`PlayerAgent.awaiting` says what is
+awaited; :meth:`PlayerAgent.act` takes the choice and returns the cycle's command, built as the agent's
+own (the world model told, the say added). Everything else the agent does as always.
+
 Bad advice is logged in one line and ignored; the agent keeps playing.
 """
 
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from dataclasses import dataclass, replace
-from typing import Any, Protocol
+from typing import Any, NamedTuple, Protocol
 
 import numpy as np
 
 from agents.belief import forget_episode, new_memory
-from agents.keeper import NO_PASS_DECISION, PASS_DECISION_START, execute_pass_action, keeper_decide
+from agents.getopen import grid_size
+from agents.keeper import (
+    GETOPEN_DECISION,
+    NO_PASS_DECISION,
+    PASS_DECISION_START,
+    execute_getopen_action,
+    execute_pass_action,
+    keeper_decide,
+)
 from agents.pass_wire import (
     REPORT_BYTES,
     chunk_position,
@@ -78,9 +93,12 @@ from agents.policy_file import (
 from agents.sarsa import MODE_GREEDY, MODE_LEARN, MODE_NAMES, SarsaConfig, SarsaLearner
 from agents.say import hear_row, hear_text, new_talk, say_row, to_text
 from agents.skills import (
+    GETOPEN_EXTERNAL,
     GETOPEN_POLICIES,
+    PASS_EXTERNAL,
     PASS_POLICIES,
     AgentConfig,
+    neck_to_ball,
 )
 from agents.state_vars import pass_state_size
 from agents.taker import taker_decide
@@ -113,6 +131,19 @@ DEFAULT_KEEPERS = 3
 DEFAULT_TAKERS = 2
 # Atomic command name and number of arguments of each main command code (`core/objects.py`).
 _MAIN_COMMANDS = {CMD_DASH: ("dash", 1), CMD_TURN: ("turn", 1), CMD_KICK: ("kick", 2)}
+# The decisions a keeper can leave to its caller (module docstring, "Decisions made outside").
+OUTSIDE_PASS = "pass"  # action: 0 HoldBall, k >= 1 PassBall to the k-th nearest teammate
+OUTSIDE_GETOPEN = "getopen"  # action: a grid point, 0 .. grid size - 1 (agents.getopen.grid_point)
+OUTSIDE_BODY = "body"  # action: (main command code, arg1, arg2), CMD_DASH / CMD_TURN / CMD_KICK
+OUTSIDE_DECISIONS = (OUTSIDE_PASS, OUTSIDE_GETOPEN, OUTSIDE_BODY)
+
+
+class Awaiting(NamedTuple):
+    """A decision a keeper waits for (:meth:`PlayerAgent.act`): one of :data:`OUTSIDE_DECISIONS`, in
+    ``cycle``."""
+
+    decision: str
+    cycle: int
 
 
 class PassLearner(Protocol):
@@ -243,7 +274,9 @@ class PlayerAgent:
     (``SeedSequence([seed, side, unum])``, side 0 = keepers), so every player of a run is reproducible;
     ``fullstate`` uses the exact ``fullstate`` percepts (the player must ask for them in ``init``).
     ``pass_learner`` replaces the ``--pass learned`` learner (default: :func:`sarsa_pass_factory` on
-    ``policy``, greedy until the coach's ``pass_mode`` advice).
+    ``policy``, greedy until the coach's ``pass_mode`` advice). ``outside`` names the keeper's decisions
+    left to the caller (:data:`OUTSIDE_DECISIONS`; module docstring): they replace ``pass_policy`` and
+    ``getopen_policy`` for those decisions, and ``"body"`` replaces both and comes alone.
     Raises :class:`PolicyFileError` when the policy cannot serve the chosen policies, ValueError for
     unknown names.
     """
@@ -258,6 +291,7 @@ class PlayerAgent:
         fullstate: bool = False,
         pass_learner: PassLearnerFactory | None = None,
         config: AgentConfig | None = None,
+        outside: Collection[str] = (),
     ) -> None:
         if team not in TEAMS:
             raise ValueError(f"team must be one of {TEAMS}, not {team!r}")
@@ -267,14 +301,25 @@ class PlayerAgent:
             raise ValueError(f"unknown GetOpen policy {getopen_policy!r}; choose one of {list(GETOPEN_POLICIES)}")
         if seed < 0:
             raise ValueError(f"seed must be >= 0, not {seed}")
+        outside = frozenset(outside)
+        if not outside <= set(OUTSIDE_DECISIONS):
+            raise ValueError(f"decisions made outside must be among {OUTSIDE_DECISIONS}, not {sorted(outside)}")
+        if outside and team != "keepers":
+            raise ValueError("only keepers leave decisions to their caller")
+        if OUTSIDE_BODY in outside and len(outside) > 1:
+            raise ValueError(f"{OUTSIDE_BODY!r} leaves every decision outside: it comes alone")
         self.team = team
         self.is_keeper = team == "keepers"
         self.policy = policy
         self.seed = seed
         self.fullstate = fullstate
-        self.config = replace(config or AgentConfig(), pass_policy=PASS_POLICIES[pass_policy],
-                              getopen_policy=GETOPEN_POLICIES[getopen_policy])
-        external = self.is_keeper and pass_policy == LEARNED
+        self.config = replace(config or AgentConfig(),
+                              pass_policy=PASS_EXTERNAL if OUTSIDE_PASS in outside else PASS_POLICIES[pass_policy],
+                              getopen_policy=(GETOPEN_EXTERNAL if OUTSIDE_GETOPEN in outside
+                                              else GETOPEN_POLICIES[getopen_policy]))
+        self.outside = outside
+        self.awaiting: Awaiting | None = None
+        external = self.is_keeper and pass_policy == LEARNED and OUTSIDE_PASS not in outside
         if pass_learner is not None and not external:
             raise ValueError("a Pass learner is only used by keepers with the 'learned' Pass policy")
         self._external = external
@@ -598,18 +643,62 @@ class PlayerAgent:
         return reports
 
     # -- deciding ----------------------------------------------------------------------------------
-    def _decide(self, cycle: int) -> m.Command:
-        """Run the decision kernel for this cycle and turn its output into atomic commands."""
+    def _decide(self, cycle: int) -> m.Command | None:
+        """Run the decision kernel for this cycle and turn its output into atomic commands; None when the
+        decision is left outside (:attr:`awaiting`)."""
         if not self.fullstate:  # the C++ ignores what it hears while it has the full state
             hear_row(0, self.wm.state, self.n_keepers, self.cfg, self.talk)
         bel = self.wm.belief()
-        outs = (self._out_main, self._out_a1, self._out_a2, self._out_neck)
+        outs = self._outs()
+        if OUTSIDE_BODY in self.outside:
+            self.awaiting = Awaiting(OUTSIDE_BODY, cycle)
+            return None
         if self.is_keeper:
             decision = keeper_decide(bel, 0, self.memory, self.theta, self.kp, self.cfg, *outs, self.pass_state)
+            if decision == GETOPEN_DECISION:
+                self.awaiting = Awaiting(OUTSIDE_GETOPEN, cycle)
+                return None
+            if decision != NO_PASS_DECISION and OUTSIDE_PASS in self.outside:
+                self.awaiting = Awaiting(OUTSIDE_PASS, cycle)
+                return None
             if decision != NO_PASS_DECISION and self.learner is not None:
                 self._ask_learner(bel, decision, outs)
         else:
             taker_decide(bel, 0, self.memory, self.kp, self.cfg, *outs)
+        return self._command(cycle)
+
+    def _outs(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        return self._out_main, self._out_a1, self._out_a2, self._out_neck
+
+    def act(self, action: Any) -> m.Command:
+        """The decision :attr:`awaiting` waits for, made: a Pass action (0 HoldBall, k PassBall to the k-th
+        nearest teammate), a grid point, or a main command ``(code, arg1, arg2)`` (module docstring), with
+        the neck turned to the ball as the hand-coded keepers do). Returns the cycle's command. ValueError
+        (one line) when nothing is awaited or the action is not one."""
+        awaiting = self.awaiting
+        if awaiting is None:
+            raise ValueError("no decision is awaited")
+        bel = self.wm.belief()
+        outs = self._outs()
+        if awaiting.decision == OUTSIDE_BODY:
+            code, a1, a2 = action
+            if int(code) not in _MAIN_COMMANDS:
+                raise ValueError(f"the main command code {code} is not one of {sorted(_MAIN_COMMANDS)}")
+            outs[0][0], outs[1][0], outs[2][0] = int(code), float(a1), float(a2)
+            outs[3][0] = neck_to_ball(bel, 0, int(code), float(a1), self.kp)
+        else:
+            count = self.n_keepers if awaiting.decision == OUTSIDE_PASS else grid_size(self.cfg)
+            if not 0 <= int(action) < count:
+                raise ValueError(f"{awaiting.decision} action {action} is not in 0..{count - 1}")
+            if awaiting.decision == OUTSIDE_PASS:
+                execute_pass_action(bel, 0, self.memory, int(action), self.kp, self.cfg, *outs)
+            else:
+                execute_getopen_action(bel, 0, int(action), self.kp, self.cfg, *outs)
+        self.awaiting = None
+        return self._command(awaiting.cycle)
+
+    def _command(self, cycle: int) -> m.Command:
+        """This cycle's decision (the output arrays) as atomic commands; the world model is told."""
         main = int(self._out_main[0])
         a1, a2, neck = float(self._out_a1[0]), float(self._out_a2[0]), float(self._out_neck[0])
         self.wm.on_own_commands(main, a1, a2, neck)
@@ -668,8 +757,13 @@ def compile_kernels() -> None:
 
 
 __all__ = [
+    "Awaiting",
     "EPISODE_MESSAGE",
     "GETOPEN_POLICIES",
+    "OUTSIDE_BODY",
+    "OUTSIDE_DECISIONS",
+    "OUTSIDE_GETOPEN",
+    "OUTSIDE_PASS",
     "PASS_MODES",
     "PASS_POLICIES",
     "REPORT_BYTES",

@@ -46,6 +46,7 @@ GETOPEN_RANDOM = 0
 GETOPEN_HANDCODED = 1
 GETOPEN_HANDCODED_CONE = 2
 GETOPEN_LEARNED = 3
+GETOPEN_EXTERNAL = 4  # the caller picks the grid point (agents.player, outside decisions); no CLI name
 # The policies' names on the command line and in configurations, shared by every mode.
 PASS_POLICIES = {"random": PASS_RANDOM, "handcoded": PASS_HANDCODED, "learned": PASS_EXTERNAL,
                  "hold": PASS_HOLD}

@@ -14,7 +14,7 @@ backend's jobs (``runner.coached``) in this process, with the same episodes and 
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Collection, Iterator
 from dataclasses import dataclass
 
 from agents.player import REPORT_ADVICE_KIND, SEED_ADVICE_KIND, PassLearnerFactory, PlayerAgent
@@ -51,10 +51,12 @@ def _wire(msg: m.Message, decode: Callable[[bytes], m.Message]) -> m.Message:
 class EmbeddedGame:
     """One arena of ``spec`` and its players in synchronous mode, kicked off: every player plays
     ``spec``'s policies with ``spec``'s seed and the constants ``agent`` (default: the player processes');
-    keepers learning Pass take their learners from ``pass_learner`` (default: the player's own)."""
+    keepers learning Pass take their learners from ``pass_learner`` (default: the player's own); the
+    keepers leave the decisions ``outside`` to the caller (``agents.player``, "Decisions made outside":
+    :meth:`think` then leaves them waiting, and the caller sends their commands with :meth:`submit`)."""
 
     def __init__(self, spec: ArenaSpec, pass_learner: PassLearnerFactory | None = None,
-                 agent: AgentConfig | None = None) -> None:
+                 agent: AgentConfig | None = None, outside: Collection[str] = ()) -> None:
         self.arena = Arena(spec.params, spec.keepers, spec.takers, spec.seed)
         config = {"mode": "sync", "keepers": spec.keepers, "takers": spec.takers, "seed": spec.seed}
         self.players: list[tuple[PlayerSlot, PlayerAgent]] = []  # in object order
@@ -62,7 +64,8 @@ class EmbeddedGame:
             for _ in range(count):
                 player = PlayerAgent(team, pass_policy=spec.pass_policy, getopen_policy=spec.getopen_policy,
                                      policy=spec.policy, seed=spec.seed, config=agent,
-                                     pass_learner=pass_learner if team == "keepers" else None)
+                                     pass_learner=pass_learner if team == "keepers" else None,
+                                     outside=outside if team == "keepers" else ())
                 slot = self.arena.connect(team)
                 player.on_message(_wire(self.arena.init_ok(slot, team, config), decode_for_player))
                 self.players.append((slot, player))
@@ -81,15 +84,22 @@ class EmbeddedGame:
             for msg in arena.cycle_percepts(slot, arena.see_due(slot, arena.cycle)):
                 player.on_message(_wire(msg, decode_for_player))
 
+    def think(self) -> None:
+        """Every player's think and command for this cycle (none from a keeper left waiting)."""
+        think = m.Think(cycle=self.arena.cycle)
+        for slot, player in self.players:
+            self.submit(slot, player.on_message(_wire(think, decode_for_player)))
+
+    def submit(self, slot: PlayerSlot, command: m.Command | None) -> None:
+        """A player's command for this cycle, as the server would receive it."""
+        if command is not None:
+            self.arena.submit(slot.obj, _wire(command, decode_from_player).commands)
+
     def cycle(self) -> EpisodeRecord | None:
         """One synchronous cycle: percepts, think, every player's commands, the step. Returns the record of
         the episode that ended in it, if any."""
         self.perceive()
-        cycle = self.arena.cycle
-        for slot, player in self.players:
-            command = player.on_message(_wire(m.Think(cycle=cycle), decode_for_player))
-            if command is not None:
-                self.arena.submit(slot.obj, _wire(command, decode_from_player).commands)
+        self.think()
         return self.arena.step()
 
     def serve(self, request: RunEpisodes) -> EpisodesDone:

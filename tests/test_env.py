@@ -1,0 +1,187 @@
+"""``keepaway.env.parallel_env``: PettingZoo's own API test in every mode, whole episodes of random actions
+inside the declared spaces, reproducible seeds, and the environment playing the very game of the
+embedded arena when the caller feeds it the project's own hand-coded choices."""
+
+from __future__ import annotations
+
+import itertools
+import re
+import subprocess
+import sys
+import warnings
+
+import numpy as np
+import pytest
+from pettingzoo.test import parallel_api_test
+
+from agents.getopen import grid_point, handcoded_target
+from agents.keeper import handcoded_pass
+from agents.player import OUTSIDE_BODY, OUTSIDE_PASS, PlayerAgent
+from agents.skills import fastest_to_ball
+from conftest import REPO, keepaway_command
+from keepaway.env import parallel_env, random_action
+from protocol.params import parameter_set
+from runner.embedded import ArenaSpec, embedded_episodes
+
+MODES = {"pass": {}, "getopen": {"getopen_action": True}, "low_level": {"low_level": True}}
+
+
+def play(env, episodes: int, choose, seed: int | None = None) -> list[tuple[float, list]]:
+    """``episodes`` episodes with ``choose(obs, agent)`` for every keeper; each episode's return of
+    keeper_1 and every step's observations."""
+    obs, _ = env.reset(seed=seed)
+    played, ret, seen = [], 0.0, [obs]
+    while len(played) < episodes:
+        obs, rewards, terminations, truncations, _ = env.step({a: choose(obs, a) for a in env.agents})
+        seen.append(obs)
+        ret += rewards["keeper_1"]
+        assert len(set(rewards.values())) == 1 and not any(truncations.values())
+        if all(terminations.values()):
+            played.append((ret, seen))
+            obs, _ = env.reset()
+            ret, seen = 0.0, [obs]
+    return played
+
+
+def handcoded_pass_choice(env):
+    """P:HC's choice on each keeper's observation, the no-op for a keeper without a decision."""
+    cfg = PlayerAgent("keepers").config.kernel()
+
+    def choose(obs, agent):
+        o = obs[agent]
+        if o["action_mask"][-1]:
+            return env.noop
+        return handcoded_pass(o["observation"], env.n_keepers, env.n_takers, cfg)
+
+    return choose
+
+
+@pytest.mark.parametrize("mode", sorted(MODES))
+def test_every_mode_passes_pettingzoos_parallel_api_test_without_a_warning(mode):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        parallel_api_test(parallel_env(**MODES[mode]), num_cycles=1000)
+
+
+@pytest.mark.parametrize("mode", sorted(MODES))
+def test_random_actions_play_whole_episodes_inside_the_declared_spaces(mode):
+    env = parallel_env(**MODES[mode])
+    rng = np.random.default_rng(1)
+    played = play(env, 4, lambda obs, a: random_action(env.action_space(a), obs[a], rng), seed=11)
+    for ret, seen in played:
+        assert ret > 0.0
+        for obs in seen:
+            assert set(obs) == set(env.possible_agents)
+            for agent, o in obs.items():
+                assert env.observation_space(agent).contains(o), (agent, o)
+        if mode != "low_level":  # at least one keeper decides in every step, the others send the no-op
+            for obs in seen[:-1]:
+                masks = np.array([o["action_mask"] for o in obs.values()])
+                assert (masks[:, -1] == 0).any()
+            assert all(o["action_mask"][-1] == 1 for o in seen[-1].values())
+
+
+def test_the_same_seed_and_actions_give_the_same_observations():
+    runs = []
+    for _ in range(2):
+        env = parallel_env(getopen_action=True)
+        rng = np.random.default_rng(3)
+        runs.append(play(env, 3, lambda obs, a: random_action(env.action_space(a), obs[a], rng), seed=5))
+    for (ret_a, seen_a), (ret_b, seen_b) in zip(*runs):
+        assert ret_a == ret_b and len(seen_a) == len(seen_b)
+        for obs_a, obs_b in zip(seen_a, seen_b):
+            for agent in obs_a:
+                for key in obs_a[agent]:
+                    np.testing.assert_array_equal(obs_a[agent][key], obs_b[agent][key])
+    other = parallel_env(getopen_action=True)
+    rng = np.random.default_rng(3)
+    assert [r for r, _ in play(other, 3, lambda obs, a: random_action(other.action_space(a), obs[a], rng), seed=6)] \
+        != [r for r, _ in runs[0]]
+
+
+def test_the_hand_coded_pass_fed_through_the_env_plays_the_embedded_arenas_episodes():
+    """Feeding P:HC's choice on each observation gives the episodes of ``keepaway run --mode embedded``
+    with hand-coded Pass, the same seed: the environment plays the same game and its returns are the
+    hold times."""
+    env = parallel_env()
+    returns = [ret for ret, _ in play(env, 6, handcoded_pass_choice(env), seed=21)]
+    records = [rec for rec, _ in itertools.islice(embedded_episodes(ArenaSpec(parameter_set("classic"), seed=21)), 6)]
+    assert returns == pytest.approx([rec.hold_time_s for rec in records], abs=1e-9)
+
+
+def test_the_hand_coded_getopen_fed_through_the_env_plays_the_embedded_arenas_episodes():
+    env = parallel_env(getopen_action=True)
+    cfg = PlayerAgent("keepers").config.kernel()
+    points = {grid_point(k, env.params.kernel(), cfg): k for k in range(env.n_points)}
+
+    pass_choice = handcoded_pass_choice(env)
+
+    def handcoded(obs, agent):
+        if not obs[agent]["action_mask"][env.n_keepers]:  # a Pass decision or none
+            return pass_choice(obs, agent)
+        keeper = env._game.keepers[env.possible_agents.index(agent)]
+        bel = keeper.wm.belief()
+        _, ball_cycles = fastest_to_ball(bel, 0, 1, bel.n_keepers, keeper.kp, cfg)
+        target = handcoded_target(bel, 0, ball_cycles, False, keeper.kp, cfg)
+        return env.n_keepers + points[target]
+
+    returns = [ret for ret, _ in play(env, 4, handcoded, seed=22)]
+    records = [rec for rec, _ in itertools.islice(embedded_episodes(ArenaSpec(parameter_set("classic"), seed=22)), 4)]
+    assert returns == pytest.approx([rec.hold_time_s for rec in records], abs=1e-9)
+
+
+def test_a_wrong_or_missing_action_is_refused_in_one_line_and_changes_nothing():
+    env = parallel_env()
+    obs, _ = env.reset(seed=2)
+    actor = next(a for a in env.agents if not obs[a]["action_mask"][-1])
+    idle = {a: env.noop for a in env.agents}
+    with pytest.raises(ValueError, match=f"{actor}'s action .* not allowed"):
+        env.step(idle)
+    with pytest.raises(ValueError, match="no action for"):
+        env.step({actor: 0})
+    _, rewards, *_ = env.step({**idle, actor: 0})
+    assert rewards[actor] > 0.0
+
+
+def test_a_keeper_leaves_only_known_decisions_outside():
+    with pytest.raises(ValueError, match="decisions made outside"):
+        PlayerAgent("keepers", outside=("kick",))
+    with pytest.raises(ValueError, match="only keepers"):
+        PlayerAgent("takers", outside=(OUTSIDE_PASS,))
+    with pytest.raises(ValueError, match="comes alone"):
+        PlayerAgent("keepers", outside=(OUTSIDE_BODY, OUTSIDE_PASS))
+    with pytest.raises(ValueError, match="no decision is awaited"):
+        PlayerAgent("keepers", outside=(OUTSIDE_PASS,)).act(0)
+    with pytest.raises(ValueError, match="choose one of getopen_action and low_level"):
+        parallel_env(getopen_action=True, low_level=True)
+
+
+def test_attached_to_a_running_server_the_env_passes_the_api_test_and_plays_the_embedded_games(processes, tmp_path):
+    """The keepers join a real ``keepaway server`` (port 0) beside two real taker processes: PettingZoo's
+    API test passes, and the hand-coded Pass fed through the env plays the episodes of the embedded arena
+    with the server's seed."""
+    seed = 21
+    server = processes.start_server(tmp_path, "--mode", "sync", "--seed", str(seed), "--cycle-timeout", "600")
+    for _ in range(2):
+        processes.popen(keepaway_command("player", "--team", "takers", "--server", server.players_endpoint,
+                                         "--seed", str(seed)))
+    env = parallel_env(server=server.players_endpoint)
+    try:
+        returns = [ret for ret, _ in play(env, 4, handcoded_pass_choice(env), seed=seed)]
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            parallel_api_test(env, num_cycles=1000)
+    finally:
+        env.close()
+    records = itertools.islice(embedded_episodes(ArenaSpec(parameter_set("classic"), seed=seed)), 4)
+    assert returns == pytest.approx([rec.hold_time_s for rec, _ in records], abs=1e-9)
+    assert server.proc.poll() is None, server.stderr_text()
+
+
+def test_the_pass_training_example_prints_its_blocks_of_hold_times():
+    done = subprocess.run([sys.executable, str(REPO / "examples" / "train_pass.py"), "--episodes", "4", "--trials",
+                           "2", "--block", "2"], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-3000:]
+    rows = re.findall(r"^episodes +(\d+)- +(\d+): +([\d.]+) \+- ([\d.]+) s", done.stdout, flags=re.MULTILINE)
+    assert [(int(a), int(b)) for a, b, _, _ in rows] == [(1, 2), (3, 4)]
+    assert all(float(mean) > 0.0 for _, _, mean, _ in rows)
