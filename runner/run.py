@@ -19,6 +19,7 @@ import zmq
 from protocol import MONITOR_EPISODE_TOPIC
 from protocol import messages as m
 from protocol.messages import decode_monitor
+from protocol.security import open_keys, secure_client
 from runner.batched import BatchedArenas
 from runner.embedded import ArenaSpec, embedded_episodes
 from runner.job import RunResult
@@ -36,6 +37,7 @@ class RunOptions:
     out: Path = Path("out")
     policy_path: Path | None = None
     parameter_set: str = "classic"
+    keys: Path | None = None  # distributed: a keys directory, CURVE on every connection (protocol.security)
 
 
 # -- modes ------------------------------------------------------------------------------------------
@@ -54,7 +56,7 @@ def distributed_episodes(opts: RunOptions, processes: ArenaProcesses) -> Iterato
     player_args = ["--seed", str(spec.seed), "--pass", spec.pass_policy, "--getopen", spec.getopen_policy]
     if opts.policy_path is not None:
         player_args += ["--policy", str(opts.policy_path)]
-    endpoints = processes.start_arena(server_args, player_args, spec.keepers, spec.takers)
+    endpoints = processes.start_arena(server_args, player_args, spec.keepers, spec.takers, keys=opts.keys)
     server = processes.member("server")
 
     def finished() -> bool:
@@ -64,6 +66,7 @@ def distributed_episodes(opts: RunOptions, processes: ArenaProcesses) -> Iterato
     monitor = ctx.socket(zmq.SUB)
     monitor.setsockopt(zmq.LINGER, 0)
     monitor.setsockopt(zmq.SUBSCRIBE, MONITOR_EPISODE_TOPIC)
+    secure_client(monitor, open_keys(opts.keys))
     monitor.connect(endpoints.monitor)
     try:
         yielded: set[int] = set()
