@@ -28,6 +28,7 @@ from pathlib import Path
 
 import llvmlite
 import numba
+import numpy as np
 import numba.core.config
 from llvmlite import binding as llvm_binding
 from numba import njit as numba_njit
@@ -152,7 +153,19 @@ def borrowing(function=None, **options):
     return numba_njit(**options) if function is None else numba_njit(**options)(function)
 
 
+def kernel_record(values: tuple) -> np.record:
+    """A NamedTuple of floats (``ServerParams.kernel()``, ``AgentConfig.kernel()``) as a numpy record with
+    the same fields, which kernels read the same way (``kp.ball_decay``) and which holds the same numbers.
+
+    numba passes a NamedTuple by value, each of its fields a separate argument: every call of a kernel
+    that takes the server's 78 parameters and the players' 68 copies 146 numbers, and the players' call
+    chains make thousands of such calls per cycle. A record is passed as one pointer (docs/design.md,
+    "Compiled kernels")."""
+    dtype = np.dtype([(name, np.float64) for name in values._fields])
+    return np.rec.array([tuple(values)], dtype=dtype)[0]
+
+
 configure_cache()
 
-__all__ = ["borrowing", "cache_dir", "cache_key", "configure_cache", "is_warm", "mark_warm", "njit",
-           "source_digest"]
+__all__ = ["borrowing", "cache_dir", "cache_key", "configure_cache", "is_warm", "kernel_record", "mark_warm",
+           "njit", "source_digest"]
