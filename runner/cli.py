@@ -121,11 +121,14 @@ def default_arenas(mode: str, attach: tuple[str, ...]) -> int:
                    "keepaway view); faster.")
 @click.option("--game-log-arenas", default="", metavar="B,B,...",
               help="Batched mode: write the game logs of these arenas (keepaway-arena<B>.rcg; none by default).")
+@click.option("--view", is_flag=True,
+              help="Distributed mode: open a browser viewer of the arena (keepaway view) and print its URL; it "
+                   "stops with the run (add --realtime to watch at 10 cycles a second).")
 @click.option("--json", "as_json", is_flag=True, help="Print a machine-readable summary instead of the table.")
 @click.option("--no-progress", is_flag=True, help="No progress bar.")
 def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str, policy_path: Path | None,
                 keepers: int, takers: int, field_size: float, parameter_set: str, mode: str, batch: int,
-                realtime: bool, out: Path, no_game_log: bool, game_log_arenas: str, as_json: bool,
+                realtime: bool, out: Path, no_game_log: bool, game_log_arenas: str, view: bool, as_json: bool,
                 no_progress: bool) -> None:
     """Play Keepaway: a whole arena (server, coach, keepers, takers) for --episodes episodes."""
     from agents.policy_file import PolicyFileError, load_policy
@@ -140,6 +143,8 @@ def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str,
         raise click.UsageError("--episodes must be at least 1")
     if realtime and mode != "distributed":
         raise click.UsageError("--realtime needs --mode distributed")
+    if view and mode != "distributed":
+        raise click.UsageError("--view follows an arena's monitor port: it needs --mode distributed")
     if mode == "batched" and batch < 1:
         raise click.UsageError("--batch must be at least 1")
     logged_arenas = arena_list(game_log_arenas, batch if mode == "batched" else 0, "--game-log-arenas")
@@ -152,7 +157,7 @@ def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str,
         raise click.UsageError(str(exc)) from None
     spec = ArenaSpec(params, keepers, takers, seed, pass_policy, getopen_policy, policy)
     opts = RunOptions(spec, episodes, mode, batch, realtime, out, policy_path, parameter_set,
-                      game_log=not no_game_log, game_log_arenas=logged_arenas)
+                      game_log=not no_game_log, game_log_arenas=logged_arenas, view=view)
     interrupt_on_sigterm()
     show = (lambda result: click.echo(dump_json(result.summary()) if as_json else summary_table(result.summary())))
     try:

@@ -24,7 +24,7 @@ from runner.batched import CHUNK_CYCLES, BatchedArenas
 from runner.embedded import ArenaSpec, embedded_episodes
 from runner.job import EpisodeTable, RunResult
 from runner.kernels import ensure_compiled, kernel_sets
-from runner.launch import ArenaFailure, ArenaProcesses
+from runner.launch import VIEW_RE, ArenaFailure, ArenaProcesses, keepaway_argv
 from server.arena import REFEREE_EPISODE_MESSAGE
 from server.episode_log import EpisodeRecord, JsonlLog, KwyLog, read_jsonl
 from server.game_log import PLAY_ON, RCG_SUFFIX, RcgLog, WorldShows
@@ -42,11 +42,14 @@ class RunOptions:
     parameter_set: str = "classic"
     game_log: bool = True  # distributed, embedded: write keepaway.rcg (server/game_log.py)
     game_log_arenas: tuple[int, ...] = ()  # batched: the arenas whose keepaway-arena<B>.rcg is written
+    view: bool = False  # distributed: a `keepaway view` of the arena's monitor, for as long as the run
 
 
 # -- modes ------------------------------------------------------------------------------------------
-def distributed_episodes(opts: RunOptions, processes: ArenaProcesses) -> Iterator[tuple[EpisodeRecord, int]]:
+def distributed_episodes(opts: RunOptions, processes: ArenaProcesses, viewer: ArenaProcesses | None = None,
+                         announce: Callable[[str], None] | None = None) -> Iterator[tuple[EpisodeRecord, int]]:
     """Start server, coach and players as processes; yield episodes as the monitor port reports them.
+    With ``viewer``, start a ``keepaway view`` of the arena there and ``announce`` its URL.
 
     Raises ArenaFailure naming the process if any of them dies before the run has finished (a clean
     exit once every episode is in the server's log is not a death, however slowly the rest stop).
@@ -64,6 +67,13 @@ def distributed_episodes(opts: RunOptions, processes: ArenaProcesses) -> Iterato
         player_args += ["--policy", str(opts.policy_path)]
     endpoints = processes.start_arena(server_args, player_args, spec.keepers, spec.takers)
     server = processes.member("server")
+    if viewer is not None:
+        member = viewer.start("viewer", keepaway_argv("view", "--server", endpoints.monitor, "--port", "0",
+                                                      "--field-size", str(spec.params.keepaway_length)),
+                              capture_stdout=True)
+        url = viewer.announced(member, VIEW_RE, 60.0).group(1)
+        if announce is not None:
+            announce(f"watch the arena at {url}")
 
     def finished() -> bool:
         return len(logged_episodes(opts.out)) >= opts.episodes
@@ -188,13 +198,14 @@ def run(opts: RunOptions, progress: bool = True, announce: Callable[[str], None]
     first_cycle = last_cycle = 0
     start = time.perf_counter()
     processes = ArenaProcesses(opts.out / "processes") if opts.mode == "distributed" else None
+    viewer = ArenaProcesses(opts.out / "processes") if opts.view else None  # not one of the arena's
     stopped: BaseException | None = None
     stream: Iterator[tuple[EpisodeRecord, int]] | None = None
     try:
         if opts.mode == "distributed":
             assert processes is not None
             processes.__enter__()
-            stream = distributed_episodes(opts, processes)
+            stream = distributed_episodes(opts, processes, viewer, announce)
         elif opts.mode == "embedded":
             stream = embedded_episodes(spec, opts.out / f"keepaway{RCG_SUFFIX}" if opts.game_log else None)
         else:
@@ -218,8 +229,9 @@ def run(opts: RunOptions, progress: bool = True, announce: Callable[[str], None]
         bar.close()
         if stream is not None:
             stream.close()  # closes the game logs of the in-process modes
-        if processes is not None:
-            processes.stop()
+        for group in (processes, viewer):
+            if group is not None:
+                group.stop()
     if opts.mode == "distributed":
         # the server's log is the record (flushed per episode, also when the server was killed)
         records = logged_episodes(opts.out) or records

@@ -17,9 +17,10 @@ marks nothing else. With ``record_messages`` rcssserver also logs the referee's 
 them on its message board), and :func:`read_rcg` finds the episodes by them; a log without them (the
 reference's runs) takes its episodes from the ``.kwy`` beside it (:func:`read_kwy`).
 
-**Notes.** What a keeper reports of its GetOpen decision (docs/protocol.md §5, ``command.getopen``) is
-written as ``(msg T 2 "(getopen (l U) X Y [v1 ... v25])")`` on the log board (board 2), which viewers
-list and otherwise ignore.
+**Notes.** A keeper's GetOpen decision of a cycle, its target point and optionally the grid points'
+values, is written as ``(msg T 2 "(getopen (l U) TX TY [X1 Y1 V1 ...])")`` on the log board (board 2),
+which rcssmonitor and soccerwindow2 list and otherwise ignore; ``keepaway view`` and ``keepaway render``
+draw them. Our keepers do not report their GetOpen decisions to the server yet, so our logs have none.
 
 The core is sans-IO: :class:`RcgFormatter` turns shows and events into text lines, :func:`parse_rcg`
 turns text back into :class:`Show` frames; :class:`RcgLog` is the thin file sink the server and
@@ -112,8 +113,8 @@ class Show(NamedTuple):
 
 
 class GetOpenNote(NamedTuple):
-    """A keeper's GetOpen decision of one cycle: its target point and, if it sent them, the grid's values
-    (in the kernels' grid order: x outer, y inner, ascending)."""
+    """A keeper's GetOpen decision of one cycle: its target point and, if it sent them, the grid points
+    with their values, flat: x1, y1, v1, x2, y2, v2, ..."""
 
     cycle: int
     unum: int
@@ -343,6 +344,7 @@ _PLAYER_RE = re.compile(
 _MSG_RE = re.compile(r'^\(msg (\d+) (\d+) "(.*)"\)$')
 _PLAYMODE_RE = re.compile(r"^\(playmode (\d+) ([a-z_A-Z]+)\)$")
 _TEAM_RE = re.compile(r"^\(team (\d+) (\S+) (\S+) (-?\d+) (-?\d+)")
+_PARAM_RE = re.compile(r"\(([a-z_0-9]+) ([^()]*)\)")
 _GETOPEN_RE = re.compile(r"^\(" + GETOPEN_NOTE + r" \(l (\d+)\) ([-0-9.e+ ]+)\)$")
 
 
@@ -383,6 +385,12 @@ class GameRecord:
     notes: dict[int, list[GetOpenNote]]
     play_modes: list[tuple[int, str]]
     teams: tuple[str, str]
+    server_param: dict[str, str] = field(default_factory=dict)  # the header's, by rcssserver's names
+
+    def region(self) -> tuple[float, float]:
+        """The Keepaway region's length and width (m); rcssserver's defaults if the header lacks them."""
+        return (float(self.server_param.get("keepaway_length", 20.0)),
+                float(self.server_param.get("keepaway_width", 20.0)))
 
     def episode_at(self, cycle: int) -> tuple[int, int]:
         """(episode number from 1, its start cycle) of the show at ``cycle``."""
@@ -400,6 +408,7 @@ def parse_rcg(lines: Iterable[str], source: str = "game log") -> GameRecord:
     notes: dict[int, list[GetOpenNote]] = {}
     modes: list[tuple[int, str]] = []
     teams = ("", "")
+    server_param: dict[str, str] = {}
     for number, raw in enumerate(lines, 1):
         line = raw.rstrip("\r\n")
         if number == 1:
@@ -425,14 +434,16 @@ def parse_rcg(lines: Iterable[str], source: str = "game log") -> GameRecord:
                 if found is None:
                     raise ValueError("malformed team line")
                 teams = (found.group(2), found.group(3))
-            elif line and not line.startswith(("(server_param", "(player_param", "(player_type", "(team_graphic")):
+            elif line.startswith("(server_param "):
+                server_param = dict(_PARAM_RE.findall(line))
+            elif line and not line.startswith(("(player_param", "(player_type", "(team_graphic")):
                 raise ValueError(f"unknown line {line[:30]!r}")
         except ValueError as exc:
             if raw.endswith("\n"):  # else it is the last line, cut short by a killed writer: skipped
                 raise ValueError(f"{source}:{number}: {exc}") from None
     if not shows:
         raise ValueError(f"{source}: the game log has no show")
-    return GameRecord(shows, sorted(set(starts)), notes, modes, teams)
+    return GameRecord(shows, sorted(set(starts)), notes, modes, teams, server_param)
 
 
 def _take_msg(line: str, starts: list[int], notes: dict[int, list[GetOpenNote]]) -> None:

@@ -139,3 +139,13 @@ def test_a_game_log_read_back_gives_the_game_as_played_and_the_reference_script_
         assert (float(row["bx"]), float(row["by"])) == show.ball[:2]
         keeper2 = show.players[1]
         assert (float(row["l2_x"]), float(row["l2_y"]), float(row["l2_body"])) == (keeper2.x, keeper2.y, keeper2.body)
+
+
+def test_getopen_notes_are_written_on_the_log_board_and_read_back():
+    params = parameter_set("classic")
+    formatter = RcgFormatter(params)
+    show = Show(0, (0.0, 0.0, 0.0, 0.0), ())
+    note = GetOpenNote(4, 2, (3.5, -7.0), (-7.0, -7.0, 0.25, -7.0, -3.5, -1.5))
+    lines = formatter.header() + formatter.start_game(show) + formatter.cycle(show._replace(cycle=4), notes=[note])
+    assert '(msg 4 2 "(getopen (l 2) 3.5 -7 -7 -7 0.25 -7 -3.5 -1.5)")' in lines
+    assert parse_rcg(line + "\n" for line in lines).notes == {4: [note]}

@@ -134,6 +134,7 @@ def test_bad_options_are_one_line_errors(processes, tmp_path):
         (["--field-size", "nan"], "not a finite number"),
         (["--mode", "batched", "--batch", "8", "--game-log-arenas", "8"], "arenas are numbered 0..7"),
         (["--game-log-arenas", "0"], "--game-log-arenas needs --mode batched"),
+        (["--mode", "embedded", "--view"], "--view follows an arena's monitor port: it needs --mode distributed"),
         (["--mode", "batched", "--game-log-arenas", "1,x"], "expected arena numbers separated by commas"),
     ]:
         proc = processes.popen(keepaway_command("run", *args, "--out", str(tmp_path)),
