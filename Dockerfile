@@ -10,6 +10,7 @@ COPY agents ./agents
 COPY coach ./coach
 COPY runner ./runner
 COPY trainer ./trainer
+COPY viewer ./viewer
 # every kernel compiled once into the image's cache: containers start playing at once
 RUN pip install --no-cache-dir . && keepaway compile
 ENTRYPOINT ["keepaway"]

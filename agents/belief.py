@@ -12,7 +12,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from core.jit import njit
+from core.jit import borrowing
 
 
 class Belief(NamedTuple):
@@ -129,7 +129,7 @@ def new_memory(batch: int, seeds: np.ndarray) -> AgentMemory:
     )
 
 
-@njit(cache=True)
+@borrowing
 def forget_episode(mem: AgentMemory, r: int) -> None:
     """Episode boundary for row ``r``: no last action, no decision time, no committed targets
     (spec `keepaway-agents.md` 1 step 1; the learner's endEpisode is the caller's)."""

@@ -9,30 +9,30 @@ from __future__ import annotations
 
 import math
 
-from core.jit import njit
+from core.jit import borrowing
 
 from core.objects import CMD_DASH, CMD_TURN
 
 
-@njit(cache=True)
+@borrowing
 def normalize_angle(a: float) -> float:
     """Angle in (-180, 180]."""
     a -= 360.0 * math.floor((a + 180.0) / 360.0)
     return 180.0 if a == -180.0 else a
 
 
-@njit(cache=True)
+@borrowing
 def direction(dx: float, dy: float) -> float:
     """Global direction of the vector (dx, dy), degrees."""
     return math.degrees(math.atan2(dy, dx))
 
 
-@njit(cache=True)
+@borrowing
 def distance(ax: float, ay: float, bx: float, by: float) -> float:
     return math.hypot(bx - ax, by - ay)
 
 
-@njit(cache=True)
+@borrowing
 def vertex_angle(ax: float, ay: float, bx: float, by: float, cx: float, cy: float) -> float:
     """ang(A, B, C): unsigned angle at vertex B between rays B->A and B->C, in [0, 180]
     (spec `keepaway-task.md` 3). A degenerate ray (A or C on B) gives 0: nothing separates them."""
@@ -46,13 +46,13 @@ def vertex_angle(ax: float, ay: float, bx: float, by: float, cx: float, cy: floa
     return math.degrees(math.acos(min(1.0, max(-1.0, c))))
 
 
-@njit(cache=True)
+@borrowing
 def geometric_sum(decay: float, n: float) -> float:
     """1 + d + ... + d^(n-1) = (1 - d^n) / (1 - d): distance factor of a decaying velocity over n cycles."""
     return (1.0 - decay**n) / (1.0 - decay)
 
 
-@njit(cache=True)
+@borrowing
 def rolled_out(px: float, py: float, vx: float, vy: float, n: float, decay: float) -> tuple:
     """Position after n cycles without acceleration: pos + vel (1 - d^n)/(1 - d) (spec 2, shared geometry;
     velocities are the stored post-decay ones, so the next position is pos + vel)."""
@@ -60,14 +60,14 @@ def rolled_out(px: float, py: float, vx: float, vy: float, n: float, decay: floa
     return px + vx * f, py + vy * f
 
 
-@njit(cache=True)
+@borrowing
 def final_position(px: float, py: float, vx: float, vy: float, decay: float) -> tuple:
     """Position once the current velocity has died out: pos + vel / (1 - d) (spec 2.4, reference position)."""
     f = 1.0 / (1.0 - decay)
     return px + vx * f, py + vy * f
 
 
-@njit(cache=True)
+@borrowing
 def kick_rate(px: float, py: float, body: float, bx: float, by: float, kp) -> float:
     """Effective kick power rate for a ball at (bx, by) and a player at (px, py) with ``body``:
     kick_power_rate (1 - 0.25 |dir|/180 - 0.25 (dist - player_size - ball_size)/kickable_margin)
@@ -77,7 +77,7 @@ def kick_rate(px: float, py: float, body: float, bx: float, by: float, kp) -> fl
     return kp.kick_power_rate * (1.0 - 0.25 * dir_diff / 180.0 - 0.25 * dist_ball / kp.kickable_margin)
 
 
-@njit(cache=True)
+@borrowing
 def turn_moment(angle: float, speed: float, kp) -> float:
     """Moment to send so that a player moving at ``speed`` turns by ``angle``: angle (1 + inertia v),
     clipped to the moment range (spec 2, turn inertia)."""
@@ -85,14 +85,14 @@ def turn_moment(angle: float, speed: float, kp) -> float:
     return min(kp.max_moment, max(kp.min_moment, m))
 
 
-@njit(cache=True)
+@borrowing
 def turn_effect(moment: float, speed: float, kp) -> float:
     """Body rotation produced by ``moment`` at ``speed`` (noise-free `server-physics.md` 3, turn)."""
     m = min(kp.max_moment, max(kp.min_moment, moment))
     return m / (1.0 + kp.inertia_moment * speed)
 
 
-@njit(cache=True)
+@borrowing
 def dash_power_for(
     dx: float, dy: float, body: float, vx: float, vy: float, effort: float, cycles: float, kp
 ) -> float:
@@ -105,7 +105,7 @@ def dash_power_for(
     return dash_power_along(dx, dy, math.cos(rad), math.sin(rad), vx, vy, effort, decay_sum, kp)
 
 
-@njit(cache=True)
+@borrowing
 def dash_power_along(
     dx: float, dy: float, cs: float, sn: float, vx: float, vy: float, effort: float, decay_sum: float, kp
 ) -> float:
@@ -119,7 +119,7 @@ def dash_power_along(
     return min(kp.max_dash_power, max(kp.min_dash_power, power))
 
 
-@njit(cache=True)
+@borrowing
 def dash_velocity(vx: float, vy: float, cs: float, sn: float, effort: float, power: float, kp) -> tuple:
     """Velocity after a dash of ``power`` along the body (cosine ``cs``, sine ``sn``), before the move:
     effort * power * dash_power_rate capped at player_accel_max, the speed at player_speed_max
@@ -136,7 +136,7 @@ def dash_velocity(vx: float, vy: float, cs: float, sn: float, effort: float, pow
     return vx, vy
 
 
-@njit(cache=True)
+@borrowing
 def player_step(
     px: float, py: float, vx: float, vy: float, body: float, effort: float, cmd: int, a1: float, kp
 ) -> tuple:
@@ -154,7 +154,7 @@ def player_step(
     return px, py, vx * kp.player_decay, vy * kp.player_decay, body
 
 
-@njit(cache=True)
+@borrowing
 def ball_after_kick(
     bx: float, by: float, bvx: float, bvy: float, rate: float, power: float, kick_dir: float, body: float, kp
 ) -> tuple:
@@ -171,7 +171,7 @@ def ball_after_kick(
     return bx + vx, by + vy, vx * kp.ball_decay, vy * kp.ball_decay
 
 
-@njit(cache=True)
+@borrowing
 def in_cone(ox: float, oy: float, tx: float, ty: float, qx: float, qy: float, ratio: float) -> bool:
     """Whether q lies in the cone from o towards t of half-width ``ratio`` (perpendicular distance <
     ratio * distance along the line), projected between o and t and closer to o than t is

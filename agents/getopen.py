@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from core.jit import njit
+from core.jit import borrowing, njit
 
 from agents.belief import AgentMemory, Belief
 from agents.geometry import distance, in_cone, vertex_angle
@@ -174,12 +174,12 @@ def getopen_input_scaling(name: str, n_keepers: int, n_takers: int, region_size:
     raise ValueError(f"GetOpen inputs must be one of {', '.join(GETOPEN_INPUTS)}, not {name!r}")
 
 
-@njit(cache=True)
+@borrowing
 def grid_size(cfg) -> int:
     return int(cfg.grid_points) * int(cfg.grid_points)
 
 
-@njit(cache=True)
+@borrowing
 def grid_point(k: int, kp, cfg) -> tuple:
     """Grid point ``k`` (x outer, y inner, both ascending): x = xmin + 0.15 L + i 0.175 L for a 5 x 5 grid
     with 15 % margins (spec `keepaway-agents.md` 2.5 step 2; 20 m: -7, -3.5, 0, 3.5, 7)."""
@@ -192,7 +192,7 @@ def grid_point(k: int, kp, cfg) -> tuple:
     return x, y
 
 
-@njit(cache=True)
+@borrowing
 def predicted_ball_pos(bel: Belief, r: int, cycles: int, kp, cfg) -> tuple:
     """predictedBallPos: the ball after ``cycles``, the fastest keeper's interception time from
     ``fastest_to_ball`` (0 if a keeper has it; capped at the horizon if nobody reaches it)
@@ -200,7 +200,7 @@ def predicted_ball_pos(bel: Belief, r: int, cycles: int, kp, cfg) -> tuple:
     return ball_in(bel, r, min(cycles, int(cfg.intercept_horizon)), kp)
 
 
-@njit(cache=True)
+@borrowing
 def congestion(bel: Belief, r: int, px: float, py: float, cfg) -> float:
     """Sum over the other usable players not exactly at P of 1 / dist(player, P) (spec
     `keepaway-agents.md` 2.5 step 3; -value(P) of GO:HC, `keepaway-task.md` 4)."""
@@ -214,7 +214,7 @@ def congestion(bel: Belief, r: int, px: float, py: float, cfg) -> float:
     return total
 
 
-@njit(cache=True)
+@borrowing
 def lane_open(bel: Belief, r: int, px: float, py: float, bx: float, by: float, cone: bool, cfg) -> bool:
     """Whether the lane from predictedBallPos B to P is open: the paper's min_j ang(P, B, Tj) >= 18.4 deg
     (`keepaway-task.md` 4), or with ``cone`` no taker in the framework's cone of half-width 0.3
@@ -231,7 +231,7 @@ def lane_open(bel: Belief, r: int, px: float, py: float, bx: float, by: float, c
     return True
 
 
-@njit(cache=True)
+@borrowing
 def handcoded_target(bel: Belief, r: int, ball_cycles: int, cone: bool, kp, cfg) -> tuple:
     """GO:HC: the admissible grid point with the lowest congestion (strict <, scan order wins ties);
     the region centre if none is admissible (spec `keepaway-agents.md` 2.5 steps 4-5).
@@ -248,7 +248,7 @@ def handcoded_target(bel: Belief, r: int, ball_cycles: int, cone: bool, kp, cfg)
     return best_x, best_y
 
 
-@njit(cache=True)
+@borrowing
 def lane_origin(bel: Belief, r: int, ball_cycles: int, kp, cfg) -> tuple:
     """Where GO:L's variables 9-10 measure the pass from: the keeper now closest to the ball (K1, spec
     `keepaway-task.md` 4; myself if no keeper is usable), or with
@@ -296,7 +296,7 @@ def grid_states(bel: Belief, r: int, kp, cfg, out) -> None:
         getopen_state(bel, r, px, py, ox, oy, out[k])
 
 
-@njit(cache=True)
+@borrowing
 def random_target(bel: Belief, r: int, mem: AgentMemory, kp, cfg) -> tuple:
     """GO:R: a uniformly drawn grid point, kept until I am within the arrival radius of it
     (spec `keepaway-agents.md` 2.6)."""
@@ -311,7 +311,7 @@ def random_target(bel: Belief, r: int, mem: AgentMemory, kp, cfg) -> tuple:
     return mem.target[r, 0], mem.target[r, 1]
 
 
-@njit(cache=True)
+@borrowing
 def move_to_spot(bel: Belief, r: int, px: float, py: float, kp, cfg) -> tuple:
     """Within the arrival radius turn the body to the ball and stand; else GoToPoint(P, 7 deg)
     (spec `keepaway-agents.md` 2.5 step 6)."""
@@ -321,7 +321,7 @@ def move_to_spot(bel: Belief, r: int, px: float, py: float, kp, cfg) -> tuple:
     return go_to_point(bel, r, px, py, kp, cfg)
 
 
-@njit(cache=True)
+@borrowing
 def getopen(bel: Belief, r: int, mem: AgentMemory, theta, ball_cycles: int, kp, cfg) -> tuple:
     """GetOpen with the policy ``cfg.getopen_policy``, re-evaluated every cycle (spec
     `keepaway-agents.md` 2.5 step 7); ``theta`` is this row's net parameters (used by GO:L only),

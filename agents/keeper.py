@@ -15,7 +15,7 @@ the caller picks a grid point and calls ``execute_getopen_action``.
 
 from __future__ import annotations
 
-from core.jit import njit
+from core.jit import borrowing
 
 from agents.belief import AgentMemory, Belief
 from agents.getopen import getopen, grid_point, move_to_spot
@@ -44,7 +44,7 @@ PASS_DECISION_STEP = 2  # learner: step(reward = time - t_last, state)
 GETOPEN_DECISION = 3  # GETOPEN_EXTERNAL: the caller picks a grid point (execute_getopen_action)
 
 
-@njit(cache=True)
+@borrowing
 def handcoded_pass(state, n_keepers: int, n_takers: int, cfg) -> int:
     """P:HC (spec `keepaway-task.md` 3): hold if dist(K1, T1) > C1; else val_i = C2 min_j ang(Ki, K1, Tj)
     + min_j dist(Ki, Tj) for i >= 2, pass to the best if above C3 (first wins ties), else hold.
@@ -62,7 +62,7 @@ def handcoded_pass(state, n_keepers: int, n_takers: int, cfg) -> int:
     return action
 
 
-@njit(cache=True)
+@borrowing
 def execute_pass_action(
     bel: Belief, r: int, mem: AgentMemory, action: int, kp, cfg, out_main, out_a1, out_a2, out_neck
 ) -> None:
@@ -77,7 +77,7 @@ def execute_pass_action(
     write_action(r, code, a1, a2, neck_to_ball(bel, r, code, a1, kp), out_main, out_a1, out_a2, out_neck)
 
 
-@njit(cache=True)
+@borrowing
 def execute_getopen_action(
     bel: Belief, r: int, point: int, kp, cfg, out_main, out_a1, out_a2, out_neck
 ) -> None:
@@ -88,7 +88,7 @@ def execute_getopen_action(
     write_action(r, code, a1, a2, neck_to_point(bel, r, code, a1, 0.0, 0.0, kp), out_main, out_a1, out_a2, out_neck)
 
 
-@njit(cache=True)
+@borrowing
 def keeper_decide(
     bel: Belief, r: int, mem: AgentMemory, theta, kp, cfg, out_main, out_a1, out_a2, out_neck, out_state
 ) -> int:
@@ -136,7 +136,7 @@ def keeper_decide(
     return NO_PASS_DECISION
 
 
-@njit(cache=True)
+@borrowing
 def keepers_decide(
     bel: Belief, mem: AgentMemory, theta, kp, cfg, out_main, out_a1, out_a2, out_neck, out_state, out_decision
 ) -> None:

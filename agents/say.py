@@ -46,7 +46,7 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from core.jit import njit
+from core.jit import borrowing
 
 from agents.geometry import ball_after_kick, kick_rate, player_step
 from agents.skills import frame_sign, kickable_distance, opponent_range
@@ -118,7 +118,7 @@ def hear_text(talk: Talk, r: int, text: str) -> None:
 # the code: one character per value, in single precision as the C++ floats
 
 
-@njit(cache=True)
+@borrowing
 def _clip_code(i) -> int:
     """``get_printable_char``: the index truncated towards zero, clipped to the alphabet."""
     code = int(i)
@@ -127,20 +127,20 @@ def _clip_code(i) -> int:
     return min(code, NUM_CHARS - 1)
 
 
-@njit(cache=True)
+@borrowing
 def encode_position(value: float, low: float, span: float) -> int:
     """X and Y: ``(v - low) / span * 73`` all in float (the C++ literals are integers)."""
     v = np.float32(np.float32(value) - np.float32(low))
     return _clip_code(np.float32(np.float32(v / np.float32(span)) * np.float32(NUM_CHARS)))
 
 
-@njit(cache=True)
+@borrowing
 def encode_velocity(value: float) -> int:
     """dX and dY: the float value, then ``(v + 2.7) / 5.4 * 73`` in double (double literals)."""
     return _clip_code((float(np.float32(value)) - V_LOW) / V_SPAN * NUM_CHARS)
 
 
-@njit(cache=True)
+@borrowing
 def decode_value(code: int, low: float, span: float) -> float:
     """``(float)code / 73 * span + low`` stored in a float."""
     return float(np.float32(float(np.float32(code) / np.float32(NUM_CHARS)) * span + low))
@@ -150,7 +150,7 @@ def decode_value(code: int, low: float, span: float) -> float:
 # saying
 
 
-@njit(cache=True)
+@borrowing
 def _ball_after_command(r: int, s: ModelState, main: int, power: float, angle: float, kp) -> tuple:
     """``WorldModel::predictBallInfoAfterCommand``: the ball a step on, after my kick if I kick (power and
     angle truncated to integers as the C++ does, the kick rate of the ball where it is): position and
@@ -163,7 +163,7 @@ def _ball_after_command(r: int, s: ModelState, main: int, power: float, angle: f
     return ball_after_kick(bx, by, vx, vy, rate, float(int(power)), float(int(angle)), s.body[r, me], kp)
 
 
-@njit(cache=True)
+@borrowing
 def _me_after(r: int, s: ModelState, main: int, power: float, kp) -> tuple:
     """``WorldModel::predictAgentPosAfterCommand``: my next position after a dash of ``power``, any other
     command coasting, no command (the C++ CMD_ILLEGAL) a dash of 0.01."""
@@ -175,14 +175,14 @@ def _me_after(r: int, s: ModelState, main: int, power: float, kp) -> tuple:
     return x, y
 
 
-@njit(cache=True)
+@borrowing
 def _put_position(talk: Talk, r: int, at: int, x: float, y: float) -> int:
     talk.said[r, at] = encode_position(x, X_LOW, X_SPAN)
     talk.said[r, at + 1] = encode_position(y, Y_LOW, Y_SPAN)
     return at + 2
 
 
-@njit(cache=True)
+@borrowing
 def say_row(r: int, s: ModelState, main: int, a1: float, a2: float, n_keepers: int, kp, cfg,
             talk: Talk) -> None:
     """Row ``r``'s message for this cycle (module docstring) after deciding ``main`` with arguments
@@ -241,7 +241,7 @@ def say_row(r: int, s: ModelState, main: int, a1: float, a2: float, n_keepers: i
 # hearing
 
 
-@njit(cache=True)
+@borrowing
 def _decodes(codes: np.ndarray, n: int) -> bool:
     """``SayMsgDecoder::decodeStr``: the message splits into known units, each complete."""
     if n < 0:
@@ -255,19 +255,19 @@ def _decodes(codes: np.ndarray, n: int) -> bool:
     return at == n
 
 
-@njit(cache=True)
+@borrowing
 def _confidence_from_age(cycles: int) -> float:
     """``Object::getConfidenceFromTimeDiff``."""
     return max(0.0, 1.0 - cycles / 100.0)
 
 
-@njit(cache=True)
+@borrowing
 def _seen_for_confidence(now: int, conf: float) -> int:
     """``WorldModel::getTimeFromConfidence``: the time a confidence dates an object to."""
     return now - int((1.00 - conf) * 100)
 
 
-@njit(cache=True)
+@borrowing
 def _hear_ball(r: int, s: ModelState, codes: np.ndarray, at: int, sign: float, cfg) -> None:
     """``WMBallInfo::process`` and ``WorldModel::processPerfectHearInfoBall``."""
     px = sign * decode_value(codes[at + 1], X_LOW, X_SPAN)
@@ -294,7 +294,7 @@ def _hear_ball(r: int, s: ModelState, codes: np.ndarray, at: int, sign: float, c
         s.seen[r, BALL] = _seen_for_confidence(now, conf)
 
 
-@njit(cache=True)
+@borrowing
 def _hear_player(r: int, s: ModelState, obj: int, px: float, py: float, conf: float) -> None:
     """``WorldModel::processPerfectHearInfo`` for a player other than me."""
     if obj == s.me[r] or confidence(r, s, obj) >= conf:
@@ -304,7 +304,7 @@ def _hear_player(r: int, s: ModelState, obj: int, px: float, py: float, conf: fl
     s.seen[r, obj] = _seen_for_confidence(s.time[r], conf)
 
 
-@njit(cache=True)
+@borrowing
 def hear_row(r: int, s: ModelState, n_keepers: int, cfg, talk: Talk) -> None:
     """Process row ``r``'s last heard teammate message, once (module docstring); call after the cycle's
     see, before the decision. A message that does not decode is dropped whole, as the C++ drops it."""

@@ -15,7 +15,7 @@ from collections import namedtuple
 from dataclasses import dataclass, fields
 
 import numpy as np
-from core.jit import njit
+from core.jit import borrowing, njit
 
 from agents.belief import AgentMemory, Belief
 from agents.geometry import (
@@ -141,13 +141,13 @@ AgentKernel = namedtuple("AgentKernel", [f.name for f in fields(AgentConfig)])
 AgentKernel.__module__ = __name__
 
 
-@njit(cache=True)
+@borrowing
 def kickable_distance(kp) -> float:
     """player_size + kickable_margin + ball_size = 1.085 m (spec header)."""
     return kp.player_size + kp.kickable_margin + kp.ball_size
 
 
-@njit(cache=True)
+@borrowing
 def ball_in(bel: Belief, r: int, n: float, kp) -> tuple:
     """The believed ball position after ``n`` cycles (spec 2, shared geometry)."""
     return rolled_out(
@@ -155,14 +155,14 @@ def ball_in(bel: Belief, r: int, n: float, kp) -> tuple:
     )
 
 
-@njit(cache=True)
+@borrowing
 def ball_kickable(bel: Belief, r: int, obj: int, kp) -> bool:
     """Whether player ``obj`` can kick the ball (centre distance < kickable distance, spec 1 step 3)."""
     gap = distance(bel.pos[r, obj, 0], bel.pos[r, obj, 1], bel.pos[r, 0, 0], bel.pos[r, 0, 1])
     return gap < kickable_distance(kp)
 
 
-@njit(cache=True)
+@borrowing
 def closest_to_ball(bel: Belief, r: int, first: int, last: int, skip: int, cfg) -> int:
     """The usable player (conf >= threshold, not ``skip``) among objects first..last closest to the ball,
     -1 if none; ties go to the lower index."""
@@ -177,7 +177,7 @@ def closest_to_ball(bel: Belief, r: int, first: int, last: int, skip: int, cfg) 
     return best
 
 
-@njit(cache=True)
+@borrowing
 def sort_by_distance(bel: Belief, r: int, ox: float, oy: float, first: int, last: int, skip: int, out) -> int:
     """Write the objects first..last except ``skip`` into ``out`` by increasing distance from (ox, oy)
     (stable: lower index first on ties); returns how many were written."""
@@ -195,7 +195,7 @@ def sort_by_distance(bel: Belief, r: int, ox: float, oy: float, first: int, last
     return n
 
 
-@njit(cache=True)
+@borrowing
 def opponent_range(obj: int, n_keepers: int, n_players: int) -> tuple:
     """Object index range (first, last), inclusive, of the opponents of player ``obj`` among objects
     1..n_players (keepers first): the takers for a keeper, the keepers for a taker."""
@@ -204,20 +204,20 @@ def opponent_range(obj: int, n_keepers: int, n_players: int) -> tuple:
     return 1, n_keepers
 
 
-@njit(cache=True)
+@borrowing
 def opponents(bel: Belief, obj: int) -> tuple:
     """Object index range (first, last) of the opponents of player ``obj``."""
     return opponent_range(obj, bel.n_keepers, bel.n_keepers + bel.n_takers)
 
 
-@njit(cache=True)
+@borrowing
 def frame_sign(obj: int, n_keepers: int) -> float:
     """+1 if player ``obj``'s own frame is the server's (a keeper), -1 if it is mirrored (a taker):
     :func:`own_frame_sign` on an object index."""
     return 1.0 if 1 <= obj <= n_keepers else -1.0
 
 
-@njit(cache=True)
+@borrowing
 def own_frame_sign(bel: Belief, r: int) -> float:
     """+1 if my own frame is the server's, -1 if it is mirrored. The C++ players mirror the field for the
     right-hand team, the takers (rcssserver keepaway mode: keepers left), so where their code says
@@ -226,7 +226,7 @@ def own_frame_sign(bel: Belief, r: int) -> float:
     return frame_sign(bel.me[r], bel.n_keepers)
 
 
-@njit(cache=True)
+@borrowing
 def forward_angle(bel: Belief, r: int) -> float:
     """The server-frame direction that my own frame calls 0 deg (``own_frame_sign``)."""
     return 0.0 if own_frame_sign(bel, r) > 0.0 else 180.0
@@ -235,7 +235,7 @@ def forward_angle(bel: Belief, r: int) -> float:
 # ----------------------------------------------------------------------------------------------- neck
 
 
-@njit(cache=True)
+@borrowing
 def neck_to_point(bel: Belief, r: int, cmd: int, a1: float, tx: float, ty: float, kp) -> float:
     """turn_neck moment that points the head at (tx, ty) after this cycle's main command, the neck
     clipped to its range (BasicPlayer::turnNeckToPoint)."""
@@ -249,19 +249,19 @@ def neck_to_point(bel: Belief, r: int, cmd: int, a1: float, tx: float, ty: float
     return want - bel.neck[r, me]
 
 
-@njit(cache=True)
+@borrowing
 def neck_to_ball(bel: Belief, r: int, cmd: int, a1: float, kp) -> float:
     """turn_neck moment towards the believed ball position."""
     return neck_to_point(bel, r, cmd, a1, bel.pos[r, 0, 0], bel.pos[r, 0, 1], kp)
 
 
-@njit(cache=True)
+@borrowing
 def neck_with_body(bel: Belief, r: int) -> float:
     """turn_neck moment that aligns the neck with the body (spec 1 step 2)."""
     return -bel.neck[r, bel.me[r]]
 
 
-@njit(cache=True)
+@borrowing
 def write_action(
     r: int, code: int, a1: float, a2: float, neck: float, out_main, out_a1, out_a2, out_neck
 ) -> None:
@@ -275,7 +275,7 @@ def write_action(
 # ------------------------------------------------------------------------------------------ movement
 
 
-@njit(cache=True)
+@borrowing
 def turn_to_point(bel: Belief, r: int, tx: float, ty: float, cycles: float, kp) -> tuple:
     """Turn the body towards (tx, ty) as seen from my position ``cycles`` ahead, compensating inertia
     (BasicPlayer::turnBodyToPoint, spec 2 turn inertia)."""
@@ -286,7 +286,7 @@ def turn_to_point(bel: Belief, r: int, tx: float, ty: float, cycles: float, kp) 
     return CMD_TURN, turn_moment(angle, math.hypot(vx, vy), kp), 0.0
 
 
-@njit(cache=True)
+@borrowing
 def move_command(
     px: float, py: float, vx: float, vy: float, body: float, effort: float,
     tx: float, ty: float, cycles: float, kp, cfg,
@@ -315,7 +315,7 @@ def move_command(
     return CMD_DASH, dash_power_for(0.0, 0.0, body, vx, vy, effort, 1.0, kp)
 
 
-@njit(cache=True)
+@borrowing
 def go_to_point(bel: Belief, r: int, tx: float, ty: float, kp, cfg) -> tuple:
     """GoToPoint(target, 7 deg) for row ``r`` (spec 2.4)."""
     me = bel.me[r]
@@ -326,7 +326,7 @@ def go_to_point(bel: Belief, r: int, tx: float, ty: float, kp, cfg) -> tuple:
     return code, a1, 0.0
 
 
-@njit(cache=True)
+@borrowing
 def backward_move_distance(kp, cfg) -> float:
     """How far behind it a player moving to a point dashes backwards instead of turning round: the
     framework's 2.5 m (WorldModel::predictCommandToMoveToPos), or 0 when the server clips a negative dash
@@ -337,7 +337,7 @@ def backward_move_distance(kp, cfg) -> float:
     return cfg.intercept_back_distance if kp.min_dash_power < 0.0 else 0.0
 
 
-@njit(cache=True)
+@borrowing
 def _intercept_turns(
     px: float, py: float, vx: float, vy: float, body: float, tx: float, ty: float, far: float, roll: float,
     cycles: float, kp, cfg,
@@ -387,7 +387,7 @@ def _intercept_turns(
     return True, angle
 
 
-@njit(cache=True)
+@borrowing
 def intercept_move(
     px: float, py: float, vx: float, vy: float, body: float, effort: float,
     tx: float, ty: float, cycles: float, kp, cfg,
@@ -416,7 +416,7 @@ def decay_sums(cfg) -> np.ndarray:
     return np.full(int(cfg.intercept_horizon) + 1, np.nan)
 
 
-@njit(cache=True)
+@borrowing
 def _decay_sum(sums, k: int, kp) -> float:
     """geometric_sum(player_decay, float(k)) through the table ``sums`` (``decay_sums``)."""
     if k >= sums.shape[0]:
@@ -433,7 +433,7 @@ def _decay_sum(sums, k: int, kp) -> float:
 _REACH_SLACK = 1.0e-9
 
 
-@njit(cache=True)
+@borrowing
 def travel(
     px: float, py: float, vx: float, vy: float, body: float, effort: float,
     tx: float, ty: float, radius: float, n: int, need_end: bool, sums, kp, cfg,
@@ -483,7 +483,7 @@ def travel(
     return reached, distance(px, py, tx, ty)
 
 
-@njit(cache=True)
+@borrowing
 def player_travel(bel: Belief, r: int, obj: int, tx: float, ty: float, n: int, need_end: bool, sums, kp,
                   cfg) -> tuple:
     """``travel`` for player ``obj`` of row ``r`` to within kickable distance of (tx, ty); my own effort is
@@ -516,7 +516,7 @@ def fastest_to_ball(bel: Belief, r: int, first: int, last: int, kp, cfg) -> tupl
     return -1, horizon + 1
 
 
-@njit(cache=True)
+@borrowing
 def search_ball(bel: Belief, r: int, mem: AgentMemory, kp, cfg) -> tuple:
     """Turn 60 deg towards the side where the ball was last seen; the side is re-chosen only after
     3 cycles without searching (spec 1 step 2, BasicPlayer::searchBall)."""
@@ -534,7 +534,7 @@ def search_ball(bel: Belief, r: int, mem: AgentMemory, kp, cfg) -> tuple:
 # ------------------------------------------------------------------------------------------- kicking
 
 
-@njit(cache=True)
+@borrowing
 def _my_kick_rate(bel: Belief, r: int, kp) -> float:
     me = bel.me[r]
     return kick_rate(
@@ -542,13 +542,13 @@ def _my_kick_rate(bel: Belief, r: int, kp) -> float:
     )
 
 
-@njit(cache=True)
+@borrowing
 def _power_for_speed(speed: float, rate: float) -> float:
     """Kick power giving a velocity change ``speed`` at effective ``rate`` (spec 2, shared geometry)."""
     return speed / rate if rate > 0.0 else math.inf
 
 
-@njit(cache=True)
+@borrowing
 def accelerate_ball_to(bel: Belief, r: int, wx: float, wy: float, kp) -> tuple:
     """Kick that gives the ball velocity (wx, wy); if one kick cannot, a full-power kick that aligns the
     ball's new velocity with it (BasicPlayer::accelerateBallToVelocity, spec 2.3)."""
@@ -571,7 +571,7 @@ def accelerate_ball_to(bel: Belief, r: int, wx: float, wy: float, kp) -> tuple:
     return CMD_KICK, kp.max_power, normalize_angle(kick_dir - body)
 
 
-@njit(cache=True)
+@borrowing
 def freeze_ball(bel: Belief, r: int, kp, cfg) -> tuple:
     """Stop the ball: kick against its velocity; if that would leave it beyond 0.8 x kickable distance of
     my next position, kick it towards a point inside 0.7 x kickable distance instead (spec 2.2 step 3)."""
@@ -592,7 +592,7 @@ def freeze_ball(bel: Belief, r: int, kp, cfg) -> tuple:
     return accelerate_ball_to(bel, r, nx + reach * math.cos(aim) - bx, ny + reach * math.sin(aim) - by, kp)
 
 
-@njit(cache=True)
+@borrowing
 def kick_close_to_body(bel: Belief, r: int, angle: float, ratio: float, kp, cfg) -> tuple:
     """Kick the ball to my next position + (player_size + ball_size + kickable_margin * ratio) at
     ``angle`` relative to my body, pulled back inside the pitch; freeze if one kick cannot compensate a
@@ -619,7 +619,7 @@ def kick_close_to_body(bel: Belief, r: int, angle: float, ratio: float, kp, cfg)
     return CMD_KICK, power, normalize_angle(direction(kx, ky) - body)
 
 
-@njit(cache=True)
+@borrowing
 def hold_ball(bel: Belief, r: int, ratio: float, kp, cfg) -> tuple:
     """HoldBall (spec 2.2): keep the ball ``ratio`` x kickable_margin from the body, away from the
     opponent closest to the ball (rotated 45 deg against its heading) when it is within 5 m; if the ball
@@ -650,7 +650,7 @@ def hold_ball(bel: Belief, r: int, ratio: float, kp, cfg) -> tuple:
     return kick_close_to_body(bel, r, desired, ratio, kp, cfg)
 
 
-@njit(cache=True)
+@borrowing
 def pass_initial_speed(dist: float, end_speed: float, decay: float) -> tuple:
     """(n, v0): cycles and initial speed for a ball to arrive after ``dist`` with ``end_speed``:
     n = round(log(dist (1/d - 1)/end + 1) / log(1/d)), v0 = end (1/d)^n (spec 2.3)."""
@@ -659,7 +659,7 @@ def pass_initial_speed(dist: float, end_speed: float, decay: float) -> tuple:
     return n, end_speed * inv**n
 
 
-@njit(cache=True)
+@borrowing
 def _full_kick_speed(bvx: float, bvy: float, ux: float, uy: float, kick_speed: float) -> float:
     """The ball speed the C++ kickTo predicts for a full-power kick along (ux, uy): the kick (speed
     ``kick_speed``) aimed so that it cancels the ball's velocity across the line, no caps applied; 0 when
@@ -670,7 +670,7 @@ def _full_kick_speed(bvx: float, bvy: float, ux: float, uy: float, kick_speed: f
     return abs(bvx * ux + bvy * uy + math.sqrt(kick_speed**2 - across**2))
 
 
-@njit(cache=True)
+@borrowing
 def kick_to(bel: Belief, r: int, tx: float, ty: float, end_speed: float, kp, cfg) -> tuple:
     """kickTo(target, end speed) (spec 2.3): the initial speed that makes the ball arrive at ``end_speed``;
     if the ball's first step would end on my next position, it is shortened/extended to end 0.385 m
@@ -725,7 +725,7 @@ def pass_ball(bel: Belief, r: int, k: int, kp, cfg) -> tuple:
 # ----------------------------------------------------------------------------------------- intercept
 
 
-@njit(cache=True)
+@borrowing
 def _line_circle(px: float, py: float, ux: float, uy: float, cx: float, cy: float, radius: float) -> tuple:
     """Parameters t1 <= t2 where the line p + t u meets the circle; (nan, nan) if it misses."""
     along = (cx - px) * ux + (cy - py) * uy
@@ -736,7 +736,7 @@ def _line_circle(px: float, py: float, ux: float, uy: float, cx: float, cy: floa
     return along - half, along + half
 
 
-@njit(cache=True)
+@borrowing
 def collide_with_ball(bel: Belief, r: int, kp) -> tuple:
     """(ok, code, arg1): a command after which my body overlaps the ball next cycle (BasicPlayer::
     collideWithBall), the ball being near enough: a turn to my forward direction if I drift into it, else
@@ -761,7 +761,7 @@ def collide_with_ball(bel: Belief, r: int, kp) -> tuple:
     return False, CMD_DASH, 0.0
 
 
-@njit(cache=True)
+@borrowing
 def _opponent_within(bel: Belief, r: int, radius: float, cfg) -> bool:
     """Whether a usable opponent is within ``radius`` of me."""
     me = bel.me[r]
@@ -774,7 +774,7 @@ def _opponent_within(bel: Belief, r: int, radius: float, cfg) -> bool:
     return False
 
 
-@njit(cache=True)
+@borrowing
 def close_intercept(bel: Belief, r: int, kp, cfg) -> tuple:
     """(ok, code, arg1): the close interception, as BasicPlayer::interceptClose does it (its doc comment,
     which spec 2.1 step 1 follows, describes turn+dash and dash+dash searches the code does not make).
@@ -928,7 +928,7 @@ def interception_point(bel: Belief, r: int, mem: AgentMemory, kp, cfg, known_fir
     return chosen, x, y
 
 
-@njit(cache=True)
+@borrowing
 def intercept(bel: Belief, r: int, mem: AgentMemory, kp, cfg, known_first: int = -1) -> tuple:
     """Intercept / GoToBall (spec 2.1 step 3): the close intercept when the chosen point is < 3 cycles
     away and one exists; no move when my position rolled out min(i, 4) cycles is already within 0.5 m of

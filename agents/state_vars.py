@@ -14,20 +14,20 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from core.jit import njit
+from core.jit import borrowing, njit
 
 from agents.belief import Belief
 from agents.geometry import distance, vertex_angle
 from agents.skills import closest_to_ball, sort_by_distance
 
 
-@njit(cache=True)
+@borrowing
 def pass_state_size(n_keepers: int, n_takers: int) -> int:
     """4K + 2T - 3 (spec `keepaway-agents.md` 4, generalisation)."""
     return 4 * n_keepers + 2 * n_takers - 3
 
 
-@njit(cache=True)
+@borrowing
 def getopen_state_size(n_keepers: int, n_takers: int) -> int:
     """3K + T - 1 (spec `keepaway-task.md` 4 generalised like the Pass variables)."""
     return 3 * n_keepers + n_takers - 1
@@ -49,7 +49,7 @@ def getopen_state_kinds(n_keepers: int, n_takers: int) -> tuple[str, ...]:
             + ("pass_distance", "lane_angle"))
 
 
-@njit(cache=True)
+@borrowing
 def _around_vertex(
     bel: Belief, r: int, vx: float, vy: float, keepers, nk: int, takers, nt: int, out, at: int
 ) -> int:

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 
-from core.jit import njit
+from core.jit import borrowing
 
 from agents.belief import AgentMemory, Belief
 from agents.geometry import distance, in_cone
@@ -37,7 +37,7 @@ from agents.skills import (
 CHASING_TAKERS = 2
 
 
-@njit(cache=True)
+@borrowing
 def takers_closer_to_ball(bel: Belief, r: int, cfg) -> int:
     """How many usable takers are closer to the ball than me (ties: lower index counts as closer)."""
     me = bel.me[r]
@@ -53,7 +53,7 @@ def takers_closer_to_ball(bel: Belief, r: int, cfg) -> int:
     return count
 
 
-@njit(cache=True)
+@borrowing
 def mark_point(bel: Belief, r: int, kp, cfg) -> tuple:
     """Where to mark (spec 3 step 3): for each keeper on the pitch count the takers in the cone (half-width
     0.3) from the keeper fastest to the ball towards it; take the keeper with the fewest (first on ties,
@@ -87,7 +87,7 @@ def mark_point(bel: Belief, r: int, kp, cfg) -> tuple:
     return kx + cfg.mark_distance * dx / length, ky + cfg.mark_distance * dy / length
 
 
-@njit(cache=True)
+@borrowing
 def taker_decide(bel: Belief, r: int, mem: AgentMemory, kp, cfg, out_main, out_a1, out_a2, out_neck) -> None:
     """One taker decision for row ``r`` (spec `keepaway-agents.md` 3 steps 1-5)."""
     me = bel.me[r]
@@ -116,7 +116,7 @@ def taker_decide(bel: Belief, r: int, mem: AgentMemory, kp, cfg, out_main, out_a
     write_action(r, code, a1, a2, neck_to_ball(bel, r, code, a1, kp), out_main, out_a1, out_a2, out_neck)
 
 
-@njit(cache=True)
+@borrowing
 def takers_decide(bel: Belief, mem: AgentMemory, kp, cfg, out_main, out_a1, out_a2, out_neck) -> None:
     """``taker_decide`` for every row (the batched mode)."""
     for r in range(bel.pos.shape[0]):

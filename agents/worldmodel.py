@@ -41,7 +41,7 @@ from collections.abc import Mapping, Sequence
 from typing import Any, NamedTuple
 
 import numpy as np
-from core.jit import njit
+from core.jit import borrowing, njit
 
 from agents.belief import Belief, empty_belief
 from agents.geometry import kick_rate, normalize_angle, turn_effect
@@ -190,7 +190,7 @@ def _flag_weight(dist, kp):
     return 1.0 / (dist * dist * rel + DIST_PRINT_STEP ** 2 / 12.0)
 
 
-@njit(cache=True)
+@borrowing
 def confidence(r: int, s: ModelState, obj: int) -> float:
     """conf = 1 - (cycles since seen)/100 in [0, 1], 1 for me (spec `keepaway-agents.md` 1)."""
     if obj == s.me[r]:
@@ -198,7 +198,7 @@ def confidence(r: int, s: ModelState, obj: int) -> float:
     return _clamp(1.0 - float(s.time[r] - s.seen[r, obj]) / CONF_HORIZON_CYCLES, 0.0, 1.0)
 
 
-@njit(cache=True)
+@borrowing
 def _closest_player(r, s, x, y, lo, hi, skip, cfg):
     """The usable player (conf >= player_conf_threshold, me included) among objects ``lo``..``hi - 1``
     other than ``skip`` nearest to (x, y), and its distance; (-1, inf) if none. The C++ world model's
@@ -219,7 +219,7 @@ def _closest_player(r, s, x, y, lo, hi, skip, cfg):
 # prediction (spec `server-physics.md` 2-3, without noise)
 
 
-@njit(cache=True)
+@borrowing
 def _ball_kickable_by_me(r, s, kp):
     """Whether the estimated ball is within my kickable distance."""
     me = s.me[r]
@@ -227,7 +227,7 @@ def _ball_kickable_by_me(r, s, kp):
     return d <= kickable_distance(kp)
 
 
-@njit(cache=True)
+@borrowing
 def _kick_acceleration(r, s, power, direction, kp):
     """The acceleration my kick gives a kickable ball (spec 3 kick)."""
     me = s.me[r]
@@ -240,7 +240,7 @@ def _kick_acceleration(r, s, power, direction, kp):
     return eff * math.cos(a), eff * math.sin(a)
 
 
-@njit(cache=True)
+@borrowing
 def _dash_acceleration(r, s, power, kp):
     """My dash acceleration along the body, limited by the stamina left (spec 3 dash). The agents
     always dash straight ahead, so CURRENT's dash direction is not modelled."""
@@ -276,7 +276,7 @@ def _move(r, s, obj, ax, ay, accel_max, speed_max, decay):
     s.vel[r, obj, 1] *= decay
 
 
-@njit(cache=True)
+@borrowing
 def _stop_ball_at_opponent(r, s, x0, y0, n_keepers, kp, cfg):
     """The rolled-out ball stops if the usable opponent nearest to where it was (x0, y0) can kick it
     where it is now (C++ ``WorldModel::updateDynamicObjectForNextCycle``, ball branch): he is taken to
@@ -289,7 +289,7 @@ def _stop_ball_at_opponent(r, s, x0, y0, n_keepers, kp, cfg):
         s.vel[r, BALL, 1] = 0.0
 
 
-@njit(cache=True)
+@borrowing
 def predict_row(r: int, s: ModelState, n_keepers: int, kp, cfg) -> None:
     """Advance row ``r`` by one cycle: apply my pending commands and roll every object out. A ball I did
     not kick stops where an opponent can kick it (:func:`_stop_ball_at_opponent`); the other players are
@@ -324,7 +324,7 @@ def predict_row(r: int, s: ModelState, n_keepers: int, kp, cfg) -> None:
             s.err[r, obj] += kp.player_speed_max
 
 
-@njit(cache=True)
+@borrowing
 def advance_row(r: int, s: ModelState, cycle: int, n_keepers: int, kp, cfg) -> None:
     """Predict row ``r`` forward to ``cycle`` (the first percept just sets the clock)."""
     if s.time[r] < 0:
@@ -337,7 +337,7 @@ def advance_row(r: int, s: ModelState, cycle: int, n_keepers: int, kp, cfg) -> N
 # sense_body (spec 4 "sense_body")
 
 
-@njit(cache=True)
+@borrowing
 def _velocity_from_speed(r, s):
     """My velocity from the last sense_body speed, relative to my current head estimate."""
     me = s.me[r]
@@ -346,7 +346,7 @@ def _velocity_from_speed(r, s):
     s.vel[r, me, 1] = s.speed[r, 0] * math.sin(a)
 
 
-@njit(cache=True)
+@borrowing
 def sense_body_row(r: int, s: ModelState, cycle: int, speed_amount: float, speed_dir: float, head_angle: int,
                    stamina: float, effort: float, n_keepers: int, kp, cfg) -> None:
     """Take a sense_body: advance to its cycle, correct my neck (kept if the prediction truncates to
@@ -433,7 +433,7 @@ def localise_row(r: int, s: ModelState, see: SeeBuffer, flag_pos: np.ndarray, kp
     s.seen[r, me] = s.time[r]
 
 
-@njit(cache=True)
+@borrowing
 def _seen_point(r, s, dist, direction):
     """Global position of a polar observation relative to my head, and the unit sight vector."""
     me = s.me[r]
@@ -443,7 +443,7 @@ def _seen_point(r, s, dist, direction):
     return s.pos[r, me, 0] + dist * ex, s.pos[r, me, 1] + dist * ey, ex, ey
 
 
-@njit(cache=True)
+@borrowing
 def _change_velocity(r, s, dist, ex, ey, dist_chg, dir_chg):
     """Velocity from the change pair: v = v_me + dist_chg e + rad(dir_chg) d e_perp (spec 4 "Changes")."""
     me = s.me[r]
@@ -452,7 +452,7 @@ def _change_velocity(r, s, dist, ex, ey, dist_chg, dir_chg):
             s.vel[r, me, 1] + dist_chg * ey + tangential * ex)
 
 
-@njit(cache=True)
+@borrowing
 def _mark_seen(r, s, obj, px, py):
     """Object ``obj`` seen at (px, py) now."""
     s.pos[r, obj, 0] = px
@@ -464,7 +464,7 @@ def _mark_seen(r, s, obj, px, py):
     s.err[r, obj] = 0.0
 
 
-@njit(cache=True)
+@borrowing
 def _ball_velocity_from_positions(r, s, px, py, vx, vy, kp, cfg):
     """The ball's velocity from its last seen position (C++ ``calculateStateBall`` without the change
     pair): seen 1 cycle ago, v = (p1 - p0) d; 2 cycles ago, v0 = (p1 - p0) d/(1 + d) and v = v0 d unless
@@ -487,7 +487,7 @@ def _ball_velocity_from_positions(r, s, px, py, vx, vy, kp, cfg):
     return vx, vy
 
 
-@njit(cache=True)
+@borrowing
 def _opponent_controls_ball(r, s, px, py, my_dist, n_keepers, kp, cfg):
     """A usable opponent is within kickable distance of the ball at (px, py) and I (``my_dist`` from it)
     am not: he controls it, and the C++ believes it still (``calculateStateBall``)."""
@@ -497,7 +497,7 @@ def _opponent_controls_ball(r, s, px, py, my_dist, n_keepers, kp, cfg):
     return d_opp < kickable and my_dist > kickable
 
 
-@njit(cache=True)
+@borrowing
 def hold_exact_ball_row(r: int, s: ModelState, n_keepers: int, kp, cfg) -> None:
     """The rule of :func:`update_ball_row` on an exact (fullstate) ball: still if an opponent controls
     it. Not in the C++, whose fullstate skips its see rules; without it takers with the exact state
@@ -510,7 +510,7 @@ def hold_exact_ball_row(r: int, s: ModelState, n_keepers: int, kp, cfg) -> None:
         s.vel[r, BALL, 1] = 0.0
 
 
-@njit(cache=True)
+@borrowing
 def update_ball_row(r: int, s: ModelState, see: SeeBuffer, n_keepers: int, kp, cfg) -> None:
     """The ball from the see (spec 4), as the C++ ``WorldModel::calculateStateBall``: the velocity from
     the change pair, averaged with the predicted one if each component is within 2 ball_rand |v_pred| of
@@ -546,7 +546,7 @@ def update_ball_row(r: int, s: ModelState, see: SeeBuffer, n_keepers: int, kp, c
     _mark_seen(r, s, BALL, px, py)
 
 
-@njit(cache=True)
+@borrowing
 def _compatible(obj, side, n_keepers):
     """Can object ``obj`` be a player of ``side`` (-1: unknown side)? Keepers are 'l' (0), takers 'r'."""
     if side < 0:
@@ -554,7 +554,7 @@ def _compatible(obj, side, n_keepers):
     return (obj <= n_keepers) == (side == 0)
 
 
-@njit(cache=True)
+@borrowing
 def associate_row(r: int, s: ModelState, see: SeeBuffer, n_keepers: int, kp) -> None:
     """Object index of every player observation of the see, in ``see.target[r]``.
 
@@ -624,7 +624,7 @@ def associate_row(r: int, s: ModelState, see: SeeBuffer, n_keepers: int, kp) -> 
             see.cost[r, i, bo] = np.inf
 
 
-@njit(cache=True)
+@borrowing
 def update_players_row(r: int, s: ModelState, see: SeeBuffer, n_keepers: int, kp) -> None:
     """The other players from the see: association, then position, change-pair velocity (else the
     predicted one stays), facing."""
@@ -646,7 +646,7 @@ def update_players_row(r: int, s: ModelState, see: SeeBuffer, n_keepers: int, kp
                 s.neck[r, obj] = normalize_angle(o[5] - o[4])
 
 
-@njit(cache=True)
+@borrowing
 def see_row(r: int, s: ModelState, see: SeeBuffer, flag_pos: np.ndarray, n_keepers: int, kp, cfg) -> None:
     """Take the see of row ``r``: advance to its cycle, localise, then the players and the ball (the
     C++ ``WorldModel::updateAfterSeeMessage`` order, which the ball's rules rely on). A see older than the
@@ -662,7 +662,7 @@ def see_row(r: int, s: ModelState, see: SeeBuffer, flag_pos: np.ndarray, n_keepe
     update_ball_row(r, s, see, n_keepers, kp, cfg)
 
 
-@njit(cache=True)
+@borrowing
 def forget_row(r: int, s: ModelState) -> None:
     """Episode boundary (`training Keepaway 1`, spec `keepaway-agents.md` 1): every object but me is
     unknown again."""
@@ -676,7 +676,7 @@ def forget_row(r: int, s: ModelState) -> None:
             s.err[r, obj] = 0.0
 
 
-@njit(cache=True)
+@borrowing
 def write_belief_row(r: int, s: ModelState, out: Belief, row: int) -> None:
     """Row ``row`` of the belief ``out`` from row ``r`` of the model; conf = 1 - age/100, 1 for me."""
     me = s.me[r]

@@ -28,9 +28,10 @@ from pathlib import Path
 
 import llvmlite
 import numba
+import numpy as np
 import numba.core.config
 from llvmlite import binding as llvm_binding
-from numba import njit
+from numba import njit as numba_njit
 
 ROOT = Path(__file__).resolve().parent.parent
 # Every file a kernel is defined in or calls into (kernels are compiled from these sources).
@@ -127,6 +128,44 @@ def mark_warm(kernel_set: str, seconds: float) -> None:
     _marker(kernel_set).write_text(f"{seconds:.1f} s compile, {time.strftime('%Y-%m-%d %H:%M:%S')}\n")
 
 
+def njit(function=None, **options):
+    """numba's ``njit`` with its reference counting (NRT) on, stated rather than inherited: numba compiles
+    a kernel that does not state it with the setting of the caller that first needs it, so a kernel that
+    allocates would fail to compile under a :func:`borrowing` caller."""
+    options = {"_nrt": True, **options}
+    return numba_njit(**options) if function is None else numba_njit(**options)(function)
+
+
+def borrowing(function=None, **options):
+    """``njit(cache=True)`` without numba's reference counting, for the kernels that only borrow arrays.
+
+    numba counts references to every array it takes out of a tuple or hands to a callee, with an atomic
+    increment and decrement in a function of its runtime. The players' kernels pass records of dozens
+    of arrays (``Belief``, ``ModelState``, ``Players``) down deep call chains, so in the batched mode
+    these counts alone took about a fifth of the time (docs/design.md, "Compiled kernels"). A kernel
+    compiled without them gives up nothing: every array it touches belongs to its caller for the whole
+    call. Hence the rule for a borrowing kernel: it neither creates an array (nor copies into one from
+    an array that may overlap it) nor keeps one that a callee created and returned; numba refuses the
+    first at compile time, the second would leak. The kernels that allocate scratch arrays, and their
+    direct callers when they return one, stay :func:`njit`. Results are the same to the last bit: only
+    the bookkeeping goes."""
+    options = {"cache": True, **options, "_nrt": False}
+    return numba_njit(**options) if function is None else numba_njit(**options)(function)
+
+
+def kernel_record(values: tuple) -> np.record:
+    """A NamedTuple of floats (``ServerParams.kernel()``, ``AgentConfig.kernel()``) as a numpy record with
+    the same fields, which kernels read the same way (``kp.ball_decay``) and which holds the same numbers.
+
+    numba passes a NamedTuple by value, each of its fields a separate argument: every call of a kernel
+    that takes the server's 78 parameters and the players' 68 copies 146 numbers, and the players' call
+    chains make thousands of such calls per cycle. A record is passed as one pointer (docs/design.md,
+    "Compiled kernels")."""
+    dtype = np.dtype([(name, np.float64) for name in values._fields])
+    return np.rec.array([tuple(values)], dtype=dtype)[0]
+
+
 configure_cache()
 
-__all__ = ["cache_dir", "cache_key", "configure_cache", "is_warm", "mark_warm", "njit", "source_digest"]
+__all__ = ["borrowing", "cache_dir", "cache_key", "configure_cache", "is_warm", "kernel_record", "mark_warm",
+           "njit", "source_digest"]

@@ -19,9 +19,10 @@ def _register() -> None:
     from server.cli import commands as server_commands
     from trainer.experiment_cli import commands as experiment_commands
     from trainer.train_cli import commands as train_commands
+    from viewer.cli import commands as viewer_commands
 
     for command in (server_commands + agent_commands + coach_commands + runner_commands + train_commands
-                    + experiment_commands + [keys_command]):
+                    + experiment_commands + viewer_commands + [keys_command]):
         main.add_command(command)
 
 

@@ -30,7 +30,6 @@ episode's hold time. An episode is one Keepaway episode (terminated, never trunc
 from __future__ import annotations
 
 import functools
-from collections.abc import Collection
 from typing import Any
 
 import numpy as np
@@ -42,7 +41,6 @@ from agents.player import OUTSIDE_BODY, OUTSIDE_GETOPEN, OUTSIDE_PASS, PlayerAge
 from agents.skills import AgentConfig
 from agents.state_vars import getopen_state_size, pass_state_size
 from core.objects import CMD_DASH, CMD_KICK, CMD_TURN
-from protocol import messages as m
 from protocol.params import ServerParams, parameter_set
 from runner.embedded import ArenaSpec
 from runner.outside import AttachedKeepers, EmbeddedKeepers

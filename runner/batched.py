@@ -53,7 +53,7 @@ from typing import NamedTuple
 
 import numpy as np
 import numba
-from core.jit import njit
+from core.jit import borrowing, kernel_record, njit
 
 from agents.belief import AgentMemory, Belief, empty_belief, forget_episode, new_memory
 from agents.getopen import net_size
@@ -190,7 +190,7 @@ class Bookkeeping(NamedTuple):
 # kernels
 
 
-@njit(cache=True)
+@borrowing
 def see_to_model_row(out: SeeBuffers, b: int, obs: int, cycle: int, n_keepers: int, see: SeeBuffer,
                      row: int) -> None:
     """Observer ``obs``'s see of arena ``b`` as the world model's see row ``row``: what
@@ -241,7 +241,7 @@ def see_to_model_row(out: SeeBuffers, b: int, obs: int, cycle: int, n_keepers: i
     see.cycle[row] = cycle
 
 
-@njit(cache=True)
+@borrowing
 def perceive(b: int, obs: int, row: int, w: World, with_see: bool, episode_message: bool, cone: float, kp, cfg,
              pl: Players, see_out: SeeBuffers, body_out: SenseBodyBuffers) -> None:
     """Player ``obs``'s percepts of this cycle into its world-model row, in the server's order
@@ -261,7 +261,7 @@ def perceive(b: int, obs: int, row: int, w: World, with_see: bool, episode_messa
         see_row(row, pl.model, pl.see, FLAG_POSITIONS, w.n_keepers, kp, cfg)
 
 
-@njit(cache=True)
+@borrowing
 def learn_pass(b: int, obs: int, row: int, n_keepers: int, kp, cfg, pl: Players, sarsa: SarsaMemory,
                sp) -> None:
     """Keeper ``obs``'s Pass decision point (``keeper_decide`` returned PASS_DECISION_*): its learner row
@@ -277,7 +277,7 @@ def learn_pass(b: int, obs: int, row: int, n_keepers: int, kp, cfg, pl: Players,
     execute_pass_action(pl.belief, row, pl.memory, action, kp, cfg, out.main, out.arg1, out.arg2, out.neck)
 
 
-@njit(cache=True)
+@borrowing
 def end_pass_episodes(b: int, w: World, pl: Players, sarsa: SarsaMemory, sp) -> None:
     """The episode of arena ``b`` ended: each keeper that decided in it gets its terminal update with
     reward = the new episode's first cycle (``w.time`` after the step, when a player process hears the
@@ -289,7 +289,7 @@ def end_pass_episodes(b: int, w: World, pl: Players, sarsa: SarsaMemory, sp) -> 
         end_episode(sarsa, b * k + p, w.time[b] - pl.memory.t_last[row], sp)
 
 
-@njit(cache=True)
+@borrowing
 def decide(b: int, obs: int, row: int, w: World, c: Commands, theta: np.ndarray, kp, cfg, pl: Players,
            sarsa: SarsaMemory, sp) -> None:
     """Player ``obs``'s decision on its belief, sent as the player process sends it (``agents/player.py``:
@@ -357,7 +357,7 @@ def deliver_says(b: int, w: World, talk: Talk, kp) -> None:
             talk.heard_new[dst] = True
 
 
-@njit(cache=True)
+@borrowing
 def arena_cycle(b: int, w: World, c: Commands, ref: RefereeState, theta: np.ndarray, kp, cfg, pl: Players,
                 sarsa: SarsaMemory, sp, see_out: SeeBuffers, body_out: SenseBodyBuffers, episode_message: bool,
                 see_period_ms: float, cone: float) -> int:
@@ -375,7 +375,7 @@ def arena_cycle(b: int, w: World, c: Commands, ref: RefereeState, theta: np.ndar
     return cause
 
 
-@njit(cache=True, nogil=True)
+@borrowing(nogil=True)
 def run_chunk(first: int, stride: int, n_cycles: int, w: World, c: Commands, ref: RefereeState,
               theta: np.ndarray, kp, cfg, pl: Players, sarsa: SarsaMemory, sp, see_out: SeeBuffers,
               body_out: SenseBodyBuffers, book: Bookkeeping, see_period_ms: float, cone: float) -> None:
@@ -415,7 +415,7 @@ def run_chunk(first: int, stride: int, n_cycles: int, w: World, c: Commands, ref
                 book.active[b] = False
 
 
-@njit(cache=True)
+@borrowing
 def _start_games(w: World, ref: RefereeState, kp) -> None:
     for b in range(w.pos.shape[0]):
         start_game(b, w, ref, kp)
@@ -459,12 +459,12 @@ class BatchedArenas:
             raise ValueError("a Sarsa configuration needs pass_policy='learned'")
         self.threads = max(1, min(batch, numba.config.NUMBA_NUM_THREADS if threads is None else threads))
         self.params = params
-        self.kp = params.kernel()
-        self.cfg = dataclasses.replace(
+        self.kp = kernel_record(params.kernel())
+        self.cfg = kernel_record(dataclasses.replace(
             agent_config,
             pass_policy=_policy_code(PASS_POLICIES, pass_policy, "Pass policy"),
             getopen_policy=_policy_code(GETOPEN_POLICIES, getopen_policy, "GetOpen policy"),
-        ).kernel()
+        ).kernel())
         self.theta = self._thetas(getopen_theta, getopen_policy, batch, keepers, takers)
         seeds = [arena_seed(seed, b) for b in range(batch)]
         self.learning = pass_policy == "learned"
@@ -482,7 +482,7 @@ class BatchedArenas:
         rows = batch * n_players
         self.commands = Commands.empty(batch, n_objects)
         self.referee = new_referee_state(batch)
-        self.see_out = SeeBuffers.empty(batch, n_objects, self.kp)
+        self.see_out = SeeBuffers.empty(batch, n_objects, params.kernel())
         self.body_out = SenseBodyBuffers.empty(batch, n_objects)
         me = np.tile(np.arange(1, n_objects), batch)
         self.players = Players(

@@ -126,12 +126,21 @@ def default_arenas(mode: str, attach: tuple[str, ...]) -> int:
 @click.option("--realtime", is_flag=True, help="100 ms cycles (distributed mode) instead of synchronous stepping.")
 @click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=Path("out"), show_default=True,
               help="Directory for the .kwy / .jsonl logs (and process logs).")
+@click.option("--no-game-log", is_flag=True,
+              help="Do not write the game log (keepaway.rcg: every cycle, for rcssmonitor, soccerwindow2 and "
+                   "keepaway view); faster.")
+@click.option("--game-log-arenas", default="", metavar="B,B,...",
+              help="Batched mode: write the game logs of these arenas (keepaway-arena<B>.rcg; none by default).")
+@click.option("--view", is_flag=True,
+              help="Distributed mode: open a browser viewer of the arena (keepaway view) and print its URL; it "
+                   "stops with the run (add --realtime to watch at 10 cycles a second).")
 @click.option("--json", "as_json", is_flag=True, help="Print a machine-readable summary instead of the table.")
 @click.option("--no-progress", is_flag=True, help="No progress bar.")
 @keys_option
 def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str, policy_path: Path | None,
                 keepers: int, takers: int, field_size: float, parameter_set: str, mode: str, batch: int,
-                realtime: bool, out: Path, as_json: bool, no_progress: bool, keys: Path | None) -> None:
+                realtime: bool, out: Path, no_game_log: bool, game_log_arenas: str, view: bool, as_json: bool,
+                no_progress: bool, keys: Path | None) -> None:
     """Play Keepaway: a whole arena (server, coach, keepers, takers) for --episodes episodes."""
     from agents.policy_file import PolicyFileError, load_policy
     from protocol.params import parameter_set as make_params
@@ -146,15 +155,21 @@ def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str,
     if realtime and mode != "distributed":
         raise click.UsageError("--realtime needs --mode distributed")
     keys_for_distributed(keys, mode)
+    if view and mode != "distributed":
+        raise click.UsageError("--view follows an arena's monitor port: it needs --mode distributed")
     if mode == "batched" and batch < 1:
         raise click.UsageError("--batch must be at least 1")
+    logged_arenas = arena_list(game_log_arenas, batch if mode == "batched" else 0, "--game-log-arenas")
+    if logged_arenas and no_game_log:
+        raise click.UsageError("--game-log-arenas chooses game logs to write; --no-game-log writes none: choose one")
     try:
         params = make_params(parameter_set, keepaway_length=field_size, keepaway_width=field_size)
         policy = load_policy(policy_path) if policy_path is not None else None
     except (ValueError, PolicyFileError) as exc:
         raise click.UsageError(str(exc)) from None
     spec = ArenaSpec(params, keepers, takers, seed, pass_policy, getopen_policy, policy)
-    opts = RunOptions(spec, episodes, mode, batch, realtime, out, policy_path, parameter_set, keys)
+    opts = RunOptions(spec, episodes, mode, batch, realtime, out, policy_path, parameter_set, keys,
+                      game_log=not no_game_log, game_log_arenas=logged_arenas, view=view)
     interrupt_on_sigterm()
     show = (lambda result: click.echo(dump_json(result.summary()) if as_json else summary_table(result.summary())))
     try:
@@ -175,6 +190,22 @@ def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str,
         click.echo("keepaway run: interrupted; every process was stopped", err=True)
         sys.exit(130)
     show(result)
+
+
+def arena_list(text: str, batch: int, option: str) -> tuple[int, ...]:
+    """``"0,3"`` -> ``(0, 3)``: distinct arena indices below ``batch`` (0: the option needs the batched mode);
+    a usage error in one line otherwise."""
+    if not text.strip():
+        return ()
+    if batch == 0:
+        raise click.UsageError(f"{option} needs --mode batched")
+    try:
+        arenas = tuple(sorted({int(part) for part in text.split(",")}))
+    except ValueError:
+        raise click.UsageError(f"{option}: expected arena numbers separated by commas, e.g. 0,3; got {text!r}") from None
+    if arenas[0] < 0 or arenas[-1] >= batch:
+        raise click.UsageError(f"{option}: arenas are numbered 0..{batch - 1} (--batch {batch}); got {text!r}")
+    return arenas
 
 
 def announce(line: str) -> None:

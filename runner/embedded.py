@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Collection, Iterator
 from dataclasses import dataclass
+from pathlib import Path
 
 from agents.player import REPORT_ADVICE_KIND, SEED_ADVICE_KIND, PassLearnerFactory, PlayerAgent
 from agents.policy_file import Policy
@@ -29,6 +30,7 @@ from runner.coached import CHUNK_EPISODES, Chunk, CoachedBackend
 from runner.job import Game, Progress
 from server.arena import Arena, PlayerSlot
 from server.episode_log import EpisodeRecord
+from server.game_log import ArenaGameLog
 
 
 @dataclass(frozen=True)
@@ -56,8 +58,11 @@ class EmbeddedGame:
     :meth:`think` then leaves them waiting, and the caller sends their commands with :meth:`submit`)."""
 
     def __init__(self, spec: ArenaSpec, pass_learner: PassLearnerFactory | None = None,
-                 agent: AgentConfig | None = None, outside: Collection[str] = ()) -> None:
+                 agent: AgentConfig | None = None, outside: Collection[str] = (),
+                 game_log: Path | None = None) -> None:
         self.arena = Arena(spec.params, spec.keepers, spec.takers, spec.seed)
+        # the .rcg of every cycle, as the server writes it (server.game_log)
+        self.game_log = ArenaGameLog(game_log, self.arena) if game_log is not None else None
         config = {"mode": "sync", "keepers": spec.keepers, "takers": spec.takers, "seed": spec.seed}
         self.players: list[tuple[PlayerSlot, PlayerAgent]] = []  # in object order
         for team, count in (("keepers", spec.keepers), ("takers", spec.takers)):
@@ -70,6 +75,8 @@ class EmbeddedGame:
                 player.on_message(_wire(self.arena.init_ok(slot, team, config), decode_for_player))
                 self.players.append((slot, player))
         self.arena.start()
+        if self.game_log is not None:
+            self.game_log.start_game()
 
     def hear(self) -> None:
         """Every queued hear, delivered at once and bare, as a paused server sends them (``server/app.py``)."""
@@ -95,12 +102,19 @@ class EmbeddedGame:
         if command is not None:
             self.arena.submit(slot.obj, _wire(command, decode_from_player).commands)
 
+    def step(self) -> EpisodeRecord | None:
+        """The arena's step (written to the game log, if any); the record of the episode it ended."""
+        record = self.arena.step()
+        if self.game_log is not None:
+            self.game_log.step()
+        return record
+
     def cycle(self) -> EpisodeRecord | None:
         """One synchronous cycle: percepts, think, every player's commands, the step. Returns the record of
         the episode that ended in it, if any."""
         self.perceive()
         self.think()
-        return self.arena.step()
+        return self.step()
 
     def serve(self, request: RunEpisodes) -> EpisodesDone:
         """A trainer's request answered as the coach answers it with the server paused at an episode
@@ -127,13 +141,18 @@ class EmbeddedGame:
         return EpisodesDone(cycle=arena.cycle, episodes=episodes, reports=reports)
 
 
-def embedded_episodes(spec: ArenaSpec) -> Iterator[tuple[EpisodeRecord, int]]:
-    """Play the arena forever, yielding each ended episode and the cycle count so far."""
-    game = EmbeddedGame(spec)
-    while True:
-        record = game.cycle()
-        if record is not None:
-            yield record, game.arena.cycle
+def embedded_episodes(spec: ArenaSpec, game_log: Path | None = None) -> Iterator[tuple[EpisodeRecord, int]]:
+    """Play the arena forever, yielding each ended episode and the cycle count so far; with ``game_log``
+    write every cycle's show there (closed when the generator is)."""
+    game = EmbeddedGame(spec, game_log=game_log)
+    try:
+        while True:
+            record = game.cycle()
+            if record is not None:
+                yield record, game.arena.cycle
+    finally:
+        if game.game_log is not None:
+            game.game_log.close()
 
 
 class EmbeddedBackend(CoachedBackend):

@@ -20,6 +20,7 @@ from pathlib import Path
 
 LISTEN_RE = re.compile(r"players=(tcp://\S+) coach=(tcp://\S+) monitor=(tcp://\S+)")
 ARENA_RE = re.compile(r"arena=(tcp://\S+)")
+VIEW_RE = re.compile(r"keepaway view: (http://\S+)")
 PR_SET_PDEATHSIG = 1  # linux/prctl.h
 # A clean exit (code 0) before the run has finished counts as a death once the server has gone on
 # running this long after it: players and coach exit 0 when the server shuts down, a moment before the
@@ -91,7 +92,7 @@ class ArenaProcesses:
         """Start ``keepaway server`` on free ports and return it with its three endpoints."""
         member = self.start("server", keepaway_argv("server", "--players-port", "0", "--coach-port", "0",
                                                     "--monitor-port", "0", *server_args), capture_stdout=True)
-        match = self._announced(member, LISTEN_RE, timeout_s)
+        match = self.announced(member, LISTEN_RE, timeout_s)
         return member, match.group(1), match.group(2), match.group(3)
 
     def start_arena(self, server_args: list[str], player_args: list[str], keepers: int, takers: int,
@@ -109,14 +110,14 @@ class ArenaProcesses:
             member = self.start("coach", keepaway_argv("coach", "--server", coach, "--arena-port", "0",
                                                        "--host", arena_host, "--idle", *secured),
                                 capture_stdout=True)
-            arena = self._announced(member, ARENA_RE, 120.0).group(1)
+            arena = self.announced(member, ARENA_RE, 120.0).group(1)
         for team, count in (("keepers", keepers), ("takers", takers)):
             for i in range(1, count + 1):
                 self.start(f"{team[:-1]} {i}", keepaway_argv("player", "--team", team, "--server", players,
                                                              *player_args, *secured))
         return ArenaEndpoints(players, coach, monitor, arena)
 
-    def _announced(self, member: Member, pattern: re.Pattern, timeout_s: float) -> re.Match:
+    def announced(self, member: Member, pattern: re.Pattern, timeout_s: float) -> re.Match:
         """The first line of ``member``'s stdout matching ``pattern`` (its endpoints)."""
         deadline = time.monotonic() + timeout_s
         while time.monotonic() < deadline:

@@ -45,7 +45,7 @@ class EmbeddedKeepers:
                 if any(k.awaiting is not None for k in self.keepers):
                     return None
                 self._mid_cycle = False
-                record = game.arena.step()
+                record = game.step()
                 if record is not None:
                     self.episode_start = record.end_cycle
                     return record.end_cycle

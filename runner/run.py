@@ -19,13 +19,17 @@ import zmq
 from protocol import MONITOR_EPISODE_TOPIC
 from protocol import messages as m
 from protocol.messages import decode_monitor
+from protocol.params import ServerParams
 from protocol.security import open_keys, secure_client
-from runner.batched import BatchedArenas
+from runner.batched import CHUNK_CYCLES, BatchedArenas
 from runner.embedded import ArenaSpec, embedded_episodes
-from runner.job import RunResult
+from runner.job import EpisodeTable, RunResult
 from runner.kernels import ensure_compiled, kernel_sets
-from runner.launch import ArenaFailure, ArenaProcesses
+from runner.launch import VIEW_RE, ArenaFailure, ArenaProcesses, keepaway_argv
+from server.arena import REFEREE_EPISODE_MESSAGE
 from server.episode_log import EpisodeRecord, JsonlLog, KwyLog, read_jsonl
+from server.game_log import PLAY_ON, RCG_SUFFIX, RcgLog, WorldShows
+from server.world import World
 
 @dataclass(frozen=True)
 class RunOptions:
@@ -38,11 +42,16 @@ class RunOptions:
     policy_path: Path | None = None
     parameter_set: str = "classic"
     keys: Path | None = None  # distributed: a keys directory, CURVE on every connection (protocol.security)
+    game_log: bool = True  # distributed, embedded: write keepaway.rcg (server/game_log.py)
+    game_log_arenas: tuple[int, ...] = ()  # batched: the arenas whose keepaway-arena<B>.rcg is written
+    view: bool = False  # distributed: a `keepaway view` of the arena's monitor, for as long as the run
 
 
 # -- modes ------------------------------------------------------------------------------------------
-def distributed_episodes(opts: RunOptions, processes: ArenaProcesses) -> Iterator[tuple[EpisodeRecord, int]]:
+def distributed_episodes(opts: RunOptions, processes: ArenaProcesses, viewer: ArenaProcesses | None = None,
+                         announce: Callable[[str], None] | None = None) -> Iterator[tuple[EpisodeRecord, int]]:
     """Start server, coach and players as processes; yield episodes as the monitor port reports them.
+    With ``viewer``, start a ``keepaway view`` of the arena there and ``announce`` its URL.
 
     Raises ArenaFailure naming the process if any of them dies before the run has finished (a clean
     exit once every episode is in the server's log is not a death, however slowly the rest stop).
@@ -53,11 +62,20 @@ def distributed_episodes(opts: RunOptions, processes: ArenaProcesses) -> Iterato
                    "--params", opts.parameter_set, "--log-dir", str(opts.out), "--kwy-name", "keepaway"]
     if opts.realtime:
         server_args += ["--mode", "realtime"]
+    if not opts.game_log:
+        server_args += ["--no-game-log"]
     player_args = ["--seed", str(spec.seed), "--pass", spec.pass_policy, "--getopen", spec.getopen_policy]
     if opts.policy_path is not None:
         player_args += ["--policy", str(opts.policy_path)]
     endpoints = processes.start_arena(server_args, player_args, spec.keepers, spec.takers, keys=opts.keys)
     server = processes.member("server")
+    if viewer is not None:
+        member = viewer.start("viewer", keepaway_argv("view", "--server", endpoints.monitor, "--port", "0",
+                                                      "--field-size", str(spec.params.keepaway_length)),
+                              capture_stdout=True)
+        url = viewer.announced(member, VIEW_RE, 60.0).group(1)
+        if announce is not None:
+            announce(f"watch the arena at {url}")
 
     def finished() -> bool:
         return len(logged_episodes(opts.out)) >= opts.episodes
@@ -115,12 +133,42 @@ def batched_episodes(opts: RunOptions) -> Iterator[tuple[EpisodeRecord, int]]:
     arenas = BatchedArenas(spec.params, opts.batch, spec.seed, keepers=spec.keepers, takers=spec.takers,
                            pass_policy=spec.pass_policy, getopen_policy=spec.getopen_policy,
                            getopen_theta=theta)
+    logs = BatchedGameLogs(arenas.world, spec.params, opts.out, opts.game_log_arenas)
     ended = cycles = 0
-    for chunk in arenas.chunks(total_episodes=opts.episodes):
-        cycles += chunk.cycles
-        for record in chunk.records(spec.params.simulator_step_ms):
-            ended += 1
-            yield replace(record, episode=ended), cycles
+    try:
+        # the logs need every cycle of their arenas: chunks of one cycle (slower, the same games)
+        for chunk in arenas.chunks(total_episodes=opts.episodes, cycles_per_chunk=1 if logs.logs else CHUNK_CYCLES):
+            cycles += chunk.cycles
+            logs.step(chunk)
+            for record in chunk.records(spec.params.simulator_step_ms):
+                ended += 1
+                yield replace(record, episode=ended), cycles
+    finally:
+        logs.close()
+
+
+class BatchedGameLogs:
+    """The game logs of chosen arenas of a batched run (``<out>/keepaway-arena<B>.rcg``), as the server
+    writes its own: the kick-off, then a show after every cycle, the referee's episode message before
+    the show of an episode's end (``server.game_log``). The arenas are at their kick-off when this opens."""
+
+    def __init__(self, world: World, params: ServerParams, out: Path, arenas: tuple[int, ...]) -> None:
+        self.world = world
+        self.shows = WorldShows(world, params.visible_angle)
+        self.logs = {b: RcgLog(out / f"keepaway-arena{b}{RCG_SUFFIX}", params) for b in arenas}
+        for b, log in self.logs.items():
+            log.start_game(self.shows.show(b), (PLAY_ON,))
+
+    def step(self, chunk: EpisodeTable) -> None:
+        """After a chunk of one cycle: the show of every logged arena that played it."""
+        ended = set(chunk.arena.tolist())
+        for b, log in self.logs.items():
+            if self.world.time[b] > log.last_cycle:
+                log.cycle(self.shows.show(b), (REFEREE_EPISODE_MESSAGE,) if b in ended else ())
+
+    def close(self) -> None:
+        for log in self.logs.values():
+            log.close()
 
 
 class RunStopped(Exception):
@@ -153,14 +201,16 @@ def run(opts: RunOptions, progress: bool = True, announce: Callable[[str], None]
     first_cycle = last_cycle = 0
     start = time.perf_counter()
     processes = ArenaProcesses(opts.out / "processes") if opts.mode == "distributed" else None
+    viewer = ArenaProcesses(opts.out / "processes") if opts.view else None  # not one of the arena's
     stopped: BaseException | None = None
+    stream: Iterator[tuple[EpisodeRecord, int]] | None = None
     try:
         if opts.mode == "distributed":
             assert processes is not None
             processes.__enter__()
-            stream = distributed_episodes(opts, processes)
+            stream = distributed_episodes(opts, processes, viewer, announce)
         elif opts.mode == "embedded":
-            stream = embedded_episodes(spec)
+            stream = embedded_episodes(spec, opts.out / f"keepaway{RCG_SUFFIX}" if opts.game_log else None)
         else:
             stream = batched_episodes(opts)
         # the distributed stream ends by itself (and then checks every process's exit); the others
@@ -180,8 +230,11 @@ def run(opts: RunOptions, progress: bool = True, announce: Callable[[str], None]
         stopped = exc
     finally:
         bar.close()
-        if processes is not None:
-            processes.stop()
+        if stream is not None:
+            stream.close()  # closes the game logs of the in-process modes
+        for group in (processes, viewer):
+            if group is not None:
+                group.stop()
     if opts.mode == "distributed":
         # the server's log is the record (flushed per episode, also when the server was killed)
         records = logged_episodes(opts.out) or records

@@ -40,6 +40,7 @@ from protocol.security import PortGuard, open_keys
 from server.arena import TEAMS, Arena, ArenaError, PlayerSlot, compile_kernels, player_name, truth_state
 from server.config import ServerConfig
 from server.episode_log import EpisodeRecord, JsonlLog, KwyLog
+from server.game_log import RCG_SUFFIX, ArenaGameLog
 from server.intake import ROUND_MESSAGES, WINDOW_S, Intake
 from server.log_limit import KIND_ATTR, RepeatLimit
 
@@ -103,6 +104,7 @@ class Server:
         self.monitor_subscribers = 0
         self.kwy: KwyLog | None = None
         self.jsonl: JsonlLog | None = None
+        self.rcg: ArenaGameLog | None = None
         self.episodes_left: int | None = cfg.episodes
         self.paused = False
         self.standing_still = False  # paused between two cycles, no command pending (look_ok.paused)
@@ -135,6 +137,8 @@ class Server:
                               p.keepaway_width, fixed_name=cfg.kwy_name)
             self.jsonl = JsonlLog(Path(cfg.log_dir) / f"{cfg.kwy_name or 'keepaway'}.jsonl", seed=cfg.seed,
                                   config=cfg.summary(), params=p.to_dict())
+            if cfg.game_log:
+                self.rcg = ArenaGameLog(Path(cfg.log_dir) / f"{cfg.kwy_name or 'keepaway'}{RCG_SUFFIX}", self.arena)
         log.info("listening: players tcp://%s:%d coach tcp://%s:%d monitor tcp://%s:%d (%s mode, seed %d, %s)",
                  cfg.host, ports.players, cfg.host, ports.coach, cfg.host, ports.monitor, cfg.mode, cfg.seed,
                  "plain TCP" if cfg.keys is None else f"CURVE, keys {cfg.keys}")
@@ -178,7 +182,7 @@ class Server:
         for ident in list(self.conns) + list(self.coaches):
             sock = self.coach if ident in self.coaches else self.players
             self._send_raw(sock, ident, shutdown)
-        for logger in (self.kwy, self.jsonl):
+        for logger in (self.kwy, self.jsonl, self.rcg):
             if logger is not None:
                 logger.close()
         for sock in (self.players, self.coach, self.monitor):
@@ -294,6 +298,8 @@ class Server:
 
     def _start_game(self) -> None:
         self.arena.start()
+        if self.rcg is not None:
+            self.rcg.start_game()
         log.info("game started with %d players", len(self.conns))
 
     def _all_answered(self, cycle: int) -> bool:
@@ -328,6 +334,8 @@ class Server:
         self._count_absent()
         record = self.arena.step()
         self._close_budget_windows(seated=True)
+        if self.rcg is not None:
+            self.rcg.step()
         if self.monitor_subscribers:
             self._publish(MONITOR_FRAME_TOPIC, m.Frame(cycle=self.arena.cycle, **truth_state(self.arena)))
         if record is not None:

@@ -86,6 +86,8 @@ class Arena:
         self.pending_says: list[tuple[int, str]] = []
         self.see_out = perception.SeeBuffers.empty(1, self.world.n_objects, self.kp)
         self.body_out = perception.SenseBodyBuffers.empty(1, self.world.n_objects)
+        # what the referee said since the owner last took it (``take_referee_log``); None: not kept
+        self.referee_log: list[str] | None = None
 
     # -- connections ---------------------------------------------------------------------------------
     @property
@@ -273,8 +275,20 @@ class Arena:
             s.view_width = DEFAULT_VIEW_WIDTH
             s.see_phase_ms = now_ms
 
+    def keep_referee_log(self) -> None:
+        """Keep what the referee says from now on, for a game log (``server.game_log``)."""
+        if self.referee_log is None:
+            self.referee_log = []
+
+    def take_referee_log(self) -> list[str]:
+        """What the referee said since the last call (empty unless :meth:`keep_referee_log` was called)."""
+        said, self.referee_log = self.referee_log or [], None if self.referee_log is None else []
+        return said
+
     def _referee_says(self, *messages: str) -> None:
         """Referee messages are heard at once, in this cycle's percepts (spec 4 Hearing)."""
+        if self.referee_log is not None:
+            self.referee_log.extend(messages)
         for s in self.connected_slots():
             for text in messages:
                 s.hears.append(m.Hear(cycle=self.cycle, sender="referee", direction=None, unum=None,

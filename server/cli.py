@@ -91,11 +91,14 @@ def build_config(config_file: Path | None, parameter_set_name: str | None, overr
 @click.option("--start-on", type=click.Choice(START_ON), default=None,
               help="Start when all players connected (default) or when a coach says start.")
 @click.option("--log-dir", type=click.Path(file_okay=False, path_type=Path), default=None,
-              help="Write the .kwy and .jsonl episode logs here.")
+              help="Write the .kwy and .jsonl episode logs and the .rcg game log here.")
 @click.option("--kwy-name", default=None, help="Fixed log name (default keepaway).")
+@click.option("--no-game-log", is_flag=True,
+              help="With --log-dir: do not write the game log (keepaway.rcg, rcssserver's .rcg version 5).")
 @click.option("-v", "--verbose", count=True, help="More log output (-v info, -vv debug).")
 def server_command(config_file: Path | None, parameter_set_name: str | None, param_pairs: tuple[str, ...],
-                   no_keepaway_launch: bool, field_size: float | None, verbose: int, **settings: Any) -> None:
+                   no_keepaway_launch: bool, field_size: float | None, no_game_log: bool, verbose: int,
+                   **settings: Any) -> None:
     """Run the Keepaway simulation server (one arena) until its episodes are done or it is stopped.
 
     Prints one line with the bound endpoints (useful with port 0), then logs to stderr.
@@ -104,6 +107,8 @@ def server_command(config_file: Path | None, parameter_set_name: str | None, par
 
     logging.basicConfig(level=logging.WARNING - 10 * min(verbose, 2) if verbose else logging.WARNING,
                         format="%(asctime)s %(name)s %(levelname)s %(message)s", stream=sys.stderr)
+    if no_game_log:
+        settings["game_log"] = False
     try:
         config = build_config(config_file, parameter_set_name, _parse_overrides(param_pairs),
                               not no_keepaway_launch, field_size, **settings)

@@ -51,6 +51,7 @@ class ServerConfig:
     max_cycles: int | None = None  # stop after this many cycles
     log_dir: Path | None = None
     kwy_name: str | None = "keepaway"  # fixed .kwy name; None: incomplete.kwy renamed at shutdown
+    game_log: bool = True  # with log_dir: also write the game log (<kwy_name>.rcg, server/game_log.py)
     max_message_bytes: int = 4 * 1024 * 1024
     player_budget: int = 8  # messages of a seated player served per cycle (docs/protocol.md 1 "Budgets")
     unseated_budget: int = 16  # messages per 0.1 s of a client that is not (yet) a player or a coach
@@ -93,11 +94,13 @@ SETTING_RANGES: dict[str, Range | OneOf] = {
 SETTING_TYPES: dict[str, Any] = {
     name: hint for name, hint in typing.get_type_hints(ServerConfig).items() if name != "params"
 }
-_TYPE_NAMES = {int: "an integer", float: "a number", str: "a non-empty string", Path: "a path"}
+_TYPE_NAMES = {int: "an integer", float: "a number", str: "a non-empty string", Path: "a path", bool: "true or false"}
 
 
 def _has_type(value: Any, kind: type) -> bool:
     """``value`` is a ``kind`` (ints count as numbers, bools as neither; strings as paths)."""
+    if kind is bool:
+        return type(value) is bool
     if kind is int:
         return type(value) is int
     if kind is float:

@@ -16,6 +16,7 @@ import json
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from collections.abc import Iterable
 from typing import Any, Mapping, Self, TextIO
 
 from protocol.params import CLASSIC
@@ -93,7 +94,7 @@ def set_aside(path: Path) -> Path | None:
     return target
 
 
-class _LineLog:
+class LineLog:
     """A text file written one flushed line at a time; ``close`` is idempotent. An earlier file under
     the same name is set aside first (:func:`set_aside`), never overwritten."""
 
@@ -113,9 +114,13 @@ class _LineLog:
         return self._file is None
 
     def _write_line(self, line: str) -> None:
+        self._write_lines((line,))
+
+    def _write_lines(self, lines: Iterable[str]) -> None:
+        """Write ``lines`` and flush them together."""
         if self._file is None:
-            raise ValueError(f"episode log {self._path} is closed")
-        self._file.write(line + "\n")
+            raise ValueError(f"log {self._path} is closed")
+        self._file.write("".join(line + "\n" for line in lines))
         self._file.flush()
 
     def close(self) -> None:
@@ -130,7 +135,7 @@ class _LineLog:
         self.close()
 
 
-class KwyLog(_LineLog):
+class KwyLog(LineLog):
     """rcssserver's Keepaway log, byte for byte (spec 5 "kwy log", ``KeepawayRef::logHeader``).
 
     With ``fixed_name`` the file is ``<directory>/<fixed_name>.kwy``; otherwise it is written as
@@ -179,6 +184,31 @@ class KwyLog(_LineLog):
             self._path = final
 
 
+def read_kwy(path: Path | str) -> list[EpisodeRecord]:
+    """The episodes of a ``.kwy`` log (ours or rcssserver's): ValueError in one line if it is malformed;
+    a last line cut short is skipped, as in :func:`read_jsonl`."""
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ValueError(f"cannot read {path}: {exc.strerror}") from None
+    lines = text.split("\n")
+    partial = lines.pop()
+    codes = {code: end for end, code in _KWY_CODES.items()}
+    records = []
+    for number, line in enumerate(lines + [partial], 1):
+        if not line.strip() or line.startswith("#"):
+            continue
+        fields = line.split()
+        try:
+            episode, start, end, _duration = (int(v) for v in fields[:4])
+            records.append(EpisodeRecord(episode, start, end, codes[fields[4]]))
+        except (ValueError, KeyError, IndexError):
+            if number > len(lines):  # the last line, without its newline
+                break
+            raise ValueError(f"{path}:{number}: malformed kwy line {line[:40]!r}") from None
+    return records
+
+
 def kwy_header(n_keepers: int, n_takers: int, length: float, width: float) -> str:
     """The kwy header lines (without the final newline), as ``KeepawayRef::logHeader`` writes them."""
     return "\n".join([
@@ -196,7 +226,7 @@ def kwy_header(n_keepers: int, n_takers: int, length: float, width: float) -> st
     ])
 
 
-class JsonlLog(_LineLog):
+class JsonlLog(LineLog):
     """A JSON-lines episode log: a header line with the seed, the run's configuration and the server
     parameters, then one line per episode with its hold time in seconds."""
 
@@ -260,9 +290,11 @@ __all__ = [
     "EpisodeRecord",
     "JsonlLog",
     "KwyLog",
+    "LineLog",
     "cpp_number",
     "free_name",
     "kwy_header",
     "read_jsonl",
+    "read_kwy",
     "set_aside",
 ]

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-PROJECT = ("agents", "coach", "core", "keepaway", "protocol", "runner", "server", "trainer")
+PROJECT = ("agents", "coach", "core", "keepaway", "protocol", "runner", "server", "trainer", "viewer")
 # package -> the project's packages it may import (besides itself)
 ALLOWED = {
     "core": set(),
@@ -23,6 +23,7 @@ ALLOWED = {
     "server": {"core", "protocol"},
     "runner": {"core", "protocol", "agents", "server"},
     "trainer": {"core", "protocol", "agents", "server", "runner"},
+    "viewer": {"core", "protocol", "server"},
 }
 
 

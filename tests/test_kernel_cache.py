@@ -5,14 +5,18 @@ from __future__ import annotations
 
 import ast
 import os
+import re
 import subprocess
 import sys
 import textwrap
+from collections import namedtuple
 from pathlib import Path
+
+import numpy as np
 
 from conftest import REPO, keepaway_command
 
-from core.jit import KERNEL_SOURCES, ROOT, source_digest, source_files
+from core.jit import KERNEL_SOURCES, ROOT, borrowing, njit, source_digest, source_files
 
 # Runs pkg.a.f() with numba's cache in CACHE_ROOT/numba-<digest of pkg's source>, as core.jit does.
 RUN_KERNEL = textwrap.dedent("""
@@ -70,8 +74,9 @@ def test_the_digest_follows_content_and_timestamps(tmp_path):
 
 
 def imports_njit(tree: ast.AST, module: str) -> bool:
-    return any(isinstance(node, ast.ImportFrom) and node.module == module and any(a.name == "njit" for a in node.names)
-               for node in ast.walk(tree))
+    """Whether ``tree`` imports a kernel decorator (``njit``, or ``core.jit``'s ``borrowing``) from ``module``."""
+    return any(isinstance(node, ast.ImportFrom) and node.module == module
+               and any(a.name in ("njit", "borrowing") for a in node.names) for node in ast.walk(tree))
 
 
 def imports_numba_njit(tree: ast.AST) -> bool:
@@ -118,3 +123,59 @@ def test_an_unwritable_cache_root_falls_back_to_the_temporary_directory(tmp_path
     out = subprocess.run([sys.executable, "-c", "from core.jit import cache_dir; print(cache_dir())"], cwd=REPO,
                          env=env, capture_output=True, text=True, timeout=120, check=True)
     assert Path(out.stdout.strip()).parent == tmp_path / "tmp" / f"keepaway-{os.getuid()}"
+
+
+Rows = namedtuple("Rows", "a b")
+
+
+@njit
+def _scratch_sum(rows, r):
+    """Allocates: must keep numba's reference counting."""
+    out = np.empty(2)
+    out[0] = rows.a[r, 0]
+    out[1] = rows.b[r, 1]
+    return out.sum()
+
+
+def _with_scratch(rows):
+    t = 0.0
+    for r in range(rows.a.shape[0]):
+        t += _scratch_sum(rows, r)
+    return t
+
+
+def _switching_walk(rows, first):
+    """Switches between the records' arrays: numba's pruning leaves reference counts here."""
+    x = rows.a if first else rows.b
+    t = 0.0
+    for r in range(x.shape[0]):
+        t += x[r, 0]
+        if t > 2.0:
+            x = rows.b
+    return t
+
+
+def _function_body(ir: str, name: str) -> str:
+    """The LLVM IR of the numba function ``name`` itself (not its Python wrapper nor its callees)."""
+    own = []
+    for part in ir.split("\ndefine ")[1:]:
+        symbol = re.search(r'@"?([^"(]+)"?\(', part).group(1)
+        if f"{len(name)}{name}" in symbol and "cpython" not in symbol and "cfunc" not in symbol:
+            own.append(part.split("\n}\n")[0])
+    assert len(own) == 1, f"{len(own)} definitions of {name}"
+    return own[0]
+
+
+def test_a_borrowing_kernel_counts_no_references_and_may_call_an_allocating_one():
+    """``core.jit.borrowing`` compiles a kernel without numba's reference counting (no NRT_incref or
+    NRT_decref in its code, where ``njit`` has them), to the same result; an ``njit`` kernel that
+    allocates still compiles when a borrowing one is the first to call it (numba would compile it under
+    its caller's setting, which cannot allocate)."""
+    rows = Rows(np.arange(8.0).reshape(4, 2), np.arange(8.0, 16.0).reshape(4, 2))
+    assert borrowing(cache=False)(_with_scratch)(rows) == sum(rows.a[:, 0] + rows.b[:, 1])
+    borrowed, counted = borrowing(cache=False)(_switching_walk), njit(_switching_walk)
+    assert borrowed(rows, True) == counted(rows, True) == 0.0 + 2.0 + 4.0 + 14.0  # a, a, a, then b
+    borrowed_ir = _function_body(borrowed.inspect_llvm(borrowed.signatures[0]), "_switching_walk")
+    counted_ir = _function_body(counted.inspect_llvm(counted.signatures[0]), "_switching_walk")
+    assert "NRT_incref" in counted_ir and "NRT_decref" in counted_ir
+    assert "NRT_incref" not in borrowed_ir and "NRT_decref" not in borrowed_ir

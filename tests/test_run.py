@@ -13,6 +13,7 @@ from pathlib import Path
 import pytest
 
 from conftest import keepaway_command
+from server.game_log import read_rcg
 
 SUMMARY_KEYS = {"mode", "seed", "episodes", "mean_hold_time_s", "stderr_hold_time_s", "cycles_per_s",
                 "episodes_per_s"}
@@ -70,6 +71,11 @@ def test_distributed_and_embedded_runs_give_identical_episodes(processes, tmp_pa
     key = lambda s: [(e["episode"], e["start_cycle"], e["end_cycle"], e["end"]) for e in s["episodes"]]
     assert key(distributed) == key(embedded)
     assert (tmp_path / "d" / "keepaway.kwy").read_text() == (tmp_path / "e" / "keepaway.kwy").read_text()
+    # the game logs too, every cycle (but the result line, which carries the time of day)
+    game_log = lambda mode: [l for l in (tmp_path / mode / "keepaway.rcg").read_text().splitlines()
+                             if "(result " not in l]
+    assert game_log("d")[0] == "ULG5" and sum(l.startswith("(show ") for l in game_log("d")) > 4
+    assert game_log("d") == game_log("e")
 
 
 @pytest.mark.slow
@@ -103,9 +109,19 @@ def test_a_killed_player_is_named_and_the_run_fails_without_hanging(processes, t
 
 def test_batched_run_reports_the_same_summary_shape(processes, tmp_path):
     summary = run_json(processes, "--mode", "batched", "--batch", "8", "--episodes", "16", "--seed", "1",
-                       "--out", str(tmp_path))
+                       "--game-log-arenas", "3", "--out", str(tmp_path))
     assert set(summary) == SUMMARY_KEYS and summary["mode"] == "batched"
     assert len(summary["episodes"]) == 16
+    # the chosen arena's game log: every cycle of its two episodes, each started by the referee's message
+    record = read_rcg(tmp_path / "keepaway-arena3.rcg")
+    assert [s.cycle for s in record.shows] == list(range(len(record.shows)))
+    assert len(record.episode_starts) == 3 and record.episode_starts[-1] == record.shows[-1].cycle
+    assert [p.name for p in tmp_path.glob("*.rcg")] == ["keepaway-arena3.rcg"]
+
+
+def test_no_game_log_writes_none(processes, tmp_path):
+    run_json(processes, "--mode", "embedded", "--episodes", "1", "--no-game-log", "--out", str(tmp_path))
+    assert (tmp_path / "keepaway.kwy").exists() and not list(tmp_path.glob("*.rcg"))
 
 
 def test_bad_options_are_one_line_errors(processes, tmp_path):
@@ -116,6 +132,10 @@ def test_bad_options_are_one_line_errors(processes, tmp_path):
         (["--mode", "embedded", "--realtime"], "--realtime needs --mode distributed"),
         (["--getopen", "learned", "--policy", str(bad_policy)], "bad.npz"),
         (["--field-size", "nan"], "not a finite number"),
+        (["--mode", "batched", "--batch", "8", "--game-log-arenas", "8"], "arenas are numbered 0..7"),
+        (["--game-log-arenas", "0"], "--game-log-arenas needs --mode batched"),
+        (["--mode", "embedded", "--view"], "--view follows an arena's monitor port: it needs --mode distributed"),
+        (["--mode", "batched", "--game-log-arenas", "1,x"], "expected arena numbers separated by commas"),
     ]:
         proc = processes.popen(keepaway_command("run", *args, "--out", str(tmp_path)),
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE)
