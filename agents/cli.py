@@ -25,6 +25,7 @@ import click
 
 from protocol.messages import MAX_SEED
 from protocol.endpoints import DEFAULT_PORTS, parse_endpoint
+from protocol.security import KeyDir, SecurityError, keys_option, no_answer, open_keys, secure_client
 
 EXIT_OK = 0
 EXIT_START_FAILED = 2
@@ -70,10 +71,11 @@ class _StopFlag:
 
 
 def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop: _StopFlag,
-               reconnect: int | None = None, silence_s: float = SERVER_SILENCE_S) -> int:
-    """Connect, send ``init`` (or with ``reconnect`` a uniform number, ``reconnect`` to it) and feed
-    ``agent`` until the server shuts down or ``stop`` is set. Returns the exit code; raises
-    :class:`PlayerExit` when the player cannot start."""
+               reconnect: int | None = None, silence_s: float = SERVER_SILENCE_S,
+               keys: KeyDir | None = None) -> int:
+    """Connect (with ``keys``, over CURVE), send ``init`` (or with ``reconnect`` a uniform number,
+    ``reconnect`` to it) and feed ``agent`` until the server shuts down or ``stop`` is set. Returns the
+    exit code; raises :class:`PlayerExit` when the player cannot start."""
     import zmq
 
     from agents.policy_file import PolicyFileError
@@ -90,6 +92,7 @@ def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop
     configure(sock)
     linger_ms = 0
     try:
+        secure_client(sock, keys)
         sock.connect(endpoint)
 
         def send(msg: Any) -> None:
@@ -117,7 +120,7 @@ def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop
                     say_bye()
                 return EXIT_OK
             if not agent.ready and time.monotonic() > deadline:
-                raise PlayerExit(EXIT_START_FAILED, f"no server at {endpoint} after {connect_timeout_s:g} s")
+                raise PlayerExit(EXIT_START_FAILED, no_answer(endpoint, connect_timeout_s))
             if agent.ready and time.monotonic() - last_heard > silence_s:
                 raise PlayerExit(EXIT_SERVER_SILENT, f"the server at {endpoint} has sent nothing for "
                                                      f"{silence_s:g} s; giving it up")
@@ -190,10 +193,11 @@ def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop
               default=SERVER_SILENCE_S, show_default=True,
               help="Seconds without any message from the server after which a joined player gives it up "
                    "(exit 4); a live server sends something at least every second.")
+@keys_option
 @click.option("-v", "--verbose", count=True, help="More log output (-v info, -vv debug).")
 def player_command(team: str, pass_policy: str, getopen_policy: str, policy_path: Path | None, endpoint: str,
                    seed: int, fullstate: bool, reconnect: int | None, connect_timeout_s: float,
-                   silence_s: float, verbose: int) -> None:
+                   silence_s: float, keys: Path | None, verbose: int) -> None:
     """Run one Keepaway player: connect to the server, play until it ends, exit.
 
     Exits 0 when the server shuts down or on SIGTERM/SIGINT (after saying bye), 2 when it cannot start,
@@ -219,8 +223,8 @@ def player_command(team: str, pass_policy: str, getopen_policy: str, policy_path
             log.warning("--getopen learned without --policy: GetOpen uses zero weights until the coach "
                         "sends a policy")
         compile_kernels()
-        code = run_player(agent, endpoint, connect_timeout_s, stop, reconnect, silence_s)
-    except PolicyFileError as exc:
+        code = run_player(agent, endpoint, connect_timeout_s, stop, reconnect, silence_s, open_keys(keys))
+    except (PolicyFileError, SecurityError) as exc:
         click.echo(f"keepaway player: {exc}", err=True)
         sys.exit(EXIT_START_FAILED)
     except PlayerExit as exc:

@@ -5,10 +5,12 @@ from __future__ import annotations
 import json
 import logging
 import sys
+from pathlib import Path
 
 import click
 
 from protocol.endpoints import parse_endpoint
+from protocol.security import SecurityError, keys_option, open_keys
 
 
 @click.command("coach")
@@ -25,9 +27,10 @@ from protocol.endpoints import parse_endpoint
 @click.option("--connect-timeout", type=click.FloatRange(min=0.0, min_open=True), default=60.0, show_default=True,
               help="Seconds to wait for the server.")
 @click.option("--json", "as_json", is_flag=True, help="Print the episode record as JSON at the end.")
+@keys_option
 @click.option("-v", "--verbose", count=True, help="More log output (-v info, -vv debug).")
 def coach_command(server_endpoint: str, arena_port: int | None, host: str, idle: bool, stop_after: int | None,
-                  connect_timeout: float, as_json: bool, verbose: int) -> None:
+                  connect_timeout: float, as_json: bool, keys: Path | None, verbose: int) -> None:
     """Run an arena's online coach: the ground-truth episode record and the trainer's endpoint."""
     from coach.coach import Coach
 
@@ -39,12 +42,15 @@ def coach_command(server_endpoint: str, arena_port: int | None, host: str, idle:
         parse_endpoint(server_endpoint)
     except ValueError as exc:
         raise click.BadParameter(str(exc), param_hint="--server") from None
-    coach = Coach(server_endpoint, host=host, arena_port=arena_port, stop_after=stop_after,
-                  connect_timeout_s=connect_timeout, idle=idle)
+    try:
+        coach = Coach(server_endpoint, host=host, arena_port=arena_port, stop_after=stop_after,
+                      connect_timeout_s=connect_timeout, idle=idle, keys=open_keys(keys))
+    except SecurityError as exc:
+        raise click.BadParameter(str(exc), param_hint="--keys") from None
     coach.install_signal_handlers()
     try:
         coach.connect()
-    except ConnectionError as exc:
+    except (ConnectionError, SecurityError) as exc:
         coach.close()
         click.echo(f"keepaway coach: {exc}", err=True)
         sys.exit(2)

@@ -37,10 +37,11 @@ from typing import Any
 
 import zmq
 
-from protocol import DEFAULT_MAX_MESSAGE_BYTES, PROTOCOL_VERSION, ProtocolError, bind, configure, encode
+from protocol import DEFAULT_MAX_MESSAGE_BYTES, PROTOCOL_VERSION, ProtocolError, configure, encode
 from protocol import messages as m
 from protocol.arena import ARENA_MAX_MESSAGE_BYTES, EpisodesDone, RunEpisodes, StopArena, decode_from_trainer
 from protocol.messages import advice_hear, decode_for_coach
+from protocol.security import KeyDir, PortGuard, no_answer, secure_client
 
 log = logging.getLogger("keepaway.coach")
 
@@ -100,6 +101,7 @@ class Coach:
     stop_after: int | None = None  # stop the server after this many episodes
     idle: bool = False  # with an arena endpoint: paused until the first request (module docstring)
     connect_timeout_s: float = 60.0
+    keys: KeyDir | None = None  # CURVE on both ports (protocol/security.py)
     episodes: list = field(default_factory=list)  # ground truth: (episode, start, end, end cause)
     stop_reason: str | None = None
 
@@ -109,7 +111,9 @@ class Coach:
         # the server is trusted: what it relays (a player's report, a little larger than the report the
         # server took) is taken up to the arena port's limit, where it goes next
         configure(self.server, ARENA_MAX_MESSAGE_BYTES)
+        secure_client(self.server, self.keys)
         self.arena: zmq.Socket | None = None
+        self.guard: PortGuard | None = None
         self.pending: PendingRun | None = None
         self.bound_arena_port: int | None = None
         self.keepers = 0
@@ -124,7 +128,7 @@ class Coach:
         self.server.connect(self.server_endpoint)
         self.server.send(self._coach_init())
         if not self.server.poll(int(self.connect_timeout_s * 1000)):
-            raise ConnectionError(f"no server at {self.server_endpoint} after {self.connect_timeout_s:g} s")
+            raise ConnectionError(no_answer(self.server_endpoint, self.connect_timeout_s))
         reply = decode_for_coach(self.server.recv(), ARENA_MAX_MESSAGE_BYTES)
         if isinstance(reply, m.Error):
             raise ConnectionError(f"server refused the coach: {reply.code}: {reply.message}")
@@ -136,7 +140,8 @@ class Coach:
         if self.arena_port is not None:
             self.arena = self.ctx.socket(zmq.ROUTER)
             configure(self.arena, ARENA_MAX_MESSAGE_BYTES)
-            self.bound_arena_port = bind(self.arena, self.host, self.arena_port)
+            self.guard = PortGuard(self.ctx, self.keys, log)
+            self.bound_arena_port = self.guard.bind(self.arena, self.host, self.arena_port)
         return reply
 
     def install_signal_handlers(self) -> None:
@@ -171,6 +176,8 @@ class Coach:
         for sock in (self.server, self.arena):
             if sock is not None:
                 sock.close(linger=0)
+        if self.guard is not None:
+            self.guard.close()
         self.ctx.term()
 
     # -- server port --------------------------------------------------------------------------------

@@ -14,6 +14,7 @@ def main() -> None:
 def _register() -> None:
     from agents.cli import commands as agent_commands
     from coach.cli import commands as coach_commands
+    from protocol.security import keys_command
     from runner.cli import commands as runner_commands
     from server.cli import commands as server_commands
     from trainer.experiment_cli import commands as experiment_commands
@@ -21,7 +22,7 @@ def _register() -> None:
     from viewer.cli import commands as viewer_commands
 
     for command in (server_commands + agent_commands + coach_commands + runner_commands + train_commands
-                    + experiment_commands + viewer_commands):
+                    + experiment_commands + viewer_commands + [keys_command]):
         main.add_command(command)
 
 

@@ -18,11 +18,13 @@ from runner.ray_backend import Launcher
 class Placement:
     """Where a mode's arenas run, which no result depends on: the threads that step batched arenas; for
     the distributed mode, running arenas to attach to (their coaches' arena endpoints) or a launcher that
-    places new ones (``runner.ray_backend``), else arenas of processes started on this machine."""
+    places new ones (``runner.ray_backend``), else arenas of processes started on this machine; and the
+    keys directory their connections use, if any."""
 
     threads: int | None = None
     attach: tuple[str, ...] = ()
     launcher: Launcher | None = None
+    keys: Path | None = None  # a keys directory: CURVE on every connection (protocol.security)
 
     def kernel_sets(self, mode: str) -> tuple[str, ...]:
         """The kernel sets to compile on this machine before ``mode``'s arenas start (``runner.kernels``):
@@ -46,10 +48,10 @@ def open_backend(mode: str, game: Game, parameter_set: str, arenas: int, log_dir
     if mode == "embedded":
         return EmbeddedBackend(game)
     if placement.attach:
-        return DistributedBackend.attach(game, placement.attach)
+        return DistributedBackend.attach(game, placement.attach, keys=placement.keys)
     if placement.launcher is not None:
         return placement.launcher(game, parameter_set, arenas)
-    return DistributedBackend.start_local(game, arenas, log_dir, parameter_set)
+    return DistributedBackend.start_local(game, arenas, log_dir, parameter_set, keys=placement.keys)
 
 
 __all__ = ["Placement", "open_backend"]

@@ -13,6 +13,7 @@ import click
 
 from protocol.messages import MAX_SEED
 from protocol.params import KEEPAWAY_KEEPERS, KEEPAWAY_TAKERS
+from protocol.security import keys_option
 from runner.kernels import KERNEL_SETS
 from runner.job import MODES
 
@@ -68,12 +69,13 @@ def placement_options(command: Command) -> Command:
         click.option("--ray-address", default=None, help="Ray cluster to join [RAY_ADDRESS, or a local Ray]."),
         click.option("--threads", type=COUNT_TYPE, default=None,
                      help="Threads stepping batched arenas [numba's thread count]."),
+        keys_option,
     ]
     return with_options(options, command)
 
 
 def placement(mode: str, attach: tuple[str, ...], backend: str, ray_address: str | None, threads: int | None,
-              stored_as: str | None = None) -> Placement:
+              keys: Path | None = None, stored_as: str | None = None) -> Placement:
     """The placement :func:`placement_options` describe for ``mode`` (a mode read from a stored ``stored_as``,
     e.g. "training", if it is one); a usage error in one line for options that do not go together."""
     from runner.backends import Placement
@@ -81,6 +83,7 @@ def placement(mode: str, attach: tuple[str, ...], backend: str, ray_address: str
     if (attach or backend != "local") and mode != "distributed":
         fix = f"this {stored_as} is {mode}" if stored_as else "add --mode distributed"
         raise click.UsageError(f"--arena and --backend choose where distributed arenas run; {fix}")
+    keys_for_distributed(keys, mode)
     if attach and backend != "local":
         raise click.UsageError("--arena attaches to running arenas; --backend ray starts its own: choose one")
     launcher = None
@@ -88,10 +91,17 @@ def placement(mode: str, attach: tuple[str, ...], backend: str, ray_address: str
         from runner.ray_backend import ray_launcher
 
         try:
-            launcher = ray_launcher(ray_address)
+            launcher = ray_launcher(ray_address, keys)
         except RuntimeError as exc:
             raise click.UsageError(str(exc)) from None
-    return Placement(threads, attach, launcher)
+    return Placement(threads, attach, launcher, keys)
+
+
+def keys_for_distributed(keys: Path | None, mode: str) -> None:
+    """A usage error in one line for ``--keys`` with a mode that opens no connection."""
+    if keys is not None and mode != "distributed":
+        raise click.UsageError(f"--keys secures the connections of distributed arenas; {mode} has none: "
+                               f"add --mode distributed")
 
 
 def default_arenas(mode: str, attach: tuple[str, ...]) -> int:
@@ -126,10 +136,11 @@ def default_arenas(mode: str, attach: tuple[str, ...]) -> int:
                    "stops with the run (add --realtime to watch at 10 cycles a second).")
 @click.option("--json", "as_json", is_flag=True, help="Print a machine-readable summary instead of the table.")
 @click.option("--no-progress", is_flag=True, help="No progress bar.")
+@keys_option
 def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str, policy_path: Path | None,
                 keepers: int, takers: int, field_size: float, parameter_set: str, mode: str, batch: int,
                 realtime: bool, out: Path, no_game_log: bool, game_log_arenas: str, view: bool, as_json: bool,
-                no_progress: bool) -> None:
+                no_progress: bool, keys: Path | None) -> None:
     """Play Keepaway: a whole arena (server, coach, keepers, takers) for --episodes episodes."""
     from agents.policy_file import PolicyFileError, load_policy
     from protocol.params import parameter_set as make_params
@@ -143,6 +154,7 @@ def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str,
         raise click.UsageError("--episodes must be at least 1")
     if realtime and mode != "distributed":
         raise click.UsageError("--realtime needs --mode distributed")
+    keys_for_distributed(keys, mode)
     if view and mode != "distributed":
         raise click.UsageError("--view follows an arena's monitor port: it needs --mode distributed")
     if mode == "batched" and batch < 1:
@@ -156,7 +168,7 @@ def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str,
     except (ValueError, PolicyFileError) as exc:
         raise click.UsageError(str(exc)) from None
     spec = ArenaSpec(params, keepers, takers, seed, pass_policy, getopen_policy, policy)
-    opts = RunOptions(spec, episodes, mode, batch, realtime, out, policy_path, parameter_set,
+    opts = RunOptions(spec, episodes, mode, batch, realtime, out, policy_path, parameter_set, keys,
                       game_log=not no_game_log, game_log_arenas=logged_arenas, view=view)
     interrupt_on_sigterm()
     show = (lambda result: click.echo(dump_json(result.summary()) if as_json else summary_table(result.summary())))

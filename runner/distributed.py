@@ -19,6 +19,7 @@ import zmq
 from protocol import configure, encode
 from protocol import messages as m
 from protocol.arena import ARENA_MAX_MESSAGE_BYTES, EpisodesDone, StopArena, decode_for_trainer
+from protocol.security import KeyDir, open_keys, secure_client
 from runner.coached import CHUNK_EPISODES, Chunk, CoachedBackend
 from runner.job import Game, Progress
 from runner.launch import ArenaFailure, ArenaProcesses
@@ -52,7 +53,8 @@ class Arena:
             if dead is not None:
                 raise ArenaFailure(f"{self.name}: {dead.describe_exit()}; logs in {self.processes.log_dir}")
         elif waited_s > ATTACHED_TIMEOUT_S:
-            raise ArenaFailure(f"{self.name}: no answer for {waited_s:.0f} s; is its coach still running?")
+            raise ArenaFailure(f"{self.name}: no answer for {waited_s:.0f} s; is its coach still running, and "
+                               f"is this trainer's key authorised there (--keys)?")
 
 
 def arena_never_finishes() -> bool:
@@ -76,18 +78,20 @@ class DistributedBackend(CoachedBackend):
     # -- arenas --------------------------------------------------------------------------------------
     @classmethod
     def start_local(cls, game: Game, count: int, log_dir: Path, parameter_set: str,
-                    chunk_episodes: int = CHUNK_EPISODES) -> DistributedBackend:
-        """Start ``count`` arenas on this machine (their logs under ``log_dir/arena_NN``)."""
+                    chunk_episodes: int = CHUNK_EPISODES, keys: Path | None = None) -> DistributedBackend:
+        """Start ``count`` arenas on this machine (their logs under ``log_dir/arena_NN``; with ``keys``
+        every connection over CURVE, ``protocol.security``)."""
         ctx = zmq.Context.instance()
+        key_dir = open_keys(keys)
         arenas: list[Arena] = []
         try:
             for i in range(count):
                 where = log_dir / f"arena_{i:02d}"
                 processes = ArenaProcesses(where).__enter__()
-                arenas.append(Arena(f"arena {i}", "", _socket(ctx), processes))
+                arenas.append(Arena(f"arena {i}", "", _socket(ctx, key_dir), processes))
                 endpoints = processes.start_arena(arena_server_args(game, parameter_set, where),
-                                                  list(ARENA_PLAYER_ARGS),
-                                                  game.keepers, game.takers, arena_host="127.0.0.1")
+                                                  list(ARENA_PLAYER_ARGS), game.keepers, game.takers,
+                                                  arena_host="127.0.0.1", keys=keys)
                 arenas[-1].endpoint = endpoints.arena
                 arenas[-1].socket.connect(endpoints.arena)
         except BaseException:
@@ -96,13 +100,15 @@ class DistributedBackend(CoachedBackend):
         return cls(game, arenas, chunk_episodes)
 
     @classmethod
-    def attach(cls, game: Game, endpoints: Sequence[str], chunk_episodes: int = CHUNK_EPISODES) -> DistributedBackend:
-        """Drive arenas started elsewhere (docker-compose, a Ray cluster) through their arena endpoints;
-        they must play ``game``. :meth:`close` leaves them running."""
+    def attach(cls, game: Game, endpoints: Sequence[str], chunk_episodes: int = CHUNK_EPISODES,
+               keys: Path | None = None) -> DistributedBackend:
+        """Drive arenas started elsewhere (docker-compose, a Ray cluster) through their arena endpoints
+        (with ``keys``, over CURVE); they must play ``game``. :meth:`close` leaves them running."""
         ctx = zmq.Context.instance()
+        key_dir = open_keys(keys)
         arenas = []
         for i, endpoint in enumerate(endpoints):
-            arena = Arena(f"arena {i} ({endpoint})", endpoint, _socket(ctx))
+            arena = Arena(f"arena {i} ({endpoint})", endpoint, _socket(ctx, key_dir))
             arena.socket.connect(endpoint)
             arenas.append(arena)
         return cls(game, arenas, chunk_episodes)
@@ -177,9 +183,10 @@ def arena_server_args(game: Game, parameter_set: str, log_dir: Path) -> list[str
             "--log-dir", str(log_dir), "--kwy-name", "keepaway"]
 
 
-def _socket(ctx: zmq.Context) -> zmq.Socket:
+def _socket(ctx: zmq.Context, keys: KeyDir | None) -> zmq.Socket:
     sock = ctx.socket(zmq.DEALER)
     configure(sock, ARENA_MAX_MESSAGE_BYTES)
+    secure_client(sock, keys)
     return sock
 
 

@@ -96,22 +96,25 @@ class ArenaProcesses:
         return member, match.group(1), match.group(2), match.group(3)
 
     def start_arena(self, server_args: list[str], player_args: list[str], keepers: int, takers: int,
-                    arena_host: str | None = None) -> ArenaEndpoints:
+                    arena_host: str | None = None, keys: Path | None = None) -> ArenaEndpoints:
         """A whole arena: the server on free ports, its coach (serving trainers on a free port of
         ``arena_host`` if given, the game paused until the first request) and ``keepers`` + ``takers``
-        players, each with ``player_args``."""
-        _, players, coach, monitor = self.start_server(server_args)
+        players, each with ``player_args``; with ``keys`` every process uses that keys directory
+        (``protocol.security``)."""
+        secured = ["--keys", str(keys)] if keys is not None else []
+        _, players, coach, monitor = self.start_server([*server_args, *secured])
         arena = None
         if arena_host is None:
-            self.start("coach", keepaway_argv("coach", "--server", coach))
+            self.start("coach", keepaway_argv("coach", "--server", coach, *secured))
         else:
             member = self.start("coach", keepaway_argv("coach", "--server", coach, "--arena-port", "0",
-                                                       "--host", arena_host, "--idle"), capture_stdout=True)
+                                                       "--host", arena_host, "--idle", *secured),
+                                capture_stdout=True)
             arena = self.announced(member, ARENA_RE, 120.0).group(1)
         for team, count in (("keepers", keepers), ("takers", takers)):
             for i in range(1, count + 1):
                 self.start(f"{team[:-1]} {i}", keepaway_argv("player", "--team", team, "--server", players,
-                                                             *player_args))
+                                                             *player_args, *secured))
         return ArenaEndpoints(players, coach, monitor, arena)
 
     def announced(self, member: Member, pattern: re.Pattern, timeout_s: float) -> re.Match:

@@ -25,7 +25,7 @@ ARENA_CPUS = 1.0  # a synchronous arena's seven processes mostly wait for one an
 class ArenaHost:
     """The actor behind one arena: starts its processes on the node it lands on and stops them."""
 
-    def __init__(self, game: Game, parameter_set: str, index: int) -> None:
+    def __init__(self, game: Game, parameter_set: str, index: int, keys: Path | None = None) -> None:
         import ray
 
         log_dir = Path(tempfile.mkdtemp(prefix=f"keepaway-arena-{index:02d}-"))
@@ -34,7 +34,7 @@ class ArenaHost:
             endpoints = self.processes.start_arena(arena_server_args(game, parameter_set, log_dir),
                                                    list(ARENA_PLAYER_ARGS),
                                                    game.keepers, game.takers,
-                                                   arena_host=ray.util.get_node_ip_address())
+                                                   arena_host=ray.util.get_node_ip_address(), keys=keys)
         except BaseException:
             self.processes.stop()
             raise
@@ -50,10 +50,11 @@ class ArenaHost:
 Launcher = Callable[[Game, str, int], DistributedBackend]
 
 
-def ray_launcher(address: str | None = None) -> Launcher:
+def ray_launcher(address: str | None = None, keys: Path | None = None) -> Launcher:
     """A ``launcher`` for ``runner.backends.open_backend``: joins the Ray cluster at ``address`` (None:
     ``RAY_ADDRESS`` or a new local Ray); ``launch(game, parameter_set, arenas)`` places that many arenas
-    of ``game`` on it. Raises RuntimeError in one line when Ray is not installed."""
+    of ``game`` on it, with ``keys`` (a keys directory at that path on every node) over CURVE. Raises
+    RuntimeError in one line when Ray is not installed."""
     try:
         import ray
     except ImportError:
@@ -62,7 +63,7 @@ def ray_launcher(address: str | None = None) -> Launcher:
     def launch(game: Game, parameter_set: str, arenas: int) -> DistributedBackend:
         ray.init(address=address, ignore_reinit_error=True, log_to_driver=False)
         actor = ray.remote(num_cpus=ARENA_CPUS)(ArenaHost)
-        hosts = [actor.remote(game, parameter_set, i) for i in range(arenas)]
+        hosts = [actor.remote(game, parameter_set, i, keys) for i in range(arenas)]
 
         def stop_hosts() -> None:
             ray.get([host.stop.remote() for host in hosts])
@@ -74,7 +75,7 @@ def ray_launcher(address: str | None = None) -> Launcher:
         except BaseException:
             stop_hosts()
             raise
-        backend = DistributedBackend.attach(game, endpoints)
+        backend = DistributedBackend.attach(game, endpoints, keys=keys)
         backend.on_close = stop_hosts
         return backend
 

@@ -20,6 +20,7 @@ from protocol import MONITOR_EPISODE_TOPIC
 from protocol import messages as m
 from protocol.messages import decode_monitor
 from protocol.params import ServerParams
+from protocol.security import open_keys, secure_client
 from runner.batched import CHUNK_CYCLES, BatchedArenas
 from runner.embedded import ArenaSpec, embedded_episodes
 from runner.job import EpisodeTable, RunResult
@@ -40,6 +41,7 @@ class RunOptions:
     out: Path = Path("out")
     policy_path: Path | None = None
     parameter_set: str = "classic"
+    keys: Path | None = None  # distributed: a keys directory, CURVE on every connection (protocol.security)
     game_log: bool = True  # distributed, embedded: write keepaway.rcg (server/game_log.py)
     game_log_arenas: tuple[int, ...] = ()  # batched: the arenas whose keepaway-arena<B>.rcg is written
     view: bool = False  # distributed: a `keepaway view` of the arena's monitor, for as long as the run
@@ -65,7 +67,7 @@ def distributed_episodes(opts: RunOptions, processes: ArenaProcesses, viewer: Ar
     player_args = ["--seed", str(spec.seed), "--pass", spec.pass_policy, "--getopen", spec.getopen_policy]
     if opts.policy_path is not None:
         player_args += ["--policy", str(opts.policy_path)]
-    endpoints = processes.start_arena(server_args, player_args, spec.keepers, spec.takers)
+    endpoints = processes.start_arena(server_args, player_args, spec.keepers, spec.takers, keys=opts.keys)
     server = processes.member("server")
     if viewer is not None:
         member = viewer.start("viewer", keepaway_argv("view", "--server", endpoints.monitor, "--port", "0",
@@ -82,6 +84,7 @@ def distributed_episodes(opts: RunOptions, processes: ArenaProcesses, viewer: Ar
     monitor = ctx.socket(zmq.SUB)
     monitor.setsockopt(zmq.LINGER, 0)
     monitor.setsockopt(zmq.SUBSCRIBE, MONITOR_EPISODE_TOPIC)
+    secure_client(monitor, open_keys(opts.keys))
     monitor.connect(endpoints.monitor)
     try:
         yielded: set[int] = set()

@@ -33,9 +33,10 @@ import zmq
 from protocol import messages as m
 from protocol.codec import encode
 from protocol.messages import advice_hear, decode_from_coach, decode_from_player
-from protocol.endpoints import MONITOR_EPISODE_TOPIC, MONITOR_FRAME_TOPIC, bind, configure
+from protocol.endpoints import MONITOR_EPISODE_TOPIC, MONITOR_FRAME_TOPIC, configure
 from protocol.errors import ProtocolError
 from protocol import PROTOCOL_VERSION
+from protocol.security import PortGuard, open_keys
 from server.arena import TEAMS, Arena, ArenaError, PlayerSlot, compile_kernels, player_name, truth_state
 from server.config import ServerConfig
 from server.episode_log import EpisodeRecord, JsonlLog, KwyLog
@@ -99,6 +100,7 @@ class Server:
         self.monitor = self.ctx.socket(zmq.XPUB)
         for sock in (self.players, self.coach, self.monitor):
             configure(sock, cfg.max_message_bytes * HARD_LIMIT_FACTOR)
+        self.guard: PortGuard | None = None  # made by bind(): CURVE and ZAP with keys (protocol/security.py)
         self.monitor_subscribers = 0
         self.kwy: KwyLog | None = None
         self.jsonl: JsonlLog | None = None
@@ -121,10 +123,11 @@ class Server:
         """Compile the kernels, bind the sockets, open the logs; then announce the ports (``on_ready``)."""
         cfg = self.config
         compile_kernels(cfg.params, cfg.keepers, cfg.takers)
+        self.guard = guard = PortGuard(self.ctx, open_keys(cfg.keys), log)
         ports = BoundPorts(
-            players=bind(self.players, cfg.host, cfg.players_port),
-            coach=bind(self.coach, cfg.host, cfg.coach_port),
-            monitor=bind(self.monitor, cfg.host, cfg.monitor_port),
+            players=guard.bind(self.players, cfg.host, cfg.players_port),
+            coach=guard.bind(self.coach, cfg.host, cfg.coach_port),
+            monitor=guard.bind(self.monitor, cfg.host, cfg.monitor_port),
         )
         self.ports = ports
         if cfg.log_dir is not None:
@@ -136,8 +139,9 @@ class Server:
                                   config=cfg.summary(), params=p.to_dict())
             if cfg.game_log:
                 self.rcg = ArenaGameLog(Path(cfg.log_dir) / f"{cfg.kwy_name or 'keepaway'}{RCG_SUFFIX}", self.arena)
-        log.info("listening: players tcp://%s:%d coach tcp://%s:%d monitor tcp://%s:%d (%s mode, seed %d)",
-                 cfg.host, ports.players, cfg.host, ports.coach, cfg.host, ports.monitor, cfg.mode, cfg.seed)
+        log.info("listening: players tcp://%s:%d coach tcp://%s:%d monitor tcp://%s:%d (%s mode, seed %d, %s)",
+                 cfg.host, ports.players, cfg.host, ports.coach, cfg.host, ports.monitor, cfg.mode, cfg.seed,
+                 "plain TCP" if cfg.keys is None else f"CURVE, keys {cfg.keys}")
         if self.on_ready is not None:
             self.on_ready(ports)
         return ports
@@ -183,6 +187,8 @@ class Server:
                 logger.close()
         for sock in (self.players, self.coach, self.monitor):
             sock.close(linger=0)
+        if self.guard is not None:
+            self.guard.close()
         self.ctx.term()
         log.info("stopped at cycle %d after %d episodes: %s", self.arena.cycle, self.episodes_done, reason)
         repeat_limit.flush()

@@ -10,6 +10,7 @@ from typing import Any
 import click
 
 from protocol.params import TEAM_SIZE, ServerParams, parameter_set
+from protocol.security import SecurityError, keys_option
 from server.config import (
     AT_LEAST_ONE,
     HANG_POLICIES,
@@ -52,8 +53,9 @@ def build_config(config_file: Path | None, parameter_set_name: str | None, overr
         param_changes["keepaway_length"] = param_changes["keepaway_width"] = field_size
     params: ServerParams = parameter_set(set_name, keepaway_launch=keepaway_launch, **param_changes)
     data.update({k: v for k, v in settings.items() if v is not None})
-    if "log_dir" in data and data["log_dir"] is not None:
-        data["log_dir"] = Path(data["log_dir"])
+    for name in ("log_dir", "keys"):
+        if data.get(name) is not None:
+            data[name] = Path(data[name])
     return ServerConfig(params=params, **data)
 
 
@@ -61,6 +63,7 @@ def build_config(config_file: Path | None, parameter_set_name: str | None, overr
 @click.option("--config", "config_file", type=click.Path(exists=True, dir_okay=False, path_type=Path),
               help="TOML file: ServerConfig fields at top level, [params] for parameter overrides.")
 @click.option("--host", default=None, help="Bind address (default 127.0.0.1).")
+@keys_option
 @click.option("--players-port", type=PORT_TYPE, default=None, help="Players ROUTER port (default 6000; 0 = free port).")
 @click.option("--coach-port", type=PORT_TYPE, default=None, help="Coach ROUTER port (default 6001; 0 = free port).")
 @click.option("--monitor-port", type=PORT_TYPE, default=None, help="Monitor PUB port (default 6002; 0 = free port).")
@@ -122,6 +125,8 @@ def server_command(config_file: Path | None, parameter_set_name: str | None, par
     server.install_signal_handlers()
     try:
         server.bind()
+    except SecurityError as exc:
+        raise click.BadParameter(str(exc), param_hint="--keys") from None
     except Exception as exc:  # zmq.ZMQError: address in use etc.
         raise click.ClickException(f"cannot bind: {exc}") from None
     code = server.run()

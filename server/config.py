@@ -35,6 +35,7 @@ class ServerConfig:
 
     params: ServerParams = field(default_factory=lambda: parameter_set("classic"))
     host: str = "127.0.0.1"
+    keys: Path | None = None  # a keys directory (keepaway keys): CURVE on every port (protocol/security.py)
     players_port: int = 6000
     coach_port: int = 6001
     monitor_port: int = 6002
@@ -74,7 +75,8 @@ class ServerConfig:
     def summary(self) -> dict[str, Any]:
         """A plain map of the configuration (for log headers and ``init_ok``)."""
         out = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name != "params"}
-        out["log_dir"] = str(self.log_dir) if self.log_dir is not None else None
+        for name in ("log_dir", "keys"):
+            out[name] = str(getattr(self, name)) if getattr(self, name) is not None else None
         out["parameter_set"] = self.params.name
         return out
 

@@ -3,6 +3,7 @@ services wired by service names, and that every service's command is a valid ``k
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import click
@@ -54,3 +55,10 @@ def test_the_image_holds_every_package_and_its_compiled_kernels():
         assert f"COPY {package} ./{package}\n" in dockerfile, f"the image lacks the package {package}"
     command = main.get_command(click.Context(main), "compile")
     assert command is not None and "keepaway compile" in dockerfile
+
+
+@pytest.mark.parametrize("name", [name for name in sorted(SERVICES) if SERVICES[name].get("ports")])
+def test_published_ports_are_bound_to_loopback_unless_configured(name):
+    for mapping in SERVICES[name]["ports"]:
+        assert re.fullmatch(r"\$\{KEEPAWAY_PUBLISH_HOST:-127\.0\.0\.1\}:\d+:\d+", mapping), \
+            f"{name} publishes {mapping} beyond loopback by default"

@@ -85,7 +85,8 @@ def test_a_player_without_a_server_exits_2_after_the_connect_timeout(processes):
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     assert proc.wait(PROCESS_TIMEOUT_S) == 2
     err = proc.stderr.read().decode()
-    assert err.strip() == f"keepaway player: no server at {endpoint} after 2 s"
+    assert err.strip() == (f"keepaway player: no answer from the server at {endpoint} within 2 s: is it running, "
+                           f"and do you have an authorised key (--keys)?")
 
 
 def test_a_player_waits_through_a_slow_start_and_gives_a_frozen_server_up(processes, tmp_path):

@@ -54,13 +54,14 @@ def experiment_options(command: Command) -> Command:
 def _experiment(trials: int, episodes: int, eval_every: int | None, eval_episodes: int, arenas: int | None,
                 population: int, elite: int, candidate_episodes: int, seed: int, pass_alpha_halflife: int,
                 cem_extra_noise: float, cem_noise_generations: int, mode: str, attach: tuple[str, ...],
-                backend: str, ray_address: str | None, threads: int | None) -> tuple[Any, Placement]:
+                backend: str, ray_address: str | None, threads: int | None,
+                keys: Path | None) -> tuple[Any, Placement]:
     """The experiment the shared options describe (:func:`experiment_options`) and where its arenas run; a
     usage error if it cannot run."""
     from trainer.cem import CEMConfig
     from trainer.experiments import ExperimentConfig, default_eval_every
 
-    where = placement(mode, attach, backend, ray_address, threads)
+    where = placement(mode, attach, backend, ray_address, threads, keys)
     try:
         cem = CEMConfig(population=population, elite=elite, episodes_per_candidate=candidate_episodes,
                         extra_noise=cem_extra_noise, extra_noise_generations=cem_noise_generations)

@@ -94,10 +94,11 @@ CONFIG_OPTIONS = ("pass_policy", "getopen_policy", "episodes", "schedule", "tria
 @click.option("--no-progress", is_flag=True, help="No progress bars.")
 def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, schedule: str | None, trials: int,
                   eval_every: int, eval_episodes: int, arenas: int | None, mode: str, attach: tuple[str, ...],
-                  backend: str, ray_address: str | None, threads: int | None, seed: int, population: int,
-                  elite: int, candidate_episodes: int, keepers: int, takers: int, field_size: float,
-                  parameter_set: str, getopen_inputs: str, pass_alpha_halflife: int, cem_extra_noise: float,
-                  cem_noise_generations: int, out: Path, resume: Path | None, no_progress: bool) -> None:
+                  backend: str, ray_address: str | None, threads: int | None, keys: Path | None, seed: int,
+                  population: int, elite: int, candidate_episodes: int, keepers: int, takers: int,
+                  field_size: float, parameter_set: str, getopen_inputs: str, pass_alpha_halflife: int,
+                  cem_extra_noise: float, cem_noise_generations: int, out: Path, resume: Path | None,
+                  no_progress: bool) -> None:
     """Learn GetOpen (CEM), Pass (Sarsa) or both (Algorithm 3) with frozen evaluations along the way."""
     from agents.policy_file import getopen_theta_size
     from trainer.cem import CEMConfig
@@ -114,7 +115,7 @@ def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, s
         except (FileNotFoundError, ValueError) as exc:
             raise click.UsageError(str(exc)) from None
         mode = stored.mode
-    where = placement(mode, attach, backend, ray_address, threads, "training" if resume else None)
+    where = placement(mode, attach, backend, ray_address, threads, keys, "training" if resume else None)
     if resume is not None:
         given = [f"--{name.replace('_', '-')}" for name in CONFIG_OPTIONS
                  if ctx.get_parameter_source(name) is not click.core.ParameterSource.DEFAULT]
@@ -184,8 +185,8 @@ def _policy_files(path: Path) -> list[Path]:
 @click.option("--no-progress", is_flag=True, help="No progress bar.")
 def evaluate_command(policy_path: Path, episodes: int, seed: int, pass_policy: str | None,
                      getopen_policy: str | None, arenas: int | None, mode: str, attach: tuple[str, ...],
-                     backend: str, ray_address: str | None, threads: int | None, as_json: bool,
-                     no_progress: bool) -> None:
+                     backend: str, ray_address: str | None, threads: int | None, keys: Path | None,
+                     as_json: bool, no_progress: bool) -> None:
     """Play saved policies frozen (greedy Pass, no learning) for --episodes episodes each; print the summary.
 
     The batched mode and the others draw different games from one seed; the embedded and the distributed
@@ -201,7 +202,7 @@ def evaluate_command(policy_path: Path, episodes: int, seed: int, pass_policy: s
     from runner.launch import ArenaFailure, interrupt_on_sigterm
     from runner.report import dump_json, summary_table
 
-    where = placement(mode, attach, backend, ray_address, threads)
+    where = placement(mode, attach, backend, ray_address, threads, keys)
     plays = []  # every file is checked before the kernels are compiled and anything is played
     for path in _policy_files(policy_path):
         try:
