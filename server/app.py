@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import math
 import signal
 import time
 from dataclasses import dataclass, field
@@ -242,24 +243,28 @@ class Server:
                     self._send(conn, self.arena.see_message(conn.slot))
                     self.next_see[ident] = due + conn.slot.see_period_ms(self.config.params.send_step_ms) / 1000.0
             # the end-of-cycle marker: once no see of this player falls before the next step
-            self._send_thinks(to_think, lambda ident: self.next_see.get(ident, 0.0) >= next_step)
+            self._send_thinks(to_think, next_step)
             wake = min([next_step] + list(self.next_see.values()))
             self._poll(poller, max(0, int((wake - time.monotonic()) * 1000)))
             if not self.paused and time.monotonic() >= next_step:
-                self._send_thinks(to_think, lambda ident: True)  # a see the loop was late for goes with t+1
+                self._send_thinks(to_think, -math.inf)  # a see the loop was late for goes with t+1
                 self._step()
                 next_step += step_s
                 if next_step < time.monotonic():  # a slow cycle is not caught up (rcssserver)
                     next_step = time.monotonic() + step_s
 
-    def _send_thinks(self, to_think: set[bytes], done: Callable[[bytes], bool]) -> None:
-        """Real-time mode: ``think`` for the current cycle to each player in ``to_think`` whose percepts
-        of the cycle are all out (``done``), in object order; they leave the set."""
-        ready = [self.conns[ident] for ident in to_think if ident in self.conns and done(ident)]
-        for conn in sorted(ready, key=lambda c: c.slot.obj):
-            self._send(conn, m.Think(cycle=self.arena.cycle))
-            to_think.discard(conn.identity)
+    def _send_thinks(self, to_think: set[bytes], next_step: float) -> None:
+        """Real-time mode: ``think`` for the current cycle to each player in ``to_think`` whose next see
+        falls at or after ``next_step`` (so its percepts of the cycle are all out), in object order; they
+        leave the set. ``-inf`` sends every one still waiting."""
         to_think.intersection_update(self.conns)
+        ready = [self.conns[ident] for ident in to_think if self.next_see.get(ident, 0.0) >= next_step]
+        if not ready:
+            return
+        think = encode(m.Think(cycle=self.arena.cycle))
+        for conn in sorted(ready, key=lambda c: c.slot.obj):
+            self._send_raw(self.players, conn.identity, think)
+            to_think.discard(conn.identity)
 
     def _hold_while_paused(self, poller: zmq.Poller) -> float:
         """Stand still while paused (both modes): serve the sockets and send each player its queued
@@ -286,10 +291,10 @@ class Server:
         if now < self.next_waiting:
             return
         self.next_waiting = now + m.WAITING_INTERVAL_S
-        msg = m.Waiting(cycle=self.arena.cycle, reason=reason, connected=len(self.arena.connected_slots()),
-                        expected=len(self.arena.slots))
+        data = encode(m.Waiting(cycle=self.arena.cycle, reason=reason,
+                                connected=len(self.arena.connected_slots()), expected=len(self.arena.slots)))
         for conn in sorted(self.conns.values(), key=lambda c: c.slot.obj):
-            self._send(conn, msg)
+            self._send_raw(self.players, conn.identity, data)
 
     def _ready_to_start(self) -> bool:
         if self.config.start_on == "players":

@@ -295,12 +295,11 @@ def _cem_generation(config: TrainConfig, state: TrialState, backend: Backend, pr
         results = []
         for candidate in candidates:
             learner = replace(candidate, pass_policy=LEARNED, pass_arrays=state.behaviours.pass_arrays)
-            result, arrays, state.transitions = backend.play(learner, seed, config.cem.episodes_per_candidate, 1,
-                                                             LEARN, progress,
-                                                             alpha if config.pass_alpha_halflife else None)
-            state.behaviours.pass_policy = LEARNED
-            state.behaviours.pass_arrays = arrays
+            result, state.behaviours.pass_arrays, state.transitions = backend.play(
+                learner, seed, config.cem.episodes_per_candidate, 1, LEARN, progress,
+                alpha if config.pass_alpha_halflife else None)
             results.append(result)
+        state.behaviours.pass_policy = LEARNED
         entry.update(block_episodes=config.generation_episodes, alpha=alpha)
     else:
         results = backend.play_candidates(candidates, seed, config.cem.episodes_per_candidate, config.arenas,
