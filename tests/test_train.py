@@ -437,6 +437,25 @@ def test_evaluate_plays_each_trials_policy_frozen_and_prints_the_summary(tmp_pat
     assert no_pass.exit_code == 2 and "the file has no Pass weights" in no_pass.output
 
 
+def test_evaluate_plays_a_learned_pass_file_with_another_pass_in_its_place(tmp_path):
+    # Table 2's cross-test by hand: the file's Pass weights stay out of a game whose Pass is not learned.
+    out = tmp_path / "run"
+    args = TINY_ARGS[:TINY_ARGS.index("--population")] + ["--trials", "1", "--seed", "5", "--threads", "1",
+                                                          "--arenas", "2", "--eval-every", "8", "--eval-episodes",
+                                                          "2", "--no-progress"]
+    args[args.index("random")] = "learned"
+    args[args.index("--getopen") + 1] = "handcoded"
+    args[args.index("--episodes") + 1] = "8"
+    trained = CliRunner().invoke(main, args + ["--out", str(out)])
+    assert trained.exit_code == 0, trained.output
+    for other in ("handcoded", "random"):
+        played = CliRunner().invoke(main, ["evaluate", "--policy", str(out), "--episodes", "4", "--arenas", "2",
+                                           "--threads", "1", "--pass", other, "--json"])
+        assert played.exit_code == 0, played.output
+        summary = strict_json(played.output)
+        assert (summary["pass"], summary["getopen"], len(summary["episodes"])) == (other, "handcoded", 4)
+
+
 # -- learning on the real game ---------------------------------------------------------------------------
 GUARD_GAIN_S = 2.0  # the population's mean fitness must rise by more than this over generation 0
 

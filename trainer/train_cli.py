@@ -214,10 +214,12 @@ def evaluate_command(policy_path: Path, episodes: int, seed: int, pass_policy: s
             game = Game(params, policy.n_keepers, policy.n_takers, sarsa_config(policy))
         except (PolicyFileError, ValueError) as exc:
             raise click.UsageError(str(exc)) from None
-        behaviours = Behaviours(pass_policy or config.get("pass", "handcoded"),
-                                getopen_policy or config.get("getopen", "handcoded"),
+        playing_pass = pass_policy or config.get("pass", "handcoded")
+        behaviours = Behaviours(playing_pass, getopen_policy or config.get("getopen", "handcoded"),
                                 policy.getopen_theta,
-                                unpack_pass_arrays(policy.pass_arrays, policy.n_keepers) if policy.pass_arrays else None,
+                                # the file's Pass weights only where its learned Pass plays (--pass may replace it)
+                                unpack_pass_arrays(policy.pass_arrays, policy.n_keepers)
+                                if policy.pass_arrays and playing_pass == "learned" else None,
                                 policy.getopen_inputs)
         if behaviours.getopen_policy == "learned" and behaviours.getopen_theta is None:
             raise click.UsageError(f"{path}: --getopen learned needs GetOpen parameters; the file has none")
