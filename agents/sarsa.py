@@ -9,10 +9,12 @@ the C++ player draws it (glibc ``rand()`` right after ``srand(0)``), and variabl
 their index in the C++ state vector: fed the same states in the same order, the weight indices are
 the original's.
 
-Every learning keeper is one row of a ``SarsaMemory``: its own weights, collision table, eligibility
-traces, cached Q values, exploration stream, mode and a ring buffer of its SMDP transitions. Kernels
-take the row index ``r`` so a batched loop can drive many learners inside one njit loop
-(``pass_decisions``); ``SarsaLearner`` wraps one row for a keeper process.
+Every learning keeper is one row of a ``SarsaMemory``: its own eligibility traces, cached Q values,
+exploration stream, mode and a ring buffer of its SMDP transitions, and a weight table (weights and
+collision table) of its own, or, with the hive mind (``SarsaConfig.hive_mind``, tjpalmer's
+LinearSarsaAgent option: `keepaway-agents.md` 5), one table shared by the keepers of a team, each
+updating it through its own traces. Kernels take the row index ``r`` so a batched loop can drive many
+learners inside one njit loop (``pass_decisions``); ``SarsaLearner`` wraps one row for a keeper process.
 
 Memory per row at the default sizes: weights 8 MB, collision table 4 MB (int32: the check values are
 below 2^31), trace slots 4 MB, trace list 1.6 MB.
@@ -21,7 +23,7 @@ below 2^31), trace slots 4 MB, trace list 1.6 MB.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import NamedTuple
 
 import numpy as np
@@ -72,6 +74,9 @@ class SarsaConfig:
     table_size: int = 1 << 20  # LinearSarsaAgent.h RL_MEMORY_SIZE
     max_traces: int = 100_000  # LinearSarsaAgent.h RL_MAX_NONZERO_TRACES
     transition_log_size: int = 4096  # ours: SMDP transitions kept per row for reporting
+    # tjpalmer's LinearSarsaAgent hive mind (keepaway-agents.md 5), off in the original and the paper: the
+    # keepers of a team read and update one weight table, each through its own traces (new_memory's team)
+    hive_mind: bool = False
 
     def __post_init__(self) -> None:
         if self.gamma != 1.0:
@@ -99,9 +104,10 @@ class SarsaMemory(NamedTuple):
     """``R`` learners (rows): V state variables, A actions, T tilings, M weights, C trace slots, L logged
     transitions."""
 
-    weights: np.ndarray  # (R, M) float64, start at 0
-    hash_check: np.ndarray  # (R, M) int32 collision check value per slot, -1 = empty
-    hash_counts: np.ndarray  # (R, 3) int64 calls, clear hits, collisions
+    weights: np.ndarray  # (W, M) float64 weight tables, start at 0
+    hash_check: np.ndarray  # (W, M) int32 collision check value per slot, -1 = empty
+    hash_counts: np.ndarray  # (W, 3) int64 calls, clear hits, collisions
+    table: np.ndarray  # (R,) int64 the weight table (row of the three above) learner r reads and updates
     trace_slot: np.ndarray  # (R, M) int32 position of a weight in the trace list, -1 = no trace
     trace_feature: np.ndarray  # (R, C) int64 weight index of each live trace
     trace_value: np.ndarray  # (R, C) float64 its value
@@ -205,7 +211,7 @@ def unh_hash(coordinate: int, tiling: int, action: int, variable: int, increment
 def tile_index(
     hash_check, hash_counts, r: int, coordinate: int, tiling: int, action: int, variable: int
 ) -> int:
-    """tiles2.cc ``hash`` in safe mode on row ``r``'s collision table (``SarsaMemory.hash_check`` and
+    """tiles2.cc ``hash`` in safe mode on weight table ``r``'s collision table (``SarsaMemory.hash_check`` and
     ``hash_counts``, passed alone to keep this per-tile call cheap): the home slot if it is empty or
     holds this tile's check value, else re-probe with an odd stride until one does (so distinct tiles
     never share a weight)."""
@@ -258,7 +264,7 @@ def load_tiles(mem: SarsaMemory, r: int, state) -> None:
         for a in range(mem.tiles.shape[1]):
             for j in range(tilings):
                 coordinate = tiling_coordinate(q, j, tilings)
-                index = tile_index(mem.hash_check, mem.hash_counts, r, coordinate, j, a, cv)
+                index = tile_index(mem.hash_check, mem.hash_counts, mem.table[r], coordinate, j, a, cv)
                 mem.tiles[r, a, cv * tilings + j] = index
 
 
@@ -266,8 +272,9 @@ def load_tiles(mem: SarsaMemory, r: int, state) -> None:
 def action_value(mem: SarsaMemory, r: int, a: int) -> float:
     """Q(s, a) = sum of the weights of a's active tiles in the loaded state."""
     total = 0.0
+    table = mem.table[r]
     for f in mem.tiles[r, a]:
-        total += mem.weights[r, f]
+        total += mem.weights[table, f]
     return total
 
 
@@ -352,8 +359,9 @@ def set_action_traces(mem: SarsaMemory, r: int, a: int) -> None:
 def update_weights(mem: SarsaMemory, r: int, delta: float, sp: SarsaParams) -> None:
     """w += (alpha / active tiles) * delta * e over the live traces."""
     step_size = delta * sp.alpha / mem.tiles.shape[2]
+    table = mem.table[r]
     for slot in range(mem.n_traces[r]):
-        mem.weights[r, mem.trace_feature[r, slot]] += step_size * mem.trace_value[r, slot]
+        mem.weights[table, mem.trace_feature[r, slot]] += step_size * mem.trace_value[r, slot]
 
 
 @njit(cache=True)
@@ -441,13 +449,20 @@ def new_memory(
     config: SarsaConfig, n_keepers: int, n_takers: int, rows: int, seed: int, mode: int = MODE_LEARN
 ) -> SarsaMemory:
     """``rows`` fresh learners (weights 0, empty collision tables and traces) for K vs T Pass states;
-    row r's exploration stream is ``seed``'s r-th child (core/rng.py)."""
+    row r's exploration stream is ``seed``'s r-th child (core/rng.py). With ``config.hive_mind`` the
+    rows are teams of ``n_keepers`` consecutive learners (rows k t .. k t + k - 1), each team sharing one
+    weight table; else every row has its own."""
     n_vars = 4 * n_keepers + 2 * n_takers - 3
     m, log = config.table_size, config.transition_log_size
+    if config.hive_mind and rows % n_keepers:
+        raise ValueError(f"hive-mind learners come in teams of {n_keepers}; {rows} rows do not")
+    table = np.arange(rows, dtype=np.int64) // (n_keepers if config.hive_mind else 1)
+    tables = int(table[-1]) + 1 if rows else 0
     return SarsaMemory(
-        weights=np.zeros((rows, m)),
-        hash_check=np.full((rows, m), EMPTY_SLOT, dtype=np.int32),
-        hash_counts=np.zeros((rows, 3), dtype=np.int64),
+        weights=np.zeros((tables, m)),
+        hash_check=np.full((tables, m), EMPTY_SLOT, dtype=np.int32),
+        hash_counts=np.zeros((tables, 3), dtype=np.int64),
+        table=table,
         trace_slot=np.full((rows, m), EMPTY_SLOT, dtype=np.int32),
         trace_feature=np.zeros((rows, config.max_traces), dtype=np.int64),
         trace_value=np.zeros((rows, config.max_traces)),
@@ -472,8 +487,9 @@ def new_memory(
 
 def weight_snapshot(mem: SarsaMemory, r: int) -> tuple[np.ndarray, np.ndarray]:
     """Row ``r``'s non-zero weights as sparse (index, value) pairs, for reporting to the coach."""
-    indices = np.flatnonzero(mem.weights[r])
-    return indices, mem.weights[r, indices].copy()
+    weights = mem.weights[mem.table[r]]
+    indices = np.flatnonzero(weights)
+    return indices, weights[indices].copy()
 
 
 def transitions(mem: SarsaMemory, r: int, since: int = 0) -> dict[str, np.ndarray]:
@@ -494,26 +510,31 @@ def transitions(mem: SarsaMemory, r: int, since: int = 0) -> dict[str, np.ndarra
 
 def policy_arrays(mem: SarsaMemory, r: int) -> dict[str, np.ndarray]:
     """Row ``r``'s learned Pass policy as policy-file arrays: the weights and the collision table state
-    that maps tiles to them (the C++ weights file holds the same: weights, then collision_table::save)."""
+    that maps tiles to them (the C++ weights file holds the same: weights, then collision_table::save).
+    The learners of a hive mind give the same arrays."""
+    table = mem.table[r]
     return {
-        "pass_weights": mem.weights[r].copy(),
-        "pass_hash_check": mem.hash_check[r].copy(),
-        "pass_hash_counts": mem.hash_counts[r].copy(),
+        "pass_weights": mem.weights[table].copy(),
+        "pass_hash_check": mem.hash_check[table].copy(),
+        "pass_hash_counts": mem.hash_counts[table].copy(),
     }
 
 
 def load_policy_arrays(mem: SarsaMemory, r: int, arrays: dict[str, np.ndarray]) -> None:
-    """Restore row ``r`` from ``policy_arrays`` output (same table size); traces and the open decision are
-    cleared, as after the C++ loadWeights."""
+    """Restore row ``r``'s weight table from ``policy_arrays`` output (same table size); traces and the
+    open decision are cleared, as after the C++ loadWeights, for every learner of the table (a hive
+    mind's other keepers' traces would point into the weights just replaced)."""
+    table = mem.table[r]
     for name, target in (("pass_weights", mem.weights), ("pass_hash_check", mem.hash_check),
                          ("pass_hash_counts", mem.hash_counts)):
         value = np.asarray(arrays[name])
         if value.shape != target.shape[1:]:
             raise ValueError(f"{name}: shape {value.shape}, this learner needs {target.shape[1:]}")
-        target[r] = value
-    mem.trace_slot[r] = EMPTY_SLOT
-    mem.n_traces[r] = 0
-    mem.last_action[r] = NO_ACTION
+        target[table] = value
+    team = mem.table == table
+    mem.trace_slot[team] = EMPTY_SLOT
+    mem.n_traces[team] = 0
+    mem.last_action[team] = NO_ACTION
 
 
 class SarsaLearner:
@@ -530,7 +551,9 @@ class SarsaLearner:
     ) -> None:
         self.config = config
         self.params = config.kernel()
-        self.memory = new_memory(config, n_keepers, n_takers, 1, seed, mode)
+        # alone in its process, a keeper's learner has a table of its own even if its policy was learned
+        # by a hive mind (whose keepers' tables are copies of one another)
+        self.memory = new_memory(replace(config, hive_mind=False), n_keepers, n_takers, 1, seed, mode)
 
     @property
     def mode(self) -> int:

@@ -8,6 +8,8 @@ episode's first cycle; the mode changes only between episodes. The reference is 
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -178,3 +180,23 @@ def test_learned_pass_holds_the_ball_longer_than_the_untrained_policy():
     print(f"P:L {learned.mean():.1f} cycles, untrained {untrained.mean():.1f} cycles, Welch p = {p_value:.2g}")
     assert learned.mean() > untrained.mean()
     assert p_value < 0.05
+
+
+def test_a_hive_mind_arena_learns_one_table_per_team_whatever_the_threads():
+    # The three keepers of an arena update one table (their exported policies are the same arrays), two
+    # arenas learn two tables, and the games do not depend on how many threads step them.
+    hive = replace(SMALL, hive_mind=True)
+    one, two = learning(2, 6, sarsa=hive), learning(2, 6, sarsa=hive, threads=2)
+    first, second = one.run(episodes_per_arena=4), two.run(episodes_per_arena=4)
+    assert table_rows(first).tolist() == table_rows(second).tolist()
+    np.testing.assert_array_equal(one.sarsa.weights, two.sarsa.weights)
+    assert one.sarsa.weights.shape[0] == 2 and np.all(np.any(one.sarsa.weights != 0.0, axis=1))
+    grid = one.pass_policy_arrays()
+    for row in grid:
+        assert all(np.array_equal(p["pass_weights"], row[0]["pass_weights"]) for p in row)
+    assert not np.array_equal(grid[0][0]["pass_weights"], grid[1][0]["pass_weights"])
+    decided = [int(n) for n in one.sarsa.log_count[:K]]
+    assert sum(n > 0 for n in decided) >= 2  # more than one keeper of arena 0 wrote into its table
+    fresh = learning(2, 9, sarsa=hive)
+    fresh.load_pass_arrays(grid)
+    np.testing.assert_array_equal(fresh.sarsa.weights, one.sarsa.weights)

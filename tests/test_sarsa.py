@@ -13,10 +13,12 @@ from agents.sarsa import (
     NO_ACTION,
     SarsaConfig,
     SarsaLearner,
+    action_value,
     code_variable_order,
     glibc_rand,
     new_memory,
     pass_decisions,
+    policy_arrays,
     quantize,
     tile_widths,
     tiling_coordinate,
@@ -340,3 +342,38 @@ def test_pass_decisions_drives_independent_rows():
     np.testing.assert_allclose(mem.weights[0, tiles0], ALPHA_PER_TILE * 6.0)
     assert np.count_nonzero(mem.weights[0]) == 416
     assert not mem.weights[1:].any()
+
+
+def test_a_hive_mind_team_updates_one_table_through_its_own_traces():
+    # tjpalmer's hive mind: keepers 0-2 share table 0, keepers 3-5 table 1; each keeper's traces are its
+    # own, so keeper 1's step updates only the tiles keeper 1 decided in, in the table keeper 0 reads.
+    config = SarsaConfig(epsilon=0.0, hive_mind=True)
+    mem = new_memory(config, 3, 2, rows=6, seed=4)
+    assert mem.table.tolist() == [0, 0, 0, 1, 1, 1] and mem.weights.shape[0] == 2
+    params = config.kernel()
+    states = np.stack([far_state(k) for k in range(6)])
+    actions = np.zeros(6, dtype=np.int64)
+    start = np.array([NO_PASS_DECISION, PASS_DECISION_START, NO_PASS_DECISION, NO_PASS_DECISION,
+                      NO_PASS_DECISION, NO_PASS_DECISION])
+    pass_decisions(mem, start, np.zeros(6), states, actions, params)
+    tiles1 = mem.tiles[1, actions[1]].copy()
+    assert mem.n_traces.tolist() == [0, 416, 0, 0, 0, 0]  # the team's other keepers hold no traces
+    decisions = np.array([PASS_DECISION_START, PASS_DECISION_STEP, NO_PASS_DECISION, NO_PASS_DECISION,
+                     NO_PASS_DECISION, NO_PASS_DECISION])  # keeper 0 starts, keeper 1 steps with reward 8
+    pass_decisions(mem, decisions, np.array([0.0, 8.0, 0.0, 0.0, 0.0, 0.0]), states[[0, 2, 2, 3, 4, 5]], actions,
+                   params)
+    np.testing.assert_allclose(mem.weights[0, tiles1], ALPHA_PER_TILE * 8.0)
+    assert np.count_nonzero(mem.weights[0]) == 416 and not mem.weights[1].any()
+    # keeper 2 (never decided) reads keeper 1's update: Q = 416 tiles x 8 alpha / 416 = 1.0
+    mem.tiles[2, 0] = mem.tiles[4, 0] = tiles1
+    assert action_value(mem, 2, 0) == pytest.approx(0.125 * 8.0)
+    assert action_value(mem, 4, 0) == 0.0  # the other team's table is untouched
+    team = [policy_arrays(mem, r)["pass_weights"] for r in range(3)]
+    assert all(np.array_equal(w, team[0]) for w in team)
+
+
+def test_a_hive_mind_needs_whole_teams_and_a_lone_learner_keeps_a_table_of_its_own():
+    with pytest.raises(ValueError, match="teams of 3"):
+        new_memory(SarsaConfig(hive_mind=True), 3, 2, rows=4, seed=0)
+    alone = SarsaLearner(config=SarsaConfig(hive_mind=True))  # a player process playing a hive mind's file
+    assert alone.memory.table.tolist() == [0] and alone.memory.weights.shape[0] == 1

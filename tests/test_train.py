@@ -415,6 +415,37 @@ def test_before_learning_algorithm_3_plays_random_policies_and_go_l_alone_a_smal
     assert not np.array_equal(alone.getopen_theta, initial_behaviours(tiny_config(), 1).getopen_theta)
 
 
+def test_a_hive_mind_training_saves_one_table_for_every_keeper_and_plays_back(tmp_path):
+    out = tmp_path / "hive"
+    trained = CliRunner().invoke(main, ["train", "--pass", "learned", "--getopen", "handcoded", "--episodes", "8",
+                                        "--eval-every", "4", "--eval-episodes", "2", "--arenas", "2", "--seed",
+                                        "4", "--threads", "1", "--no-progress", "--pass-hive-mind", "--out",
+                                        str(out)])
+    assert trained.exit_code == 0, trained.output
+    assert read_config(out).sarsa.hive_mind
+    policy = load_policy(out / "trial_000/policy.npz")
+    weights = [policy.pass_arrays[f"pass{suffix}_weights"] for suffix in ("", "_keeper2", "_keeper3")]
+    assert weights[0].any() and all(np.array_equal(w, weights[0]) for w in weights)
+    for mode in ("batched", "embedded"):  # a lone keeper plays a hive mind's copy of the table
+        played = CliRunner().invoke(main, ["evaluate", "--policy", str(out), "--episodes", "2", "--arenas", "1",
+                                           "--mode", mode, "--no-progress", "--json"])
+        assert played.exit_code == 0, played.output
+    # A configuration stored before the option existed reads back with it off.
+    stored = pass_config().to_dict()
+    del stored["sarsa"]["hive_mind"]
+    assert TrainConfig.from_dict(stored) == pass_config()
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--pass", "random"], "needs learned Pass and the batched mode"),
+    (["--pass", "learned", "--mode", "embedded"], "needs learned Pass and the batched mode"),
+])
+def test_a_hive_mind_outside_the_batched_mode_or_without_learned_pass_is_a_usage_error(tmp_path, args, message):
+    result = CliRunner().invoke(main, ["train", *args, "--pass-hive-mind", "--out", str(tmp_path / "t")])
+    assert result.exit_code == 2 and message in result.output
+    assert not (tmp_path / "t").exists()
+
+
 # -- evaluate --------------------------------------------------------------------------------------------
 def test_evaluate_plays_each_trials_policy_frozen_and_prints_the_summary(tmp_path):
     out = tmp_path / "run"

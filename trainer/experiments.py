@@ -67,6 +67,7 @@ from trainer.schedule import (
 from trainer.train import (
     TrainConfig,
     evaluate,
+    hive_mind_sarsa,
     load_checkpoint,
     read_config,
     train,
@@ -110,6 +111,7 @@ class ExperimentConfig:
     cem: CEMConfig = CEMConfig()
     pass_alpha_halflife: int = 0  # ours, off by default (trainer.train.TrainConfig.pass_alpha)
     mode: str = "batched"  # the backend (runner.job.MODES): batched and the others draw different games
+    pass_hive_mind: bool = False  # ours, off by default (agents.sarsa.SarsaConfig.hive_mind)
 
     def schedule(self, pass_policy: str, getopen_policy: str) -> tuple[Phase, ...]:
         """The phases of a learning configuration: one phase of ``episodes``, or with both behaviours
@@ -132,7 +134,8 @@ class ExperimentConfig:
         return TrainConfig(pass_policy, getopen_policy, self.schedule(pass_policy, getopen_policy), self.trials,
                            self.eval_every, self.eval_episodes, self.arenas,
                            self.configuration_seed(pass_policy, getopen_policy), cem=self.cem, mode=self.mode,
-                           pass_alpha_halflife=self.pass_alpha_halflife if pass_policy == LEARNED else 0)
+                           pass_alpha_halflife=self.pass_alpha_halflife if pass_policy == LEARNED else 0,
+                           sarsa=hive_mind_sarsa(self.pass_hive_mind and pass_policy == LEARNED))
 
     def points(self) -> list[int]:
         """Episodes trained at each evaluation: the same for every configuration."""

@@ -147,6 +147,9 @@ class TrainConfig:
             raise ValueError(f"pass_alpha_halflife must be at least 0, not {self.pass_alpha_halflife}")
         if self.pass_alpha_halflife and self.pass_policy != LEARNED:
             raise ValueError("an annealed Pass step size (--pass-alpha-halflife) needs learned Pass")
+        if self.sarsa.hive_mind and (self.pass_policy != LEARNED or self.mode != "batched"):
+            raise ValueError("a hive-mind Pass (--pass-hive-mind) needs learned Pass and the batched mode "
+                             "(the keepers sharing a table must be in one process)")
         check_generations(self.schedule, self.eval_every, self.generation_episodes)
         self.params()
         self.input_scaling()
@@ -197,6 +200,12 @@ class TrainConfig:
         values["sarsa"] = SarsaConfig(**values["sarsa"])
         values.setdefault("getopen_inputs", RAW_INPUTS)  # trainings begun before scaling had raw nets
         return cls(**values)
+
+
+def hive_mind_sarsa(hive_mind: bool) -> SarsaConfig:
+    """A training's Sarsa configuration: the batched mode's, with the keepers of an arena sharing one
+    table if ``hive_mind`` (ours, off by default: docs/design.md, Learning options)."""
+    return replace(BATCHED_SARSA, hive_mind=hive_mind)
 
 
 def initial_behaviours(config: TrainConfig, trial: int) -> Behaviours:

@@ -44,6 +44,9 @@ def learning_options(command: Command) -> Command:
         click.option("--pass-alpha-halflife", type=click.IntRange(min=0), default=0, show_default=True,
                      help="Learned Pass: Sarsa's alpha 0.125 h / (h + n) after n Pass-learning "
                           "episodes (0: constant, the paper)."),
+        click.option("--pass-hive-mind", is_flag=True,
+                     help="Learned Pass, batched: the keepers of an arena learn one shared Sarsa table "
+                          "(tjpalmer's hive mind; the paper: one table each)."),
         click.option("--cem-extra-noise", type=click.FloatRange(min=0.0), default=0.0, show_default=True,
                      help="Noisy CEM: variance added to each refit (0: the paper's CEM)."),
         click.option("--cem-noise-generations", type=click.IntRange(min=0), default=0, show_default=True,
@@ -55,8 +58,8 @@ def learning_options(command: Command) -> Command:
 # Options that define a training; with --resume the stored configuration is used and these must not be given.
 CONFIG_OPTIONS = ("pass_policy", "getopen_policy", "episodes", "schedule", "trials", "eval_every", "eval_episodes",
                   "arenas", "seed", "population", "elite", "candidate_episodes", "keepers", "takers",
-                  "field_size", "parameter_set", "getopen_inputs", "pass_alpha_halflife", "cem_extra_noise",
-                  "cem_noise_generations")
+                  "field_size", "parameter_set", "getopen_inputs", "pass_alpha_halflife", "pass_hive_mind",
+                  "cem_extra_noise", "cem_noise_generations")
 
 
 @click.command("train")
@@ -97,14 +100,14 @@ def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, s
                   backend: str, ray_address: str | None, threads: int | None, keys: Path | None, seed: int,
                   population: int, elite: int, candidate_episodes: int, keepers: int, takers: int,
                   field_size: float, parameter_set: str, getopen_inputs: str, pass_alpha_halflife: int,
-                  cem_extra_noise: float, cem_noise_generations: int, out: Path, resume: Path | None,
+                  pass_hive_mind: bool, cem_extra_noise: float, cem_noise_generations: int, out: Path, resume: Path | None,
                   no_progress: bool) -> None:
     """Learn GetOpen (CEM), Pass (Sarsa) or both (Algorithm 3) with frozen evaluations along the way."""
     from agents.policy_file import getopen_theta_size
     from trainer.cem import CEMConfig
     from trainer.schedule import parse_schedule, training_schedule
     from runner.launch import ArenaFailure, interrupt_on_sigterm
-    from trainer.train import TrainConfig, load_checkpoint, read_config, train
+    from trainer.train import TrainConfig, hive_mind_sarsa, load_checkpoint, read_config, train
 
     ctx = click.get_current_context()
     if resume is not None:
@@ -132,7 +135,8 @@ def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, s
             config = TrainConfig(pass_policy, getopen_policy, phases, trials, eval_every, eval_episodes,
                                  arenas or default_arenas(mode, attach),
                                  seed, keepers, takers, field_size, parameter_set, cem, mode=mode,
-                                 getopen_inputs=getopen_inputs, pass_alpha_halflife=pass_alpha_halflife)
+                                 getopen_inputs=getopen_inputs, pass_alpha_halflife=pass_alpha_halflife,
+                                 sarsa=hive_mind_sarsa(pass_hive_mind))
         except ValueError as exc:
             raise click.UsageError(str(exc)) from None
     interrupt_on_sigterm()
