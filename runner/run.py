@@ -70,8 +70,9 @@ def distributed_episodes(opts: RunOptions, processes: ArenaProcesses, viewer: Ar
     endpoints = processes.start_arena(server_args, player_args, spec.keepers, spec.takers, keys=opts.keys)
     server = processes.member("server")
     if viewer is not None:
+        keys = ["--keys", str(opts.keys)] if opts.keys is not None else []
         member = viewer.start("viewer", keepaway_argv("view", "--server", endpoints.monitor, "--port", "0",
-                                                      "--field-size", str(spec.params.keepaway_length)),
+                                                      "--field-size", str(spec.params.keepaway_length), *keys),
                               capture_stdout=True)
         url = viewer.announced(member, VIEW_RE, 60.0).group(1)
         if announce is not None:

@@ -138,3 +138,30 @@ def test_a_trainer_drives_keyed_arenas_and_one_without_the_key_gets_no_answer(tm
     assert len(played.episodes) == 2
     with DistributedBackend.start_local(game, 1, tmp_path / "plain", "classic", chunk_episodes=2) as plain:
         assert plain.play(job, 11, 2, 1, "greedy")[0].episodes == played.episodes
+
+
+def first_frame(url: str, timeout_s: float) -> dict:
+    """The first game frame a viewer page's WebSocket sends (aiohttp's client, as a page would open it)."""
+    aiohttp = pytest.importorskip("aiohttp", reason="the viewer needs the view extra (aiohttp)")
+    import asyncio
+
+    async def read() -> dict:
+        async with aiohttp.ClientSession() as session, session.ws_connect(url + "ws") as ws:
+            while True:
+                message = await ws.receive_json(timeout=timeout_s)
+                if message.get("type") == "frame":
+                    return message
+
+    return asyncio.run(asyncio.wait_for(read(), timeout_s))
+
+
+def test_run_view_with_keys_follows_the_keyed_arena(processes, tmp_path, keys):
+    # The viewer that `keepaway run --view --keys` starts presents the arena's client key to the monitor
+    # port, which takes no client without one.
+    run = processes.popen(keepaway_command("run", "--view", "--realtime", "--keys", str(keys), "--episodes", "1000",
+                                           "--no-progress", "--out", str(tmp_path)),
+                          stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    url = read_until_match(run.stderr, re.compile(r"watch the arena at (http://127\.0\.0\.1:\d+/)\n"),
+                           PROCESS_TIMEOUT_S).group(1)
+    frame = first_frame(url, 60.0)
+    assert frame["cycle"] >= 0 and len(frame["players"]) == 5

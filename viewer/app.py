@@ -23,6 +23,7 @@ from protocol import MONITOR_FRAME_TOPIC
 from protocol import messages as m
 from protocol.errors import ProtocolError
 from protocol.messages import decode_monitor
+from protocol.security import KeyDir, secure_client
 from server.game_log import GameRecord
 from viewer.frames import LiveFrames, Replay, info_message
 
@@ -75,10 +76,13 @@ class ReplaySource:
 
 
 class LiveSource:
-    """An arena's monitor port, relayed to every page."""
+    """An arena's monitor port, relayed to every page; ``keys``: the arena's keys directory when its ports
+    take only authorised CURVE clients (docs/protocol.md §15)."""
 
-    def __init__(self, endpoint: str, region: tuple[float, float], step_ms: float = 100.0) -> None:
+    def __init__(self, endpoint: str, region: tuple[float, float], step_ms: float = 100.0,
+                 keys: KeyDir | None = None) -> None:
         self.endpoint = endpoint
+        self.keys = keys
         self.region = region
         self.frames = LiveFrames(step_ms)
         self.pages: set[web.WebSocketResponse] = set()
@@ -111,6 +115,7 @@ class LiveSource:
         sock = ctx.socket(zmq.SUB)
         sock.setsockopt(zmq.LINGER, 0)
         sock.setsockopt(zmq.SUBSCRIBE, MONITOR_FRAME_TOPIC)
+        secure_client(sock, self.keys)
         sock.connect(self.endpoint)
         try:
             while True:

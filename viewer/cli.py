@@ -8,6 +8,7 @@ from pathlib import Path
 import click
 
 from protocol.endpoints import parse_endpoint
+from protocol.security import is_loopback, keys_option, open_keys
 
 FIELD_SIZE_TYPE = click.FloatRange(min=0.0, min_open=True)
 
@@ -32,8 +33,9 @@ def _read(path: Path, kwy: Path | None):
               help="Episode log for a game log without referee messages [the .kwy beside it, if any].")
 @click.option("--field-size", type=FIELD_SIZE_TYPE, default=20.0, show_default=True,
               help="Live: side of the arena's square region (m); a game log says its own.")
+@keys_option
 def view_command(game_log: Path | None, monitor: str | None, host: str, port: int, kwy: Path | None,
-                 field_size: float) -> None:
+                 field_size: float, keys: Path | None) -> None:
     """Watch Keepaway in the browser: replay GAME_LOG (.rcg; play, pause, step, speed, jump to an
     episode) or follow a running arena (--server tcp://HOST:MONITORPORT).
 
@@ -50,9 +52,13 @@ def view_command(game_log: Path | None, monitor: str | None, host: str, port: in
             parse_endpoint(monitor)
         except ValueError as exc:
             raise click.UsageError(f"--server: {exc}") from None
-        source = LiveSource(monitor, (field_size, field_size))
+        source = LiveSource(monitor, (field_size, field_size), keys=open_keys(keys))
     else:
         source = ReplaySource(_read(game_log, kwy), game_log.name)
+
+    if not is_loopback(host):  # the page only shows the game, but to anyone who can reach it
+        click.echo(f"keepaway view: serving on {host}: anyone who can reach this port can watch the game; "
+                   f"bind 127.0.0.1 to keep it to this machine", err=True)
 
     def announce(url: str) -> None:
         click.echo(f"keepaway view: {url}")
