@@ -30,6 +30,7 @@ episode's hold time. An episode is one Keepaway episode (terminated, never trunc
 from __future__ import annotations
 
 import functools
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -60,7 +61,7 @@ class KeepawayParallelEnv(ParallelEnv):
 
     def __init__(self, keepers: int = 3, takers: int = 2, field_size: float = 20.0,
                  params: str | ServerParams = "classic", getopen_action: bool = False, low_level: bool = False,
-                 getopen: str = "handcoded", server: str | None = None) -> None:
+                 getopen: str = "handcoded", server: str | None = None, keys: str | Path | None = None) -> None:
         if getopen_action and low_level:
             raise ValueError("low_level already leaves GetOpen to the keepers: choose one of getopen_action "
                              "and low_level")
@@ -71,6 +72,7 @@ class KeepawayParallelEnv(ParallelEnv):
         self.getopen_action, self.low_level = getopen_action, low_level
         self.getopen_policy = getopen
         self.server = server
+        self.keys = keys
         self.outside = ((OUTSIDE_BODY,) if low_level
                         else (OUTSIDE_PASS, OUTSIDE_GETOPEN) if getopen_action else (OUTSIDE_PASS,))
         self.possible_agents = [f"{AGENT_PREFIX}{k}" for k in range(1, keepers + 1)]
@@ -119,7 +121,7 @@ class KeepawayParallelEnv(ParallelEnv):
     def _new_game(self, seed: int) -> EmbeddedKeepers | AttachedKeepers:
         if self.server is not None:
             return AttachedKeepers(self.server, self.n_keepers, lambda: PlayerAgent(
-                "keepers", getopen_policy=self.getopen_policy, seed=seed, outside=self.outside))
+                "keepers", getopen_policy=self.getopen_policy, seed=seed, outside=self.outside), self.keys)
         spec = ArenaSpec(self.params, self.n_keepers, self.n_takers, seed=seed, getopen_policy=self.getopen_policy)
         return EmbeddedKeepers(spec, self.outside)
 

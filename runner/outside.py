@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable, Collection
+from pathlib import Path
 
 from agents.player import EPISODE_MESSAGE, KICK_OFF_MESSAGE, PlayerAgent
 from protocol import encode
@@ -63,15 +64,21 @@ class EmbeddedKeepers:
 class AttachedKeepers:
     """Keepers 1..K of the synchronous ``keepaway server`` at ``endpoint`` (its players port), each a
     ``PlayerAgent`` built by ``make_agent()`` on its own DEALER socket, as ``keepaway player`` connects
-    (``agents/cli.py``). The server must run in synchronous mode with a ``--cycle-timeout`` longer than the
-    caller's longest think between two steps: it waits for the keepers' commands as for any player's.
+    (``agents/cli.py``), over CURVE with ``keys`` (a keys directory: the server's public key and a client
+    pair it authorised, docs/protocol.md §15). The server must run in synchronous mode with a
+    ``--cycle-timeout`` longer than the caller's longest think between two steps: it waits for the
+    keepers' commands as for any player's.
     Raises RuntimeError (one line) when the server refuses a keeper, is silent for
     :data:`SERVER_SILENCE_S`, or shuts down."""
 
-    def __init__(self, endpoint: str, n_keepers: int, make_agent: Callable[[], PlayerAgent]) -> None:
+    def __init__(self, endpoint: str, n_keepers: int, make_agent: Callable[[], PlayerAgent],
+                 keys: str | Path | None = None) -> None:
         import zmq
 
         from protocol.endpoints import configure
+        from protocol.security import open_keys, secure_client
+
+        key_dir = open_keys(keys)
 
         self._zmq = zmq
         self.ctx = zmq.Context()
@@ -84,6 +91,7 @@ class AttachedKeepers:
             for unum in range(1, n_keepers + 1):
                 sock = self.ctx.socket(zmq.DEALER)
                 configure(sock)
+                secure_client(sock, key_dir)
                 sock.connect(endpoint)
                 self.sockets.append(sock)
                 agent = make_agent()

@@ -165,3 +165,21 @@ def test_run_view_with_keys_follows_the_keyed_arena(processes, tmp_path, keys):
                            PROCESS_TIMEOUT_S).group(1)
     frame = first_frame(url, 60.0)
     assert frame["cycle"] >= 0 and len(frame["players"]) == 5
+
+
+def test_the_environment_attached_to_a_keyed_server_plays_with_the_keys(processes, tmp_path, keys):
+    from keepaway.env import parallel_env
+    from test_env import handcoded_pass_choice, play
+
+    server = processes.start_server(tmp_path, "--keys", str(keys), "--mode", "sync", "--seed", "4",
+                                    "--cycle-timeout", "600")
+    for _ in range(2):
+        processes.popen(keepaway_command("player", "--team", "takers", "--server", server.players_endpoint,
+                                         "--seed", "4", "--keys", str(keys)))
+    env = parallel_env(server=server.players_endpoint, keys=keys)
+    try:
+        returns = [ret for ret, _ in play(env, 2, handcoded_pass_choice(env), seed=4)]
+    finally:
+        env.close()
+    assert len(returns) == 2 and min(returns) > 0.0
+    assert server.proc.poll() is None, server.stderr_text()
