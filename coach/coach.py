@@ -37,6 +37,7 @@ from typing import Any
 
 import zmq
 
+from core.log_limit import RepeatLimit
 from protocol import DEFAULT_MAX_MESSAGE_BYTES, PROTOCOL_VERSION, ProtocolError, configure, encode
 from protocol import messages as m
 from protocol.arena import ARENA_MAX_MESSAGE_BYTES, EpisodesDone, RunEpisodes, StopArena, decode_from_trainer
@@ -44,6 +45,9 @@ from protocol.messages import advice_hear, decode_for_coach
 from protocol.security import KeyDir, PortGuard, no_answer, secure_client
 
 log = logging.getLogger("keepaway.coach")
+# As the server's: a flood of refused handshakes or bad requests costs one line a second (core/log_limit.py).
+repeat_limit = RepeatLimit()
+log.addFilter(repeat_limit)
 
 
 # How long the coach waits for the keepers' reports after a run's last episode before it answers
@@ -179,6 +183,7 @@ class Coach:
         if self.guard is not None:
             self.guard.close()
         self.ctx.term()
+        repeat_limit.flush()
 
     # -- server port --------------------------------------------------------------------------------
     @staticmethod

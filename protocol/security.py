@@ -36,6 +36,7 @@ import zmq
 import zmq.auth
 from zmq.auth.thread import ThreadAuthenticator
 
+from core.log_limit import KIND_ATTR
 from protocol.endpoints import bind
 
 SERVER_KEY = "server"
@@ -171,7 +172,9 @@ def no_answer(endpoint: str, seconds: float) -> str:
 
 class _KeyCheck:
     """The ZAP credentials provider: takes the authorised keys, logs each refusal with the peer's address
-    (set by :class:`_Authenticator` before each request)."""
+    (set by :class:`_Authenticator` before each request). The refusals of one address are one kind of line
+    for a rate-limited log (``core.log_limit``), whatever key each presents: a client trying ever new keys
+    costs one line a second."""
 
     def __init__(self, allowed: frozenset[bytes], folder: Path, log: logging.Logger) -> None:
         self.allowed = allowed
@@ -183,7 +186,8 @@ class _KeyCheck:
         if key in self.allowed:
             return True
         self.log.warning("refused a CURVE handshake from %s: key %s is not in %s", self.address,
-                         key.decode("ascii", "replace"), self.folder)
+                         key.decode("ascii", "replace"), self.folder,
+                         extra={KIND_ATTR: ("curve_refused", self.address)})
         return False
 
 

@@ -43,10 +43,10 @@ from server.config import ServerConfig
 from server.episode_log import EpisodeRecord, JsonlLog, KwyLog
 from server.game_log import RCG_SUFFIX, ArenaGameLog
 from server.intake import ROUND_MESSAGES, WINDOW_S, Intake
-from server.log_limit import KIND_ATTR, RepeatLimit
+from core.log_limit import KIND_ATTR, RepeatLimit
 
 log = logging.getLogger("keepaway.server")
-# A hung player's "missed cycle" would otherwise be logged every cycle timeout (server/log_limit.py).
+# A hung player's "missed cycle" would otherwise be logged every cycle timeout (core/log_limit.py).
 repeat_limit = RepeatLimit()
 log.addFilter(repeat_limit)
 
@@ -487,7 +487,7 @@ class Server:
 
     def _error_raw(self, sock: zmq.Socket, ident: bytes, code: str, message: str) -> None:
         """Answer a refused message; the log line's kind is the client and the code, whatever the
-        message says (server/log_limit.py), so a flood of varied bad input costs one line a second."""
+        message says (core/log_limit.py), so a flood of varied bad input costs one line a second."""
         who = ident.hex()[:10]
         log.warning("client %s: %s: %s", who, code, message, extra={KIND_ATTR: (who, code)})
         self._send_raw(sock, ident, encode(m.Error(cycle=self.arena.cycle, code=code, message=message)))

@@ -1,4 +1,4 @@
-"""Repeated log lines are rate-limited and counted (server/log_limit.py), in a real server too."""
+"""Repeated log lines are rate-limited and counted (core/log_limit.py), in a real server too."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import pytest
 
 from protocol import messages as m
 from scripted import ScriptedCoach, ScriptedPlayer
-from server.log_limit import KIND_ATTR, MAX_KINDS, RepeatLimit
+from core.log_limit import KIND_ATTR, MAX_KINDS, RepeatLimit
 
 MISSED = "%s missed cycle %d (%d in a row)"
 

@@ -174,3 +174,25 @@ def test_binding_beyond_loopback_without_keys_warns_once_per_host(ctx, caplog):
             sock.close(linger=0)
         guard.close()
     assert [r.getMessage() for r in caplog.records if r.name == log.name] == [exposure_warning("0.0.0.0")]
+
+
+def test_refusals_from_one_address_are_one_kind_of_line_whatever_the_key(tmp_path, caplog):
+    # A client trying ever new keys from one address costs one line a second in a rate-limited log.
+    from core.log_limit import RepeatLimit
+    from protocol.security import _KeyCheck
+
+    log = logging.getLogger("test.security.refusals")
+    limit = RepeatLimit(clock=lambda: 0.0)
+    log.addFilter(limit)
+    check = _KeyCheck(frozenset(), tmp_path, log)
+    try:
+        with caplog.at_level(logging.WARNING, logger=log.name):
+            check.address = "127.0.0.1"
+            assert not any(check.callback("*", f"key{i}".encode()) for i in range(50))
+            check.address = "10.0.0.9"
+            check.callback("*", b"other")
+        lines = [r.getMessage() for r in caplog.records if r.name == log.name]
+        assert [line.split(":")[0] for line in lines] == ["refused a CURVE handshake from 127.0.0.1",
+                                                          "refused a CURVE handshake from 10.0.0.9"]
+    finally:
+        log.removeFilter(limit)
