@@ -53,8 +53,8 @@ def experiment_options(command: Command) -> Command:
 
 def _experiment(trials: int, episodes: int, eval_every: int | None, eval_episodes: int, arenas: int | None,
                 population: int, elite: int, candidate_episodes: int, seed: int, pass_alpha_halflife: int,
-                pass_hive_mind: bool, cem_extra_noise: float, cem_noise_generations: int, mode: str, attach: tuple[str, ...],
-                backend: str, ray_address: str | None, threads: int | None,
+                pass_hive_mind: bool, cem_extra_noise: float, cem_noise_generations: int, mode: str,
+                attach: tuple[str, ...], backend: str, ray_address: str | None, threads: int | None,
                 keys: Path | None) -> tuple[Any, Placement]:
     """The experiment the shared options describe (:func:`experiment_options`) and where its arenas run; a
     usage error if it cannot run."""

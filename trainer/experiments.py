@@ -177,6 +177,12 @@ def with_modes(record: dict[str, Any]) -> dict[str, Any]:
     return {"mode": "batched", **record}
 
 
+def stored_settings(settings: dict[str, Any]) -> dict[str, Any]:
+    """Stored experiment settings (``asdict(ExperimentConfig)``) as they read today: written before an
+    option existed, with it off."""
+    return {"pass_hive_mind": False, **with_modes(settings)}
+
+
 @dataclass(frozen=True)
 class ConfigurationRun:
     """A configuration's learning curves, one per trial, whether this run found it already finished, and
@@ -572,7 +578,7 @@ def table2(exp: ExperimentConfig, out: Path, placement: Placement = Placement(),
             for trial in range(exp.trials):
                 path = tests / f"trial_{trial:03d}.json"
                 stored = _read_json(path)
-                if stored is None or with_modes(stored["experiment"]) != settings:
+                if stored is None or stored_settings(stored["experiment"]) != settings:
                     backend = backend or experiment_backend(exp, tests, placement)
                     stored = {"experiment": settings, "trial": trial,
                               "values": cross_test_trial(exp, out, trial, backend, bar.update)}

@@ -100,8 +100,8 @@ def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, s
                   backend: str, ray_address: str | None, threads: int | None, keys: Path | None, seed: int,
                   population: int, elite: int, candidate_episodes: int, keepers: int, takers: int,
                   field_size: float, parameter_set: str, getopen_inputs: str, pass_alpha_halflife: int,
-                  pass_hive_mind: bool, cem_extra_noise: float, cem_noise_generations: int, out: Path, resume: Path | None,
-                  no_progress: bool) -> None:
+                  pass_hive_mind: bool, cem_extra_noise: float, cem_noise_generations: int, out: Path,
+                  resume: Path | None, no_progress: bool) -> None:
     """Learn GetOpen (CEM), Pass (Sarsa) or both (Algorithm 3) with frozen evaluations along the way."""
     from agents.policy_file import getopen_theta_size
     from trainer.cem import CEMConfig
