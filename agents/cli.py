@@ -23,16 +23,13 @@ from typing import TYPE_CHECKING, Any
 
 import click
 
-from protocol.messages import MAX_SEED
+from protocol.messages import MAX_SEED, SERVER_SILENCE_S
 from protocol.endpoints import DEFAULT_PORTS, parse_endpoint
 from protocol.security import KeyDir, SecurityError, keys_option, no_answer, open_keys, secure_client
 
 EXIT_OK = 0
 EXIT_START_FAILED = 2
 EXIT_SERVER_SILENT = 4
-# A joined player gives the server up after this long without a message from it (``--server-silence``):
-# a playing server sends percepts every cycle, a waiting or paused one a ``waiting`` every second.
-SERVER_SILENCE_S = 30.0
 POLL_MS = 100  # longest wait between checks of the stop flag and the connect deadline
 # Sockets have LINGER 0, except after a bye: closing then waits this long for the bye to leave, so it
 # is not discarded unsent (and never longer, should the server be gone).

@@ -58,6 +58,10 @@ EPISODE_ACTIONS = ("reset", "pause", "resume", "stop")
 EPISODE_ENDS = ("out", "taken")
 WAITING_REASONS = ("players", "coach", "paused")  # why no cycle is played (``waiting``)
 WAITING_INTERVAL_S = 1.0  # a ``waiting`` goes to every player this often while no cycle is played
+# A joined client gives the server up after this long without a message from it (``keepaway player
+# --server-silence``, the attached environment): a playing server sends percepts every cycle, a waiting
+# or paused one a ``waiting`` every WAITING_INTERVAL_S.
+SERVER_SILENCE_S = 30.0
 COMMAND_COUNTS = ("kick", "dash", "turn", "catch", "move", "turn_neck", "change_view", "say")
 
 # ------------------------------------------------------------------------------------------------ limits

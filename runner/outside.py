@@ -19,12 +19,11 @@ from pathlib import Path
 from agents.player import EPISODE_MESSAGE, KICK_OFF_MESSAGE, PlayerAgent
 from protocol import encode
 from protocol import messages as m
+from protocol.messages import SERVER_SILENCE_S
 from runner.embedded import ArenaSpec, EmbeddedGame
 
 log = logging.getLogger("keepaway.env")
 CLIENT_NAME = "keepaway-env"
-# How long an attached keeper waits for the server's next message before the game counts as gone.
-SERVER_SILENCE_S = 60.0
 
 
 class EmbeddedKeepers:
@@ -179,4 +178,4 @@ class AttachedKeepers:
         self.ctx.term()
 
 
-__all__ = ["AttachedKeepers", "EmbeddedKeepers", "SERVER_SILENCE_S"]
+__all__ = ["AttachedKeepers", "EmbeddedKeepers"]
