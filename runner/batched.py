@@ -47,7 +47,7 @@ while 2^20 would cost 18 MB per keeper, 55 GB for 1024 arenas. At 2^16 a keeper 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from typing import NamedTuple
 
@@ -434,7 +434,9 @@ def _policy_code(table: dict[str, int], name: str, what: str) -> int:
 
 class BatchedArenas:
     """``batch`` Keepaway arenas (``keepers`` vs ``takers``, every player connected before the start),
-    stepped together by compiled kernels. ``getopen_theta`` is the GO:L net per arena ((batch, n) or
+    stepped together by compiled kernels. ``seed``: arena b plays the game of one arena seeded
+    ``seed + b`` (:func:`arena_seed`), or a sequence gives every arena its own seed, so that arenas of
+    unrelated jobs (other trials, other candidates) can share one batch. ``getopen_theta`` is the GO:L net per arena ((batch, n) or
     (n,) for all; n = 91 in 3v2), required with ``getopen_policy="learned"`` only. ``threads`` (default
     numba's thread count, ``NUMBA_NUM_THREADS``) step disjoint sets of arenas side by side; the
     results do not depend on it. The games continue across :meth:`run` calls.
@@ -447,7 +449,7 @@ class BatchedArenas:
     meaningful between rows whose collision tables agree (the tile -> slot map depends on the order in
     which tiles were first met), e.g. rows that all started from one loaded policy."""
 
-    def __init__(self, params: ServerParams, batch: int, seed: int, keepers: int = 3, takers: int = 2,
+    def __init__(self, params: ServerParams, batch: int, seed: int | Sequence[int], keepers: int = 3, takers: int = 2,
                  pass_policy: str = "handcoded", getopen_policy: str = "handcoded",
                  getopen_theta: np.ndarray | None = None, agent_config: AgentConfig = AgentConfig(),
                  threads: int | None = None, sarsa: SarsaConfig | None = None,
@@ -466,12 +468,14 @@ class BatchedArenas:
             getopen_policy=_policy_code(GETOPEN_POLICIES, getopen_policy, "GetOpen policy"),
         ).kernel())
         self.theta = self._thetas(getopen_theta, getopen_policy, batch, keepers, takers)
-        seeds = [arena_seed(seed, b) for b in range(batch)]
+        seeds = [arena_seed(seed, b) for b in range(batch)] if isinstance(seed, (int, np.integer)) else list(seed)
+        if len(seeds) != batch:
+            raise ValueError(f"give one seed or {batch} (one per arena), not {len(seeds)}")
         self.learning = pass_policy == "learned"
         self.sarsa_config = (sarsa or BATCHED_SARSA) if self.learning else _NO_LEARNERS
         self.sarsa_params = self.sarsa_config.kernel()
         self.sarsa = new_sarsa_memory(self.sarsa_config, keepers, takers, batch * keepers if self.learning else 0,
-                                      seed, mode)
+                                      seeds[0], mode)
         if self.learning:
             self.sarsa.rng[:] = [seed_streams(learner_seed(s, k), 1)[0] for s in seeds for k in range(1, keepers + 1)]
         self.world = new_world(params, keepers, takers, batch=batch)
@@ -559,9 +563,13 @@ class BatchedArenas:
         (``agents.sarsa.policy_arrays``; save one with ``agents.policy_file.save_policy(path,
         pass_arrays=..., config={"sarsa": dataclasses.asdict(self.sarsa_config), ...})`` for a player
         process). Episodes that have ended have had their terminal updates."""
+        return [self.arena_pass_arrays(b) for b in range(self.batch)]
+
+    def arena_pass_arrays(self, arena: int) -> list[dict[str, np.ndarray]]:
+        """The learned Pass policy of every keeper of ``arena`` (a row of :meth:`pass_policy_arrays`)."""
         self._need_learning()
         k = self.keepers
-        return [[policy_arrays(self.sarsa, b * k + i) for i in range(k)] for b in range(self.batch)]
+        return [policy_arrays(self.sarsa, arena * k + i) for i in range(k)]
 
     def load_pass_arrays(
         self, arrays: dict[str, np.ndarray] | list[dict[str, np.ndarray]] | list[list[dict[str, np.ndarray]]]
@@ -585,10 +593,11 @@ class BatchedArenas:
             for i, policy in enumerate(row):
                 load_policy_arrays(self.sarsa, b * k + i, policy)
 
-    def run(self, episodes_per_arena: int | None = None, total_episodes: int | None = None,
+    def run(self, episodes_per_arena: int | np.ndarray | None = None, total_episodes: int | None = None,
             max_cycles: int | None = None, progress: Callable[[int], None] | None = None) -> EpisodeTable:
         """Play on until every arena has ended its quota of episodes or played ``max_cycles`` more
-        cycles (at least one limit is needed). The quota is ``episodes_per_arena``; ``total_episodes``
+        cycles (at least one limit is needed). The quota is ``episodes_per_arena`` (one for all, or one per
+        arena, 0 for an arena that plays no more); ``total_episodes``
         shares that many out, ``total // batch`` per arena plus one in the first ``total % batch``
         arenas (the smaller quota wins if both are given). Fixed quotas rather than the first episodes
         to end keep the hold times unbiased: the short ones end first. ``progress`` is called with the
@@ -602,7 +611,7 @@ class BatchedArenas:
                 progress(collected)
         return EpisodeTable.concatenate(parts)
 
-    def chunks(self, episodes_per_arena: int | None = None, total_episodes: int | None = None,
+    def chunks(self, episodes_per_arena: int | np.ndarray | None = None, total_episodes: int | None = None,
                max_cycles: int | None = None, cycles_per_chunk: int = CHUNK_CYCLES) -> Iterator[EpisodeTable]:
         """:meth:`run`'s play (the same limits, checked at once), one chunk of ``cycles_per_chunk`` cycles
         (at most ``CHUNK_CYCLES``) at a time: yields each chunk's ended episodes and arena-cycles as it
@@ -611,6 +620,10 @@ class BatchedArenas:
         limits = (episodes_per_arena, total_episodes, max_cycles)
         if all(v is None for v in limits):
             raise ValueError("give episodes_per_arena, total_episodes or max_cycles")
+        if np.ndim(episodes_per_arena) == 1:
+            if len(episodes_per_arena) != self.batch or np.min(episodes_per_arena) < 0:
+                raise ValueError(f"per-arena quotas need {self.batch} values >= 0")
+            limits = limits[1:]
         if any(v is not None and v < 1 for v in limits):
             raise ValueError("limits must be at least 1")
         if not 1 <= cycles_per_chunk <= CHUNK_CYCLES:

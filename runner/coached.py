@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import time
 from abc import ABC, abstractmethod
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import Any, ClassVar, Self
 
@@ -35,11 +36,10 @@ from agents.player import report_arrays
 from agents.sarsa import SarsaLearner
 from protocol.arena import EpisodesDone, RunEpisodes
 from runner.job import (
-    GREEDY,
-    LEARN,
     LEARNED,
     Behaviours,
     Game,
+    Job,
     Played,
     Progress,
     RunResult,
@@ -158,13 +158,44 @@ class CoachedBackend(ABC):
         """``runner.job.Backend.play``. Frozen (any mode but learn), the chunks may spread over the arenas;
         learning, they run in order in one arena and the keepers' final weights and transitions come
         back. ``arenas`` is the batched backend's batch size and does not matter here."""
+        return self.play_all([Job(behaviours, seed, episodes, arenas, pass_mode, alpha)], progress)[0]
+
+    def play_all(self, jobs: Sequence[Job], progress: Progress | None = None) -> list[Played]:
+        """``runner.job.Backend.play_all``: the frozen jobs' chunks all served at once, any arena taking
+        any chunk; then the learning jobs one after the other in the learning arena. A Pass policy that
+        several frozen jobs share (a CEM generation's candidates) is encoded once."""
+        played: list[Played | None] = [None] * len(jobs)
+        frozen = [i for i, job in enumerate(jobs) if not job.learns]
+        if frozen:
+            start = time.perf_counter()
+            encoded: dict[tuple, tuple] = {}
+            plans, chunks = [], []
+            for i in frozen:
+                job = jobs[i]
+                b = job.behaviours
+                advice = policy_advice(b)
+                if b.pass_policy == LEARNED:
+                    key = (id(b.pass_arrays), job.pass_mode, job.alpha)
+                    if key not in encoded:
+                        encoded[key] = pass_load_advice(self.game.learning_at(job.alpha), b, job.pass_mode)
+                    advice += encoded[key]
+                plans.append(chunk_seeds(job.seed, job.episodes, self.chunk_episodes))
+                chunks += [Chunk(n, s, advice) for n, s in plans[-1]]
+            done = self.serve(chunks, progress, in_order=False)
+            share, at = (time.perf_counter() - start) / len(frozen), 0
+            for i, plan in zip(frozen, plans):
+                played[i] = Played(self._result(jobs[i].seed, done[at:at + len(plan)], share))
+                at += len(plan)
+        for i, job in enumerate(jobs):
+            if job.learns:
+                played[i] = self._learn(job, progress)
+        return played  # type: ignore[return-value]
+
+    def _learn(self, job: Job, progress: Progress | None) -> Played:
+        """A learning job: its chunks in order in one arena, the keepers' final weights and transitions."""
         start = time.perf_counter()
-        learning = behaviours.pass_policy == LEARNED and pass_mode == LEARN
-        advice = behaviour_advice(self.game.learning_at(alpha), behaviours, pass_mode)
-        plan = chunk_seeds(seed, episodes, self.chunk_episodes)
-        if not learning:
-            done = self.serve([Chunk(n, s, advice) for n, s in plan], progress, in_order=False)
-            return Played(self._result(seed, done, time.perf_counter() - start))
+        advice = behaviour_advice(self.game.learning_at(job.alpha), job.behaviours, job.pass_mode)
+        plan = chunk_seeds(job.seed, job.episodes, self.chunk_episodes)
         chunks = [Chunk(n, s, advice if j == 0 else (), ("transitions",)) for j, (n, s) in enumerate(plan)]
         chunks[-1] = replace(chunks[-1], reports=("transitions", "snapshot"))
         done = self.serve(chunks, progress, in_order=True)
@@ -173,21 +204,7 @@ class CoachedBackend(ABC):
             learned = [pass_arrays_from_payloads(snapshots.get(unum, []))[1] for unum in range(1, self.game.keepers + 1)]
         except ValueError as exc:
             raise ArenaFailure(f"{self.learning_arena}: a keeper's weight snapshot is unusable: {exc}") from None
-        return Played(self._result(seed, done, time.perf_counter() - start), learned, transitions_by_keeper(done))
-
-    def play_candidates(self, candidates: list[Behaviours], seed: int, episodes: int, arenas: int,
-                        progress: Progress | None = None) -> list[RunResult]:
-        """Every candidate frozen on the same chunk seeds (common random numbers), all chunks of all
-        candidates served at once. The candidates differ in GetOpen only: their Pass policies are encoded
-        once."""
-        start = time.perf_counter()
-        plan = chunk_seeds(seed, episodes, self.chunk_episodes)
-        learned = candidates[0].pass_policy == LEARNED
-        shared = pass_load_advice(self.game, candidates[0], GREEDY) if learned else ()
-        chunks = [Chunk(n, s, policy_advice(c) + shared) for c in candidates for n, s in plan]
-        done = self.serve(chunks, progress, in_order=False)
-        per, share = len(plan), (time.perf_counter() - start) / max(1, len(candidates))
-        return [self._result(seed, done[i * per:(i + 1) * per], share) for i in range(len(candidates))]
+        return Played(self._result(job.seed, done, time.perf_counter() - start), learned, transitions_by_keeper(done))
 
     def _result(self, seed: int, done: list[EpisodesDone], elapsed_s: float) -> RunResult:
         """The episodes of ``done`` (numbered from 1 in chunk order), played in ``elapsed_s`` of wall time."""

@@ -21,7 +21,7 @@ every learner can build on it.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 import math
 from typing import NamedTuple, Protocol
@@ -185,6 +185,22 @@ class Played(NamedTuple):
     transitions: Transitions | None = None
 
 
+class Job(NamedTuple):
+    """One job: :meth:`Backend.play`'s arguments, for :meth:`Backend.play_all`."""
+
+    behaviours: Behaviours
+    seed: int
+    episodes: int
+    arenas: int
+    pass_mode: str
+    alpha: float | None = None
+
+    @property
+    def learns(self) -> bool:
+        """Whether the job's keepers learn Pass (and hand on new policies)."""
+        return self.behaviours.pass_policy == LEARNED and self.pass_mode == LEARN
+
+
 class Backend(Protocol):
     """Plays jobs in arenas of :attr:`game` (module docstring). A job depends only on its arguments:
     never on the jobs played before it, nor on how many arenas or threads share it."""
@@ -199,10 +215,10 @@ class Backend(Protocol):
         backend's batch; the others play on the arenas they have)."""
         ...
 
-    def play_candidates(self, candidates: list[Behaviours], seed: int, episodes: int, arenas: int,
-                        progress: Progress | None = None) -> list[RunResult]:
-        """Every candidate frozen (greedy Pass) on the same seeds (common random numbers): one job each. The
-        candidates differ in GetOpen only (a CEM generation's)."""
+    def play_all(self, jobs: Sequence[Job], progress: Progress | None = None) -> list[Played]:
+        """Independent jobs (e.g. a CEM generation's candidates, the same step of several trials), each
+        played as :meth:`play` plays it alone: the same episodes, the same learned policies. The backend
+        may play them side by side."""
         ...
 
     def close(self) -> None:
@@ -212,4 +228,4 @@ class Backend(Protocol):
 
 __all__ = ["BATCHED_SARSA", "GREEDY", "LEARN", "LEARNED", "MODES", "STREAM_CEM", "STREAM_CROSS_TEST", "STREAM_EVALUATION",
            "STREAM_GENERATION", "STREAM_INITIAL_NET", "STREAM_PASS_BLOCK", "Backend", "Behaviours", "EpisodeTable",
-           "Game", "PassArrays", "Played", "Progress", "RunResult", "Transitions", "derive_seed"]
+           "Game", "Job", "PassArrays", "Played", "Progress", "RunResult", "Transitions", "derive_seed"]

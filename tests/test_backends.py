@@ -18,7 +18,7 @@ from protocol.params import parameter_set
 from runner.backends import Placement, open_backend
 from runner.distributed import DistributedBackend
 from runner.embedded import EmbeddedBackend
-from runner.job import GREEDY, LEARN, MODES, Backend, Behaviours, Game, RunResult
+from runner.job import GREEDY, LEARN, MODES, Backend, Behaviours, Game, Job, Played, RunResult
 
 GAME = Game(parameter_set("classic"))
 CHUNK = 2  # episodes per request: jobs of a few episodes still span several chunks
@@ -57,8 +57,30 @@ def test_every_backend_plays_jobs_that_depend_only_on_their_arguments(backends, 
     assert first.pass_arrays is None and first.transitions is None  # frozen: nothing learned
     backend.play(FROZEN, 7, 2, 2, GREEDY)
     assert durations(backend.play(trained, 6, 3, 2, GREEDY).result) == durations(first.result)
-    same, other, again = backend.play_candidates([FROZEN, replace(FROZEN, getopen_policy="handcoded"), FROZEN], 8, 3, 2)
-    assert durations(same) == durations(again) != durations(other)  # common random numbers
+    candidates = [FROZEN, replace(FROZEN, getopen_policy="handcoded"), FROZEN]
+    same, other, again = backend.play_all([Job(c, 8, 3, 2, GREEDY) for c in candidates])
+    assert durations(same.result) == durations(again.result) != durations(other.result)  # common random numbers
+
+
+def assert_same_played(a: Played, b: Played) -> None:
+    assert durations(a.result) == durations(b.result) and a.result.cycles == b.result.cycles
+    assert (a.pass_arrays is None) == (b.pass_arrays is None)
+    for mine, theirs in zip(a.pass_arrays or [], b.pass_arrays or [], strict=True):
+        for name in mine:
+            np.testing.assert_array_equal(mine[name], theirs[name], err_msg=name)
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_every_backend_plays_independent_jobs_together_as_each_alone(backends, mode):
+    # Jobs of the same step of several trials: two learning jobs (fresh and trained learners), frozen
+    # jobs of the same and of other policies, more arenas than episodes; together (the batched backend:
+    # in shared batches) each plays as it does alone.
+    backend = backends[mode]
+    trained = replace(LEARNING, pass_arrays=backend.play(LEARNING, 21, 2, 1, LEARN).pass_arrays)
+    jobs = [Job(LEARNING, 22, 3, 1, LEARN), Job(trained, 23, 2, 1, LEARN), Job(trained, 24, 3, 2, GREEDY),
+            Job(FROZEN, 25, 2, 4, GREEDY), Job(trained, 26, 3, 2, GREEDY, alpha=0.5), Job(LEARNING, 27, 2, 1, GREEDY)]
+    for together, job in zip(backend.play_all(jobs), jobs, strict=True):
+        assert_same_played(together, backend.play_all([job])[0])
 
 
 def test_embedded_and_distributed_backends_play_the_same_frozen_jobs(backends):
@@ -66,8 +88,9 @@ def test_embedded_and_distributed_backends_play_the_same_frozen_jobs(backends):
     assert durations(embedded.play(FROZEN, 11, 5, 1, GREEDY).result) == \
         durations(distributed.play(FROZEN, 11, 5, 1, GREEDY).result)
     candidates = [FROZEN, replace(FROZEN, getopen_policy="handcoded")]
-    assert [durations(r) for r in embedded.play_candidates(candidates, 12, 3, 1)] == \
-        [durations(r) for r in distributed.play_candidates(candidates, 12, 3, 1)]
+    jobs = [Job(c, 12, 3, 1, GREEDY) for c in candidates]
+    assert [durations(p.result) for p in embedded.play_all(jobs)] == \
+        [durations(p.result) for p in distributed.play_all(jobs)]
 
 
 def test_embedded_and_distributed_backends_learn_the_same_weights_from_the_same_transitions(backends):

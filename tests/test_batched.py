@@ -172,6 +172,22 @@ def test_arena_b_of_a_batch_plays_the_single_arena_seeded_seed_plus_b():
         np.testing.assert_array_equal(single.world.pos[0], batch.world.pos[b])
 
 
+def test_arenas_with_their_own_seeds_and_quotas_play_as_alone():
+    # What lets unrelated jobs share a batch (runner.batched_backend): arena b seeded seeds[b], quota[b].
+    seeds, quotas = [31, 7, 12], np.array([2, 0, 3])
+    batch = BatchedArenas(PARAMS, 3, seeds, pass_policy="random", threads=2)
+    table = batch.run(episodes_per_arena=quotas)
+    assert np.bincount(table.arena, minlength=3).tolist() == [2, 0, 3] and batch.world.time[1] == 0
+    for b in (0, 2):
+        single = BatchedArenas(PARAMS, 1, seeds[b], pass_policy="random", threads=1)
+        np.testing.assert_array_equal(table_rows(single.run(episodes_per_arena=int(quotas[b]))), table_rows(table, b))
+    with pytest.raises(ValueError, match="one per arena"):
+        BatchedArenas(PARAMS, 2, [1, 2, 3])
+    for bad in (np.array([1, 1]), np.array([1, -1, 1])):
+        with pytest.raises(ValueError, match="per-arena quotas"):
+            batch.run(episodes_per_arena=bad)
+
+
 def test_learned_getopen_uses_each_arenas_own_theta():
     rng = np.random.default_rng(0)
     thetas = rng.uniform(-0.5, 0.5, size=(2, THETA_SIZE))

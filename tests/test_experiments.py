@@ -84,6 +84,7 @@ def forbid_playing(monkeypatch) -> None:
         raise AssertionError("played episodes although the work was finished")
 
     monkeypatch.setattr(BatchedBackend, "play", refuse)
+    monkeypatch.setattr(BatchedBackend, "play_all", refuse)
     monkeypatch.setattr(experiments, "evaluate", refuse)
 
 

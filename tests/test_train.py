@@ -280,33 +280,71 @@ class Killed(Exception):
 
 
 def kill_at_play_call(monkeypatch, n: int) -> None:
-    """Make the n-th game played (a candidate, a Pass block or an evaluation) die halfway through."""
-    real = BatchedBackend.play
+    """Make the n-th round of games (every trial's evaluation, Pass block or a generation's candidates,
+    played together) die halfway through."""
+    real = BatchedBackend.play_all
     calls = 0
 
-    def play(*args, **kwargs):
+    def play_all(*args, **kwargs):
         nonlocal calls
         calls += 1
         if calls == n:
             raise Killed
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(BatchedBackend, "play", play)
+    monkeypatch.setattr(BatchedBackend, "play_all", play_all)
 
 
-@pytest.mark.parametrize("kill_at", [3, 13])  # mid-generation in trial 0; in trial 1 after trial 0 ended
-def test_a_killed_training_resumed_ends_as_an_uninterrupted_one(tmp_path, monkeypatch, kill_at):
-    # A trial plays 11 games: 3 evaluations and 2 generations of 4 candidates.
+def kill_at_checkpoint(monkeypatch, n: int) -> None:
+    """Make the training die instead of writing its n-th checkpoint (after each step, trial by trial)."""
+    real = train_module.save_checkpoint
+    calls = 0
+
+    def save(*args, **kwargs):
+        nonlocal calls
+        calls += 1
+        if calls == n:
+            raise Killed
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(train_module, "save_checkpoint", save)
+
+
+# The 2 trials advance together, 5 steps each (3 evaluations, 2 generations of 4 candidates), a
+# checkpoint per trial and step: killed at the 2nd round of games (no step done), instead of the 4th
+# checkpoint (trial 0 one step ahead of trial 1: on resume their steps differ but still play together)
+# and of the last (trial 0 done, trial 1 before its last evaluation).
+@pytest.mark.parametrize("kill, at, episodes", [(kill_at_play_call, 2, (0, 0)), (kill_at_checkpoint, 4, (16, 0)),
+                                                (kill_at_checkpoint, 10, (32, 32))])
+def test_a_killed_training_resumed_ends_as_an_uninterrupted_one(tmp_path, monkeypatch, kill, at, episodes):
     config = tiny_config()
     train(config, tmp_path / "whole", progress=False, placement=Placement(threads=1))
-    kill_at_play_call(monkeypatch, kill_at)
+    kill(monkeypatch, at)
     with pytest.raises(Killed):
         train(config, tmp_path / "killed", progress=False, placement=Placement(threads=1))
     monkeypatch.undo()
-    state = load_checkpoint(tmp_path / "killed", 0)
-    assert state is not None and state.episodes == (0 if kill_at == 3 else 32)
+    states = [load_checkpoint(tmp_path / "killed", t) for t in range(2)]
+    assert tuple(0 if s is None else s.episodes for s in states) == episodes
     train(config, tmp_path / "killed", resume=True, progress=False, placement=Placement(threads=1))
     assert outputs(tmp_path / "killed", 2) == outputs(tmp_path / "whole", 2)
+
+
+def test_trials_trained_together_end_as_each_trained_alone(tmp_path):
+    # Algorithm 3 in miniature, 2 trials side by side (their Pass blocks share a batch, their candidates
+    # and evaluations too), against trial 1 stepped alone.
+    config = replace(algorithm_3_config(), trials=2)
+    train(config, tmp_path / "together", progress=False, placement=Placement(threads=2))
+    state = TrialState(1, initial_behaviours(config, 1))
+    backend = BatchedBackend(config.game(), threads=1)
+    while not state.finished(config):
+        step(config, state, backend)
+    together = load_checkpoint(tmp_path / "together", 1)
+    assert together.curve == state.curve
+    assert together.trace == state.trace
+    np.testing.assert_array_equal(together.behaviours.getopen_theta, state.behaviours.getopen_theta)
+    for mine, alone in zip(together.behaviours.pass_arrays, state.behaviours.pass_arrays, strict=True):
+        for name in mine:
+            np.testing.assert_array_equal(mine[name], alone[name], err_msg=name)
 
 
 def test_algorithm_3_alternates_cem_and_sarsa_and_resumes_inside_a_pass_phase(tmp_path, monkeypatch):
@@ -324,8 +362,8 @@ def test_algorithm_3_alternates_cem_and_sarsa_and_resumes_inside_a_pass_phase(tm
     keepers = unpack_pass_arrays(policy.pass_arrays, 3)
     assert all(np.any(k["pass_weights"] != 0) for k in keepers)  # every keeper learned its own weights
     assert not np.array_equal(keepers[0]["pass_weights"], keepers[1]["pass_weights"])
-    # games: eval 0, 2 candidates, eval 4, 2 candidates, eval 8, Pass block (the 8th game) ...
-    kill_at_play_call(monkeypatch, 8)
+    # rounds of games: eval 0, 2 candidates, eval 4, 2 candidates, eval 8, Pass block (the 6th) ...
+    kill_at_play_call(monkeypatch, 6)
     with pytest.raises(Killed):
         train(config, tmp_path / "killed", progress=False, placement=Placement(threads=1))
     monkeypatch.undo()
@@ -339,13 +377,14 @@ def test_a_both_phase_runs_cem_generations_whose_candidates_also_train_pass(tmp_
     # the learners the one before it left, so Pass has learned in all 8 episodes; then a Pass phase.
     config = replace(algorithm_3_config(), schedule=parse_schedule("both:8,pass:4"))
     played = []
-    real_play = BatchedBackend.play
+    real_play_all = BatchedBackend.play_all
 
-    def spy(self, behaviours, seed, episodes, arenas, mode, *args, **kwargs):
-        played.append((behaviours.pass_policy, behaviours.pass_arrays is None, episodes, arenas, mode))
-        return real_play(self, behaviours, seed, episodes, arenas, mode, *args, **kwargs)
+    def spy(self, jobs, *args, **kwargs):
+        played.extend((j.behaviours.pass_policy, j.behaviours.pass_arrays is None, j.episodes, j.arenas, j.pass_mode)
+                      for j in jobs)
+        return real_play_all(self, jobs, *args, **kwargs)
 
-    monkeypatch.setattr(BatchedBackend, "play", spy)
+    monkeypatch.setattr(BatchedBackend, "play_all", spy)
     train(config, tmp_path / "both", progress=False, placement=Placement(threads=1))
     trace = [json.loads(line) for line in (tmp_path / "both/trial_000/trace.jsonl").read_text().splitlines()]
     assert [(r["phase"], r["episodes"], r.get("block_episodes")) for r in trace] == [

@@ -23,7 +23,7 @@ from protocol.arena import RunEpisodes, decode_from_trainer
 from runner import distributed
 from runner.coached import chunk_seeds
 from runner.distributed import DistributedBackend
-from runner.job import Behaviours
+from runner.job import GREEDY, Behaviours, Job
 from runner.launch import ArenaFailure
 from trainer.cem import CEMConfig
 from trainer.schedule import PASS, Phase
@@ -105,8 +105,8 @@ def test_cem_candidates_share_their_chunk_seeds_across_arenas(tmp_path):
     nets = [rng.normal(size=91), rng.normal(size=91)]
     candidates = [Behaviours("learned", "learned", theta) for theta in (nets[0], nets[1], nets[0])]
     with DistributedBackend.start_local(game, 2, tmp_path, "classic", chunk_episodes=2) as backend:
-        results = backend.play_candidates(candidates, 9, 4, 2)
-    durations = [[(e.end_cycle - e.start_cycle, e.end) for e in r.episodes] for r in results]
+        played = backend.play_all([Job(c, 9, 4, 2, GREEDY) for c in candidates])
+    durations = [[(e.end_cycle - e.start_cycle, e.end) for e in p.result.episodes] for p in played]
     assert [len(d) for d in durations] == [4, 4, 4]
     assert durations[0] == durations[2]
     assert durations[0] != durations[1]

@@ -22,8 +22,10 @@ phase to the next. The nets drawn and searched see their inputs scaled (``TrainC
 scaling folded into their first layer (``Behaviours.getopen_net``); the policy file records the scaling.
 
 The steps are played by a backend of ``config.mode`` (``runner.job.Backend``: batched, embedded or
-distributed; ``runner.backends.open_backend``): ``play`` (one job, possibly learning Pass) and
-``play_candidates`` (a CEM generation's frozen candidates on common seeds).
+distributed; ``runner.backends.open_backend``) as jobs (``runner.job.Job``: one may learn Pass). The
+trials advance together (:func:`advance`): the jobs of the same step of every trial, and a CEM
+generation's candidates, go to the backend at once (``play_all``), which plays them side by side, each
+as it would alone; so the trials of a training fill the machine and each ends as if trained by itself.
 
 Every random stream is derived from ``(seed, trial, stream, index)`` (the registry: ``runner.job``), and
 each step starts fresh arenas (or arenas restarted) from such a seed; so a step's outcome depends only on
@@ -46,7 +48,7 @@ import io
 import json
 import os
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Generator
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -71,6 +73,8 @@ from runner.job import (
     Backend,
     Behaviours,
     Game,
+    Job,
+    Played,
     Progress,
     RunResult,
     Transitions,
@@ -239,11 +243,16 @@ class TrialState:
 
 
 # -- playing -----------------------------------------------------------------------------------------
-def evaluate(backend: Backend, behaviours: Behaviours, seed: int, episodes: int, arenas: int,
-             progress: Progress | None = None) -> RunResult:
+def evaluation_job(behaviours: Behaviours, seed: int, episodes: int, arenas: int) -> Job:
     """The frozen policies (no learning, greedy Pass) over ``episodes`` episodes in up to ``arenas``
     arenas (keepaway-task.md 8)."""
-    return backend.play(behaviours, seed, episodes, arenas, GREEDY, progress).result
+    return Job(behaviours, seed, episodes, arenas, GREEDY)
+
+
+def evaluate(backend: Backend, behaviours: Behaviours, seed: int, episodes: int, arenas: int,
+             progress: Progress | None = None) -> RunResult:
+    """:func:`evaluation_job` played on ``backend``."""
+    return backend.play_all([evaluation_job(behaviours, seed, episodes, arenas)], progress)[0].result
 
 
 def open_training_backend(config: TrainConfig, out: Path, placement: Placement = Placement()) -> Backend:
@@ -271,22 +280,49 @@ def phase_at(schedule: tuple[Phase, ...], episodes: int) -> tuple[Phase, int]:
 def step(config: TrainConfig, state: TrialState, backend: Backend, progress: Progress | None = None) -> str:
     """Advance ``state`` by one step (an evaluation, a CEM generation or a Pass block) on ``backend``;
     returns what it was, for the progress display."""
+    return advance(config, [state], backend, progress)[0]
+
+
+def advance(config: TrainConfig, states: list[TrialState], backend: Backend,
+            progress: Progress | None = None) -> list[str]:
+    """One step of every trial in ``states``, their jobs played together round by round
+    (``Backend.play_all``): a step is one round of jobs (an evaluation, a Pass block, a generation's
+    candidates) or, in a ``both`` phase, one round per candidate. Trials are independent and every job
+    plays as it would alone, so each trial ends exactly as if it had been trained by itself."""
+    steps = [_step_jobs(config, state) for state in states]
+    asked: dict[int, list[Job]] = {i: next(jobs) for i, jobs in enumerate(steps)}
+    what: dict[int, str] = {}
+    while asked:
+        order = list(asked)
+        played = backend.play_all([job for i in order for job in asked[i]], progress)
+        for i in order:
+            mine, played = played[:len(asked[i])], played[len(asked[i]):]
+            try:
+                asked[i] = steps[i].send(mine)
+            except StopIteration as stop:
+                what[i] = stop.value
+                del asked[i]
+    return [what[i] for i in range(len(steps))]
+
+
+StepJobs = Generator[list[Job], list[Played], str]  # a step: yields rounds of jobs, gets their outcomes
+
+
+def _step_jobs(config: TrainConfig, state: TrialState) -> StepJobs:
+    """The next step of ``state`` (:func:`step`) as rounds of jobs; returns what it was."""
     points = evaluation_points(config.schedule, config.eval_every)
-    seed, trial = config.seed, state.trial
     if state.episodes == points[len(state.curve)]:
-        result = evaluate(backend, state.behaviours, derive_seed(seed, trial, STREAM_EVALUATION, state.episodes),
-                          config.eval_episodes, config.arenas, progress)
-        state.curve.append(_point(state.episodes, result))
+        seed = derive_seed(config.seed, state.trial, STREAM_EVALUATION, state.episodes)
+        [played] = yield [evaluation_job(state.behaviours, seed, config.eval_episodes, config.arenas)]
+        state.curve.append(_point(state.episodes, played.result))
         return f"evaluation at {state.episodes}"
     phase, phase_end = phase_at(config.schedule, state.episodes)
     if phase.behaviour in CEM_PHASES:
-        return _cem_generation(config, state, backend, progress, learn_pass=phase.behaviour == BOTH)
-    return _pass_block(config, state, min(phase_end, points[len(state.curve)]) - state.episodes, backend,
-                       progress)
+        return (yield from _cem_generation(config, state, learn_pass=phase.behaviour == BOTH))
+    return (yield from _pass_block(config, state, min(phase_end, points[len(state.curve)]) - state.episodes))
 
 
-def _cem_generation(config: TrainConfig, state: TrialState, backend: Backend, progress: Progress | None,
-                    learn_pass: bool = False) -> str:
+def _cem_generation(config: TrainConfig, state: TrialState, learn_pass: bool = False) -> StepJobs:
     """One CEM generation (keepaway-task.md 6): every candidate plays the same arena seeds with the
     current Pass policy frozen; or, with ``learn_pass`` (a ``both`` phase), one after another in one arena
     each, Sarsa learning Pass in every episode and handing its learners on to the next candidate."""
@@ -296,6 +332,7 @@ def _cem_generation(config: TrainConfig, state: TrialState, backend: Backend, pr
     generation = cem.generation
     seed = derive_seed(config.seed, state.trial, STREAM_GENERATION, generation)
     inputs = config.input_scaling()
+    episodes = config.cem.episodes_per_candidate
     candidates = [replace(state.behaviours, getopen_policy=LEARNED, getopen_theta=theta, getopen_inputs=inputs)
                   for theta in cem.ask()]
     entry: dict[str, Any] = {"phase": BOTH if learn_pass else GETOPEN, "generation": generation}
@@ -304,15 +341,13 @@ def _cem_generation(config: TrainConfig, state: TrialState, backend: Backend, pr
         results = []
         for candidate in candidates:
             learner = replace(candidate, pass_policy=LEARNED, pass_arrays=state.behaviours.pass_arrays)
-            result, state.behaviours.pass_arrays, state.transitions = backend.play(
-                learner, seed, config.cem.episodes_per_candidate, 1, LEARN, progress,
-                alpha if config.pass_alpha_halflife else None)
-            results.append(result)
+            [played] = yield [Job(learner, seed, episodes, 1, LEARN, alpha if config.pass_alpha_halflife else None)]
+            results.append(played.result)
+            state.behaviours.pass_arrays, state.transitions = played.pass_arrays, played.transitions
         state.behaviours.pass_policy = LEARNED
         entry.update(block_episodes=config.generation_episodes, alpha=alpha)
     else:
-        results = backend.play_candidates(candidates, seed, config.cem.episodes_per_candidate, config.arenas,
-                                          progress)
+        results = [p.result for p in (yield [evaluation_job(c, seed, episodes, config.arenas) for c in candidates])]
     fitness = [result.summary()["mean_hold_time_s"] for result in results]
     cem.tell(np.array(fitness))
     assert cem.best_params is not None
@@ -331,19 +366,17 @@ def _pass_episodes_learned(state: TrialState) -> int:
     return sum(r["block_episodes"] for r in state.trace if r["phase"] in (PASS, BOTH))
 
 
-def _pass_block(config: TrainConfig, state: TrialState, episodes: int, backend: Backend,
-                progress: Progress | None) -> str:
+def _pass_block(config: TrainConfig, state: TrialState, episodes: int) -> StepJobs:
     """Sarsa learns Pass for ``episodes`` episodes in one fresh arena, GetOpen fixed (keepaway-task.md 5, 7)."""
     learner = replace(state.behaviours, pass_policy=LEARNED)
     seed = derive_seed(config.seed, state.trial, STREAM_PASS_BLOCK, state.episodes)
     alpha = config.pass_alpha(_pass_episodes_learned(state))
-    result, arrays, transitions = backend.play(learner, seed, episodes, 1, LEARN, progress,
-                                               alpha if config.pass_alpha_halflife else None)
+    [played] = yield [Job(learner, seed, episodes, 1, LEARN, alpha if config.pass_alpha_halflife else None)]
     state.behaviours.pass_policy = LEARNED
-    state.behaviours.pass_arrays = arrays
-    state.transitions = transitions
+    state.behaviours.pass_arrays = played.pass_arrays
+    state.transitions = played.transitions
     state.episodes += episodes
-    summary = result.summary()
+    summary = played.result.summary()
     state.trace.append({"phase": PASS, "episodes": state.episodes, "block_episodes": episodes,
                         "mean_hold_time_s": summary["mean_hold_time_s"],
                         "stderr_hold_time_s": summary["stderr_hold_time_s"], "alpha": alpha})
@@ -521,28 +554,37 @@ def read_config(out: Path) -> TrainConfig:
                          f"or start a new training in another --out directory") from None
 
 
-def run_trials(config: TrainConfig, out: Path, backend: Backend,
-               steps: Callable[[int, int], Progress] | None = None,
-               on_step: Callable[[TrialState, str], None] | None = None) -> Iterator[TrialState]:
-    """Train every trial of the training in ``out`` (begun by :func:`write_config`) on ``backend``,
-    continuing each from its last checkpoint; yield each trial's final state.
-    ``steps(trial, done)`` gives the progress callback of a trial that has ``done`` of its episodes
-    behind it; ``on_step`` hears of every step."""
+def load_trials(config: TrainConfig, out: Path) -> list[TrialState]:
+    """Every trial of the training in ``out`` (begun by :func:`write_config`) at its last checkpoint, or
+    at its start."""
+    states = []
     for trial in range(config.trials):
         trial_dir(out, trial).mkdir(exist_ok=True)
-        state = load_checkpoint(out, trial) or TrialState(trial, initial_behaviours(config, trial))
-        progress = None if steps is None else steps(trial, played_episodes(config, state))
-        while not state.finished(config):
-            start = time.perf_counter()
-            what = step(config, state, backend, progress)
-            state.wall_s += time.perf_counter() - start
+        states.append(load_checkpoint(out, trial) or TrialState(trial, initial_behaviours(config, trial)))
+    return states
+
+
+def run_trials(config: TrainConfig, out: Path, states: list[TrialState], backend: Backend,
+               progress: Progress | None = None,
+               on_step: Callable[[TrialState, str], None] | None = None) -> list[TrialState]:
+    """Train the trials ``states`` (:func:`load_trials`) of the training in ``out`` to their end on
+    ``backend``; returns them. The trials advance together, a step each at a time (:func:`advance`: a
+    backend plays their jobs side by side), and each ends as it would alone; a trial's ``wall_s`` is its
+    share of the steps' wall time. ``progress`` hears of every episode played, ``on_step`` of every step."""
+    while running := [state for state in states if not state.finished(config)]:
+        start = time.perf_counter()
+        steps = advance(config, running, backend, progress)
+        share = (time.perf_counter() - start) / len(running)
+        for state, what in zip(running, steps):
+            state.wall_s += share
             write_transitions(out, state)
             save_checkpoint(out, state)
             write_trial_outputs(config, out, state)
             if on_step is not None:
                 on_step(state, what)
+    for state in states:
         write_trial_outputs(config, out, state)
-        yield state
+    return states
 
 
 def played_episodes(config: TrainConfig, state: TrialState) -> int:
@@ -566,40 +608,37 @@ def train(config: TrainConfig, out: Path, resume: bool = False, progress: bool =
         config = read_config(out)
     else:
         write_config(config, out)
-    bar: Any = None
-
-    def steps(trial: int, done: int) -> Progress:
-        nonlocal bar
-        if bar is not None:
-            bar.close()
-        bar = tqdm(total=planned_episodes(config), initial=done, unit="ep", dynamic_ncols=True,
-                   desc=f"{config.name} trial {trial + 1}/{config.trials}", disable=not progress)
-        return bar.update
 
     def on_step(state: TrialState, what: str) -> None:
         last = state.curve[-1] if state.curve else None
-        done = f"{what} done"
-        bar.set_postfix_str(f"{done}; last eval {last.mean_hold_time_s:.2f} s at {last.episodes}" if last else done)
+        step_done = f"trial {state.trial + 1}: {what} done"
+        bar.set_postfix_str(f"{step_done}; last eval {last.mean_hold_time_s:.2f} s at {last.episodes}" if last
+                            else step_done)
 
-    states: list[TrialState] = []
     backend = open_training_backend(config, out, placement)
     try:
-        for state in run_trials(config, out, backend, steps, on_step):
-            states.append(state)
-            write_summary(config, out, states)
+        states = load_trials(config, out)
+        bar = tqdm(total=planned_episodes(config) * config.trials, unit="ep", dynamic_ncols=True,
+                   initial=sum(played_episodes(config, state) for state in states),
+                   desc=f"{config.name}, {config.trials} trial{'s' if config.trials > 1 else ''}",
+                   disable=not progress)
+        with bar:
+            run_trials(config, out, states, backend, bar.update, on_step)
+        write_summary(config, out, states)
     finally:
         backend.close()
-        if bar is not None:
-            bar.close()
     return summarise(config, states)
 
 
 __all__ = [
     "TrainConfig",
     "TrialState",
+    "advance",
     "evaluate",
+    "evaluation_job",
     "initial_behaviours",
     "load_checkpoint",
+    "load_trials",
     "open_training_backend",
     "phase_at",
     "read_config",
