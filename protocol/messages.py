@@ -98,7 +98,8 @@ BALL_STATE = fixed(number, number, number, number)
 PLAYER_STATE = fixed(SIDE, UNUM, *(number,) * 10)
 PLAYER_STATES = sequence(PLAYER_STATE, MAX_PLAYERS)
 STATE = record(
-    ball=BALL_STATE, players=PLAYER_STATES, play_mode=PLAY_MODE, episode=COUNT, take_count=COUNT
+    ball=BALL_STATE, players=PLAYER_STATES, play_mode=PLAY_MODE, episode=COUNT, episode_start=CYCLE,
+    take_count=COUNT
 )
 
 
@@ -480,7 +481,8 @@ class CoachInitOk(Message):
 
 @message
 class LookOk(Message):
-    """The noiseless state: ``ball``, ``players``, ``play_mode``, ``episode``, ``take_count``; ``paused``:
+    """The noiseless state: ``ball``, ``players``, ``play_mode``, ``episode``, ``episode_start`` (the cycle
+    the episode under way began: a monitor that joins midway still knows its hold time), ``take_count``; ``paused``:
     the game stands still between two cycles (a ``pause`` took effect; no command is pending)."""
 
     TYPE: ClassVar[str] = "look_ok"
@@ -536,6 +538,7 @@ class Frame(Message):
     players: tuple = wire(PLAYER_STATES)
     play_mode: str = wire(PLAY_MODE)
     episode: int = wire(COUNT)
+    episode_start: int = wire(CYCLE)  # the cycle the episode under way began
     take_count: int = wire(COUNT)
 
 

@@ -56,7 +56,7 @@ class BatchedBackend:
 
     def _batches(self, jobs: Sequence[Job]) -> list[list[int]]:
         """Indices of ``jobs`` grouped into batches the same kernels play, in order, within the limits."""
-        row_bytes = self.game.keepers * self.game.sarsa.table_size * 16
+        arena_bytes = self.game.keepers * self.game.sarsa.table_size * 16
         open_batches: dict[tuple, tuple[list[int], int]] = {}
         batches: list[list[int]] = []
         for i, job in enumerate(jobs):
@@ -64,7 +64,7 @@ class BatchedBackend:
             learned = b.pass_policy == LEARNED
             key = (b.pass_policy, b.getopen_policy, job.pass_mode if learned else None, job.alpha if learned else None)
             n = _arenas(job)
-            limit = min(MAX_ARENAS, max(1, MAX_SARSA_BYTES // row_bytes)) if learned else MAX_ARENAS
+            limit = min(MAX_ARENAS, max(1, MAX_SARSA_BYTES // arena_bytes)) if learned else MAX_ARENAS
             members, size = open_batches.get(key, ([], 0))
             if members and size + n > limit:
                 members, size = [], 0

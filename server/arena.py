@@ -408,6 +408,7 @@ def _normalize_deg(a: float) -> float:
 def truth_state(arena: Arena) -> dict:
     """The noiseless state for the coach's look and the monitor (ball, players, play mode, episode)."""
     state = arena.fullstate_payload()
+    state["episode_start"] = int(arena.referee.start_cycle[0])
     state["take_count"] = int(arena.referee.take_count[0])
     return state
 

@@ -104,7 +104,7 @@ def test_world_shows_flag_kicks_that_missed_and_collisions():
 def test_a_monitor_frame_gives_the_same_positions_as_its_show():
     frame = m.Frame(cycle=7, ball=(1.0, 2.0, 0.5, -0.5), players=(("l", 1, 3.0, 4.0, 0.1, 0.2, 45.0, -10.0, 3900.0,
                                                                     1.0, 1.0, -1.0),),
-                    play_mode="play_on", episode=2, take_count=0)
+                    play_mode="play_on", episode=2, episode_start=0, take_count=0)
     show = show_from_frame(frame)
     assert parse_show(show_line(show)) == show
 

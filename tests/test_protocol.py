@@ -80,7 +80,7 @@ PLAYERS = (
     ("l", 1, -8.5, -8.1, 0.1, 0.0, 45.0, -10.0, 3500.0, 1.0, 1.0, -1.0),
     ("r", 2, 8.0, 9.5, -0.3, 0.2, -135.0, 0.0, 4000.0, 0.9, 0.8, -1.0),
 )
-STATE = {"ball": BALL, "players": PLAYERS, "play_mode": "play_on", "episode": 3, "take_count": 2}
+STATE = {"ball": BALL, "players": PLAYERS, "play_mode": "play_on", "episode": 3, "episode_start": 40, "take_count": 2}
 PAYLOAD = {"trace": [1, 2.5, None, True, "x"], "weights": b"\x00\x01\x02", "empty": {}}
 
 SAMPLES = [
@@ -144,7 +144,7 @@ SAMPLES = [
     EPISODE_END := EpisodeEnd(cycle=93, episode=3, start_cycle=28, end_cycle=93, end="taken"),
     PlayerReport(cycle=93, side="l", unum=1, payload=PAYLOAD),
     PlayerSaid(cycle=93, side="r", unum=2, message="hello"),
-    FRAME := Frame(cycle=55, ball=BALL, players=PLAYERS, play_mode="play_on", episode=3, take_count=2),
+    FRAME := Frame(cycle=55, ball=BALL, players=PLAYERS, play_mode="play_on", episode=3, episode_start=40, take_count=2),
 ]
 
 PORT_SETS = {

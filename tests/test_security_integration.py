@@ -164,7 +164,7 @@ def test_run_view_with_keys_follows_the_keyed_arena(processes, tmp_path, keys):
     url = read_until_match(run.stderr, re.compile(r"watch the arena at (http://127\.0\.0\.1:\d+/)\n"),
                            PROCESS_TIMEOUT_S).group(1)
     frame = first_frame(url, 60.0)
-    assert frame["cycle"] >= 0 and len(frame["players"]) == 5
+    assert frame["cycle"] >= 0 and len(frame["players"]) == 5 and frame["hold_s"] is not None  # joined midway
 
 
 def test_the_environment_attached_to_a_keyed_server_plays_with_the_keys(processes, tmp_path, keys):

@@ -283,7 +283,8 @@ def play_reseeded(processes, tmp_path, server_seed: int, before: int, reset_seed
         "trace": {cycle - start: {kind: without(msg.to_wire(), "cycle", "counts", "episode")
                                   for kind, msg in got.items()}
                   for cycle, got in table.trace.items() if cycle >= start},
-        "looks": {cycle - start: without(state, "episode") for cycle, state in table.looks.items()},
+        "looks": {cycle - start: {**without(state, "episode"), "episode_start": state["episode_start"] - start}
+                  for cycle, state in table.looks.items()},
     }
 
 
@@ -294,6 +295,7 @@ def test_a_reset_with_a_seed_plays_the_same_whatever_was_played_before(processes
     assert one["episodes"] == three["episodes"]
     assert one["looks"] == three["looks"] and set(one["looks"]) == {0, 1, 6}
     assert one["looks"][0]["take_count"] == 0 and one["looks"][0]["ball"][2:] == (0.0, 0.0)
+    assert one["looks"][0]["episode_start"] == 0  # the look at the reset cycle sees its episode begin
     assert one["trace"] == three["trace"]
     assert sorted(one["trace"]) == list(range(sum(d for d, _ in one["episodes"])))
     assert sum("see" in got for got in one["trace"].values()) > 0

@@ -16,8 +16,9 @@ from pathlib import Path
 import pytest
 
 from conftest import keepaway_command, read_until_match
+from protocol import messages as m
 from server.game_log import parse_rcg, read_rcg
-from viewer.frames import SPEEDS, Replay
+from viewer.frames import SPEEDS, Replay, live_frame
 
 DATA = Path(__file__).parent / "data" / "rcss-behaviour"
 REFERENCE = DATA / "ref_hold2_head.rcg"
@@ -59,6 +60,13 @@ def start_viewer(processes, *args: str) -> tuple[subprocess.Popen, str]:
     proc = processes.popen(keepaway_command("view", "--port", "0", *args), stdout=subprocess.PIPE,
                            stderr=subprocess.PIPE)
     return proc, read_until_match(proc.stdout, URL_RE, 60).group(1)
+
+
+def test_a_live_frame_knows_the_hold_time_of_an_episode_joined_midway():
+    frame = m.Frame(cycle=57, ball=(0.0, 0.0, 0.0, 0.0), players=(), play_mode="play_on", episode=3,
+                    episode_start=40, take_count=0)
+    page = live_frame(frame, step_ms=100.0)
+    assert (page["cycle"], page["episode"], page["hold_s"]) == (57, 3, 1.7)
 
 
 def test_view_prints_its_url_and_serves_the_page(processes, tmp_path):

@@ -25,7 +25,7 @@ from protocol.errors import ProtocolError
 from protocol.messages import decode_monitor
 from protocol.security import KeyDir, secure_client
 from server.game_log import GameRecord
-from viewer.frames import LiveFrames, Replay, info_message
+from viewer.frames import Replay, info_message, live_frame
 
 log = logging.getLogger("keepaway.viewer")
 PAGE = Path(__file__).parent / "static" / "index.html"
@@ -84,7 +84,7 @@ class LiveSource:
         self.endpoint = endpoint
         self.keys = keys
         self.region = region
-        self.frames = LiveFrames(step_ms)
+        self.step_ms = step_ms
         self.pages: set[web.WebSocketResponse] = set()
         self.last: str | None = None
 
@@ -127,7 +127,7 @@ class LiveSource:
                     continue
                 if not isinstance(frame, m.Frame):
                     continue
-                self.last = json.dumps(self.frames.frame(frame))
+                self.last = json.dumps(live_frame(frame, self.step_ms))
                 pages = [ws for ws in self.pages if not ws.closed]
                 await asyncio.gather(*(ws.send_str(self.last) for ws in pages), return_exceptions=True)
         finally:

@@ -1,7 +1,7 @@
 """What the viewer page is sent, and the replay of a game log: sans-IO (no sockets, no clock).
 
 The page draws one JSON ``frame`` at a time, whether it comes from a game log (:class:`Replay`) or live
-from an arena's monitor port (:class:`LiveFrames`); ``info`` says once what is shown. Both use the
+from an arena's monitor port (:func:`live_frame`); ``info`` says once what is shown. Both use the
 game log's :class:`server.game_log.Show`, so a live frame and a replayed one look the same.
 """
 
@@ -130,21 +130,10 @@ def _integer(value: Any, what: str) -> int:
     return value
 
 
-@dataclass
-class LiveFrames:
-    """Monitor frames turned into page frames: an episode's start is the cycle its number first showed
-    (unknown for the episode under way when the viewer joined, unless it is the first one)."""
-
-    step_ms: float = 100.0
-    episode: int = -1
-    start: int | None = None
-
-    def frame(self, frame: m.Frame) -> dict[str, Any]:
-        if frame.episode != self.episode:
-            first_seen = self.episode == -1
-            self.episode = frame.episode
-            self.start = frame.cycle if not first_seen else (0 if frame.episode == 1 else None)
-        return frame_message(show_from_frame(frame), frame.episode, self.start, step_ms=self.step_ms)
+def live_frame(frame: m.Frame, step_ms: float = 100.0) -> dict[str, Any]:
+    """A monitor frame for the page; its ``episode_start`` gives the hold time even of the episode under
+    way when the viewer joined."""
+    return frame_message(show_from_frame(frame), frame.episode, frame.episode_start, step_ms=step_ms)
 
 
-__all__ = ["LiveFrames", "Replay", "SPEEDS", "frame_message", "info_message"]
+__all__ = ["Replay", "SPEEDS", "frame_message", "info_message", "live_frame"]
