@@ -126,9 +126,9 @@ def _sarsa_config(value: Any) -> dict:
         if type(key) is not str:
             raise Invalid("malformed", f"map keys must be strings, got {kind(key)}")
         if type(entry) not in (bool, int, float):
-            raise Invalid("bad_type", f"{show(key)} is a {kind(entry)}, expected a bool or a number").at(f".{key}")
+            raise Invalid("bad_type", f"{show(key)} is a {kind(entry)}, expected a bool or a number")
         if type(entry) is float and not math.isfinite(entry):
-            raise Invalid("bad_value", f"{entry} is not a finite number").at(f".{key}")
+            raise Invalid("bad_value", f"{show(key)} is {entry}, not a finite number")
     return value
 
 
