@@ -4,8 +4,8 @@ Two directions share one chunking mechanism (:func:`chunked`): the player's repo
 transitions, snapshots) and the coach's ``pass_load`` advice to a player, each chunk a message of
 ``protocol.advice``, which declares and checks them. Arrays travel as little-endian ``bin`` fields; a
 message holds at most :data:`REPORT_BYTES` of per-entry array bytes, well below the 4 MiB message limit
-(docs/protocol.md 1), so longer data is sent as ``chunks`` messages numbered ``chunk`` 0, 1, ..., each carrying the same head fields and the entries
-``first`` .. ``first + count - 1``.
+(docs/protocol.md 1), so longer data is sent as ``chunks`` messages numbered ``chunk`` 0, 1, ..., each
+carrying the same head fields and the entries ``first`` .. ``first + count - 1``.
 
 The sparse Pass policy (:func:`sparse_pass_chunks`) is one keeper's SMDP Sarsa state as
 ``agents.sarsa.policy_arrays`` gives it (spec `keepaway-agents.md` 5: the weights and the collision table

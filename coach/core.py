@@ -289,7 +289,8 @@ class CoachCore:
         request = run.request
         run.begun = True
         self.server_paused = False
-        out: Outgoing = [(SERVER, m.Advice(target=target, payload=advice.to_wire())) for target, advice in request.advice]
+        out: Outgoing = [(SERVER, m.Advice(target=target, payload=advice.to_wire()))
+                         for target, advice in request.advice]
         if request.seed is not None:
             out.append((SERVER, m.Advice(target="all", payload=SeedAdvice(seed=request.seed).to_wire())))
         out += [(SERVER, m.EpisodeControl(action="reset", seed=request.seed)),

@@ -51,7 +51,9 @@ GETOPEN_POLICY_NAMES = ("random", "handcoded", "handcoded-cone", "learned")
 # The Sarsa learner's modes (agents.sarsa.MODE_NAMES maps them to the kernels' codes).
 PASS_MODES = ("learn", "greedy", "explore")
 # What a report advice may ask for; each is answered by the report kind of REPORTED.
-REPORTS = ("transitions", "snapshot")
+REPORT_TRANSITIONS = "transitions"
+REPORT_SNAPSHOT = "snapshot"
+REPORTS = (REPORT_TRANSITIONS, REPORT_SNAPSHOT)
 # The byte order and width of every array field.
 ARRAY_DTYPES: Mapping[str, str] = {
     "getopen_theta": "<f8", "state": "<f8", "action": "<i1", "reward": "<f8", "next_action": "<i1",
@@ -322,7 +324,7 @@ ADVICE_KINDS: Mapping[str, type[Message]] = _by_type(PolicyAdvice, PassModeAdvic
                                                      ReportRequest)
 REPORT_KINDS: Mapping[str, type[Message]] = _by_type(PassTransitionsReport, PassSnapshotReport)
 # The report kind that answers each request of REPORTS.
-REPORTED: Mapping[str, type[Message]] = {"transitions": PassTransitionsReport, "snapshot": PassSnapshotReport}
+REPORTED: Mapping[str, type[Message]] = {REPORT_TRANSITIONS: PassTransitionsReport, REPORT_SNAPSHOT: PassSnapshotReport}
 
 
 def advice_kind(payload: Any) -> type[Message] | None:
@@ -365,7 +367,8 @@ report_value = _nested(decode_report)
 __all__ = [
     "ADVICE_KINDS", "ARRAY_DTYPES", "CoachAdvice", "GETOPEN_POLICY_NAMES", "HASH_COUNTS", "KeeperReport",
     "PASS_MODES", "PASS_POLICY_NAMES", "PassLoadAdvice", "PassModeAdvice", "PassSnapshotReport",
-    "PassTransitionsReport", "PolicyAdvice", "REPORTED", "REPORTS", "REPORT_KINDS", "ReportRequest",
+    "PassTransitionsReport", "PolicyAdvice", "REPORTED", "REPORTS", "REPORT_KINDS", "REPORT_SNAPSHOT",
+    "REPORT_TRANSITIONS", "ReportRequest",
     "SeedAdvice", "SparsePassChunk", "advice_kind", "advice_value", "decode_advice", "decode_report",
     "report_value",
 ]

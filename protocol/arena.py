@@ -16,7 +16,18 @@ from typing import ClassVar
 
 from protocol.advice import REPORTS, advice_value, report_value
 from protocol.codec import Message, choice, decode, fixed, integer, message, optional, sequence, wire
-from protocol.messages import CYCLE, EPISODE_ENDS, MAX_CYCLE, SEED, SIDE, UNUM, Error, Shutdown, _advice_target, _by_type
+from protocol.messages import (
+    CYCLE,
+    EPISODE_ENDS,
+    MAX_CYCLE,
+    SEED,
+    SIDE,
+    UNUM,
+    Error,
+    Shutdown,
+    _advice_target,
+    _by_type,
+)
 
 MAX_EPISODES_PER_REQUEST = 1_000_000
 MAX_RECORDS = 1_000_000

@@ -33,6 +33,8 @@ import numpy as np
 from agents.pass_wire import pass_arrays_from_chunks, sparse_pass_chunks
 from agents.sarsa import SarsaLearner
 from protocol.advice import (
+    REPORT_SNAPSHOT,
+    REPORT_TRANSITIONS,
     KeeperReport,
     PassLoadAdvice,
     PassModeAdvice,
@@ -171,8 +173,8 @@ class CoachedBackend(ABC):
         if not learning:
             done = self.serve([Chunk(n, s, advice) for n, s in plan], progress, in_order=False)
             return Played(self._result(seed, done, time.perf_counter() - start))
-        chunks = [Chunk(n, s, advice if j == 0 else (), ("transitions",)) for j, (n, s) in enumerate(plan)]
-        chunks[-1] = replace(chunks[-1], reports=("transitions", "snapshot"))
+        chunks = [Chunk(n, s, advice if j == 0 else (), (REPORT_TRANSITIONS,)) for j, (n, s) in enumerate(plan)]
+        chunks[-1] = replace(chunks[-1], reports=(REPORT_TRANSITIONS, REPORT_SNAPSHOT))
         done = self.serve(chunks, progress, in_order=True)
         snapshots = keeper_reports(done[-1:], PassSnapshotReport)
         try:

@@ -183,7 +183,8 @@ def test_the_coach_refuses_what_it_cannot_forward_and_rejoins_a_server_that_lost
 
     try:
         # an advice above the server's limit (1 MiB here) is refused at once, in one line; nothing jams
-        trainer.send(encode(RunEpisodes(episodes=1, advice=(("keepers", PolicyAdvice(getopen_theta=np.zeros(1 << 17))),))))
+        huge = PolicyAdvice(getopen_theta=np.zeros(1 << 17))
+        trainer.send(encode(RunEpisodes(episodes=1, advice=(("keepers", huge),))))
         refused = answer()
         assert isinstance(refused, m.Error) and refused.code == "too_large" and "1048576" in refused.message
         # the session is lost before the run begins: the coach joins again and serves the run
