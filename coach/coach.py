@@ -15,7 +15,6 @@ becomes a ``too_large`` error here, where it is encoded.
 
 from __future__ import annotations
 
-import logging
 import signal
 import time
 from collections.abc import Callable

@@ -12,7 +12,6 @@ from protocol.advice import (
     PassLoadAdvice,
     PassModeAdvice,
     PassSnapshotReport,
-    PassTransitionsReport,
     PolicyAdvice,
     ReportRequest,
     SeedAdvice,
