@@ -26,25 +26,24 @@ With ``--pass learned`` the keeper's Pass decisions go to a :class:`PassLearner`
 ``pass_keeper<k>_*`` arrays when the file has them, else the plain ones), or from zeros without one, in
 greedy mode (the frozen policy of evaluations).
 
-The coach's advice (``hear`` with sender ``"coach"``, a map with ``kind``; docs/advice.md):
+The coach's advice (``hear`` with sender ``"coach"``; docs/advice.md) is decoded into the messages of
+``protocol.advice`` and dispatched on their type:
 
-* ``{"kind": "policy", "getopen_theta": ..., "pass": name, "getopen": name}`` (each optional): new GO:L
-  parameters, and a switch of the keeper's Pass / GetOpen policy (keys of :data:`PASS_POLICIES` /
-  :data:`GETOPEN_POLICIES`); a keeper switching to Pass ``learned`` without a learner gets a fresh Sarsa
-  learner (zero weights, ``SarsaConfig()``, greedy);
-* ``{"kind": "pass_mode", "mode": "learn" | "greedy" | "explore"}``: the Sarsa learner's mode;
-* ``{"kind": "pass_load", ...}``: a sparse Pass policy in chunks (``agents.pass_wire``); once complete, the
-  keeper's learner becomes a Sarsa learner with those weights and collision table, greedy unless a
-  ``pass_mode`` advice says otherwise;
-* ``{"kind": "seed", "seed": int}`` (takers too): every random stream of the agent restarts as if it had
-  been started with that seed, and the world model and decision memory start afresh (fed again with the
-  percepts of the current cycle), so its play from then on depends only on the seed, its policies and its
-  percepts;
-* ``{"kind": "report", "what": "transitions" | "snapshot"}``: every keeper answers
-  (:meth:`PlayerAgent.pending_reports`, sent by the socket loop as ``report`` messages of at most
-  ``REPORT_BYTES`` array bytes each): its Sarsa learner's SMDP transitions since the last such report,
-  or its whole Pass policy in the sparse form of ``pass_load``; a keeper without a Sarsa learner answers
-  one empty payload with ``"learner": false``.
+* ``PolicyAdvice``: new GO:L parameters, and a switch of the keeper's Pass / GetOpen policy (keys of
+  :data:`PASS_POLICIES` / :data:`GETOPEN_POLICIES`); a keeper switching to Pass ``learned`` without a
+  learner gets a fresh Sarsa learner (zero weights, ``SarsaConfig()``, greedy);
+* ``PassModeAdvice``: the Sarsa learner's mode;
+* ``PassLoadAdvice``: a sparse Pass policy in chunks (``agents.pass_wire``); once complete, the keeper's
+  learner becomes a Sarsa learner with those weights and collision table, greedy unless a
+  ``PassModeAdvice`` says otherwise;
+* ``SeedAdvice`` (takers too): every random stream of the agent restarts as if it had been started with
+  that seed, and the world model and decision memory start afresh (fed again with the percepts of the
+  current cycle), so its play from then on depends only on the seed, its policies and its percepts;
+* ``ReportRequest``: every keeper answers (:meth:`PlayerAgent.pending_reports`, sent by the socket loop as
+  ``report`` messages of at most ``REPORT_BYTES`` array bytes each): its Sarsa learner's SMDP transitions
+  since the last such report (``PassTransitionsReport``), or its whole Pass policy in the sparse form of
+  ``pass_load`` (``PassSnapshotReport``); a keeper without a Sarsa learner answers one empty report with
+  ``learner`` false.
 
 Decisions made outside (``outside``, for an environment that hands them to its caller: ``keepaway.env``):
 a keeper may leave its Pass decisions (``"pass"``), its GetOpen decisions (``"getopen"``: a grid point)
@@ -75,14 +74,7 @@ from agents.keeper import (
     execute_pass_action,
     keeper_decide,
 )
-from agents.pass_wire import (
-    REPORT_BYTES,
-    chunk_position,
-    chunked_payloads,
-    pass_arrays_from_payloads,
-    report_arrays,
-    sparse_pass_payloads,
-)
+from agents.pass_wire import REPORT_BYTES, chunked, pass_arrays_from_chunks, sparse_pass_chunks
 from agents.policy_file import (
     Policy,
     PolicyFileError,
@@ -103,8 +95,19 @@ from agents.skills import (
 from agents.state_vars import pass_state_size
 from agents.taker import taker_decide
 from agents.worldmodel import SIDE_CODES, WorldModel
-from protocol import PROTOCOL_VERSION
+from protocol import PROTOCOL_VERSION, ProtocolError
 from protocol import messages as m
+from protocol.advice import (
+    REPORTED,
+    PassLoadAdvice,
+    PassModeAdvice,
+    PassSnapshotReport,
+    PassTransitionsReport,
+    PolicyAdvice,
+    ReportRequest,
+    SeedAdvice,
+    advice_kind,
+)
 from protocol.params import ServerParams
 from core.objects import CMD_DASH, CMD_KICK, CMD_TURN
 
@@ -115,17 +118,7 @@ TIMING_MODES = ("sync", "realtime")
 # Referee messages (spec `keepaway-agents.md` 1 step 1 and 6; docs/protocol.md 6 "hear").
 EPISODE_MESSAGE = "training Keepaway 1"
 KICK_OFF_MESSAGE = "play_on"
-# The coach's advice kinds (docs/advice.md).
-POLICY_ADVICE_KIND = "policy"
-PASS_MODE_ADVICE_KIND = "pass_mode"
-PASS_LOAD_ADVICE_KIND = "pass_load"
-SEED_ADVICE_KIND = "seed"
-REPORT_ADVICE_KIND = "report"
-PASS_MODES = MODE_NAMES
 LEARNED = "learned"  # the Pass policy name of the external learner
-# The coach's report request: {"kind": "report", "what": REPORT_TRANSITIONS or REPORT_SNAPSHOT}.
-REPORT_TRANSITIONS = "transitions"
-REPORT_SNAPSHOT = "snapshot"
 # Arena size when init_ok's config does not give it (spec `keepaway-task.md` 1: 3 keepers vs 2 takers).
 DEFAULT_KEEPERS = 3
 DEFAULT_TAKERS = 2
@@ -258,13 +251,6 @@ class _Advice:
     seed: int | None = None
 
 
-def _policy_name(value: Any, names: dict[str, int], what: str) -> str | None:
-    """An optional policy name of the policy advice; ValueError unless it is a key of ``names``."""
-    if value is not None and (type(value) is not str or value not in names):
-        raise ValueError(f"{what} policy {value!r} is not one of {list(names)}")
-    return value
-
-
 class PlayerAgent:
     """One keeper or taker, driven by decoded protocol messages (module docstring).
 
@@ -332,7 +318,7 @@ class PlayerAgent:
         self.mode: str | None = None
         self.episodes = 0  # episode boundaries heard
         self._pending = _Advice()
-        self._load_parts: list[dict[str, Any]] = []  # pass_load chunks collected so far
+        self._load_parts: list[PassLoadAdvice] = []  # pass_load chunks collected so far
         self._reports: list[m.Report] = []
         self._reported = 0  # sequence number of the next transition to report
         self._started = False
@@ -345,6 +331,11 @@ class PlayerAgent:
         self._handlers: dict[type, Callable[[Any], m.Command | None]] = {
             m.InitOk: self._on_init_ok, m.SenseBody: self._on_sense_body, m.See: self._on_see,
             m.Fullstate: self._on_fullstate, m.Hear: self._on_hear, m.Think: self._on_think,
+        }
+        self._advice_handlers: dict[type, Callable[[Any, int], None]] = {
+            SeedAdvice: self._on_seed_advice, PassModeAdvice: self._on_pass_mode_advice,
+            ReportRequest: self._on_report_request, PolicyAdvice: self._on_policy_advice,
+            PassLoadAdvice: self._on_pass_load_advice,
         }
 
     @property
@@ -543,99 +534,77 @@ class PlayerAgent:
             log.warning("the coach's seed advice cannot reseed the Pass learner: it is not a Sarsa learner")
 
     def _on_advice(self, payload: Any, cycle: int) -> None:
-        """Keep the coach's advice for the next episode boundary (or kick-off), queue the reports it asks
-        for. Advice of another kind is not for this agent, nor is any but ``seed`` for a taker. Bad advice
-        is logged and ignored."""
-        if type(payload) is not dict:
+        """Decode the coach's advice (``protocol.advice``) and dispatch it on its type: kept for the next
+        episode boundary (or kick-off), or a report request queued at once. A payload of no known kind is
+        not for this agent, nor is any advice but seed for a taker. Bad advice is logged in one line and
+        ignored."""
+        cls = advice_kind(payload)
+        if cls is None or (not self.is_keeper and cls is not SeedAdvice):
             return
-        kind = payload.get("kind")
-        if kind == SEED_ADVICE_KIND:
-            self._on_seed_advice(payload.get("seed"))
-        elif not self.is_keeper:
-            return
-        elif kind == PASS_MODE_ADVICE_KIND:
-            self._on_pass_mode_advice(payload.get("mode"))
-        elif kind == REPORT_ADVICE_KIND:
-            self._on_report_advice(payload.get("what"), cycle)
-        elif kind == POLICY_ADVICE_KIND:
-            self._on_policy_advice(payload)
-        elif kind == PASS_LOAD_ADVICE_KIND:
-            self._on_pass_load_advice(payload)
-
-    def _on_seed_advice(self, seed: Any) -> None:
-        if type(seed) is not int or seed < 0:
-            log.warning("ignored the coach's seed advice: seed %r is not an integer >= 0", seed)
-        else:
-            self._pending.seed = seed
-
-    def _on_pass_mode_advice(self, mode: Any) -> None:
-        if type(mode) is not str or mode not in PASS_MODES:
-            log.warning("ignored the coach's pass_mode advice: mode %r is not one of %s", mode, list(PASS_MODES))
-        else:
-            self._pending.pass_mode = PASS_MODES[mode]
-
-    def _on_policy_advice(self, payload: dict) -> None:
-        """GO:L parameters (a list of floats or float64 little-endian bytes) and policy names, all kept
-        or, if one is bad, none."""
         try:
-            theta = payload.get("getopen_theta")
-            if theta is not None:
-                theta = as_getopen_theta(np.frombuffer(theta, dtype="<f8") if isinstance(theta, bytes) else theta,
-                                         self.theta.size)
-            pass_policy = _policy_name(payload.get("pass"), PASS_POLICIES, "Pass")
-            getopen_policy = _policy_name(payload.get("getopen"), GETOPEN_POLICIES, "GetOpen")
-        except ValueError as exc:
-            log.warning("ignored the coach's policy advice: %s", exc)
+            advice = cls.from_wire(payload)
+        except ProtocolError as exc:
+            log.warning("ignored the coach's %s advice: %s: %s", cls.TYPE, exc.code, exc.message)
             return
-        if theta is not None:
-            self._pending.theta = theta
-        if pass_policy is not None:
-            self._pending.pass_policy = pass_policy
-        if getopen_policy is not None:
-            self._pending.getopen_policy = getopen_policy
+        self._advice_handlers[cls](advice, cycle)
 
-    def _on_pass_load_advice(self, payload: dict) -> None:
+    def _on_seed_advice(self, advice: SeedAdvice, cycle: int) -> None:
+        self._pending.seed = advice.seed
+
+    def _on_pass_mode_advice(self, advice: PassModeAdvice, cycle: int) -> None:
+        self._pending.pass_mode = MODE_NAMES[advice.mode]
+
+    def _on_policy_advice(self, advice: PolicyAdvice, cycle: int) -> None:
+        """GO:L parameters and policy names, all kept or, if the parameters do not fit this arena's net,
+        none."""
+        if advice.getopen_theta is not None:
+            try:
+                self._pending.theta = as_getopen_theta(advice.getopen_theta, self.theta.size)
+            except ValueError as exc:
+                log.warning("ignored the coach's %s advice: %s", advice.TYPE, exc)
+                return
+        if advice.pass_policy is not None:
+            self._pending.pass_policy = advice.pass_policy
+        if advice.getopen_policy is not None:
+            self._pending.getopen_policy = advice.getopen_policy
+
+    def _on_pass_load_advice(self, advice: PassLoadAdvice, cycle: int) -> None:
         """Collect the chunks of a sparse Pass policy (chunk 0 starts over); keep it once complete."""
         try:
-            chunk, chunks = chunk_position(payload)
-            if chunk == 0:
+            if advice.chunk == 0:
                 self._load_parts = []
             elif not self._load_parts:
-                raise ValueError(f"chunk {chunk} of {chunks} came without chunk 0")
-            self._load_parts.append(payload)
-            if len(self._load_parts) < self._load_parts[0]["chunks"]:
+                raise ValueError(f"chunk {advice.chunk} of {advice.chunks} came without chunk 0")
+            self._load_parts.append(advice)
+            if len(self._load_parts) < self._load_parts[0].chunks:
                 return
             parts, self._load_parts = self._load_parts, []
-            self._pending.load = pass_arrays_from_payloads(parts)
+            self._pending.load = pass_arrays_from_chunks(parts)
         except ValueError as exc:
-            log.warning("ignored the coach's pass_load advice: %s", exc)
+            log.warning("ignored the coach's %s advice: %s", advice.TYPE, exc)
 
-    def _on_report_advice(self, what: Any, cycle: int) -> None:
+    def _on_report_request(self, request: ReportRequest, cycle: int) -> None:
         """Queue the requested report at once (a report changes nothing in the game)."""
-        if what not in (REPORT_TRANSITIONS, REPORT_SNAPSHOT):
-            log.warning("ignored the coach's report request: %r is not %r or %r", what, REPORT_TRANSITIONS,
-                        REPORT_SNAPSHOT)
-            return
+        report = REPORTED[request.what]
         if not isinstance(self.learner, SarsaLearner):
-            payloads = [{"kind": f"pass_{what}", "learner": False, "episode": self.episodes, "chunk": 0,
-                         "chunks": 1, "first": 0, "count": 0}]
-        elif what == REPORT_TRANSITIONS:
-            payloads = self._transition_payloads()
+            reports = [report(learner=False, episode=self.episodes, chunk=0, chunks=1, first=0, count=0)]
+        elif report is PassTransitionsReport:
+            reports = self._transition_reports()
         else:
-            payloads = sparse_pass_payloads(self.learner.save(), self.learner.config,
-                                            {"kind": "pass_snapshot", "episode": self.episodes, "learner": True})
-        self._reports += [m.Report(cycle=cycle, payload=p) for p in payloads]
+            reports = sparse_pass_chunks(self.learner.save(), self.learner.config, PassSnapshotReport,
+                                         episode=self.episodes, learner=True)
+        self._reports += [m.Report(cycle=cycle, payload=r.to_wire()) for r in reports]
 
-    def _transition_payloads(self) -> list[dict[str, Any]]:
+    def _transition_reports(self) -> list[PassTransitionsReport]:
         """The learner's SMDP transitions since the last transitions report (``first`` = sequence number;
         ``dropped``: transitions lost from its ring buffer since then)."""
         logged = self.learner.transitions(self._reported)
         sequence = logged.pop("sequence")
         first = int(sequence[0]) if len(sequence) else int(self.learner.memory.log_count[0])
-        head = {"kind": "pass_transitions", "learner": True, "episode": self.episodes,
-                "dropped": first - self._reported, "n_vars": self.pass_state.size}
+        head = {"learner": True, "episode": self.episodes, "dropped": first - self._reported,
+                "n_vars": self.pass_state.size}
         self._reported = first + len(sequence)
-        return chunked_payloads(head, logged, len(sequence), first)
+        return chunked(PassTransitionsReport, head, logged, len(sequence), first)
 
     def pending_reports(self) -> list[m.Report]:
         """The ``report`` messages queued for the coach since the last call (the socket loop sends them)."""
@@ -764,7 +733,6 @@ __all__ = [
     "OUTSIDE_DECISIONS",
     "OUTSIDE_GETOPEN",
     "OUTSIDE_PASS",
-    "PASS_MODES",
     "PASS_POLICIES",
     "REPORT_BYTES",
     "PassLearner",
@@ -774,7 +742,6 @@ __all__ = [
     "compile_kernels",
     "greedy_pass_factory",
     "learner_seed",
-    "report_arrays",
     "sarsa_config",
     "sarsa_learner",
     "sarsa_pass_factory",

@@ -31,12 +31,13 @@ from core.jit import njit
 
 from agents.keeper import PASS_DECISION_START, PASS_DECISION_STEP
 from core.rng import randint, seed_streams, uniform
+from protocol.advice import PASS_MODES
 
 # Modes, switchable between episodes (spec `keepaway-agents.md` 5, evaluation mode).
 MODE_LEARN = 0  # epsilon-greedy actions, weight updates (player -e 1)
 MODE_GREEDY = 1  # greedy actions, no updates: the frozen policy of evaluations (player -e 0)
 MODE_EXPLORE = 2  # epsilon-greedy actions, no updates: training behaviour with frozen weights
-MODE_NAMES = {"learn": MODE_LEARN, "greedy": MODE_GREEDY, "explore": MODE_EXPLORE}
+MODE_NAMES = dict(zip(PASS_MODES, (MODE_LEARN, MODE_GREEDY, MODE_EXPLORE), strict=True))  # as the advice names them
 NO_ACTION = -1
 
 # tiles2.cc / tiles2.h constants of the UNH hash.

@@ -35,6 +35,7 @@ from agents.geometry import (
     turn_moment,
 )
 from core.objects import CMD_DASH, CMD_KICK, CMD_TURN
+from protocol.advice import GETOPEN_POLICY_NAMES, PASS_POLICY_NAMES
 
 # Pass policies (spec `keepaway-task.md` 3); EXTERNAL: the caller's learner picks the action.
 PASS_RANDOM = 0
@@ -47,11 +48,11 @@ GETOPEN_HANDCODED = 1
 GETOPEN_HANDCODED_CONE = 2
 GETOPEN_LEARNED = 3
 GETOPEN_EXTERNAL = 4  # the caller picks the grid point (agents.player, outside decisions); no CLI name
-# The policies' names on the command line and in configurations, shared by every mode.
-PASS_POLICIES = {"random": PASS_RANDOM, "handcoded": PASS_HANDCODED, "learned": PASS_EXTERNAL,
-                 "hold": PASS_HOLD}
-GETOPEN_POLICIES = {"random": GETOPEN_RANDOM, "handcoded": GETOPEN_HANDCODED,
-                    "handcoded-cone": GETOPEN_HANDCODED_CONE, "learned": GETOPEN_LEARNED}
+# The policies' names on the command line, in configurations and in the coach's advice (declared with
+# the advice, protocol.advice), shared by every mode, and their codes.
+PASS_POLICIES = dict(zip(PASS_POLICY_NAMES, (PASS_RANDOM, PASS_HANDCODED, PASS_EXTERNAL, PASS_HOLD), strict=True))
+GETOPEN_POLICIES = dict(zip(GETOPEN_POLICY_NAMES,
+                            (GETOPEN_RANDOM, GETOPEN_HANDCODED, GETOPEN_HANDCODED_CONE, GETOPEN_LEARNED), strict=True))
 
 
 @dataclass(frozen=True)

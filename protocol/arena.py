@@ -14,8 +14,20 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import ClassVar
 
-from protocol.codec import Message, choice, decode, fixed, integer, message, optional, payload_value, sequence, wire
-from protocol.messages import CYCLE, EPISODE_ENDS, MAX_CYCLE, SEED, Error, Shutdown, _advice_target, _by_type
+from protocol.advice import REPORTS, advice_value, report_value
+from protocol.codec import Message, choice, decode, fixed, integer, message, optional, sequence, wire
+from protocol.messages import (
+    CYCLE,
+    EPISODE_ENDS,
+    MAX_CYCLE,
+    SEED,
+    SIDE,
+    UNUM,
+    Error,
+    Shutdown,
+    _advice_target,
+    _by_type,
+)
 
 MAX_EPISODES_PER_REQUEST = 1_000_000
 MAX_RECORDS = 1_000_000
@@ -24,32 +36,33 @@ MAX_ADVICE = 1024
 # The arena port carries whole Pass policies one way and every keeper's reports the other: its frames
 # may be far larger than a player's (the trainer is trusted; ZeroMQ still enforces this bound).
 ARENA_MAX_MESSAGE_BYTES = 1 << 28
-# What a trainer can ask the keepers to report after a run (agents/player.py, docs/advice.md).
-REPORTS = ("transitions", "snapshot")
 
 
 @message
 class RunEpisodes(Message):
-    """Deliver ``advice`` (``[target, payload]`` pairs, targets as in ``advice``), restart the episode
-    (reseeded if ``seed`` is given), play ``episodes`` episodes, then collect ``reports`` from every
-    keeper."""
+    """Deliver ``advice`` (``(target, advice)`` pairs, targets as in ``advice``, each advice a message of
+    ``protocol.advice``), restart the episode (reseeded if ``seed`` is given), play ``episodes`` episodes,
+    then collect ``reports`` (of :data:`~protocol.advice.REPORTS`) from every keeper."""
 
     TYPE: ClassVar[str] = "run_episodes"
     episodes: int = wire(integer(1, MAX_EPISODES_PER_REQUEST))
     seed: int | None = wire(optional(SEED), default=None)
-    advice: tuple = wire(sequence(fixed(_advice_target, payload_value), MAX_ADVICE), default=())
+    advice: tuple = wire(sequence(fixed(_advice_target, advice_value), MAX_ADVICE), default=(),
+                         dump=lambda pairs: [[target, advice.to_wire()] for target, advice in pairs])
     reports: tuple = wire(sequence(choice(*REPORTS), len(REPORTS)), default=())
 
 
 @message
 class EpisodesDone(Message):
     """The answer to :class:`RunEpisodes`: ``[episode, start_cycle, end_cycle, end]`` per episode and the
-    keepers' reports (``[side, unum, payload]``, every chunk of every report asked for)."""
+    keepers' reports (``(side, unum, report)``, a report message of ``protocol.advice`` per chunk of every
+    report asked for)."""
 
     TYPE: ClassVar[str] = "episodes_done"
     cycle: int = wire(CYCLE)
     episodes: tuple = wire(sequence(EPISODE_RECORD, MAX_RECORDS))
-    reports: tuple = wire(sequence(payload_value, MAX_RECORDS), default=())
+    reports: tuple = wire(sequence(fixed(SIDE, UNUM, report_value), MAX_RECORDS), default=(),
+                          dump=lambda rows: [[side, unum, report.to_wire()] for side, unum, report in rows])
 
 
 @message

@@ -308,31 +308,43 @@ def wire(
     default: Any = dataclasses.MISSING,
     required: bool | None = None,
     dump: Callable[[Any], Any] | None = None,
+    key: str | None = None,
+    omit_none: bool = False,
 ) -> Any:
     """Declare a message field: ``load`` validates its wire value, ``dump`` (if any) builds it.
 
     A field with a default may be omitted on the wire unless ``required`` says otherwise (the version
-    field has a Python default for convenience but is always required on the wire).
+    field has a Python default for convenience but is always required on the wire). ``key`` is its wire
+    name when that cannot be a Python name (``"pass"``); ``omit_none``: a None value is left out of the
+    wire map instead of sent as nil (optional fields of the coach's advice, docs/advice.md).
     """
     metadata = {"load": load, "required": default is dataclasses.MISSING if required is None else required,
-                "dump": dump}
+                "dump": dump, "key": key, "omit_none": omit_none}
     return dataclasses.field(default=default, metadata=metadata)
 
 
 class Message:
-    """Base of every message dataclass: the generic wire conversion driven by the :func:`wire` fields."""
+    """Base of every message dataclass: the generic wire conversion driven by the :func:`wire` fields.
+
+    ``TAG`` is the key naming the message's ``TYPE`` on the wire: ``"type"`` for the messages of the
+    ports, ``"kind"`` for the coach's advice and the players' reports carried inside them
+    (``protocol.advice``)."""
 
     __slots__ = ()
+    TAG: ClassVar[str] = "type"
     TYPE: ClassVar[str]
-    _WIRE: ClassVar[tuple[tuple[str, Loader, bool, Callable[[Any], Any] | None], ...]]
+    _WIRE: ClassVar[tuple[tuple[str, str, Loader, bool, Callable[[Any], Any] | None, bool], ...]]
     _NAMES: ClassVar[frozenset[str]]
 
     def to_wire(self) -> dict[str, Any]:
-        """The msgpack-ready map: ``"type"`` then every field (defaults included), string keys only."""
-        out: dict[str, Any] = {"type": self.TYPE}
-        for name, _, _, dump in self._WIRE:
+        """The msgpack-ready map: the tag then every field (defaults included unless ``omit_none``),
+        string keys only."""
+        out: dict[str, Any] = {self.TAG: self.TYPE}
+        for name, key, _, _, dump, omit_none in self._WIRE:
             value = getattr(self, name)
-            out[name] = value if dump is None else dump(value)
+            if value is None and omit_none:
+                continue
+            out[key] = value if dump is None else dump(value)
         return out
 
     @classmethod
@@ -340,17 +352,17 @@ class Message:
         """Validate a decoded map and build the message; raises only :class:`ProtocolError`."""
         if type(data) is not dict:
             raise ProtocolError("not_a_map", f"{cls.TYPE}: expected a map, got {kind(data)}")
-        if data.get("type") != cls.TYPE:
-            raise ProtocolError("unknown_type", f"expected type {cls.TYPE!r}, got {show(data.get('type'))}")
+        if data.get(cls.TAG) != cls.TYPE:
+            raise ProtocolError("unknown_type", f"expected {cls.TAG} {cls.TYPE!r}, got {show(data.get(cls.TAG))}")
         values = {}
-        for name, load, required, _ in cls._WIRE:
-            if name in data:
+        for name, key, load, required, _, _ in cls._WIRE:
+            if key in data:
                 try:
-                    values[name] = load(data[name])
+                    values[name] = load(data[key])
                 except Invalid as exc:
-                    raise exc.error(cls.TYPE, name) from None
+                    raise exc.error(cls.TYPE, key) from None
             elif required:
-                raise ProtocolError("missing_field", f"{cls.TYPE}: missing field {name!r}")
+                raise ProtocolError("missing_field", f"{cls.TYPE}: missing field {key!r}")
         if len(data) != len(values) + 1:
             try:
                 _reject_keys(data, cls._NAMES)
@@ -367,15 +379,22 @@ class Message:
         """Rules that relate several fields; raises :class:`Invalid`. None by default."""
 
 
-def message(cls: type) -> type:
-    """Class decorator: make ``cls`` a frozen keyword-only dataclass and record its wire fields."""
-    cls = dataclasses.dataclass(frozen=True, kw_only=True, slots=True)(cls)
-    cls._WIRE = tuple(
-        (f.name, f.metadata["load"], f.metadata["required"], f.metadata["dump"])
-        for f in dataclasses.fields(cls)
-    )
-    cls._NAMES = frozenset(f.name for f in dataclasses.fields(cls)) | {"type"}
-    return cls
+def message(cls: type | None = None, *, eq: bool = True) -> Any:
+    """Class decorator: make ``cls`` a frozen keyword-only dataclass and record its wire fields.
+    ``eq=False`` keeps the equality the class inherits (messages holding numpy arrays compare by their
+    wire form, ``protocol.advice``)."""
+
+    def make(cls: type) -> type:
+        cls = dataclasses.dataclass(frozen=True, kw_only=True, slots=True, eq=eq)(cls)
+        cls._WIRE = tuple(
+            (f.name, f.metadata["key"] or f.name, f.metadata["load"], f.metadata["required"], f.metadata["dump"],
+             f.metadata["omit_none"])
+            for f in dataclasses.fields(cls)
+        )
+        cls._NAMES = frozenset(entry[1] for entry in cls._WIRE) | {cls.TAG}
+        return cls
+
+    return make if cls is None else make(cls)
 
 
 # ----------------------------------------------------------------------------------------------- codec
@@ -410,16 +429,28 @@ def decode(
     except Exception as exc:  # noqa: BLE001 - msgpack reports bad input with several exception types
         reason = " ".join(str(exc).split())[:120] or type(exc).__name__
         raise ProtocolError("malformed", f"not a msgpack value: {reason}") from None
+    return load_tagged(value, allowed)
+
+
+def tagged_type(value: Any, allowed: Mapping[str, type[Message]], tag: str = "type",
+                what: str = "a message") -> type[Message]:
+    """The class of ``allowed`` a decoded value names by its ``tag``; :class:`ProtocolError` if it is not
+    a map, has no such tag, or names no allowed type."""
     if type(value) is not dict:
-        raise ProtocolError("not_a_map", f"a message is a msgpack map, got {kind(value)}")
-    if "type" not in value:
-        raise ProtocolError("missing_field", "message has no 'type'")
-    message_type = value["type"]
-    if type(message_type) is not str:
-        raise ProtocolError("bad_type", f"'type' must be a str, got {kind(message_type)}")
-    cls = allowed.get(message_type)
+        raise ProtocolError("not_a_map", f"{what} is a msgpack map, got {kind(value)}")
+    if tag not in value:
+        raise ProtocolError("missing_field", f"{what} has no {tag!r}")
+    name = value[tag]
+    if type(name) is not str:
+        raise ProtocolError("bad_type", f"{tag!r} must be a str, got {kind(name)}")
+    cls = allowed.get(name)
     if cls is None:
-        raise ProtocolError(
-            "unknown_type", f"{show(message_type)} is not accepted here; expected one of {', '.join(allowed)}"
-        )
-    return cls.from_wire(value)
+        raise ProtocolError("unknown_type", f"{show(name)} is not accepted here; expected one of {', '.join(allowed)}")
+    return cls
+
+
+def load_tagged(value: Any, allowed: Mapping[str, type[Message]], tag: str = "type",
+                what: str = "a message") -> Message:
+    """An already unpacked value as one of the ``allowed`` types (:func:`tagged_type`), validated;
+    raises :class:`ProtocolError` and nothing else."""
+    return tagged_type(value, allowed, tag, what).from_wire(value)

@@ -31,9 +31,18 @@ from typing import Any, ClassVar, Self
 
 import numpy as np
 
-from agents.pass_wire import pass_arrays_from_payloads, sparse_pass_payloads
-from agents.player import report_arrays
+from agents.pass_wire import pass_arrays_from_chunks, sparse_pass_chunks
 from agents.sarsa import SarsaLearner
+from protocol.advice import (
+    REPORT_SNAPSHOT,
+    REPORT_TRANSITIONS,
+    KeeperReport,
+    PassLoadAdvice,
+    PassModeAdvice,
+    PassSnapshotReport,
+    PassTransitionsReport,
+    PolicyAdvice,
+)
 from protocol.arena import EpisodesDone, RunEpisodes
 from runner.job import (
     LEARNED,
@@ -84,10 +93,9 @@ def behaviour_advice(game: Game, behaviours: Behaviours, pass_mode: str) -> tupl
 def policy_advice(behaviours: Behaviours) -> tuple:
     """The policy names and the GetOpen net, to every keeper (its input scaling folded in: the advice
     carries the net on the raw variables, docs/advice.md)."""
-    policy: dict[str, Any] = {"kind": "policy", "pass": behaviours.pass_policy, "getopen": behaviours.getopen_policy}
-    if behaviours.getopen_theta is not None:
-        policy["getopen_theta"] = np.ascontiguousarray(behaviours.getopen_net, dtype="<f8").tobytes()
-    return (("keepers", policy),)
+    theta = behaviours.getopen_net if behaviours.getopen_theta is not None else None
+    return (("keepers", PolicyAdvice(getopen_theta=theta, pass_policy=behaviours.pass_policy,
+                                     getopen_policy=behaviours.getopen_policy)),)
 
 
 def pass_load_advice(game: Game, behaviours: Behaviours, pass_mode: str) -> tuple:
@@ -97,32 +105,32 @@ def pass_load_advice(game: Game, behaviours: Behaviours, pass_mode: str) -> tupl
     keepers = behaviours.pass_arrays or [SarsaLearner(game.keepers, game.takers, game.sarsa).save()] * game.keepers
     advice: list = []
     for unum, arrays in enumerate(keepers, start=1):
-        advice += [(("l", unum), p) for p in sparse_pass_payloads(arrays, config, {"kind": "pass_load"})]
-    advice.append(("keepers", {"kind": "pass_mode", "mode": pass_mode}))
+        advice += [(("l", unum), p) for p in sparse_pass_chunks(arrays, config, PassLoadAdvice)]
+    advice.append(("keepers", PassModeAdvice(mode=pass_mode)))
     return tuple(advice)
 
 
-def keeper_reports(done: list[EpisodesDone], kind: str) -> dict[int, list[dict]]:
-    """The report payloads of ``kind`` each keeper (by uniform number) sent in ``done``, in order."""
-    out: dict[int, list[dict]] = {}
+def keeper_reports(done: list[EpisodesDone], kind: type[KeeperReport]) -> dict[int, list[Any]]:
+    """The reports of class ``kind`` each keeper (by uniform number) sent in ``done``, in order."""
+    out: dict[int, list[Any]] = {}
     for answer in done:
-        for side, unum, payload in answer.reports:
-            if side == "l" and isinstance(payload, dict) and payload.get("kind") == kind:
-                out.setdefault(unum, []).append(payload)
+        for side, unum, report in answer.reports:
+            if side == "l" and type(report) is kind:
+                out.setdefault(unum, []).append(report)
     return out
 
 
 def transitions_by_keeper(done: list[EpisodesDone]) -> Transitions:
-    """Every keeper's SMDP transitions reported over ``done``, oldest first, as arrays (agents.player
-    ``report_arrays``: state, action, reward, next_action, terminal) plus ``dropped``, the number lost
-    from a keeper's ring buffer between two reports; keeper by keeper, whatever order their reports came in."""
+    """Every keeper's SMDP transitions reported over ``done``, oldest first, as arrays
+    (``PassTransitionsReport.arrays``: state, action, reward, next_action, terminal) plus ``dropped``, the
+    number lost from a keeper's ring buffer between two reports; keeper by keeper, whatever order their
+    reports came in."""
     out = {}
-    for unum, payloads in sorted(keeper_reports(done, "pass_transitions").items()):
-        parts = [report_arrays(p) for p in payloads if p.get("learner") and p.get("count")]
-        parts.sort(key=lambda p: p["first"])
+    for unum, reports in sorted(keeper_reports(done, PassTransitionsReport).items()):
+        parts = [r.arrays() for r in sorted(reports, key=lambda r: r.first) if r.learner and r.count]
         names = ("state", "action", "reward", "next_action", "terminal")
         arrays = {name: np.concatenate([p[name] for p in parts]) if parts else np.zeros(0) for name in names}
-        arrays["dropped"] = np.array(sum(int(p.get("dropped", 0)) for p in payloads if p.get("chunk") == 0))
+        arrays["dropped"] = np.array(sum(r.dropped for r in reports if r.learner and r.chunk == 0))
         out[unum] = arrays
     return out
 
@@ -196,12 +204,12 @@ class CoachedBackend(ABC):
         start = time.perf_counter()
         advice = behaviour_advice(self.game.learning_at(job.alpha), job.behaviours, job.pass_mode)
         plan = chunk_seeds(job.seed, job.episodes, self.chunk_episodes)
-        chunks = [Chunk(n, s, advice if j == 0 else (), ("transitions",)) for j, (n, s) in enumerate(plan)]
-        chunks[-1] = replace(chunks[-1], reports=("transitions", "snapshot"))
+        chunks = [Chunk(n, s, advice if j == 0 else (), (REPORT_TRANSITIONS,)) for j, (n, s) in enumerate(plan)]
+        chunks[-1] = replace(chunks[-1], reports=(REPORT_TRANSITIONS, REPORT_SNAPSHOT))
         done = self.serve(chunks, progress, in_order=True)
-        snapshots = keeper_reports(done[-1:], "pass_snapshot")
+        snapshots = keeper_reports(done[-1:], PassSnapshotReport)
         try:
-            learned = [pass_arrays_from_payloads(snapshots.get(unum, []))[1] for unum in range(1, self.game.keepers + 1)]
+            learned = [pass_arrays_from_chunks(snapshots.get(unum, []))[1] for unum in range(1, self.game.keepers + 1)]
         except ValueError as exc:
             raise ArenaFailure(f"{self.learning_arena}: a keeper's weight snapshot is unusable: {exc}") from None
         return Played(self._result(job.seed, done, time.perf_counter() - start), learned, transitions_by_keeper(done))

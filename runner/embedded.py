@@ -18,11 +18,12 @@ from collections.abc import Callable, Collection, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
-from agents.player import REPORT_ADVICE_KIND, SEED_ADVICE_KIND, PassLearnerFactory, PlayerAgent
+from agents.player import PassLearnerFactory, PlayerAgent
 from agents.policy_file import Policy
 from agents.skills import AgentConfig
 from protocol import encode
 from protocol import messages as m
+from protocol.advice import ReportRequest, SeedAdvice, decode_report
 from protocol.arena import EpisodesDone, RunEpisodes, decode_for_trainer, decode_from_trainer
 from protocol.messages import decode_for_player, decode_from_player
 from protocol.params import ServerParams
@@ -122,10 +123,10 @@ class EmbeddedGame:
         episodes; at the boundary after the last, the keepers asked for the reports, which they send at
         once."""
         arena = self.arena
-        for target, payload in request.advice:
-            arena.advise(arena.advice_targets(target), payload)
+        for target, advice in request.advice:
+            arena.advise(arena.advice_targets(target), advice.to_wire())
         if request.seed is not None:
-            arena.advise(arena.advice_targets("all"), {"kind": SEED_ADVICE_KIND, "seed": request.seed})
+            arena.advise(arena.advice_targets("all"), SeedAdvice(seed=request.seed).to_wire())
         arena.reset_episode(request.seed, now_ms=arena.cycle * arena.params.simulator_step_ms)
         self.hear()
         episodes = []
@@ -134,9 +135,9 @@ class EmbeddedGame:
             if record is not None:
                 episodes.append([record.episode, record.start_cycle, record.end_cycle, record.end])
         for what in request.reports:
-            arena.advise(arena.advice_targets("keepers"), {"kind": REPORT_ADVICE_KIND, "what": what})
+            arena.advise(arena.advice_targets("keepers"), ReportRequest(what=what).to_wire())
         self.hear()
-        reports = [[slot.side, slot.unum, _wire(report, decode_from_player).payload]
+        reports = [(slot.side, slot.unum, decode_report(_wire(report, decode_from_player).payload))
                    for slot, player in self.players for report in player.pending_reports()]
         return EpisodesDone(cycle=arena.cycle, episodes=episodes, reports=reports)
 

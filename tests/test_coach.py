@@ -8,6 +8,7 @@ import subprocess
 import threading
 import time
 
+import numpy as np
 import pytest
 import zmq
 
@@ -15,6 +16,7 @@ from coach.coach import Coach
 from conftest import keepaway_command, read_until_match
 from protocol import PROTOCOL_VERSION, encode, parameter_set
 from protocol import messages as m
+from protocol.advice import PolicyAdvice
 from protocol.arena import EpisodesDone, RunEpisodes, StopArena, decode_for_trainer
 from protocol.landmarks import to_wire as landmarks_to_wire
 from protocol.messages import decode_from_coach
@@ -40,7 +42,7 @@ def test_trainer_runs_episodes_through_the_arena_endpoint_and_stops_the_arena(pr
     trainer.setsockopt(zmq.LINGER, 0)
     trainer.connect(arena)
     try:
-        trainer.send(encode(RunEpisodes(episodes=3, advice=(("keepers", {"kind": "policy", "getopen_theta": [0.1] * 91}),))))
+        trainer.send(encode(RunEpisodes(episodes=3, advice=(("keepers", PolicyAdvice(getopen_theta=[0.1] * 91)),))))
         assert trainer.poll(180_000), "no answer from the arena"
         done = decode_for_trainer(trainer.recv())
         assert isinstance(done, EpisodesDone)
@@ -181,7 +183,8 @@ def test_the_coach_refuses_what_it_cannot_forward_and_rejoins_a_server_that_lost
 
     try:
         # an advice above the server's limit (1 MiB here) is refused at once, in one line; nothing jams
-        trainer.send(encode(RunEpisodes(episodes=1, advice=(("keepers", {"kind": "x", "blob": b"x" * (1 << 20)}),))))
+        huge = PolicyAdvice(getopen_theta=np.zeros(1 << 17))
+        trainer.send(encode(RunEpisodes(episodes=1, advice=(("keepers", huge),))))
         refused = answer()
         assert isinstance(refused, m.Error) and refused.code == "too_large" and "1048576" in refused.message
         # the session is lost before the run begins: the coach joins again and serves the run

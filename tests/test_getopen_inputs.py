@@ -239,7 +239,7 @@ def test_training_searches_nets_on_scaled_inputs_and_plays_them_folded():
     assert start.getopen_inputs == GetOpenScaling().inputs(3, 2, 20.0)
     np.testing.assert_array_equal(start.getopen_net, start.getopen_inputs.fold(start.getopen_theta))
     advice = policy_advice(start)[0][1]
-    np.testing.assert_array_equal(np.frombuffer(advice["getopen_theta"], dtype="<f8"), start.getopen_net)
+    np.testing.assert_array_equal(np.frombuffer(advice.to_wire()["getopen_theta"], dtype="<f8"), start.getopen_net)
 
 
 def test_training_begun_before_scaling_resumes_with_raw_inputs():

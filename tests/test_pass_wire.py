@@ -1,23 +1,25 @@
 """The sparse wire form of a keeper's Pass policy (agents/pass_wire.py, docs/advice.md): snapshot reports
-and ``pass_load`` advice carry the Sarsa collision table's occupied slots, in chunks.
+and ``pass_load`` advice carry the Sarsa collision table's occupied slots, in chunks. Each chunk on its
+own is checked by the protocol (tests/test_advice.py); here, cutting and putting together again.
 """
 
 from __future__ import annotations
 
-from dataclasses import asdict
+from dataclasses import asdict, replace
 
 import numpy as np
 import pytest
 
 import agents.pass_wire as pass_wire
-from agents.pass_wire import chunk_position, pass_arrays_from_payloads, report_arrays, sparse_pass_payloads
+from agents.pass_wire import pass_arrays_from_chunks, sparse_pass_chunks
 from agents.sarsa import SarsaConfig
 from protocol import encode
 from protocol import messages as m
+from protocol.advice import PassLoadAdvice, PassSnapshotReport, decode_report
 from protocol.messages import decode_from_player
 
 CONFIG = SarsaConfig(table_size=16, alpha=0.25)
-HEAD = {"kind": "pass_snapshot", "episode": 7, "learner": True}
+HEAD = {"episode": 7, "learner": True}
 
 
 def policy_arrays():
@@ -38,20 +40,25 @@ def assert_same(arrays, expected):
         assert arrays[name].dtype == value.dtype, name
 
 
+def snapshot(monkeypatch=None, report_bytes=None):
+    if report_bytes is not None:
+        monkeypatch.setattr(pass_wire, "REPORT_BYTES", report_bytes)
+    return sparse_pass_chunks(policy_arrays(), CONFIG, PassSnapshotReport, **HEAD)
+
+
 def test_one_chunk_holds_the_occupied_slots_in_order_and_round_trips():
-    payloads = sparse_pass_payloads(policy_arrays(), CONFIG, HEAD)
-    (p,) = payloads
+    (p,) = snapshot()
     # slots occupied (2, 5, 9, 14) or with a weight (11), in slot order
-    decoded = report_arrays(p)
-    assert decoded["index"].tolist() == [2, 5, 9, 11, 14]
-    assert decoded["check"].tolist() == [70, 2**31 - 1, 0, -1, 12345]
-    assert decoded["value"].tolist() == [1.5, 0.0, -0.25, 3.0, 1e-300]
-    assert decoded["hash_counts"].tolist() == [40, 36, 9]
-    assert (p["chunk"], p["chunks"], p["first"], p["count"], p["table_size"]) == (0, 1, 0, 5, 16)
-    assert p["config"] == asdict(CONFIG) and p["kind"] == "pass_snapshot" and p["episode"] == 7
-    # through the protocol's payload rules and back (a report as the server decodes it)
-    wire = decode_from_player(encode(m.Report(cycle=3, payload=p))).payload
-    config, arrays = pass_arrays_from_payloads([wire])
+    wire = decode_from_player(encode(m.Report(cycle=3, payload=p.to_wire()))).payload
+    decoded = decode_report(wire)  # through the protocol's rules and back (a report as the server relays it)
+    assert decoded == p
+    assert decoded.index.tolist() == [2, 5, 9, 11, 14]
+    assert decoded.check.tolist() == [70, 2**31 - 1, 0, -1, 12345]
+    assert decoded.value.tolist() == [1.5, 0.0, -0.25, 3.0, 1e-300]
+    assert decoded.hash_counts.tolist() == [40, 36, 9]
+    assert (p.chunk, p.chunks, p.first, p.count, p.table_size) == (0, 1, 0, 5, 16)
+    assert p.config == asdict(CONFIG) and wire["kind"] == "pass_snapshot" and p.episode == 7
+    config, arrays = pass_arrays_from_chunks([decoded])
     assert config == CONFIG
     assert_same(arrays, policy_arrays())
 
@@ -59,13 +66,16 @@ def test_one_chunk_holds_the_occupied_slots_in_order_and_round_trips():
 def test_chunks_hold_at_most_report_bytes_and_reassemble_in_any_order(monkeypatch):
     # 16 B per slot (4 index + 4 check + 8 value): 40 B per chunk allows 40 // 16 = 2 slots, so the 5
     # slots travel as chunks of 2, 2, 1 starting at entries 0, 2, 4.
+    chunks = sparse_pass_chunks(policy_arrays(), CONFIG, PassLoadAdvice)
+    assert len(chunks) == 1
     monkeypatch.setattr(pass_wire, "REPORT_BYTES", 40)
-    payloads = sparse_pass_payloads(policy_arrays(), CONFIG, HEAD)
-    assert [(p["chunk"], p["chunks"], p["first"], p["count"]) for p in payloads] == [
-        (0, 3, 0, 2), (1, 3, 2, 2), (2, 3, 4, 1)]
-    for p in payloads:
-        assert len(p["index"]) + len(p["check"]) + len(p["value"]) <= 40
-    config, arrays = pass_arrays_from_payloads(payloads[::-1])
+    chunks = sparse_pass_chunks(policy_arrays(), CONFIG, PassLoadAdvice)
+    assert [(p.chunk, p.chunks, p.first, p.count) for p in chunks] == [(0, 3, 0, 2), (1, 3, 2, 2), (2, 3, 4, 1)]
+    for p in chunks:
+        wire = p.to_wire()
+        assert wire["kind"] == "pass_load"
+        assert len(wire["index"]) + len(wire["check"]) + len(wire["value"]) <= 40
+    config, arrays = pass_arrays_from_chunks(chunks[::-1])
     assert config == CONFIG
     assert_same(arrays, policy_arrays())
 
@@ -73,56 +83,34 @@ def test_chunks_hold_at_most_report_bytes_and_reassemble_in_any_order(monkeypatc
 def test_an_empty_table_is_one_chunk_of_no_slots():
     empty = {"pass_weights": np.zeros(16), "pass_hash_check": np.full(16, -1, dtype=np.int32),
              "pass_hash_counts": np.zeros(3, dtype=np.int64)}
-    (p,) = sparse_pass_payloads(empty, CONFIG, {})
-    assert (p["count"], p["index"], p["check"], p["value"]) == (0, b"", b"", b"")
-    assert_same(pass_arrays_from_payloads([p])[1], empty)
+    (p,) = sparse_pass_chunks(empty, CONFIG, PassLoadAdvice)
+    wire = p.to_wire()
+    assert (p.count, wire["index"], wire["check"], wire["value"]) == (0, b"", b"", b"")
+    assert_same(pass_arrays_from_chunks([p])[1], empty)
 
 
 def test_arrays_that_do_not_fit_the_config_are_refused():
     with pytest.raises(ValueError, match="do not fit table_size 32"):
-        sparse_pass_payloads(policy_arrays(), SarsaConfig(table_size=32), HEAD)
+        sparse_pass_chunks(policy_arrays(), SarsaConfig(table_size=32), PassLoadAdvice)
 
 
-def chunks(monkeypatch):
-    monkeypatch.setattr(pass_wire, "REPORT_BYTES", 40)
-    return sparse_pass_payloads(policy_arrays(), CONFIG, HEAD)
-
-
-def edited(payload, **fields):
-    return {**payload, **fields}
+NO_LEARNER = PassSnapshotReport(learner=False, episode=1, chunk=0, chunks=1, first=0, count=0)
 
 
 @pytest.mark.parametrize("damage, problem", [
-    (lambda c: [], "no Pass payloads"),
+    (lambda c: [], "no Pass chunks"),
     (lambda c: [c[0], c[2]], r"missing chunks \[1\] of 3"),
     (lambda c: [c[0], c[1], c[1], c[2]], "duplicate chunk 1"),
-    (lambda c: [c[0], c[1], edited(c[2], chunks=4)], "disagree on their number"),
-    (lambda c: [c[0], c[1], edited(c[2], chunk=3)], "chunk 3 of 3 is not an integer 0 <= chunk < chunks"),
-    (lambda c: [c[0], c[1], edited(c[2], chunk="2")], "chunk '2' of 3"),
-    (lambda c: [c[0], c[1], [1, 2]], "a chunk must be a map, not list"),
-    (lambda c: [c[0], edited(c[1], table_size=32), c[2]], "chunk 1's table_size differs from chunk 0's"),
-    (lambda c: [c[0], edited(c[1], config={}), c[2]], "chunk 1's config differs"),
-    (lambda c: [c[0], {k: v for k, v in c[1].items() if k != "hash_counts"}, c[2]], "chunk 1 lacks hash_counts"),
-    (lambda c: [edited(p, config={**p["config"], "table_size": 15}) for p in c], "bad config: table_size must be"),
-    (lambda c: [edited(p, config={**p["config"], "colour": 1}) for p in c], "bad config: .*colour"),
-    (lambda c: [edited(p, config=[1]) for p in c], "config must be a map"),
-    (lambda c: [edited(p, table_size=32) for p in c], "table_size 32 is not the config's 16"),
-    (lambda c: [edited(p, hash_counts=b"\0" * 16) for p in c], "hash_counts is 16 bytes, expected 24"),
-    (lambda c: [c[0], edited(c[1], first=1), c[2]], "chunk 1 holds entries first=1 count=2; expected first=2"),
-    (lambda c: [c[0], edited(c[1], count=3), c[2]], "chunk 1: index is 8 bytes, expected 12"),
-    (lambda c: [c[0], edited(c[1], value=[0.0, 1.0]), c[2]], "chunk 1: value is list"),
-    (lambda c: [c[0], c[1], edited(c[2], index=np.array([16], "<u4").tobytes())], "slot index 16 is outside"),
-    (lambda c: [c[0], c[1], edited(c[2], index=np.array([2], "<u4").tobytes())], "repeated slot indices"),
-    (lambda c: [c[0], c[1], edited(c[2], value=np.array([np.nan], "<f8").tobytes())], "1 non-finite weights"),
+    (lambda c: [c[0], c[1], replace(c[2], chunks=4)], "disagree on their number"),
+    (lambda c: [NO_LEARNER], "chunk 0 holds no Pass policy"),
+    (lambda c: [c[0], replace(c[1], config={**c[1].config, "alpha": 0.5}), c[2]], "chunk 1's config differs"),
+    (lambda c: [c[0], replace(c[1], hash_counts=np.zeros(3, "<i8")), c[2]], "chunk 1's hash_counts differ"),
+    (lambda c: [replace(p, config={**p.config, "gamma": 0.5}) for p in c], "bad config: the SMDP update"),
+    (lambda c: [replace(p, config={**p.config, "colour": 1}) for p in c], "bad config: .*colour"),
+    (lambda c: [c[0], replace(c[1], first=1), c[2]], "chunk 1 holds entries first=1 count=2; expected first=2"),
+    (lambda c: [c[0], c[1], replace(c[2], index=np.array([2], "<u4"))], "repeated slot indices"),
 ])
 def test_bad_chunks_are_one_line_errors(monkeypatch, damage, problem):
     with pytest.raises(ValueError, match=problem) as info:
-        pass_arrays_from_payloads(damage(chunks(monkeypatch)))
+        pass_arrays_from_chunks(damage(snapshot(monkeypatch, 40)))
     assert "\n" not in str(info.value)
-
-
-def test_chunk_position_reads_a_chunks_place():
-    assert chunk_position({"chunk": 2, "chunks": 3}) == (2, 3)
-    for bad in ({"chunk": True, "chunks": 3}, {"chunk": -1, "chunks": 3}, {"chunks": 3}):
-        with pytest.raises(ValueError):
-            chunk_position(bad)

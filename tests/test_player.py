@@ -213,7 +213,8 @@ def test_coach_policy_advice_as_float64_bytes_and_bad_advice_is_ignored(caplog):
     np.testing.assert_array_equal(game.agent(2).theta, 0.0)
     np.testing.assert_array_equal(game.agent(3).theta, 0.0)
     warnings = [r.getMessage() for r in caplog.records if "ignored the coach's policy advice" in r.getMessage()]
-    assert len(warnings) == 2 and "shape (90,)" in warnings[0] and "non-finite" in warnings[1]
+    assert len(warnings) == 2 and "shape (90,)" in warnings[0]
+    assert "getopen_theta[0]: nan is not a finite" in warnings[1]
 
 
 def test_advice_before_kick_off_applies_at_kick_off():
@@ -259,7 +260,8 @@ def test_bad_policy_advice_is_ignored_whole_with_one_line(caplog):
     assert game.agent(1).cfg.pass_policy == PASS_POLICIES["handcoded"]
     assert game.agent(2).cfg.getopen_policy == GETOPEN_POLICIES["learned"]
     lines = [r.getMessage() for r in caplog.records if "ignored the coach's policy advice" in r.getMessage()]
-    assert len(lines) == 2 and "Pass policy 'telepathy' is not one of" in lines[0] and "['random']" in lines[1]
+    assert len(lines) == 2 and "policy.pass: 'telepathy' is not one of" in lines[0]
+    assert "policy.getopen: expected a str" in lines[1]
 
 
 def test_seed_advice_restarts_every_players_stream_at_the_boundary(caplog):

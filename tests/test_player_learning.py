@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import agents.pass_wire as pass_wire
-from agents.pass_wire import pass_arrays_from_payloads, sparse_pass_payloads
+from agents.pass_wire import pass_arrays_from_chunks, sparse_pass_chunks
 from agents.player import (
     EPISODE_MESSAGE,
     PASS_POLICIES,
@@ -19,13 +19,13 @@ from agents.player import (
     PlayerAgent,
     agent_seed_sequence,
     learner_seed,
-    report_arrays,
     sarsa_pass_factory,
 )
 from agents.policy_file import load_policy, save_policy
 from agents.sarsa import MODE_EXPLORE, MODE_GREEDY, MODE_LEARN, NO_ACTION, SarsaConfig, SarsaLearner
 from protocol import encode
 from protocol import messages as m
+from protocol.advice import PassLoadAdvice, decode_report
 from protocol.endpoints import DEFAULT_MAX_MESSAGE_BYTES
 from protocol.messages import decode_from_player
 from core.rng import seed_streams
@@ -110,7 +110,8 @@ def test_bad_advice_is_ignored_with_a_warning(caplog):
     play_episodes(game, 1)
     assert [a.learner.mode for a in keepers(game)] == [MODE_GREEDY] * K and game.agent(2).pending_reports() == []
     text = " ".join(r.getMessage() for r in caplog.records)
-    assert "mode 'sleep' is not one of" in text and "'everything' is not" in text and "mode ['learn']" in text
+    assert "pass_mode.mode: 'sleep' is not one of" in text and "report.what: 'everything' is not" in text
+    assert "pass_mode.mode: expected a str" in text
 
 
 def test_transition_reports_carry_the_transitions_since_the_last_report():
@@ -121,9 +122,11 @@ def test_transition_reports_carry_the_transitions_since_the_last_report():
     assert logged > 0
     report = transitions_report(game, agent)
     assert agent.pending_reports() == []  # handed out once
-    payload = report_arrays(report.payload)
-    assert payload["kind"] == "pass_transitions" and payload["first"] == 0 and payload["count"] == logged
-    assert payload["dropped"] == 0 and payload["chunks"] == 1 and payload["learner"] is True
+    assert report.payload["kind"] == "pass_transitions"
+    decoded = decode_report(report.payload)
+    assert decoded.first == 0 and decoded.count == logged
+    assert decoded.dropped == 0 and decoded.chunks == 1 and decoded.learner is True
+    payload = decoded.arrays()
     expected = agent.learner.transitions()
     np.testing.assert_array_equal(payload["state"], expected["state"])
     np.testing.assert_array_equal(payload["reward"], expected["reward"])
@@ -159,7 +162,7 @@ def test_a_snapshot_of_a_full_table_is_chunked_below_the_message_limit(tmp_path)
         assert len(encode(r)) < DEFAULT_MAX_MESSAGE_BYTES
         assert sum(len(r.payload[f]) for f in ("index", "check", "value")) <= REPORT_BYTES
         assert r.payload["kind"] == "pass_snapshot" and r.payload["learner"] is True
-    config, back = pass_arrays_from_payloads([decode_from_player(encode(r)).payload for r in reports])
+    config, back = pass_arrays_from_chunks([decode_report(decode_from_player(encode(r)).payload) for r in reports])
     assert config == SarsaConfig()
     for name, value in arrays.items():
         np.testing.assert_array_equal(back[name], value, err_msg=name)
@@ -182,7 +185,7 @@ def test_a_snapshot_rebuilds_the_exact_learner():
     agent = max(keepers(game), key=lambda a: int(np.count_nonzero(a.learner.memory.weights)))
     game.arena.advise([agent.unum], {"kind": "report", "what": "snapshot"})
     game.percepts()
-    config, arrays = pass_arrays_from_payloads([r.payload for r in agent.pending_reports()])
+    config, arrays = pass_arrays_from_chunks([decode_report(r.payload) for r in agent.pending_reports()])
     saved = agent.learner.save()
     assert config == SMALL and np.count_nonzero(saved["pass_weights"]) > 0
     for name in saved:
@@ -260,7 +263,7 @@ def test_pass_load_advice_in_chunks_makes_the_keepers_learner_that_policy_at_the
     config = SarsaConfig(table_size=1 << 12, alpha=0.5)
     policy = taught_policy(config)
     monkeypatch.setattr(pass_wire, "REPORT_BYTES", 1024)
-    chunks = sparse_pass_payloads(policy, config, {"kind": "pass_load"})
+    chunks = [c.to_wire() for c in sparse_pass_chunks(policy, config, PassLoadAdvice)]
     assert len(chunks) >= 3 and np.count_nonzero(policy["pass_weights"]) > 0
     game = Game(seed=6)
     game.cycle()
