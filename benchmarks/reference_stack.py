@@ -21,7 +21,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from runner.launch import ArenaFailure, ArenaProcesses
+from runner.launch import ArenaFailure, ArenaProcesses, Member
 from server.episode_log import EpisodeRecord, read_kwy
 from server.game_log import GameRecord, read_rcg
 
@@ -139,7 +139,7 @@ def play_reference(stack: ReferenceStack, pass_policy: str, episodes: int, seed:
     return read_rcg(log_dir / f"{LOG_NAME}.rcg", kwy), read_kwy(kwy)[:episodes]
 
 
-def wait_until_bound(port: int, server, timeout_s: float = 30.0) -> None:
+def wait_until_bound(port: int, server: Member, timeout_s: float = 30.0) -> None:
     """Wait until rcssserver has bound its player port (ours to bind fails then)."""
     deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:

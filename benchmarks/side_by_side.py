@@ -131,6 +131,36 @@ def play_live_reference(stack: ReferenceStack, policy: str, episodes: int, seed:
     return behaviour_statistics(recorded, KEEPERS, seconds_per_cycle)
 
 
+def live_references(parser: argparse.ArgumentParser, args: argparse.Namespace, step_s: float) -> References:
+    """Each policy of ``args`` played live on the reference stack (and stored with ``--save-reference``);
+    a bad build directory or a taken campaign name is refused before anything is played, a dead process
+    or Ctrl-C ends the harness in one line with every process stopped."""
+    stack = ReferenceStack(args.reference)
+    names = {policy: campaign_name(policy, args.save_reference or "") for policy in args.policies}
+    try:
+        stack.check()
+        if args.save_reference:
+            stored_entries(REFERENCE, set(names.values()))
+    except ValueError as exc:
+        parser.error(str(exc))
+    references = {}
+    for policy in args.policies:
+        start = time.perf_counter()
+        try:
+            stats = play_live_reference(stack, policy, args.episodes, args.seed, args.log_dir, step_s)
+        except (ArenaFailure, ValueError) as exc:
+            sys.exit(f"side_by_side: {exc}")
+        except KeyboardInterrupt:
+            sys.exit("side_by_side: interrupted; the reference stack is stopped")
+        references[policy] = [(f"live, seed {args.seed}", stats)]
+        print(f"{policy}: reference stack, {stats.episodes} episodes in {time.perf_counter() - start:.0f} s",
+              file=sys.stderr)
+    if args.save_reference:
+        save_campaigns(REFERENCE, {names[p]: reference_entry(references[p][0][1], names[p], args.seed)
+                                   for p in args.policies})
+    return references
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--episodes", type=int, default=1000, help="episodes per Pass policy")
@@ -154,28 +184,7 @@ def main() -> None:
         stored = load_reference(REFERENCE)
         references = {policy: [(c, stored[c]) for c in REFERENCE_CAMPAIGNS[policy]] for policy in args.policies}
     else:
-        stack = ReferenceStack(args.reference)
-        try:
-            stack.check()
-            if args.save_reference:  # refused before the campaigns are played, not after
-                stored_entries(REFERENCE, {campaign_name(p, args.save_reference) for p in args.policies})
-        except ValueError as exc:
-            parser.error(str(exc))
-        references = {}
-        for policy in args.policies:
-            start = time.perf_counter()
-            try:
-                stats = play_live_reference(stack, policy, args.episodes, args.seed, args.log_dir, step_s)
-            except (ArenaFailure, ValueError) as exc:
-                sys.exit(f"side_by_side: {exc}")
-            except KeyboardInterrupt:
-                sys.exit("side_by_side: interrupted; the reference stack is stopped")
-            references[policy] = [(f"live, seed {args.seed}", stats)]
-            print(f"{policy}: reference stack, {stats.episodes} episodes in {time.perf_counter() - start:.0f} s",
-                  file=sys.stderr)
-        if args.save_reference:
-            save_campaigns(REFERENCE, {campaign_name(p, args.save_reference): reference_entry(
-                references[p][0][1], campaign_name(p, args.save_reference), args.seed) for p in args.policies})
+        references = live_references(parser, args, step_s)
     ours = {}
     for policy in args.policies:
         start = time.perf_counter()
