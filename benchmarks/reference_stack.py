@@ -119,11 +119,12 @@ def play_reference(stack: ReferenceStack, pass_policy: str, episodes: int, seed:
     port = free_udp_ports()
     with ArenaProcesses(log_dir) as arena:
         kwy.unlink(missing_ok=True)
-        server = arena.start("server", server_argv(stack, port, log_dir, seed))
+        # rcssserver writes its configuration to "~/.rcssserver" without expanding the tilde: in log_dir
+        server = arena.start("server", server_argv(stack, port, log_dir, seed), cwd=log_dir)
         wait_until_bound(port, server)
         for team, count, policy in (("keepers", KEEPERS, CPP_POLICY[pass_policy]), ("takers", TAKERS, "hand")):
             for i in range(1, count + 1):
-                arena.start(f"{team[:-1]} {i}", player_argv(stack, port, team, policy, episodes))
+                arena.start(f"{team[:-1]} {i}", player_argv(stack, port, team, policy, episodes), cwd=log_dir)
         done, progress_at = 0, time.monotonic()
         while done <= episodes:
             time.sleep(1.0)
