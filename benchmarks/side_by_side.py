@@ -1,19 +1,31 @@
 """Our players beside the reference stack (rcssserver 19.0.0 + keepaway-0.6): behaviour statistics per Pass policy.
 
-Plays ``--episodes`` episodes (default 1,000) per Pass policy (always hold, random, hand-coded) with our
-players, 3v2 on 20 m, CURRENT parameters, hand-coded GetOpen and takers, batched on one thread, and prints
-one table per statistic: ours, the reference's (``tests/data/rcss-behaviour/stats_real.json``), the
-difference in combined standard errors (where both have one) and in percent. The hand-coded Pass has two
-reference campaigns ("hand", "hand14"); each gets its row. Figures only, no verdict: the tolerances live
-in ``tests/test_behaviour.py``. Definitions: ``trainer/behaviour.py``.
+Plays ``--episodes`` episodes (default 1,000) per Pass policy (always hold, random, hand-coded;
+``--policies`` for some) with our players, 3v2 on 20 m, CURRENT parameters, hand-coded GetOpen and
+takers, batched on one thread, and prints one table per statistic: ours, the reference's, the difference
+in combined standard errors (where both have one) and in percent. Figures only, no verdict: the
+tolerances live in ``tests/test_behaviour.py``. Definitions: ``trainer/behaviour.py``.
 
-    python benchmarks/side_by_side.py [--episodes 1000] [--seed 7] [--batch 100]
+Without ``--reference`` the reference is the stored campaigns of each policy
+(``tests/data/rcss-behaviour/stats_real.json``, ``trainer.behaviour.REFERENCE_CAMPAIGNS``), a row each.
+With ``--reference BUILD`` (the directory ``../shared/tools/build-rcss.sh`` built) each policy is first
+played live on the reference stack with the same settings, ``--episodes`` episodes with server seed
+``--seed`` (``benchmarks/reference_stack.py``; logs in ``--log-dir`` or a temporary directory), its
+statistics computed from its game log and episode log by the same code as ours
+(``trainer.behaviour.game_log_episodes``), and printed as the reference. ``--save-reference TAG``
+appends each such campaign to the stored file as a new campaign named after the policy and TAG
+("hold", "rand" or "hand" + TAG, as the file's earlier campaigns; an existing name is refused).
+
+    python benchmarks/side_by_side.py [--episodes 1000] [--seed 7] [--batch 100] [--policies random]
+    python benchmarks/side_by_side.py --reference /work/rcss-build/b --seed 31 [--save-reference 31]
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -28,12 +40,19 @@ from trainer.behaviour import (  # noqa: E402
     TOLERANCE_SHARE,
     BehaviourStats,
     Estimate,
+    behaviour_statistics,
     compare,
+    game_log_episodes,
     load_reference,
     measure_policy,
+    reference_entry,
 )
+from runner.launch import ArenaFailure, interrupt_on_sigterm  # noqa: E402
+from benchmarks.reference_stack import CPP_POLICY, KEEPERS, TAKERS, ReferenceStack, play_reference  # noqa: E402
 
 REFERENCE = REPO / "tests" / "data" / "rcss-behaviour" / "stats_real.json"
+# A policy's references: (label, statistics), one row each.
+References = dict[str, list[tuple[str, BehaviourStats]]]
 
 
 def estimate_text(e: Estimate) -> str:
@@ -44,10 +63,10 @@ def optional_text(x: float | None, unit: str) -> str:
     return "-" if x is None else f"{x:+.1f}{unit}"
 
 
-def scalar_tables(ours: dict[str, BehaviourStats], reference: dict[str, BehaviourStats]) -> list[str]:
+def scalar_tables(ours: dict[str, BehaviourStats], references: References) -> list[str]:
     """One markdown table per single-number statistic, a row per (our policy, reference campaign)."""
-    pairs = [(policy, campaign, compare(ours[policy], reference[campaign]))
-             for policy in ours for campaign in REFERENCE_CAMPAIGNS[policy]]
+    pairs = [(policy, campaign, compare(ours[policy], stats))
+             for policy in ours for campaign, stats in references[policy]]
     lines = []
     for i, name in enumerate(row.statistic for row in pairs[0][2]):
         lines += [f"\n### {name}\n", "| policy | ours | reference | difference | in s.e. | in % | beyond tolerance |",
@@ -61,14 +80,14 @@ def scalar_tables(ours: dict[str, BehaviourStats], reference: dict[str, Behaviou
     return lines
 
 
-def curve_tables(ours: dict[str, BehaviourStats], reference: dict[str, BehaviourStats]) -> list[str]:
+def curve_tables(ours: dict[str, BehaviourStats], references: References) -> list[str]:
     """The taker-ball distance curves (m) for t = 0..29, ours beside the first reference campaign."""
     lines = []
     for policy, stats in ours.items():
-        ref = reference[REFERENCE_CAMPAIGNS[policy][0]]
+        campaign, ref = references[policy][0]
         takers = [f"r{j + 1}" for j in range(len(stats.curve_takers))]
         head = " | ".join(f"{name} ours | {name} ref." for name in takers + ["nearer"])
-        lines += [f"\n### taker-ball distance (m), {policy} (ref. {REFERENCE_CAMPAIGNS[policy][0]})\n",
+        lines += [f"\n### taker-ball distance (m), {policy} (ref. {campaign})\n",
                   f"| t | {head} | nearer in % | running ours | running ref. |",
                   "|---|" + "---|" * (2 * len(takers) + 5)]
         for t in range(CURVE_CYCLES):
@@ -81,25 +100,103 @@ def curve_tables(ours: dict[str, BehaviourStats], reference: dict[str, Behaviour
     return lines
 
 
+def campaign_name(policy: str, tag: str) -> str:
+    """The stored file's name of a fresh campaign: the C++ policy's name and the tag ("rand31")."""
+    return CPP_POLICY[policy] + tag
+
+
+def stored_entries(path: Path, new_names: set[str]) -> list[dict]:
+    """The stored reference file's entries; ValueError in one line if one of ``new_names`` is taken."""
+    entries = json.loads(path.read_text())
+    taken = sorted({entry["policy"] for entry in entries} & new_names)
+    if taken:
+        raise ValueError(f"{path.name} already has the campaign(s) {', '.join(taken)}: choose another tag")
+    return entries
+
+
+def save_campaigns(path: Path, campaigns: dict[str, dict]) -> None:
+    """Append ``campaigns`` (name -> entry) to the stored reference file, keeping its entries and format."""
+    entries = stored_entries(path, set(campaigns))
+    path.write_text(json.dumps(entries + list(campaigns.values()), indent=1))
+
+
+def play_live_reference(stack: ReferenceStack, policy: str, episodes: int, seed: int,
+                        log_dir: Path | None, seconds_per_cycle: float) -> BehaviourStats:
+    """``episodes`` episodes of ``policy`` on the reference stack, measured from its logs."""
+    with tempfile.TemporaryDirectory(prefix="refstack-") as scratch:
+        where = Path(scratch) if log_dir is None else log_dir / policy
+        where.mkdir(parents=True, exist_ok=True)
+        record, kwy = play_reference(stack, policy, episodes, seed, where)
+        recorded = game_log_episodes(record, kwy, KEEPERS, TAKERS)
+    return behaviour_statistics(recorded, KEEPERS, seconds_per_cycle)
+
+
+def live_references(parser: argparse.ArgumentParser, args: argparse.Namespace, step_s: float) -> References:
+    """Each policy of ``args`` played live on the reference stack (and stored with ``--save-reference``);
+    a bad build directory or a taken campaign name is refused before anything is played, a dead process
+    or Ctrl-C ends the harness in one line with every process stopped."""
+    stack = ReferenceStack(args.reference)
+    names = {policy: campaign_name(policy, args.save_reference or "") for policy in args.policies}
+    try:
+        stack.check()
+        if args.save_reference:
+            stored_entries(REFERENCE, set(names.values()))
+    except ValueError as exc:
+        parser.error(str(exc))
+    references = {}
+    for policy in args.policies:
+        start = time.perf_counter()
+        try:
+            stats = play_live_reference(stack, policy, args.episodes, args.seed, args.log_dir, step_s)
+        except (ArenaFailure, ValueError) as exc:
+            sys.exit(f"side_by_side: {exc}")
+        except KeyboardInterrupt:
+            sys.exit("side_by_side: interrupted; the reference stack is stopped")
+        references[policy] = [(f"live, seed {args.seed}", stats)]
+        print(f"{policy}: reference stack, {stats.episodes} episodes in {time.perf_counter() - start:.0f} s",
+              file=sys.stderr)
+    if args.save_reference:
+        save_campaigns(REFERENCE, {names[p]: reference_entry(references[p][0][1], names[p], args.seed)
+                                   for p in args.policies})
+    return references
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--episodes", type=int, default=1000, help="episodes per Pass policy")
     parser.add_argument("--seed", type=int, default=7)
     parser.add_argument("--batch", type=int, default=100, help="arenas played side by side")
+    parser.add_argument("--policies", nargs="+", choices=list(REFERENCE_CAMPAIGNS), default=list(REFERENCE_CAMPAIGNS))
+    parser.add_argument("--reference", type=Path, metavar="BUILD",
+                        help="play the reference stack built in BUILD live (else: the stored campaigns)")
+    parser.add_argument("--log-dir", type=Path, help="keep the reference stack's logs here (per policy)")
+    parser.add_argument("--save-reference", metavar="TAG",
+                        help="store the live campaigns in stats_real.json as <policy>TAG")
     args = parser.parse_args()
+    if args.reference is None and (args.log_dir or args.save_reference):
+        parser.error("--log-dir and --save-reference need --reference")
+    if args.episodes < 2:
+        parser.error("--episodes must be at least 2")
+    interrupt_on_sigterm()  # a terminated harness stops the reference stack as Ctrl-C does
     params = parameter_set("current")
-    reference = load_reference(REFERENCE)
+    step_s = params.simulator_step_ms / 1000.0
+    if args.reference is None:
+        stored = load_reference(REFERENCE)
+        references = {policy: [(c, stored[c]) for c in REFERENCE_CAMPAIGNS[policy]] for policy in args.policies}
+    else:
+        references = live_references(parser, args, step_s)
     ours = {}
-    for policy in REFERENCE_CAMPAIGNS:
+    for policy in args.policies:
         start = time.perf_counter()
         ours[policy] = measure_policy(params, policy, args.episodes, args.seed, args.batch)
         print(f"{policy}: {args.episodes} episodes in {time.perf_counter() - start:.0f} s", file=sys.stderr)
+    source = "played live" if args.reference else "stored campaigns"
     print(f"# Side by side: our players ({args.episodes} episodes per policy, seed {args.seed}, batch "
-          f"{args.batch}) and the reference stack\n")
+          f"{args.batch}) and the reference stack ({source})\n")
     print("CURRENT parameters, 3v2 on 20 m, hand-coded GetOpen and takers. 'in s.e.': difference / "
           "sqrt(s.e. ours^2 + s.e. ref.^2). Beyond tolerance: more than "
           f"{TOLERANCE_SE:g} such s.e. and more than {100 * TOLERANCE_SHARE:g} % of the reference.")
-    print("\n".join(scalar_tables(ours, reference) + curve_tables(ours, reference)))
+    print("\n".join(scalar_tables(ours, references) + curve_tables(ours, references)))
 
 
 if __name__ == "__main__":

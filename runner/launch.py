@@ -75,10 +75,11 @@ class ArenaProcesses:
     def __exit__(self, *exc: object) -> None:
         self.stop()
 
-    def start(self, name: str, argv: list[str], capture_stdout: bool = False) -> Member:
+    def start(self, name: str, argv: list[str], capture_stdout: bool = False, cwd: Path | None = None) -> Member:
+        """Start ``argv`` as member ``name`` (in ``cwd`` if given: a program that writes beside itself)."""
         stderr = open(self.log_dir / f"{name.replace(' ', '_')}.log", "ab")  # a resumed run appends
         proc = subprocess.Popen(argv, stdout=subprocess.PIPE if capture_stdout else subprocess.DEVNULL,
-                                stderr=stderr, start_new_session=True,
+                                stderr=stderr, start_new_session=True, cwd=cwd,
                                 preexec_fn=die_with_parent if sys.platform == "linux" else None)
         stderr.close()
         member = Member(name, proc)

@@ -482,6 +482,8 @@ __all__ = [
     "GameRecord",
     "GetOpenNote",
     "PlayerShow",
+    "STATE_KICK",
+    "STATE_KICK_FAULT",
     "RcgFormatter",
     "RcgLog",
     "Show",

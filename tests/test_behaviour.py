@@ -12,6 +12,10 @@ import numpy as np
 import pytest
 
 from protocol.params import parameter_set
+from runner.embedded import ArenaSpec
+from runner.run import RunOptions, run
+from server.episode_log import read_kwy
+from server.game_log import read_rcg
 from server.referee import END_OUT, END_TAKEN
 from core.objects import BALL
 from server.world import COUNT_KICK
@@ -22,22 +26,35 @@ from trainer.behaviour import (
     Compared,
     Episode,
     Estimate,
+    BehaviourStats,
     behaviour_statistics,
     compare,
+    game_log_episodes,
     load_reference,
     measure_policy,
     record_batched,
+    reference_entry,
 )
 
-REFERENCE = load_reference(Path(__file__).resolve().parent / "data" / "rcss-behaviour" / "stats_real.json")
+DATA = Path(__file__).resolve().parent / "data" / "rcss-behaviour"
+REFERENCE = load_reference(DATA / "stats_real.json")
 CURRENT = parameter_set("current")
 K, T = 3, 2
 N = 1 + K + T
 KEEPER_1, KEEPER_2, TAKER_1 = 1, 2, K + 1
 STEP_S = 0.1
-# Hold times of the reference stack over its measurement campaigns (the issue's table and the campaigns of
-# tests/data/rcss-behaviour/README.md: always hold 2.80-2.98 s, random 5.21-5.34 s, hand-coded 10.50-12.02 s).
-REFERENCE_HOLD_S = {"hold": (2.80, 2.98), "random": (5.21, 5.34), "handcoded": (10.50, 12.02)}
+# Hold times of the reference stack over its measurement campaigns: every campaign of the data file
+# (tests/data/rcss-behaviour/README.md), and hand-coded Pass's earlier campaign that the file lacks (the
+# issue's 10.50 s): always hold 2.80-2.98 s, random 5.21-5.34 s, hand-coded 10.50-12.15 s.
+EARLIER_CAMPAIGNS_S = {"hold": (), "random": (), "handcoded": (10.50,)}
+
+
+def reference_hold_range(policy: str) -> tuple[float, float]:
+    holds = [REFERENCE[c].hold_s.value for c in REFERENCE_CAMPAIGNS[policy]] + list(EARLIER_CAMPAIGNS_S[policy])
+    return min(holds), max(holds)
+
+
+REFERENCE_HOLD_S = {policy: reference_hold_range(policy) for policy in REFERENCE_CAMPAIGNS}
 HOLD_TOLERANCE = 0.05  # of the range's ends
 # The documented side-by-side run (docs/design.md, "Side by side with the reference stack").
 EPISODES, SEED = 1000, 7
@@ -144,13 +161,16 @@ def test_tolerance_is_three_standard_errors_or_ten_percent_whichever_is_larger()
 
 
 def test_the_reference_file_reads_into_the_same_statistics():
-    assert sorted(REFERENCE) == ["hand", "hand14", "hold", "hold12", "rand", "rand21"]
+    assert sorted(REFERENCE) == ["hand", "hand14", "hand31", "hold", "hold12", "hold31", "rand", "rand21", "rand31"]
     assert sorted(c for campaigns in REFERENCE_CAMPAIGNS.values() for c in campaigns) == sorted(REFERENCE)
     assert REFERENCE["rand21"].episodes == 1006 and REFERENCE["rand21"].hold_s.value == pytest.approx(5.21, abs=0.005)
     hold = REFERENCE["hold"]
     assert hold.episodes == 601 and hold.hold_s.value == pytest.approx(2.80, abs=0.005)
     assert hold.curve_takers.shape == (T, CURVE_CYCLES) and hold.curve_running[0] == 601
     assert all(row.difference == 0 for row in compare(hold, hold))
+    assert REFERENCE["rand31"].episodes == 1000 and REFERENCE["rand31"].hold_s.value == pytest.approx(5.32, abs=0.005)
+    assert {p: tuple(round(x, 2) for x in r) for p, r in REFERENCE_HOLD_S.items()} == {
+        "hold": (2.80, 2.98), "random": (5.21, 5.34), "handcoded": (10.50, 12.15)}
 
 
 # --------------------------------------------------------------------------------------------------
@@ -190,6 +210,58 @@ def test_recording_starts_at_episode_starts():
 
 
 # --------------------------------------------------------------------------------------------------
+# game logs: the reference stack's and ours, cut into the same episodes
+
+
+def test_a_reference_game_log_gives_its_episodes_with_the_kicks_of_their_shows():
+    # rcssserver 19.0.0 + keepaway-0.6, always hold: episode 1 is cycles 0-25 (taken); the head of the log
+    # ends at show 39, before episode 2's end (47), so only episode 1 is whole. Keeper 3's successful
+    # kicks are the shows 6-17 (flags 0x3; 0x7 at shows 5, 20 and 23 are kicks that missed), taker 2's the
+    # shows 22-25, the last one in the show of the end cycle, already the next reset.
+    record = read_rcg(DATA / "ref_hold2_head.rcg", kwy=DATA / "ref_hold2_head.kwy")
+    (e,) = game_log_episodes(record, read_kwy(DATA / "ref_hold2_head.kwy"), K, T)
+    assert e.cycles == 25 and e.end == END_TAKEN
+    np.testing.assert_allclose(e.pos[0, BALL], (-6.0, -6.0))
+    assert np.flatnonzero(e.kicks[:, 3]).tolist() == list(range(5, 17))
+    assert np.flatnonzero(e.kicks[:, 5]).tolist() == [21, 22, 23, 24]
+    assert e.kicks.sum() == 16
+    s = stats(e)
+    assert (s.keeper_kicks.value, s.taker_kicks.value, s.passes.value) == (12, 4, 0)
+
+
+def test_a_game_log_missing_a_player_is_refused_in_one_line():
+    record = read_rcg(DATA / "ref_hold2_head.rcg", kwy=DATA / "ref_hold2_head.kwy")
+    with pytest.raises(ValueError, match="player r3 is not on the pitch"):
+        game_log_episodes(record, read_kwy(DATA / "ref_hold2_head.kwy"), K, 3)
+
+
+def test_our_game_log_gives_the_recorders_episodes(tmp_path):
+    spec = ArenaSpec(CURRENT, seed=5, pass_policy="random")
+    run(RunOptions(spec, episodes=8, mode="batched", batch=1, out=tmp_path, parameter_set="current",
+                   game_log_arenas=(0,)), progress=False)
+    from_log = game_log_episodes(read_rcg(tmp_path / "keepaway-arena0.rcg"), read_kwy(tmp_path / "keepaway.kwy"),
+                                 K, T)
+    _, recorded = record_batched(BatchedArenas(CURRENT, 1, 5, pass_policy="random", threads=1), 8)
+    assert len(from_log) == len(recorded) == 8
+    for a, b in zip(from_log, recorded):
+        assert (a.cycles, a.end) == (b.cycles, b.end)
+        np.testing.assert_allclose(a.pos, b.pos, atol=1e-4)  # the log's precision
+        np.testing.assert_allclose(a.ball_vel, b.ball_vel, atol=1e-4)
+        np.testing.assert_array_equal(a.kicks, b.kicks)
+    assert sum(e.kicks.sum() for e in recorded) > 0
+
+
+def test_statistics_written_as_a_reference_entry_read_back_the_same():
+    s = stats(episode(10, END_OUT, kicks={1: [KEEPER_1], 3: [KEEPER_2]}, ball_speed={2: 2.0}),
+              episode(40, taker_distance=np.linspace(6.0, 0.5, 40)), episode(35, kicks={2: [TAKER_1]}))
+    back = BehaviourStats.from_reference(reference_entry(s, "rand99", 99))
+    assert back.scalars() == s.scalars()
+    for field in ("curve_running", "curve_takers", "curve_nearer"):
+        np.testing.assert_array_equal(getattr(back, field), getattr(s, field))
+    assert back.episodes == 3
+
+
+# --------------------------------------------------------------------------------------------------
 # our players beside the reference stack
 
 
@@ -198,14 +270,15 @@ def ours(policy: str):
     return measure_policy(CURRENT, policy, EPISODES, SEED)
 
 
-# Random Pass at 4.94 s is 0.01 s (under one s.e.) below the tolerance's 4.95 s: a gain of 1 % makes the
+# Random Pass at 4.93 s is 0.02 s (under one s.e.) below the tolerance's 4.95 s: a gain of 1 % makes the
 # expected failure pass, and strict, fail: then look again at the gap and drop the mark.
 @pytest.mark.slow
 @pytest.mark.parametrize("policy", [
     "hold",
     pytest.param("random", marks=pytest.mark.xfail(strict=True, reason=(
-        "known gap: random Pass holds 4.94 +- 0.06 s, 5.2 % below the reference's 5.21-5.34 s "
-        "(docs/design.md, 'Side by side with the reference stack')"))),
+        "known gap: random Pass holds 4.93 +- 0.05 s, 5.4 % below the reference's 5.21-5.34 s: our keepers "
+        "mis-aim the first kick after a ball collision, which the C++ players' collision guess corrects "
+        "(docs/design.md, 'Random Pass: the gap located')"))),
     "handcoded",
 ])
 def test_hold_time_is_within_5_percent_of_the_reference_range(policy):

@@ -20,7 +20,9 @@ a row of the episode):
 :func:`behaviour_statistics` is the sans-IO core (arrays in, statistics out); :func:`record_batched`
 plays a :class:`runner.batched.BatchedArenas` one cycle at a time to record its episodes without
 changing them; :func:`load_reference` reads the reference file and :func:`compare` sets the two side by
-side. ``benchmarks/side_by_side.py`` prints the comparison.
+side. :func:`game_log_episodes` cuts a game log (.rcg, ours or rcssserver's) into the same episodes,
+so that the reference stack played live is measured by the same code; :func:`reference_entry` writes
+statistics back in the reference file's format. ``benchmarks/side_by_side.py`` prints the comparison.
 """
 
 from __future__ import annotations
@@ -35,7 +37,9 @@ import numpy as np
 
 from agents.skills import AgentConfig
 from protocol.params import ServerParams
-from server.referee import END_OUT, END_TAKEN
+from server.episode_log import EpisodeRecord
+from server.game_log import STATE_KICK, STATE_KICK_FAULT, GameRecord, Show
+from server.referee import END_CAUSES, END_OUT, END_TAKEN
 from core.objects import BALL
 from server.world import COUNT_KICK
 from runner.batched import BatchedArenas
@@ -49,9 +53,11 @@ CURVE_CYCLES = 30
 # larger, is within tolerance (the reference's campaigns differ by more than their s.e., its README).
 TOLERANCE_SE = 3.0
 TOLERANCE_SHARE = 0.10
-# Our Pass policies and the reference file's campaigns of the same policy (the first recorded; "hand14",
-# "hold12" and "rand21": later campaigns, named by their server seed).
-REFERENCE_CAMPAIGNS = {"hold": ("hold", "hold12"), "random": ("rand", "rand21"), "handcoded": ("hand", "hand14")}
+# Our Pass policies and the reference file's campaigns of the same policy (the first recorded; the later
+# ones named by their server seed: "hand14", "hold12", "rand21", and "hold31", "rand31", "hand31" played
+# live by benchmarks/side_by_side.py --reference).
+REFERENCE_CAMPAIGNS = {"hold": ("hold", "hold12", "hold31"), "random": ("rand", "rand21", "rand31"),
+                       "handcoded": ("hand", "hand14", "hand31")}
 
 
 @dataclass(frozen=True, eq=False)
@@ -283,6 +289,77 @@ def measure_policy(params: ServerParams, pass_policy: str, episodes: int, seed: 
     return behaviour_statistics(recorded, arenas.keepers, params.simulator_step_ms / 1000.0)
 
 
+def show_arrays(show: Show, n_keepers: int, n_takers: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A show's positions (N, 2) in server object order (ball, keepers l1..lK, takers r1..rT), the ball's
+    velocity (2,) and which objects' kicks reached the ball in the step that led to it (N,): the kick flag
+    without the kick-fault flag, as rcssserver sets them (``server.game_log.WorldShows``). ValueError if a
+    player is missing (one that joined late, for instance)."""
+    players = {(p.side, p.unum): p for p in show.players}
+    order = [("l", u) for u in range(1, n_keepers + 1)] + [("r", u) for u in range(1, n_takers + 1)]
+    missing = [f"{side}{unum}" for side, unum in order if (side, unum) not in players]
+    if missing:
+        raise ValueError(f"show {show.cycle}: player {', '.join(missing)} is not on the pitch")
+    pos = np.array([show.ball[:2]] + [(players[key].x, players[key].y) for key in order])
+    kicked = np.array([False] + [players[key].state & (STATE_KICK | STATE_KICK_FAULT) == STATE_KICK
+                                 for key in order])
+    return pos, np.array(show.ball[2:]), kicked
+
+
+def game_log_episodes(record: GameRecord, episodes: Sequence[EpisodeRecord], n_keepers: int,
+                      n_takers: int) -> list[Episode]:
+    """The :class:`Episode` of each finished episode (``episodes``: the ``.kwy``'s) whose shows, from its
+    start to its end cycle, are all in the game log (the last one of a stopped run may lack its end).
+
+    The show of cycle ``start`` is the reset placement (row 0); the show of the end cycle is already the
+    next episode's reset, but its kick flags belong to the episode's last step (rcssserver's referee
+    resets the field inside that step), so the episode's kicks are those of shows start+1 .. end. Of two
+    shows of one cycle (a play-mode change) the later one counts, as in the reference's ``parse_rcg.py``.
+    """
+    by_cycle = {show.cycle: show for show in record.shows}
+    codes = {name: code for code, name in END_CAUSES.items()}
+    result = []
+    for e in episodes:
+        cycles = range(e.start_cycle, e.end_cycle + 1)
+        if any(c not in by_cycle for c in cycles):
+            continue
+        pos, vel, kicked = (np.stack(a) for a in zip(*(show_arrays(by_cycle[c], n_keepers, n_takers)
+                                                          for c in cycles)))
+        result.append(Episode(pos=pos[:-1], ball_vel=vel[:-1], kicks=kicked[1:], end=codes[e.end]))
+    return result
+
+
+def reference_entry(stats: BehaviourStats, campaign: str, seed: int) -> dict:
+    """``stats`` as an entry of the reference file (``stats_real.json``, the format its ``stats.py``
+    writes; the keys :meth:`BehaviourStats.from_reference` reads, and ``run`` with the seed)."""
+    def per_episode(e: Estimate) -> dict:
+        return {"mean": e.value, "se": e.se}
+
+    curve = {f"r{j + 1}": stats.curve_takers[j].tolist() for j in range(len(stats.curve_takers))}
+    return {
+        "policy": campaign,
+        "episodes": stats.episodes,
+        "hold_mean_s": stats.hold_s.value,
+        "hold_se_s": stats.hold_s.se,
+        "hold_sd_s": stats.hold_sd_s,
+        "hold_median_s": stats.hold_median_s,
+        "hold_p10_s": stats.hold_p10_s,
+        "hold_p90_s": stats.hold_p90_s,
+        "share_out": stats.share_out.value,
+        "share_taken": stats.share_taken.value,
+        "taker_within_1m": {"share_of_episodes": stats.taker_within_1m_share.value,
+                            "mean_t": stats.taker_within_1m_t.value, "se_t": stats.taker_within_1m_t.se},
+        "kicks_keepers_per_episode": per_episode(stats.keeper_kicks),
+        "kicks_takers_per_episode": per_episode(stats.taker_kicks),
+        "passes_per_episode": per_episode(stats.passes),
+        "fast_kicks_per_episode": per_episode(stats.fast_kicks),
+        "taker_ball_distance_curve": {"n_episodes_running": stats.curve_running.tolist(), **curve,
+                                      "nearer": stats.curve_nearer.tolist()},
+        "keeper_nearest_taker_m": {"pooled": stats.keeper_nearest_taker_m.value,
+                                   "mean_of_episode_means": stats.keeper_nearest_taker_episode_mean_m.value},
+        "run": {"seed": seed},
+    }
+
+
 def load_reference(path: Path) -> dict[str, BehaviourStats]:
     """The reference file's statistics by campaign name ("hold", "rand", "hand", "hand14")."""
     return {entry["policy"]: BehaviourStats.from_reference(entry) for entry in json.loads(path.read_text())}
@@ -344,10 +421,13 @@ __all__ = [
     "TOLERANCE_SHARE",
     "behaviour_statistics",
     "compare",
+    "game_log_episodes",
     "kick_counts",
     "load_reference",
     "mean_estimate",
     "measure_policy",
     "record_batched",
+    "reference_entry",
     "share_estimate",
+    "show_arrays",
 ]
