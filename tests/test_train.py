@@ -279,35 +279,30 @@ class Killed(Exception):
     """Stands for the process being killed."""
 
 
-def kill_at_play_call(monkeypatch, n: int) -> None:
-    """Make the n-th round of games (every trial's evaluation, Pass block or a generation's candidates,
-    played together) die halfway through."""
-    real = BatchedBackend.play_all
+def kill_at_call(monkeypatch, owner, name: str, n: int) -> None:
+    """Make the n-th call of ``owner.name`` die instead of doing its work."""
+    real = getattr(owner, name)
     calls = 0
 
-    def play_all(*args, **kwargs):
+    def dying(*args, **kwargs):
         nonlocal calls
         calls += 1
         if calls == n:
             raise Killed
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(BatchedBackend, "play_all", play_all)
+    monkeypatch.setattr(owner, name, dying)
+
+
+def kill_at_play_call(monkeypatch, n: int) -> None:
+    """Die in the n-th round of games (every trial's evaluation, Pass block or a generation's candidates,
+    played together)."""
+    kill_at_call(monkeypatch, BatchedBackend, "play_all", n)
 
 
 def kill_at_checkpoint(monkeypatch, n: int) -> None:
-    """Make the training die instead of writing its n-th checkpoint (after each step, trial by trial)."""
-    real = train_module.save_checkpoint
-    calls = 0
-
-    def save(*args, **kwargs):
-        nonlocal calls
-        calls += 1
-        if calls == n:
-            raise Killed
-        return real(*args, **kwargs)
-
-    monkeypatch.setattr(train_module, "save_checkpoint", save)
+    """Die instead of writing the training's n-th checkpoint (after each step, trial by trial)."""
+    kill_at_call(monkeypatch, train_module, "save_checkpoint", n)
 
 
 # The 2 trials advance together, 5 steps each (3 evaluations, 2 generations of 4 candidates), a
