@@ -155,8 +155,11 @@ def test_four_versus_three_on_a_larger_field_runs_distributed(processes, tmp_pat
 
 @pytest.mark.slow
 def test_ctrl_c_stops_every_process_of_the_arena(processes, tmp_path):
+    # As from a terminal: SIGINT at its default even when the test runner was started with it ignored
+    # (a shell's background job), which the child would otherwise inherit.
     proc = processes.popen(keepaway_command("run", "--episodes", "100000", "--no-progress", "--out", str(tmp_path)),
-                           stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                           preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.monotonic() + 180
     kids: dict[int, str] = {}
     while time.monotonic() < deadline:
