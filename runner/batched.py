@@ -432,12 +432,18 @@ def _policy_code(table: dict[str, int], name: str, what: str) -> int:
         raise ValueError(f"unknown {what} {name!r}; choose one of {', '.join(table)}") from None
 
 
+def episode_shares(episodes: int, arenas: int) -> np.ndarray:
+    """``episodes`` shared out among ``arenas``: ``episodes // arenas`` each plus one in the first
+    ``episodes % arenas`` (fixed quotas, :meth:`BatchedArenas.run`)."""
+    return episodes // arenas + (np.arange(arenas) < episodes % arenas)
+
+
 class BatchedArenas:
     """``batch`` Keepaway arenas (``keepers`` vs ``takers``, every player connected before the start),
     stepped together by compiled kernels. ``seed``: arena b plays the game of one arena seeded
     ``seed + b`` (:func:`arena_seed`), or a sequence gives every arena its own seed, so that arenas of
-    unrelated jobs (other trials, other candidates) can share one batch. ``getopen_theta`` is the GO:L net per arena ((batch, n) or
-    (n,) for all; n = 91 in 3v2), required with ``getopen_policy="learned"`` only. ``threads`` (default
+    unrelated jobs (other trials, other candidates) can share one batch. ``getopen_theta`` is the GO:L net
+    per arena ((batch, n) or (n,) for all; n = 91 in 3v2), required with ``getopen_policy="learned"`` only. ``threads`` (default
     numba's thread count, ``NUMBA_NUM_THREADS``) step disjoint sets of arenas side by side; the
     results do not depend on it. The games continue across :meth:`run` calls.
 
@@ -631,7 +637,7 @@ class BatchedArenas:
         book, w = self.book, self.world
         quota = np.full(self.batch, _UNLIMITED if episodes_per_arena is None else episodes_per_arena)
         if total_episodes is not None:
-            share = total_episodes // self.batch + (np.arange(self.batch) < total_episodes % self.batch)
+            share = episode_shares(total_episodes, self.batch)
             quota = np.where(quota == _UNLIMITED, share, np.minimum(quota, share))
         book.episodes_left[:] = quota
         book.active[:] = quota != 0
@@ -681,6 +687,7 @@ __all__ = [
     "agent_seed",
     "arena_cycle",
     "arena_seed",
+    "episode_shares",
     "end_pass_episodes",
     "learn_pass",
     "learner_seed",

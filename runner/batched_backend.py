@@ -22,7 +22,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from runner.batched import BatchedArenas, arena_seed
+from runner.batched import BatchedArenas, arena_seed, episode_shares
 from runner.job import LEARNED, Behaviours, EpisodeTable, Game, Job, Played, Progress, RunResult
 
 MAX_ARENAS = 1024
@@ -86,7 +86,7 @@ class BatchedBackend:
         thetas = None if behaviours.getopen_policy != LEARNED else np.concatenate(
             [np.broadcast_to(job.behaviours.getopen_net, (n, len(job.behaviours.getopen_net)))
              for job, n in zip(jobs, sizes)])
-        quotas = np.concatenate([job.episodes // n + (np.arange(n) < job.episodes % n) for job, n in zip(jobs, sizes)])
+        quotas = np.concatenate([episode_shares(job.episodes, n) for job, n in zip(jobs, sizes)])
         learning = {"sarsa": game.sarsa, "pass_mode": first.pass_mode} if learned else {}
         batch = BatchedArenas(params, len(seeds), seeds, keepers=game.keepers, takers=game.takers,
                               pass_policy=behaviours.pass_policy, getopen_policy=behaviours.getopen_policy,

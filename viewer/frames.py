@@ -16,16 +16,16 @@ from server.game_log import GameRecord, GetOpenNote, Show, show_from_frame
 SPEEDS = (0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0)  # replay speeds the page offers (x real time)
 
 
-def frame_message(show: Show, episode: int, start: int | None, notes: list[GetOpenNote] = (),
+def frame_message(show: Show, episode: int, start: int, notes: list[GetOpenNote] = (),
                   step_ms: float = 100.0) -> dict[str, Any]:
     """One frame for the page: the ball, the players on the pitch ``[side, unum, x, y, body, neck,
-    state]``, the episode, the cycle, the hold time so far (s; None if the episode's start is unknown)
+    state]``, the episode, the cycle, the hold time so far (s)
     and the keepers' GetOpen notes ``[unum, [tx, ty], [x, y, value, ...]]``."""
     return {
         "type": "frame",
         "cycle": show.cycle,
         "episode": episode,
-        "hold_s": None if start is None else round((show.cycle - start) * step_ms / 1000.0, 1),
+        "hold_s": round((show.cycle - start) * step_ms / 1000.0, 1),
         "ball": [show.ball[0], show.ball[1]],
         "players": [[p.side, p.unum, p.x, p.y, p.body, p.neck, p.state] for p in show.players],
         "getopen": [[n.unum, list(n.target), list(n.values)] for n in notes],
