@@ -4,12 +4,15 @@ The socket edge of :class:`agents.player.PlayerAgent` (style guide, "Sockets at 
 socket (LINGER 0 but for a bounded wait after ``bye``, the protocol's size limit), one poll loop, every
 frame decoded by ``protocol`` before the agent sees it. Exit codes: 0 when the server shuts down or on
 SIGTERM/SIGINT (after saying ``bye``), 2 when the player cannot start (bad policy file, no server within
-``--connect-timeout``, ``init`` or ``reconnect`` refused), 4 when a joined player's server has sent
+``--connect-timeout``, ``init`` refused, ``reconnect`` refused for that long), 4 when a joined player's server has sent
 nothing for ``--server-silence`` seconds (it sends a ``waiting`` every second while no cycle is played, so
 only a dead or frozen server is silent that long). Expected conditions end with one line on
 stderr, never a traceback. With ``--reconnect UNUM`` the player takes back the seat of a player of its
 team that is gone (crashed, killed, or given up by the server) instead of joining anew
-(docs/protocol.md 12 "Rejoin").
+(docs/protocol.md 12 "Rejoin"). A seat whose old client the server still waits for (a hung process it
+has not yet given up after ``max_missed_cycles``, a crash it has not yet noticed) is refused with
+``cannot_reconnect``; the player asks again every :data:`RECONNECT_RETRY_S` until ``--connect-timeout``,
+so a replacement can be started as soon as the old process is found dead or stuck.
 """
 
 from __future__ import annotations
@@ -34,6 +37,10 @@ POLL_MS = 100  # longest wait between checks of the stop flag and the connect de
 # Sockets have LINGER 0, except after a bye: closing then waits this long for the bye to leave, so it
 # is not discarded unsent (and never longer, should the server be gone).
 BYE_LINGER_MS = 1000
+# Between two ``reconnect``s refused with ``cannot_reconnect``. A server gives a hung player up after
+# max_missed_cycles cycle timeouts (20 x 1.25 s by default, within --connect-timeout's default 60 s);
+# asking once a second costs the server one probe of the old client a second.
+RECONNECT_RETRY_S = 1.0
 CLIENT_NAME = "keepaway-player"
 DEFAULT_SERVER = f"tcp://127.0.0.1:{DEFAULT_PORTS['players']}"
 
@@ -103,13 +110,18 @@ def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop
             send(m.Bye())
             linger_ms = BYE_LINGER_MS
 
-        if reconnect is None:
-            send(m.Init(team=agent.team, client=CLIENT_NAME, fullstate=agent.fullstate))
-        else:
-            send(m.Reconnect(version=PROTOCOL_VERSION, team=agent.team, unum=reconnect))
+        def join() -> None:
+            if reconnect is None:
+                send(m.Init(team=agent.team, client=CLIENT_NAME, fullstate=agent.fullstate))
+            else:
+                send(m.Reconnect(version=PROTOCOL_VERSION, team=agent.team, unum=reconnect))
+
+        join()
         joining = "init" if reconnect is None else "reconnect"
         deadline = time.monotonic() + connect_timeout_s
         last_heard = time.monotonic()  # of the last message from the server
+        retry_at: float | None = None  # when to ask for the seat again after a cannot_reconnect
+        refused: str | None = None  # the last cannot_reconnect, for the message should time run out
         while True:
             if stop.signal_name is not None:
                 log.info("%s: saying bye", stop.signal_name)
@@ -117,7 +129,13 @@ def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop
                     say_bye()
                 return EXIT_OK
             if not agent.ready and time.monotonic() > deadline:
+                if refused is not None:
+                    raise PlayerExit(EXIT_START_FAILED, f"the server refused reconnect for "
+                                                        f"{connect_timeout_s:g} s: {refused}")
                 raise PlayerExit(EXIT_START_FAILED, no_answer(endpoint, connect_timeout_s))
+            if retry_at is not None and time.monotonic() >= retry_at:
+                retry_at = None
+                join()
             if agent.ready and time.monotonic() - last_heard > silence_s:
                 raise PlayerExit(EXIT_SERVER_SILENT, f"the server at {endpoint} has sent nothing for "
                                                      f"{silence_s:g} s; giving it up")
@@ -138,6 +156,13 @@ def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop
                     log.info("server shut down: %s", msg.reason)
                     return EXIT_OK
                 if isinstance(msg, m.Error):
+                    if not agent.ready and msg.code == "cannot_reconnect" and reconnect is not None:
+                        if refused is None:
+                            log.info("the server refused reconnect (%s); asking again every %g s for %g s",
+                                     msg.message, RECONNECT_RETRY_S, connect_timeout_s)
+                        refused = f"{msg.code}: {msg.message}"
+                        retry_at = time.monotonic() + RECONNECT_RETRY_S
+                        continue
                     if not agent.ready:
                         raise PlayerExit(EXIT_START_FAILED,
                                          f"the server refused {joining}: {msg.code}: {msg.message}")
@@ -182,10 +207,12 @@ def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop
 @click.option("--fullstate", is_flag=True, help="Use the exact fullstate percepts instead of seeing.")
 @click.option("--reconnect", type=click.IntRange(1, 11), default=None, metavar="UNUM",
               help="Take back the seat of this uniform number of the team, whose player is gone (crashed, "
-                   "killed, or given up by the server), instead of joining anew; the seat keeps the "
-                   "settings of its first init (--fullstate).")
+                   "killed, hung, or given up by the server), instead of joining anew; while the server "
+                   "still waits for the old player the player asks again every second until "
+                   "--connect-timeout. The seat keeps the settings of its first init (--fullstate).")
 @click.option("--connect-timeout", "connect_timeout_s", type=click.FloatRange(min=0.0, min_open=True), default=60.0,
-              show_default=True, help="Seconds to wait for the server's init_ok before giving up (exit 2).")
+              show_default=True, help="Seconds to wait for the server's init_ok (with --reconnect: for the seat) before "
+                   "giving up (exit 2).")
 @click.option("--server-silence", "silence_s", type=click.FloatRange(min=0.0, min_open=True),
               default=SERVER_SILENCE_S, show_default=True,
               help="Seconds without any message from the server after which a joined player gives it up "

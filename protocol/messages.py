@@ -76,6 +76,7 @@ MAX_TEXT_CHARS = 1024
 MAX_LANDMARK_NAME_CHARS = 32
 MAX_LANDMARKS = 256
 MAX_PLAYERS = 2 * MAX_UNUM
+PLAYER_NAME_CHARS = 16  # "keeper 11", "taker 11"
 
 # --------------------------------------------------------------------------------------- field loaders
 
@@ -501,6 +502,10 @@ class EpisodeEnd(Message):
     start_cycle: int = wire(CYCLE)
     end_cycle: int = wire(CYCLE)
     end: str = wire(choice(*EPISODE_ENDS))
+    # The players some of its cycles were played without (given up by the server: hung or gone) and
+    # how many, as the episode log's ``missed``; omitted on the wire when every player played it all.
+    missed: tuple[tuple[str, int], ...] = wire(
+        sequence(fixed(text(PLAYER_NAME_CHARS), integer(1, MAX_CYCLE)), MAX_PLAYERS), default=())
 
 
 @message

@@ -113,7 +113,6 @@ from core.objects import BALL, CMD_KICK, CMD_NONE
 from server.world import COUNT_SAY, Commands, World, new_world
 from runner.job import BATCHED_SARSA, EpisodeTable
 
-PASS_MODES = MODE_NAMES
 # The learner memory of arenas without Pass learning: no rows (kernels never touch it).
 _NO_LEARNERS = SarsaConfig(table_size=2, max_traces=1, transition_log_size=1)
 # Cycles per compiled call: Python collects the ended episodes and checks the stop rules in between.
@@ -449,7 +448,8 @@ class BatchedArenas:
 
     ``pass_policy="learned"``: each keeper of each arena learns its own Pass policy by SMDP Sarsa
     (module docstring) with the constants and sizes of ``sarsa`` (default ``runner.job.BATCHED_SARSA``), from
-    zero weights, in ``pass_mode`` (:data:`PASS_MODES`) until :meth:`set_pass_mode` says otherwise.
+    zero weights, in ``pass_mode`` (a name of :data:`agents.sarsa.MODE_NAMES`) until :meth:`set_pass_mode`
+    says otherwise.
     Arenas learn independently: a trainer that wants more experience per policy picks the best row
     (:meth:`pass_policy_arrays`) and shares it with :meth:`load_pass_arrays`. Averaging weights is only
     meaningful between rows whose collision tables agree (the tile -> slot map depends on the order in
@@ -462,7 +462,7 @@ class BatchedArenas:
                  pass_mode: str = "learn") -> None:
         if batch < 1:
             raise ValueError("batch must be at least 1")
-        mode = _policy_code(PASS_MODES, pass_mode, "Sarsa mode")
+        mode = _policy_code(MODE_NAMES, pass_mode, "Sarsa mode")
         if sarsa is not None and pass_policy != "learned":
             raise ValueError("a Sarsa configuration needs pass_policy='learned'")
         self.threads = max(1, min(batch, numba.config.NUMBA_NUM_THREADS if threads is None else threads))
@@ -560,7 +560,7 @@ class BatchedArenas:
         changes mode midway. After ``run(episodes_per_arena=...)`` every arena is at an episode end, so
         the next run plays entirely in the new mode."""
         self._need_learning()
-        code = _policy_code(PASS_MODES, mode, "Sarsa mode")
+        code = _policy_code(MODE_NAMES, mode, "Sarsa mode")
         self.book.pass_mode[:] = code
         self.sarsa.mode.reshape(self.batch, self.keepers)[self.world.time == 0] = code
 
@@ -681,7 +681,6 @@ __all__ = [
     "Decisions",
     "EpisodeTable",
     "GETOPEN_POLICIES",
-    "PASS_MODES",
     "PASS_POLICIES",
     "Players",
     "agent_seed",

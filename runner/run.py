@@ -47,6 +47,27 @@ class RunOptions:
     view: bool = False  # distributed: a `keepaway view` of the arena's monitor, for as long as the run
 
 
+class ShortHanded:
+    """Which players the episodes are being played without, as the episodes' ``missed`` say: one line
+    when a player starts missing cycles (it did not answer in time, or the server gave it up as hung or
+    gone) and one when it plays whole episodes again, instead of one per short-handed episode (the logs
+    mark each one)."""
+
+    def __init__(self) -> None:
+        self.missing: set[str] = set()
+
+    def update(self, record: EpisodeRecord) -> list[str]:
+        """The lines ``record`` calls for, in order of player name."""
+        missed = dict(record.missed)
+        lines = [f"{name} missed {missed[name]} of the {record.duration} cycles of episode {record.episode} "
+                 "(late, hung or gone: see the server's log; such episodes are marked 'missed' in "
+                 "keepaway.jsonl)" for name in sorted(missed.keys() - self.missing)]
+        lines += [f"{name} played the whole of episode {record.episode} again"
+                  for name in sorted(self.missing - missed.keys())]
+        self.missing = set(missed)
+        return lines
+
+
 # -- modes ------------------------------------------------------------------------------------------
 def distributed_episodes(opts: RunOptions, processes: ArenaProcesses, viewer: ArenaProcesses | None = None,
                          announce: Callable[[str], None] | None = None) -> Iterator[tuple[EpisodeRecord, int]]:
@@ -94,7 +115,8 @@ def distributed_episodes(opts: RunOptions, processes: ArenaProcesses, viewer: Ar
                 end = decode_monitor(*monitor.recv_multipart())
                 assert isinstance(end, m.EpisodeEnd)
                 yielded.add(end.episode)
-                yield EpisodeRecord(end.episode, end.start_cycle, end.end_cycle, end.end), end.end_cycle
+                yield EpisodeRecord(end.episode, end.start_cycle, end.end_cycle, end.end,
+                                    missed=end.missed), end.end_cycle
             dead = processes.first_death(finished)
             if dead is not None:
                 raise ArenaFailure(dead.describe_exit())
@@ -197,6 +219,7 @@ def run(opts: RunOptions, progress: bool = True, announce: Callable[[str], None]
     marks: list[int] = []  # the stream's cycle count when each record came (all arenas' in batched mode)
     held_s = 0.0  # the records' hold times, summed as they come (the bar's running mean)
     bar = tqdm(total=opts.episodes, unit="ep", disable=not progress, dynamic_ncols=True)
+    short_handed = ShortHanded()
     first_at: float | None = None
     last_at = 0.0
     first_cycle = last_cycle = 0
@@ -225,6 +248,10 @@ def run(opts: RunOptions, progress: bool = True, announce: Callable[[str], None]
             if cycles > last_cycle:
                 last_at, last_cycle = now, cycles
             held_s += record.hold_time_s
+            if announce is not None:
+                for line in short_handed.update(record):
+                    with tqdm.external_write_mode():
+                        announce(line)
             bar.update(1)
             bar.set_postfix(mean_hold_s=f"{held_s / len(records):.2f}")
     except (ArenaFailure, KeyboardInterrupt) as exc:
@@ -268,4 +295,4 @@ def _write_logs(opts: RunOptions, records: list[EpisodeRecord]) -> None:
         jsonl.close()
 
 
-__all__ = ["RunOptions", "RunStopped", "logged_episodes", "run"]
+__all__ = ["RunOptions", "RunStopped", "ShortHanded", "logged_episodes", "run"]

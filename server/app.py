@@ -370,7 +370,7 @@ class Server:
             if logger is not None:
                 logger.write(record)
         end = m.EpisodeEnd(cycle=self.arena.cycle, episode=record.episode, start_cycle=record.start_cycle,
-                           end_cycle=record.end_cycle, end=record.end)
+                           end_cycle=record.end_cycle, end=record.end, missed=record.missed)
         for ident in self.coaches:
             self._send_raw(self.coach, ident, encode(end))
         if self.monitor_subscribers:

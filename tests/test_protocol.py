@@ -142,6 +142,7 @@ SAMPLES = [
     CoachInitOk(cycle=0, play_mode="play_on", params=CURRENT.to_dict(), landmarks=LANDMARKS, config=CONFIG),
     LookOk(cycle=55, state=STATE),
     EPISODE_END := EpisodeEnd(cycle=93, episode=3, start_cycle=28, end_cycle=93, end="taken"),
+    EpisodeEnd(cycle=93, episode=4, start_cycle=28, end_cycle=93, end="out", missed=(("keeper 1", 12),)),
     PlayerReport(cycle=93, side="l", unum=1, payload=PAYLOAD),
     PlayerSaid(cycle=93, side="r", unum=2, message="hello"),
     FRAME := Frame(cycle=55, ball=BALL, players=PLAYERS, play_mode="play_on", episode=3, episode_start=40, take_count=2),
@@ -454,6 +455,7 @@ CASES = [
     ("fullstate NaN", with_(FULLSTATE.to_wire(), ball=[0.0, math.nan, 0.0, 0.0]), SERVER_TO_PLAYER,
      "bad_value"),
     ("episode end cause", with_(EPISODE_END.to_wire(), end="timeout"), SERVER_TO_COACH, "bad_value"),
+    ("episode end missed", with_(EPISODE_END.to_wire(), missed=[["keeper 1", 0]]), SERVER_TO_COACH, "bad_value"),
 ]
 
 

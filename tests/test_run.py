@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -13,6 +14,7 @@ from pathlib import Path
 import pytest
 
 from conftest import keepaway_command
+from server.episode_log import read_jsonl
 from server.game_log import read_rcg
 
 SUMMARY_KEYS = {"mode", "seed", "episodes", "mean_hold_time_s", "stderr_hold_time_s", "cycles_per_s",
@@ -174,6 +176,37 @@ def test_ctrl_c_stops_every_process_of_the_arena(processes, tmp_path):
     assert "interrupted; every process was stopped" in err.decode()
     for pid in kids:
         assert not Path(f"/proc/{pid}").exists() or "zombie" in Path(f"/proc/{pid}/status").read_text()
+
+
+@pytest.mark.slow
+def test_a_player_that_misses_cycles_is_reported_on_the_console_once_and_when_it_is_back(processes, tmp_path):
+    proc = processes.popen(keepaway_command("run", "--episodes", "100000", "--no-progress", "--out", str(tmp_path)),
+                           stdout=subprocess.PIPE)
+    deadline = time.monotonic() + 180
+    victim = None
+    while time.monotonic() < deadline and victim is None:
+        keepers = sorted(pid for pid, cmd in children_of(proc.pid).items() if "player --team keepers" in cmd)
+        if len(keepers) == 3 and episodes_logged(tmp_path) >= 1:
+            victim = keepers[1]  # keeper 2: the keepers join in the order they were started
+        time.sleep(0.2)
+    assert victim is not None, "the arena did not start"
+    os.kill(victim, signal.SIGSTOP)  # late for a few cycles (1.25 s each), not long enough to be given up
+    time.sleep(4)
+    os.kill(victim, signal.SIGCONT)
+    back = re.compile(r"keeper 2 played the whole of episode (\d+) again")
+    while not back.search(processes.stderr_tail(proc)):
+        assert time.monotonic() < deadline and proc.poll() is None, processes.stderr_tail(proc)
+        time.sleep(0.2)
+    proc.send_signal(signal.SIGTERM)
+    proc.communicate(timeout=60)
+    err = processes.stderr_tail(proc)
+    late = re.findall(r"keeper 2 missed (\d+) of the (\d+) cycles of episode (\d+)", err)
+    assert len(late) == 1, err  # one line however many episodes it was late in
+    missed, duration, episode = map(int, late[0])
+    assert int(back.search(err).group(1)) > episode
+    _, records = read_jsonl(tmp_path / "keepaway.jsonl")
+    marked = next(r for r in records if r.episode == episode)
+    assert dict(marked.missed)["keeper 2"] == missed and marked.duration == duration
 
 
 # Runs the real server (argv[2:]), notes when it has exited, then keeps its process alive a while: a

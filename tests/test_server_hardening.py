@@ -301,15 +301,54 @@ def test_a_second_server_on_a_log_directory_keeps_the_first_ones_logs(processes,
     assert len(read_jsonl(srv.log_dir / "keepaway.1.jsonl")[1]) == len(read_jsonl(srv.log_dir / "keepaway.jsonl")[1]) == 2
 
 
-def test_a_player_that_cannot_take_a_seat_back_exits_with_one_line(processes, tmp_path):
+def test_a_player_that_cannot_take_a_seat_back_asks_again_then_exits_with_one_line(processes, tmp_path):
     srv = processes.start_server(tmp_path, "--start-on", "coach")
     holder = ScriptedPlayer(srv.players_endpoint)
     assert holder.init("keepers").unum == 1
     proc = processes.popen(keepaway_command("player", "--team", "keepers", "--server", srv.players_endpoint,
-                                            "--reconnect", "1"), stderr=subprocess.PIPE)
+                                            "--reconnect", "1", "--connect-timeout", "3"), stderr=subprocess.PIPE)
     assert proc.wait(120) == 2
     err = proc.stderr.read().decode()
-    assert "the server refused reconnect: cannot_reconnect" in err and "Traceback" not in err
+    assert "the server refused reconnect for 3 s: cannot_reconnect" in err and "Traceback" not in err
+    assert len(err.strip().splitlines()) == 1
+    probes = collect_errors(holder, lambda errors: len(errors) >= 2, timeout_s=10)
+    assert all(e.code == "cannot_reconnect" for e in probes)  # asked more than once, told every time
+
+
+def test_keepaway_player_reconnect_waits_for_the_server_to_give_a_hung_player_up(processes, tmp_path):
+    srv = processes.start_server(tmp_path, "--cycle-timeout", "0.2", "--max-missed", "5")
+    players = connect_all(srv.players_endpoint)
+    holder = players[0]  # keeper 1
+    told: list[m.Error] = []
+    plain_recv = holder.recv
+
+    def recv(timeout: float = 20.0):
+        msg = plain_recv(timeout)
+        if isinstance(msg, m.Error) and msg.code == "cannot_reconnect":
+            told.append(msg)
+        return msg
+
+    holder.recv = recv
+    again = processes.popen(keepaway_command("player", "--team", "keepers", "--server", srv.players_endpoint,
+                                             "--reconnect", "1", "-v"))
+    cycle = 0
+    deadline = time.monotonic() + 180
+    while not told:  # keeper 1 still answers: its seat is refused to the newcomer
+        assert time.monotonic() < deadline and again.poll() is None
+        answer_cycle(players, cycle)
+        cycle += 1
+        time.sleep(0.02)
+    # keeper 1 hangs from here; the server gives it up after 5 missed cycles and the newcomer asks again
+    cycle = play_until_logged(srv, players[1:], "keeper 1 connected (reconnect)", cycle, timeout_s=60)
+    for c in range(cycle, cycle + 20):
+        answer_cycle(players[1:], c)
+    srv.proc.send_signal(signal.SIGTERM)
+    assert srv.wait(30) == 0
+    assert again.wait(30) == 0
+    log = srv.stderr_text()
+    assert log.index("keeper 1 missed 5 cycles in a row") < log.index("keeper 1: its seat is taken back")
+    err = processes.stderr_tail(again)
+    assert "the server refused reconnect" in err and "asking again" in err and "joined as keepers 1" in err
 
 
 def test_an_advice_whose_hear_would_be_over_the_limit_is_refused_not_sent(processes, tmp_path):
