@@ -111,6 +111,8 @@ class AgentMemory(NamedTuple):
     search_sign: np.ndarray  # (B,) float64 +1/-1 turning side of the ball search (spec 1 step 2)
     search_time: np.ndarray  # (B,) int64 cycle of the last search turn, -1 none
     rng: np.ndarray  # (B,) uint64 per-agent random stream (`core/rng.py`)
+    getopen_point: np.ndarray  # (B, 2) float64 the point the last GetOpen decision moved towards
+    getopen_time: np.ndarray  # (B,) int64 the cycle of that decision, -1 none (for notes, never read back)
 
 
 def new_memory(batch: int, seeds: np.ndarray) -> AgentMemory:
@@ -126,6 +128,8 @@ def new_memory(batch: int, seeds: np.ndarray) -> AgentMemory:
         search_sign=np.ones(batch),
         search_time=np.full(batch, -1, dtype=np.int64),
         rng=seeds,
+        getopen_point=np.zeros((batch, 2)),
+        getopen_time=np.full(batch, -1, dtype=np.int64),
     )
 
 

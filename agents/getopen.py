@@ -21,6 +21,7 @@ from core.jit import borrowing, njit
 from agents.belief import AgentMemory, Belief
 from agents.geometry import distance, in_cone, vertex_angle
 from agents.skills import (
+    GETOPEN_HANDCODED,
     GETOPEN_HANDCODED_CONE,
     GETOPEN_LEARNED,
     GETOPEN_RANDOM,
@@ -333,4 +334,45 @@ def getopen(bel: Belief, r: int, mem: AgentMemory, theta, ball_cycles: int, kp, 
         px, py = learned_target(bel, r, theta, ball_cycles, kp, cfg)
     else:
         px, py = handcoded_target(bel, r, ball_cycles, policy == GETOPEN_HANDCODED_CONE, kp, cfg)
+    note_getopen(bel, r, mem, px, py)
     return move_to_spot(bel, r, px, py, kp, cfg)
+
+
+@borrowing
+def note_getopen(bel: Belief, r: int, mem: AgentMemory, px: float, py: float) -> None:
+    """Remember this cycle's GetOpen point: what a keeper's GetOpen note reports (docs/protocol.md,
+    ``command``); nothing decides on it."""
+    mem.getopen_point[r, 0] = px
+    mem.getopen_point[r, 1] = py
+    mem.getopen_time[r] = bel.time[r]
+
+
+@njit(cache=True)
+def grid_values(bel: Belief, r: int, theta, kp, cfg, out) -> int:
+    """How the keeper's GetOpen policy rates each grid point, higher better, as rows ``(x, y, value)`` of
+    ``out`` (at least grid-size rows); returns the number of rows. GO:HC: minus the congestion of each
+    admissible point (the others are no candidates and get no row); GO:L: the net's value; GO:R: no rows.
+    For the notes a viewer draws (docs/protocol.md, ``command``), computed only when asked for: the
+    decision itself (:func:`getopen`) never fills them."""
+    policy = int(cfg.getopen_policy)
+    if policy != GETOPEN_LEARNED and policy != GETOPEN_HANDCODED and policy != GETOPEN_HANDCODED_CONE:
+        return 0
+    _, ball_cycles = fastest_to_ball(bel, r, 1, bel.n_keepers, kp, cfg)
+    bx, by = predicted_ball_pos(bel, r, ball_cycles, kp, cfg)
+    ox, oy = lane_origin(bel, r, ball_cycles, kp, cfg)
+    x = np.empty(getopen_state_size(bel.n_keepers, bel.n_takers))
+    n = 0
+    for k in range(grid_size(cfg)):
+        px, py = grid_point(k, kp, cfg)
+        if policy == GETOPEN_LEARNED:
+            getopen_state(bel, r, px, py, ox, oy, x)
+            value = net_value(theta, x)
+        elif lane_open(bel, r, px, py, bx, by, policy == GETOPEN_HANDCODED_CONE, cfg):
+            value = -congestion(bel, r, px, py, cfg)
+        else:
+            continue
+        out[n, 0] = px
+        out[n, 1] = py
+        out[n, 2] = value
+        n += 1
+    return n

@@ -18,7 +18,7 @@ from __future__ import annotations
 from core.jit import borrowing
 
 from agents.belief import AgentMemory, Belief
-from agents.getopen import getopen, grid_point, move_to_spot
+from agents.getopen import getopen, grid_point, move_to_spot, note_getopen
 from agents.skills import (
     GETOPEN_EXTERNAL,
     PASS_EXTERNAL,
@@ -79,11 +79,12 @@ def execute_pass_action(
 
 @borrowing
 def execute_getopen_action(
-    bel: Belief, r: int, point: int, kp, cfg, out_main, out_a1, out_a2, out_neck
+    bel: Belief, r: int, mem: AgentMemory, point: int, kp, cfg, out_main, out_a1, out_a2, out_neck
 ) -> None:
     """Move towards grid point ``point`` (``agents.getopen.grid_point``) as every GetOpen policy does,
     neck to the region centre (spec `keepaway-agents.md` 2.5 steps 6-7)."""
     px, py = grid_point(point, kp, cfg)
+    note_getopen(bel, r, mem, px, py)
     code, a1, a2 = move_to_spot(bel, r, px, py, kp, cfg)
     write_action(r, code, a1, a2, neck_to_point(bel, r, code, a1, 0.0, 0.0, kp), out_main, out_a1, out_a2, out_neck)
 

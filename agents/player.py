@@ -65,7 +65,7 @@ from typing import Any, NamedTuple, Protocol
 import numpy as np
 
 from agents.belief import forget_episode, new_memory
-from agents.getopen import grid_size
+from agents.getopen import grid_size, grid_values
 from agents.keeper import (
     GETOPEN_DECISION,
     NO_PASS_DECISION,
@@ -364,6 +364,10 @@ class PlayerAgent:
             raise ValueError(f"the server's timing mode {mode!r} is not one of {TIMING_MODES}")
         if type(n_keepers) is not int or type(n_takers) is not int:
             raise ValueError(f"the server's team sizes {n_keepers!r} and {n_takers!r} are not integers")
+        notes = config.get("getopen_notes", "none")
+        if notes not in m.GETOPEN_NOTE_MODES:
+            raise ValueError(f"the server's getopen_notes {notes!r} is not one of {m.GETOPEN_NOTE_MODES}")
+        self.getopen_notes = notes if self.is_keeper else "none"
         policy = self.policy
         if self.is_keeper and policy is not None and (policy.n_keepers, policy.n_takers) != (n_keepers, n_takers):
             raise PolicyFileError(f"{policy.path}: the policy is for {policy.n_keepers} keepers and "
@@ -382,6 +386,8 @@ class PlayerAgent:
         if self.is_keeper and policy is not None and policy.getopen_theta is not None:
             self.theta[:] = policy.getopen_net  # the file's input scaling folded in
         self.pass_state = np.zeros(pass_state_size(n_keepers, n_takers))
+        self._grid_values = np.zeros((grid_size(self.cfg), 3))  # the rows of a GetOpen note's values
+        self._noted_time = -1  # the getopen_time of the last GetOpen note sent
         self._out_main = np.zeros(1, dtype=np.int8)
         self._out_a1 = np.zeros(1)
         self._out_a2 = np.zeros(1)
@@ -662,12 +668,27 @@ class PlayerAgent:
             if awaiting.decision == OUTSIDE_PASS:
                 execute_pass_action(bel, 0, self.memory, int(action), self.kp, self.cfg, *outs)
             else:
-                execute_getopen_action(bel, 0, int(action), self.kp, self.cfg, *outs)
+                execute_getopen_action(bel, 0, self.memory, int(action), self.kp, self.cfg, *outs)
         self.awaiting = None
         return self._command(awaiting.cycle)
 
+    def _getopen_note(self) -> tuple[float, ...]:
+        """The GetOpen note this cycle's command carries (``protocol.messages.getopen_note``): none unless
+        the server asks for notes and this keeper's GetOpen moved it this cycle; the values are what its
+        policy rates the grid points with, from the belief it decided on."""
+        time = int(self.memory.getopen_time[0])
+        if self.getopen_notes == "none" or time == self._noted_time or time < 0:
+            return ()
+        self._noted_time = time
+        note = tuple(float(v) for v in self.memory.getopen_point[0])
+        if self.getopen_notes == "values":
+            n = grid_values(self.wm.belief(), 0, self.theta, self.kp, self.cfg, self._grid_values)
+            note += tuple(self._grid_values[:n].ravel().tolist())
+        return note
+
     def _command(self, cycle: int) -> m.Command:
         """This cycle's decision (the output arrays) as atomic commands; the world model is told."""
+        note = self._getopen_note()
         main = int(self._out_main[0])
         a1, a2, neck = float(self._out_a1[0]), float(self._out_a2[0]), float(self._out_neck[0])
         self.wm.on_own_commands(main, a1, a2, neck)
@@ -680,7 +701,7 @@ class PlayerAgent:
         say_row(0, self.wm.state, main, a1, a2, self.n_keepers, self.kp, self.cfg, self.talk)
         if self.talk.said_len[0]:
             commands.append(m.AtomicCommand("say", (to_text(self.talk, 0),)))
-        return m.Command(cycle=cycle, commands=tuple(commands))
+        return m.Command(cycle=cycle, commands=tuple(commands), getopen=note)
 
     def _ask_learner(self, bel: Any, decision: int, outs: tuple) -> None:
         """A Pass decision point with an external learner (agents/keeper.py docstring): start or step
@@ -717,6 +738,7 @@ def compile_kernels() -> None:
         if agent.is_keeper:
             execute_pass_action(agent.wm.belief(), 0, agent.memory, 0, agent.kp, agent.cfg, agent._out_main,
                                 agent._out_a1, agent._out_a2, agent._out_neck)
+            grid_values(agent.wm.belief(), 0, agent.theta, agent.kp, agent.cfg, agent._grid_values)  # notes
     # the Sarsa learner's kernels: a keeper may become a learner at any episode boundary (docs/advice.md)
     learner = SarsaLearner(DEFAULT_KEEPERS, DEFAULT_TAKERS, SarsaConfig(table_size=1 << 16), 0, MODE_LEARN)
     state = np.zeros(pass_state_size(DEFAULT_KEEPERS, DEFAULT_TAKERS))

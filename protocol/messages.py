@@ -226,15 +226,31 @@ class Reconnect(Message):
     unum: int = wire(UNUM)
 
 
+GETOPEN_NOTE_MODES = ("none", "target", "values")  # what keepers note, as ``init_ok``'s config asks
+MAX_NOTE_POINTS = 121  # grid points one GetOpen note may rate (an 11 x 11 grid)
+_NOTE_NUMBERS = sequence(number, 2 + 3 * MAX_NOTE_POINTS)
+
+
+def getopen_note(value: Any) -> tuple[float, ...]:
+    """A keeper's GetOpen note: ``[]`` (none), or ``[tx, ty]`` (the point its GetOpen moves to) followed
+    by ``x, y, value`` per grid point its policy rated (higher is better)."""
+    numbers = _NOTE_NUMBERS(value)
+    if len(numbers) == 1 or (len(numbers) > 2 and (len(numbers) - 2) % 3):
+        raise Invalid("bad_value", f"a GetOpen note is [tx, ty, x1, y1, v1, ...]; got {len(numbers)} numbers")
+    return numbers
+
+
 @message
 class Command(Message):
-    """The atomic commands answering cycle ``cycle``."""
+    """The atomic commands answering cycle ``cycle``; a keeper's ``getopen`` note when the server asks
+    for notes (``init_ok``'s ``config["getopen_notes"]``) and it ran GetOpen this cycle."""
 
     TYPE: ClassVar[str] = "command"
     cycle: int = wire(CYCLE)
     commands: tuple[AtomicCommand, ...] = wire(
         sequence(_atomic_command, MAX_COMMANDS), default=(), dump=_commands_to_wire
     )
+    getopen: tuple[float, ...] = wire(getopen_note, default=())
 
 
 @message
@@ -545,6 +561,9 @@ class Frame(Message):
     episode: int = wire(COUNT)
     episode_start: int = wire(CYCLE)  # the cycle the episode under way began
     take_count: int = wire(COUNT)
+    # the keepers' GetOpen notes sent with the commands of the step that led here: (unum, note) rows
+    getopen: tuple[tuple[int, tuple[float, ...]], ...] = wire(sequence(fixed(UNUM, getopen_note), MAX_UNUM),
+                                                              default=())
 
 
 # -------------------------------------------------------------------------------------- allowed sets

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 
 import click
 
-from protocol.messages import MAX_SEED
+from protocol.messages import GETOPEN_NOTE_MODES, MAX_SEED
 from protocol.params import KEEPAWAY_KEEPERS, KEEPAWAY_TAKERS
 from protocol.security import keys_option
 from runner.kernels import KERNEL_SETS
@@ -134,13 +134,17 @@ def default_arenas(mode: str, attach: tuple[str, ...]) -> int:
 @click.option("--view", is_flag=True,
               help="Distributed mode: open a browser viewer of the arena (keepaway view) and print its URL; it "
                    "stops with the run (add --realtime to watch at 10 cycles a second).")
+@click.option("--getopen-notes", type=click.Choice(GETOPEN_NOTE_MODES), default=None,
+              help="Distributed and embedded modes: the keepers note their GetOpen target (and the grid points' "
+                   "values) in the game log and, distributed, in the monitor frames a viewer draws "
+                   "[values with --view, else none].")
 @click.option("--json", "as_json", is_flag=True, help="Print a machine-readable summary instead of the table.")
 @click.option("--no-progress", is_flag=True, help="No progress bar.")
 @keys_option
 def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str, policy_path: Path | None,
                 keepers: int, takers: int, field_size: float, parameter_set: str, mode: str, batch: int,
-                realtime: bool, out: Path, no_game_log: bool, game_log_arenas: str, view: bool, as_json: bool,
-                no_progress: bool, keys: Path | None) -> None:
+                realtime: bool, out: Path, no_game_log: bool, game_log_arenas: str, view: bool,
+                getopen_notes: str | None, as_json: bool, no_progress: bool, keys: Path | None) -> None:
     """Play Keepaway: a whole arena (server, coach, keepers, takers) for --episodes episodes."""
     from agents.policy_file import PolicyFileError, load_policy
     from protocol.params import parameter_set as make_params
@@ -157,6 +161,11 @@ def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str,
     keys_for_distributed(keys, mode)
     if view and mode != "distributed":
         raise click.UsageError("--view follows an arena's monitor port: it needs --mode distributed")
+    if getopen_notes is None:
+        getopen_notes = "values" if view else "none"
+    elif getopen_notes != "none" and mode == "batched":
+        raise click.UsageError("--getopen-notes: the batched mode's keepers send no notes; use --mode "
+                               "distributed or embedded")
     if mode == "batched" and batch < 1:
         raise click.UsageError("--batch must be at least 1")
     logged_arenas = arena_list(game_log_arenas, batch if mode == "batched" else 0, "--game-log-arenas")
@@ -169,7 +178,8 @@ def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str,
         raise click.UsageError(str(exc)) from None
     spec = ArenaSpec(params, keepers, takers, seed, pass_policy, getopen_policy, policy)
     opts = RunOptions(spec, episodes, mode, batch, realtime, out, policy_path, parameter_set, keys,
-                      game_log=not no_game_log, game_log_arenas=logged_arenas, view=view)
+                      game_log=not no_game_log, game_log_arenas=logged_arenas, view=view,
+                      getopen_notes=getopen_notes)
     interrupt_on_sigterm()
     show = (lambda result: click.echo(dump_json(result.summary()) if as_json else summary_table(result.summary())))
     try:

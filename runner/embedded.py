@@ -60,11 +60,13 @@ class EmbeddedGame:
 
     def __init__(self, spec: ArenaSpec, pass_learner: PassLearnerFactory | None = None,
                  agent: AgentConfig | None = None, outside: Collection[str] = (),
-                 game_log: Path | None = None) -> None:
+                 game_log: Path | None = None, getopen_notes: str = "none") -> None:
         self.arena = Arena(spec.params, spec.keepers, spec.takers, spec.seed)
-        # the .rcg of every cycle, as the server writes it (server.game_log)
+        # the .rcg of every cycle, as the server writes it (server.game_log), with the keepers'
+        # GetOpen notes if ``getopen_notes`` asks for them (as ``keepaway server --getopen-notes``)
         self.game_log = ArenaGameLog(game_log, self.arena) if game_log is not None else None
-        config = {"mode": "sync", "keepers": spec.keepers, "takers": spec.takers, "seed": spec.seed}
+        config = {"mode": "sync", "keepers": spec.keepers, "takers": spec.takers, "seed": spec.seed,
+                  "getopen_notes": getopen_notes}
         self.players: list[tuple[PlayerSlot, PlayerAgent]] = []  # in object order
         for team, count in (("keepers", spec.keepers), ("takers", spec.takers)):
             for _ in range(count):
@@ -101,7 +103,9 @@ class EmbeddedGame:
     def submit(self, slot: PlayerSlot, command: m.Command | None) -> None:
         """A player's command for this cycle, as the server would receive it."""
         if command is not None:
-            self.arena.submit(slot.obj, _wire(command, decode_from_player).commands)
+            command = _wire(command, decode_from_player)
+            self.arena.submit(slot.obj, command.commands)
+            self.arena.note_getopen(slot.obj, command.getopen)
 
     def step(self) -> EpisodeRecord | None:
         """The arena's step (written to the game log, if any); the record of the episode it ended."""
@@ -142,10 +146,11 @@ class EmbeddedGame:
         return EpisodesDone(cycle=arena.cycle, episodes=episodes, reports=reports)
 
 
-def embedded_episodes(spec: ArenaSpec, game_log: Path | None = None) -> Iterator[tuple[EpisodeRecord, int]]:
+def embedded_episodes(spec: ArenaSpec, game_log: Path | None = None,
+                      getopen_notes: str = "none") -> Iterator[tuple[EpisodeRecord, int]]:
     """Play the arena forever, yielding each ended episode and the cycle count so far; with ``game_log``
-    write every cycle's show there (closed when the generator is)."""
-    game = EmbeddedGame(spec, game_log=game_log)
+    write every cycle's show there, with the keepers' ``getopen_notes`` (closed when the generator is)."""
+    game = EmbeddedGame(spec, game_log=game_log, getopen_notes=getopen_notes)
     try:
         while True:
             record = game.cycle()

@@ -45,6 +45,7 @@ class RunOptions:
     game_log: bool = True  # distributed, embedded: write keepaway.rcg (server/game_log.py)
     game_log_arenas: tuple[int, ...] = ()  # batched: the arenas whose keepaway-arena<B>.rcg is written
     view: bool = False  # distributed: a `keepaway view` of the arena's monitor, for as long as the run
+    getopen_notes: str = "none"  # distributed, embedded: the keepers' notes (protocol.messages.GETOPEN_NOTE_MODES)
 
 
 class ShortHanded:
@@ -85,6 +86,8 @@ def distributed_episodes(opts: RunOptions, processes: ArenaProcesses, viewer: Ar
         server_args += ["--mode", "realtime"]
     if not opts.game_log:
         server_args += ["--no-game-log"]
+    if opts.getopen_notes != "none":
+        server_args += ["--getopen-notes", opts.getopen_notes]
     player_args = ["--seed", str(spec.seed), "--pass", spec.pass_policy, "--getopen", spec.getopen_policy]
     if opts.policy_path is not None:
         player_args += ["--policy", str(opts.policy_path)]
@@ -234,7 +237,8 @@ def run(opts: RunOptions, progress: bool = True, announce: Callable[[str], None]
             processes.__enter__()
             stream = distributed_episodes(opts, processes, viewer, announce)
         elif opts.mode == "embedded":
-            stream = embedded_episodes(spec, opts.out / f"keepaway{RCG_SUFFIX}" if opts.game_log else None)
+            stream = embedded_episodes(spec, opts.out / f"keepaway{RCG_SUFFIX}" if opts.game_log else None,
+                                       opts.getopen_notes)
         else:
             stream = batched_episodes(opts)
         # the distributed stream ends by itself (and then checks every process's exit); the others

@@ -342,7 +342,8 @@ class Server:
         if self.rcg is not None:
             self.rcg.step()
         if self.monitor_subscribers:
-            self._publish(MONITOR_FRAME_TOPIC, m.Frame(cycle=self.arena.cycle, **truth_state(self.arena)))
+            self._publish(MONITOR_FRAME_TOPIC, m.Frame(cycle=self.arena.cycle, **truth_state(self.arena),
+                                                       getopen=self.arena.step_notes))
         if record is not None:
             self._episode_ended(record)
         cfg = self.config
@@ -569,6 +570,8 @@ class Server:
                                      message=f"command for cycle {msg.cycle} but the server is at {cycle}"))
             return
         warnings = self.arena.submit(conn.slot.obj, msg.commands)
+        if msg.cycle == cycle:
+            self.arena.note_getopen(conn.slot.obj, msg.getopen)
         for text in warnings:
             self._send(conn, m.Error(cycle=cycle, code="dropped", message=text))
         if msg.cycle == cycle:
@@ -581,7 +584,7 @@ class Server:
     def _client_config(self) -> dict:
         cfg = self.config
         return {"mode": cfg.mode, "keepers": cfg.keepers, "takers": cfg.takers, "seed": cfg.seed,
-                "max_message_bytes": cfg.max_message_bytes}
+                "max_message_bytes": cfg.max_message_bytes, "getopen_notes": cfg.getopen_notes}
 
     def _virtual_ms(self) -> float:
         if self.config.mode == "sync":

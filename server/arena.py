@@ -88,6 +88,9 @@ class Arena:
         self.body_out = perception.SenseBodyBuffers.empty(1, self.world.n_objects)
         # what the referee said since the owner last took it (``take_referee_log``); None: not kept
         self.referee_log: list[str] | None = None
+        self._noted: dict[int, tuple[float, ...]] = {}  # this cycle's GetOpen notes, by keeper unum
+        # the keepers' GetOpen notes sent with the commands of the last step: (unum, note), by unum
+        self.step_notes: tuple[tuple[int, tuple[float, ...]], ...] = ()
 
     # -- connections ---------------------------------------------------------------------------------
     @property
@@ -209,10 +212,19 @@ class Arena:
                     warnings.append("change_view: low quality is not supported; the view stays high")
         return warnings
 
+    def note_getopen(self, obj: int, note: tuple[float, ...]) -> None:
+        """A keeper's GetOpen note sent with its commands of this cycle (``protocol.messages.getopen_note``);
+        the last one of a cycle counts; a taker's, or an empty one, is no note."""
+        s = self.slot(obj)
+        if note and s.side == TEAMS["keepers"]:
+            self._noted[s.unum] = note
+
     def step(self) -> EpisodeRecord | None:
         """Simulate one cycle; return the record of an episode that ended in it, if any."""
         simulate_cycle(self.world, self.commands, self.referee, self.kp, self.causes)
         self.commands.clear()
+        self.step_notes = tuple(sorted(self._noted.items()))
+        self._noted.clear()
         for s in self.slots:
             s.main_taken = s.neck_taken = False
         self._deliver_says()

@@ -9,6 +9,7 @@ from typing import Any
 
 import click
 
+from protocol.messages import GETOPEN_NOTE_MODES
 from protocol.params import TEAM_SIZE, ServerParams, parameter_set
 from protocol.security import SecurityError, keys_option
 from server.config import (
@@ -95,6 +96,10 @@ def build_config(config_file: Path | None, parameter_set_name: str | None, overr
 @click.option("--kwy-name", default=None, help="Fixed log name (default keepaway).")
 @click.option("--no-game-log", is_flag=True,
               help="With --log-dir: do not write the game log (keepaway.rcg, rcssserver's .rcg version 5).")
+@click.option("--getopen-notes", type=click.Choice(GETOPEN_NOTE_MODES), default=None,
+              help="Ask the keepers for notes of their GetOpen decisions, written to the game log and "
+                   "published in monitor frames for viewers: their target point, or target and the grid "
+                   "points' values (default none).")
 @click.option("-v", "--verbose", count=True, help="More log output (-v info, -vv debug).")
 def server_command(config_file: Path | None, parameter_set_name: str | None, param_pairs: tuple[str, ...],
                    no_keepaway_launch: bool, field_size: float | None, no_game_log: bool, verbose: int,

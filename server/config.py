@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from protocol.messages import MAX_SEED
+from protocol.messages import GETOPEN_NOTE_MODES, MAX_SEED
 from protocol.params import (
     PARAMETER_SETS,
     POSITIVE,
@@ -55,6 +55,9 @@ class ServerConfig:
     max_message_bytes: int = 4 * 1024 * 1024
     player_budget: int = 8  # messages of a seated player served per cycle (docs/protocol.md 1 "Budgets")
     unseated_budget: int = 16  # messages per 0.1 s of a client that is not (yet) a player or a coach
+    # what keepers note with their commands, for the game log and the monitor (docs/protocol.md
+    # "command"): none (the default: nothing extra on the wire), their GetOpen target, or target and values
+    getopen_notes: str = "none"
 
     def __post_init__(self) -> None:
         """Refuse every setting of the wrong type or outside :data:`SETTING_RANGES`, in one line."""
@@ -88,7 +91,7 @@ SETTING_RANGES: dict[str, Range | OneOf] = {
     "mode": OneOf(TIMING_MODES), "on_hang": OneOf(HANG_POLICIES), "start_on": OneOf(START_ON),
     "seed": SEED, "cycle_timeout_s": POSITIVE, "max_missed_cycles": AT_LEAST_ONE,
     "episodes": AT_LEAST_ONE, "max_cycles": AT_LEAST_ONE, "max_message_bytes": Range(1024, high_open=True),
-    "player_budget": AT_LEAST_ONE, "unseated_budget": AT_LEAST_ONE,
+    "player_budget": AT_LEAST_ONE, "unseated_budget": AT_LEAST_ONE, "getopen_notes": OneOf(GETOPEN_NOTE_MODES),
 }
 # Each setting's type, from the annotations of ServerConfig (the parameter table is checked by itself).
 SETTING_TYPES: dict[str, Any] = {

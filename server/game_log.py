@@ -20,7 +20,9 @@ reference's runs) takes its episodes from the ``.kwy`` beside it (:func:`read_kw
 **Notes.** A keeper's GetOpen decision of a cycle, its target point and optionally the grid points'
 values, is written as ``(msg T 2 "(getopen (l U) TX TY [X1 Y1 V1 ...])")`` on the log board (board 2),
 which rcssmonitor and soccerwindow2 list and otherwise ignore; ``keepaway view`` and ``keepaway render``
-draw them. Our keepers do not report their GetOpen decisions to the server yet, so our logs have none.
+draw them. Our keepers send them with their commands when the server asks for notes (``keepaway server
+--getopen-notes target|values``, docs/protocol.md ``command``); the note of a step's commands goes with the
+show after that step.
 
 The core is sans-IO: :class:`RcgFormatter` turns shows and events into text lines, :func:`parse_rcg`
 turns text back into :class:`Show` frames; :class:`RcgLog` is the thin file sink the server and
@@ -325,8 +327,12 @@ class ArenaGameLog:
     def start_game(self) -> None:
         self.log.start_game(self.show(), self.arena.take_referee_log())
 
-    def step(self, notes: Iterable[GetOpenNote] = ()) -> None:
-        self.log.cycle(self.show(), self.arena.take_referee_log(), notes)
+    def step(self) -> None:
+        """The show after the arena's step, with the referee's words and the keepers' GetOpen notes
+        sent with the commands of that step (``Arena.step_notes``)."""
+        show = self.show()
+        notes = [GetOpenNote(show.cycle, unum, note[:2], note[2:]) for unum, note in self.arena.step_notes]
+        self.log.cycle(show, self.arena.take_referee_log(), notes)
 
     def close(self) -> None:
         self.log.close()

@@ -15,7 +15,7 @@ import pytest
 
 from protocol import messages as m
 from protocol.params import parameter_set
-from runner.embedded import ArenaSpec, embedded_episodes
+from runner.embedded import ArenaSpec, EmbeddedGame, embedded_episodes
 from server.game_log import (
     POS_PREC,
     STATE_BALL_COLLIDE,
@@ -149,3 +149,32 @@ def test_getopen_notes_are_written_on_the_log_board_and_read_back():
     lines = formatter.header() + formatter.start_game(show) + formatter.cycle(show._replace(cycle=4), notes=[note])
     assert '(msg 4 2 "(getopen (l 2) 3.5 -7 -7 -7 0.25 -7 -3.5 -1.5)")' in lines
     assert parse_rcg(line + "\n" for line in lines).notes == {4: [note]}
+
+
+def test_keepers_note_their_getopen_decisions_without_changing_the_game(tmp_path):
+    """``getopen_notes`` "values": each keeper that ran GetOpen sends its target and its policy's rating of
+    the grid points (GO:HC: minus the congestion of the admissible points, whose best is its target); the
+    notes reach the game log, and the game is the one played without them."""
+    spec = ArenaSpec(parameter_set("classic"), seed=3)
+    plain = EmbeddedGame(spec)
+    noted = EmbeddedGame(spec, game_log=tmp_path / "k.rcg", getopen_notes="values")
+    sent: dict[int, list] = {}
+    for _ in range(400):
+        assert plain.cycle() == noted.cycle()
+        for unum, note in noted.arena.step_notes:
+            sent.setdefault(noted.arena.cycle, []).append((unum, note))
+            target, rows = np.array(note[:2]), np.array(note[2:]).reshape(-1, 3)
+            assert len(rows) <= 25 and (len(note) - 2) % 3 == 0
+            if len(rows):
+                assert np.array_equal(rows[np.argmax(rows[:, 2]), :2], target)  # the best rated point is the target
+            else:
+                assert np.array_equal(target, (0.0, 0.0))  # no admissible point: the region's centre
+    assert np.array_equal(plain.arena.world.pos, noted.arena.world.pos)
+    assert len(sent) > 100 and {unum for notes in sent.values() for unum, _ in notes} == {1, 2, 3}
+    assert sum(len(note) > 2 for notes in sent.values() for _, note in notes) > 100  # rated points
+    noted.game_log.close()
+    logged = read_rcg(tmp_path / "k.rcg").notes
+    assert sorted(logged) == sorted(sent)
+    for cycle, notes in sent.items():
+        assert [(n.unum, (*n.target, *n.values)) for n in logged[cycle]] == \
+            [(u, tuple(float(cpp) for cpp in (f"{v:.6g}" for v in note))) for u, note in notes]

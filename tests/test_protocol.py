@@ -105,6 +105,8 @@ SAMPLES = [
         ),
     ),
     Command(cycle=0),
+    Command(cycle=5, getopen=(3.5, -7.0)),
+    Command(cycle=5, getopen=(3.5, -7.0, -7.0, -7.0, 0.25, -7.0, -3.5, -1.5)),
     Report(cycle=100, payload=PAYLOAD),
     Bye(),
     INIT_OK := InitOk(cycle=0, side="l", unum=1, team="keepers", play_mode="before_kick_off",
@@ -146,6 +148,8 @@ SAMPLES = [
     PlayerReport(cycle=93, side="l", unum=1, payload=PAYLOAD),
     PlayerSaid(cycle=93, side="r", unum=2, message="hello"),
     FRAME := Frame(cycle=55, ball=BALL, players=PLAYERS, play_mode="play_on", episode=3, episode_start=40, take_count=2),
+    Frame(cycle=55, ball=BALL, players=PLAYERS, play_mode="play_on", episode=3, episode_start=40, take_count=2,
+          getopen=((1, (3.5, -7.0)), (2, (0.0, 0.0, 3.5, 3.5, -0.5)))),
 ]
 
 PORT_SETS = {
@@ -404,6 +408,11 @@ CASES = [
     ("empty atomic command", with_(VALID_COMMAND, commands=[[]]), PLAYER_TO_SERVER, "bad_value"),
     ("command not an array", with_(VALID_COMMAND, commands=["turn"]), PLAYER_TO_SERVER, "bad_type"),
     ("command name not a str", with_(VALID_COMMAND, commands=[[1, 2]]), PLAYER_TO_SERVER, "bad_type"),
+    ("getopen note of one number", with_(VALID_COMMAND, getopen=[1.0]), PLAYER_TO_SERVER, "bad_value"),
+    ("getopen note with half a point", with_(VALID_COMMAND, getopen=[1.0, 2.0, 3.0, 4.0]), PLAYER_TO_SERVER,
+     "bad_value"),
+    ("getopen note not finite", with_(VALID_COMMAND, getopen=[1.0, float("nan")]), PLAYER_TO_SERVER, "bad_value"),
+    ("getopen note too long", with_(VALID_COMMAND, getopen=[0.0] * (2 + 3 * 122)), PLAYER_TO_SERVER, "too_large"),
     ("bad view width", with_(VALID_COMMAND, commands=[["change_view", "huge"]]), PLAYER_TO_SERVER, "bad_value"),
     ("bad view quality", with_(VALID_COMMAND, commands=[["change_view", "wide", "hd"]]), PLAYER_TO_SERVER,
      "bad_value"),

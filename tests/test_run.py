@@ -67,7 +67,7 @@ def test_distributed_run_plays_twenty_episodes_and_writes_logs(processes, tmp_pa
 
 
 def test_distributed_and_embedded_runs_give_identical_episodes(processes, tmp_path):
-    args = ["--episodes", "4", "--seed", "9"]
+    args = ["--episodes", "4", "--seed", "9", "--getopen-notes", "values"]
     distributed = run_json(processes, *args, "--out", str(tmp_path / "d"))
     embedded = run_json(processes, *args, "--mode", "embedded", "--out", str(tmp_path / "e"))
     key = lambda s: [(e["episode"], e["start_cycle"], e["end_cycle"], e["end"]) for e in s["episodes"]]
@@ -77,6 +77,7 @@ def test_distributed_and_embedded_runs_give_identical_episodes(processes, tmp_pa
     game_log = lambda mode: [l for l in (tmp_path / mode / "keepaway.rcg").read_text().splitlines()
                              if "(result " not in l]
     assert game_log("d")[0] == "ULG5" and sum(l.startswith("(show ") for l in game_log("d")) > 4
+    assert sum('"(getopen (l ' in l for l in game_log("d")) > 20  # the keepers' notes, sent over the wire
     assert game_log("d") == game_log("e")
 
 

@@ -169,6 +169,27 @@ def test_the_page_replays_a_game_log_in_a_real_browser(processes, browser):
     assert browser.find_element("id", "cycle").text == paused
 
 
+def test_the_page_draws_the_keepers_getopen_notes_in_a_real_browser(processes, tmp_path, browser):
+    """A game log with the keepers' notes (targets and the grid points' values): the page draws the
+    values when asked to, over the same frame."""
+    log = processes.popen(keepaway_command("run", "--mode", "embedded", "--episodes", "1", "--getopen-notes",
+                                           "values", "--no-progress", "--out", str(tmp_path)))
+    assert log.wait(300) == 0
+    _, url = start_viewer(processes, str(tmp_path / "keepaway.rcg"))
+    watch(browser, url)
+    browser.find_element("id", "play").click()  # pause
+    deadline = time.monotonic() + 60
+    while not browser.execute_script("return last && !last.playing && last.getopen.length > 0"):
+        assert time.monotonic() < deadline, "no paused frame with notes"
+        browser.find_element("id", "forward").click()
+        time.sleep(0.2)
+    notes = browser.execute_script("return last.getopen")
+    assert all(len(target) == 2 and len(values) % 3 == 0 for _, target, values in notes)
+    plain = players_layer(browser)
+    browser.find_element("id", "grid").click()
+    assert players_layer(browser) != plain  # the grid values are drawn
+
+
 def test_run_view_shows_its_live_arena_in_a_real_browser(processes, tmp_path, browser):
     """``keepaway run --view``: a real distributed arena (server, coach, five players) in real time, and
     the viewer it starts follows the arena's monitor port."""
@@ -179,3 +200,8 @@ def test_run_view_shows_its_live_arena_in_a_real_browser(processes, tmp_path, br
     assert int(cycle2) > int(cycle1)
     assert first != second
     assert browser.find_element("id", "mode").text.startswith("live tcp://")
+    # --view asks the keepers for their GetOpen notes, which come with the live frames
+    deadline = time.monotonic() + 60
+    while not browser.execute_script("return last.getopen.some(([u, t, values]) => values.length > 0)"):
+        assert time.monotonic() < deadline, "no live frame with GetOpen notes"
+        time.sleep(0.2)
