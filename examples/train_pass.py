@@ -51,8 +51,10 @@ def train(episodes: int, seed: int) -> list[float]:
     return holds
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(train=train, doc: str = __doc__) -> None:
+    """Parse the command line, train ``--trials`` trials with ``train(episodes, seed)`` and print the mean
+    hold time of each block of episodes (the other examples reuse it)."""
+    parser = argparse.ArgumentParser(description=doc.splitlines()[0])
     parser.add_argument("--episodes", type=int, default=1000)
     parser.add_argument("--trials", type=int, default=3)
     parser.add_argument("--block", type=int, default=200, help="episodes per reported mean")
