@@ -62,6 +62,29 @@ def test_trainer_runs_episodes_through_the_arena_endpoint_and_stops_the_arena(pr
     assert len(kwy) >= 5
 
 
+def test_after_a_20_mb_advice_the_arena_still_answers_a_normal_request(processes, tmp_path):
+    """Issue 12's jam: one run_episodes carrying a 20 MB advice used to leave the arena busy for good."""
+    srv, coach, arena, players = start_arena(processes, tmp_path)
+    trainer = zmq.Context.instance().socket(zmq.DEALER)
+    trainer.setsockopt(zmq.LINGER, 0)
+    trainer.connect(arena)
+    try:
+        huge = encode(RunEpisodes(episodes=1, advice=(("keepers", PolicyAdvice(getopen_theta=np.zeros(2_600_000))),)))
+        assert len(huge) > 20_000_000
+        trainer.send(huge)
+        assert trainer.poll(180_000), "no answer to the oversized request"
+        refused = decode_for_trainer(trainer.recv())
+        assert isinstance(refused, m.Error) and refused.code == "too_large" and "\n" not in refused.message
+        trainer.send(encode(RunEpisodes(episodes=2)))
+        assert trainer.poll(180_000), "no answer to the normal request after the oversized one"
+        done = decode_for_trainer(trainer.recv())
+        assert isinstance(done, EpisodesDone) and [e[0] for e in done.episodes] == [1, 2]
+        trainer.send(encode(StopArena()))
+        assert srv.wait(60) == 0 and coach.wait(60) == 0
+    finally:
+        trainer.close(linger=0)
+
+
 def test_a_second_request_while_busy_is_refused(processes, tmp_path):
     srv, coach, arena, players = start_arena(processes, tmp_path)
     ctx = zmq.Context.instance()
