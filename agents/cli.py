@@ -4,9 +4,9 @@ The socket edge of :class:`agents.player.PlayerAgent` (style guide, "Sockets at 
 socket (LINGER 0 but for a bounded wait after ``bye``, the protocol's size limit), one poll loop, every
 frame decoded by ``protocol`` before the agent sees it. Exit codes: 0 when the server shuts down or on
 SIGTERM/SIGINT (after saying ``bye``), 2 when the player cannot start (bad policy file, no server within
-``--connect-timeout``, ``init`` refused, ``reconnect`` refused for that long), 4 when a joined player's server has sent
-nothing for ``--server-silence`` seconds (it sends a ``waiting`` every second while no cycle is played, so
-only a dead or frozen server is silent that long). Expected conditions end with one line on
+``--connect-timeout``, ``init`` refused, ``reconnect`` refused for that long), 4 when a joined player's
+server has sent nothing for ``--server-silence`` seconds (it sends a ``waiting`` every second while no
+cycle is played, so only a dead or frozen server is silent that long). Expected conditions end with one line on
 stderr, never a traceback. With ``--reconnect UNUM`` the player takes back the seat of a player of its
 team that is gone (crashed, killed, or given up by the server) instead of joining anew
 (docs/protocol.md 12 "Rejoin"). A seat whose old client the server still waits for (a hung process it
@@ -211,8 +211,9 @@ def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop
                    "still waits for the old player the player asks again every second until "
                    "--connect-timeout. The seat keeps the settings of its first init (--fullstate).")
 @click.option("--connect-timeout", "connect_timeout_s", type=click.FloatRange(min=0.0, min_open=True), default=60.0,
-              show_default=True, help="Seconds to wait for the server's init_ok (with --reconnect: for the seat) before "
-                   "giving up (exit 2).")
+              show_default=True,
+              help="Seconds to wait for the server's init_ok (with --reconnect: for the seat) before giving up "
+                   "(exit 2).")
 @click.option("--server-silence", "silence_s", type=click.FloatRange(min=0.0, min_open=True),
               default=SERVER_SILENCE_S, show_default=True,
               help="Seconds without any message from the server after which a joined player gives it up "

@@ -34,7 +34,8 @@ class LinearPassValues:
     """Q(s, a) = w_a . phi(s): one SGDRegressor per action on a shared feature map ``phi``."""
 
     def __init__(self, states: np.ndarray, n_actions: int, seed: int) -> None:
-        self.phi = make_pipeline(StandardScaler(), RBFSampler(gamma=RBF_GAMMA, n_components=FEATURES, random_state=seed))
+        self.phi = make_pipeline(StandardScaler(),
+                                 RBFSampler(gamma=RBF_GAMMA, n_components=FEATURES, random_state=seed))
         self.phi.fit(states)
         self.models = [SGDRegressor(learning_rate="constant", eta0=STEP_SIZE, random_state=seed + a)
                        for a in range(n_actions)]

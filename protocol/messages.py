@@ -518,8 +518,8 @@ class EpisodeEnd(Message):
     start_cycle: int = wire(CYCLE)
     end_cycle: int = wire(CYCLE)
     end: str = wire(choice(*EPISODE_ENDS))
-    # The players some of its cycles were played without (given up by the server: hung or gone) and
-    # how many, as the episode log's ``missed``; omitted on the wire when every player played it all.
+    # The players some of its cycles were played without (late, given up or gone) and how many, as the
+    # episode log's ``missed``; empty when every player played it all (may be left out by a sender).
     missed: tuple[tuple[str, int], ...] = wire(
         sequence(fixed(text(PLAYER_NAME_CHARS), integer(1, MAX_CYCLE)), MAX_PLAYERS), default=())
 
