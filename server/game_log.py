@@ -123,6 +123,12 @@ class GetOpenNote(NamedTuple):
     target: tuple[float, float]
     values: tuple[float, ...] = ()
 
+    @classmethod
+    def from_numbers(cls, cycle: int, unum: int, numbers: Sequence[float]) -> GetOpenNote:
+        """A note from its flat numbers, the target first: as a keeper's command carries it
+        (``protocol.messages.getopen_note``) and as the log line writes it (:func:`getopen_text`)."""
+        return cls(cycle, unum, tuple(numbers[:2]), tuple(numbers[2:]))
+
 
 def quantized(value: float, prec: float) -> str:
     """``Quantize(value, prec)`` printed as rcssserver's ostream prints it (6 significant digits)."""
@@ -331,7 +337,7 @@ class ArenaGameLog:
         """The show after the arena's step, with the referee's words and the keepers' GetOpen notes
         sent with the commands of that step (``Arena.step_notes``)."""
         show = self.show()
-        notes = [GetOpenNote(show.cycle, unum, note[:2], note[2:]) for unum, note in self.arena.step_notes]
+        notes = [GetOpenNote.from_numbers(show.cycle, unum, note) for unum, note in self.arena.step_notes]
         self.log.cycle(show, self.arena.take_referee_log(), notes)
 
     def close(self) -> None:
@@ -464,7 +470,7 @@ def _take_msg(line: str, starts: list[int], notes: dict[int, list[GetOpenNote]])
     if note is not None:
         numbers = tuple(float(v) for v in note.group(2).split())
         if len(numbers) >= 2:
-            notes.setdefault(cycle, []).append(GetOpenNote(cycle, int(note.group(1)), numbers[:2], numbers[2:]))
+            notes.setdefault(cycle, []).append(GetOpenNote.from_numbers(cycle, int(note.group(1)), numbers))
 
 
 def read_rcg(path: Path | str, kwy: Path | str | None = None) -> GameRecord:

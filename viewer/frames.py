@@ -133,7 +133,7 @@ def _integer(value: Any, what: str) -> int:
 def live_frame(frame: m.Frame, step_ms: float = 100.0) -> dict[str, Any]:
     """A monitor frame for the page; its ``episode_start`` gives the hold time even of the episode under
     way when the viewer joined; its GetOpen notes (an arena asked for them) are drawn as a replay's are."""
-    notes = [GetOpenNote(frame.cycle, unum, note[:2], note[2:]) for unum, note in frame.getopen]
+    notes = [GetOpenNote.from_numbers(frame.cycle, unum, note) for unum, note in frame.getopen]
     return frame_message(show_from_frame(frame), frame.episode, frame.episode_start, notes, step_ms)
 
 
