@@ -147,3 +147,22 @@ def test_tell_adds_the_extra_variance_to_the_elites_fit():
         np.testing.assert_allclose(cem.mean, mean)
         np.testing.assert_allclose(cem.variance, variance + extra)
     assert cem.generation == 2
+
+
+def test_the_played_net_is_the_best_so_far_by_default_or_the_mean():
+    best, mean = CEM(CEMConfig(n_params=3, population=4, elite=2)), CEM(CEMConfig(n_params=3, population=4,
+                                                                                  elite=2, play="mean"))
+    fitness = np.array([1.0, 4.0, 3.0, 2.0])
+    for cem in (best, mean):
+        candidates = cem.ask()
+        cem.tell(fitness)
+    np.testing.assert_array_equal(best.played(), candidates[1])  # the fittest candidate
+    np.testing.assert_array_equal(mean.played(), (candidates[1] + candidates[2]) / 2)  # the elite's mean
+    played = mean.played()
+    played[:] = 0.0  # a copy: the search is not touched
+    assert np.all(mean.mean != 0.0)
+
+
+def test_an_unknown_play_is_refused():
+    with pytest.raises(ValueError, match="play must be one of best, mean"):
+        CEMConfig(play="median")

@@ -23,6 +23,9 @@ import numpy as np
 
 from agents.getopen import net_size
 
+BEST, MEAN = "best", "mean"
+PLAYS = (BEST, MEAN)  # CEMConfig.play: the best candidate so far (the paper) or the distribution's mean
+
 
 @dataclass(frozen=True)
 class CEMConfig:
@@ -40,6 +43,9 @@ class CEMConfig:
     # decreases linearly to zero at generation extra_noise_generations (0: it never decreases).
     extra_noise: float = 0.0
     extra_noise_generations: int = 0
+    # Which net the trainer plays after each generation (evaluations, Pass phases, the policy file): the
+    # best candidate evaluated so far (keepaway-task.md 7, the paper) or, ours, the distribution's mean.
+    play: str = "best"
 
     def __post_init__(self) -> None:
         if not 0 < self.elite <= self.population:
@@ -50,6 +56,8 @@ class CEMConfig:
             raise ValueError("need initial_variance > 0 and min_variance >= 0")
         if self.extra_noise < 0.0 or self.extra_noise_generations < 0:
             raise ValueError("need extra_noise >= 0 and extra_noise_generations >= 0")
+        if self.play not in PLAYS:
+            raise ValueError(f"play must be one of {', '.join(PLAYS)}, not {self.play!r}")
 
     def extra_variance(self, generation: int) -> float:
         """The noise added to the variance refitted after ``generation`` (0-based; ``extra_noise`` above)."""
@@ -103,6 +111,13 @@ class CEM:
         self.variance += self.config.extra_variance(self.generation)
         self.generation += 1
 
+    def played(self) -> np.ndarray:
+        """The net the trainer plays (:attr:`CEMConfig.play`): a copy of the best candidate so far or of the
+        mean. Only after a ``tell``."""
+        chosen = self.mean if self.config.play == MEAN else self.best_params
+        assert chosen is not None and self.generation > 0
+        return chosen.copy()
+
     def state_dict(self) -> dict[str, Any]:
         """Everything needed to resume: plain Python values and numpy arrays."""
         return {
@@ -130,4 +145,4 @@ class CEM:
         return cem
 
 
-__all__ = ["CEM", "CEMConfig", "fit_elite"]
+__all__ = ["BEST", "CEM", "MEAN", "PLAYS", "CEMConfig", "fit_elite"]

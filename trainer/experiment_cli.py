@@ -53,7 +53,7 @@ def experiment_options(command: Command) -> Command:
 
 def _experiment(trials: int, episodes: int, eval_every: int | None, eval_episodes: int, arenas: int | None,
                 population: int, elite: int, candidate_episodes: int, seed: int, pass_alpha_halflife: int,
-                pass_hive_mind: bool, cem_extra_noise: float, cem_noise_generations: int, mode: str,
+                pass_hive_mind: bool, cem_extra_noise: float, cem_noise_generations: int, cem_play: str, mode: str,
                 attach: tuple[str, ...], backend: str, ray_address: str | None, threads: int | None,
                 keys: Path | None) -> tuple[Any, Placement]:
     """The experiment the shared options describe (:func:`experiment_options`) and where its arenas run; a
@@ -64,7 +64,7 @@ def _experiment(trials: int, episodes: int, eval_every: int | None, eval_episode
     where = placement(mode, attach, backend, ray_address, threads, keys)
     try:
         cem = CEMConfig(population=population, elite=elite, episodes_per_candidate=candidate_episodes,
-                        extra_noise=cem_extra_noise, extra_noise_generations=cem_noise_generations)
+                        extra_noise=cem_extra_noise, extra_noise_generations=cem_noise_generations, play=cem_play)
         exp = ExperimentConfig(trials, episodes, default_eval_every(episodes) if eval_every is None else eval_every,
                                eval_episodes, arenas or default_arenas(mode, attach), seed, cem, pass_alpha_halflife,
                                mode, pass_hive_mind)

@@ -350,9 +350,8 @@ def _cem_generation(config: TrainConfig, state: TrialState, learn_pass: bool = F
         results = [p.result for p in (yield [evaluation_job(c, seed, episodes, config.arenas) for c in candidates])]
     fitness = [result.summary()["mean_hold_time_s"] for result in results]
     cem.tell(np.array(fitness))
-    assert cem.best_params is not None
     state.behaviours.getopen_policy = LEARNED
-    state.behaviours.getopen_theta = cem.best_params.copy()
+    state.behaviours.getopen_theta = cem.played()
     state.behaviours.getopen_inputs = inputs
     state.episodes += config.generation_episodes
     entry.update(episodes=state.episodes, fitness=fitness, best_fitness=cem.best_fitness,

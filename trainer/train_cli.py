@@ -51,6 +51,9 @@ def learning_options(command: Command) -> Command:
                      help="Noisy CEM: variance added to each refit (0: the paper's CEM)."),
         click.option("--cem-noise-generations", type=click.IntRange(min=0), default=0, show_default=True,
                      help="Generations over which --cem-extra-noise falls linearly to 0 (0: it stays)."),
+        click.option("--cem-play", type=click.Choice(["best", "mean"]), default="best", show_default=True,
+                     help="GetOpen net played after each CEM generation (evaluations, Pass phases, policy "
+                          "file): the best candidate so far (the paper) or the CEM's mean."),
     ]
     return with_options(options, command)
 
@@ -59,7 +62,7 @@ def learning_options(command: Command) -> Command:
 CONFIG_OPTIONS = ("pass_policy", "getopen_policy", "episodes", "schedule", "trials", "eval_every", "eval_episodes",
                   "arenas", "seed", "population", "elite", "candidate_episodes", "keepers", "takers",
                   "field_size", "parameter_set", "getopen_inputs", "pass_alpha_halflife", "pass_hive_mind",
-                  "cem_extra_noise", "cem_noise_generations")
+                  "cem_extra_noise", "cem_noise_generations", "cem_play")
 
 
 @click.command("train")
@@ -100,7 +103,7 @@ def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, s
                   backend: str, ray_address: str | None, threads: int | None, keys: Path | None, seed: int,
                   population: int, elite: int, candidate_episodes: int, keepers: int, takers: int,
                   field_size: float, parameter_set: str, getopen_inputs: str, pass_alpha_halflife: int,
-                  pass_hive_mind: bool, cem_extra_noise: float, cem_noise_generations: int, out: Path,
+                  pass_hive_mind: bool, cem_extra_noise: float, cem_noise_generations: int, cem_play: str, out: Path,
                   resume: Path | None, no_progress: bool) -> None:
     """Learn GetOpen (CEM), Pass (Sarsa) or both (Algorithm 3) with frozen evaluations along the way."""
     from agents.policy_file import getopen_theta_size
@@ -131,7 +134,7 @@ def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, s
                                        parse_schedule(schedule) if schedule else None)
             cem = CEMConfig(n_params=getopen_theta_size(keepers, takers), population=population, elite=elite,
                             episodes_per_candidate=candidate_episodes, extra_noise=cem_extra_noise,
-                            extra_noise_generations=cem_noise_generations)
+                            extra_noise_generations=cem_noise_generations, play=cem_play)
             config = TrainConfig(pass_policy, getopen_policy, phases, trials, eval_every, eval_episodes,
                                  arenas or default_arenas(mode, attach),
                                  seed, keepers, takers, field_size, parameter_set, cem, mode=mode,
