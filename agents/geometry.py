@@ -13,6 +13,18 @@ from core.jit import borrowing
 
 from core.objects import CMD_DASH, CMD_TURN
 
+# How far a quick estimate (one sqrt where the exact code takes hypot, a cosine instead of acos) may lie
+# from a comparison's threshold and still decide it: far above the few ulps by which the two
+# computations differ, far below any difference that matters. Inside it the exact code decides.
+DECIDE_SLACK = 1.0e-9
+
+
+@borrowing
+def near(value: float, threshold: float) -> bool:
+    """Whether an estimate within a few ulps of the exact value could fall on the other side of
+    ``threshold`` from it: within DECIDE_SLACK of it, relative to its size beyond 1."""
+    return abs(value - threshold) <= DECIDE_SLACK * (1.0 + abs(threshold))
+
 
 @borrowing
 def normalize_angle(a: float) -> float:
@@ -44,6 +56,26 @@ def vertex_angle(ax: float, ay: float, bx: float, by: float, cx: float, cy: floa
         return 0.0
     c = (ux * vx + uy * vy) / (nu * nv)
     return math.degrees(math.acos(min(1.0, max(-1.0, c))))
+
+
+
+@borrowing
+def vertex_angle_below(ax: float, ay: float, bx: float, by: float, cx: float, cy: float, limit: float,
+                       cos_limit: float) -> bool:
+    """``vertex_angle(A, B, C) < limit`` (``cos_limit`` = cos(limit)), decided as that comparison decides
+    it but without its two hypots and its acos unless the angle is within a hair of the limit: acos
+    decreases, so a cosine (from one sqrt) more than DECIDE_SLACK from cos(limit) settles it. The same
+    answer in every case, so the same games; several times cheaper (GO:HC tests 25 lanes per cycle)."""
+    ux, uy = ax - bx, ay - by
+    vx, vy = cx - bx, cy - by
+    norms = (ux * ux + uy * uy) * (vx * vx + vy * vy)
+    if 0.0 < norms < math.inf:
+        c = (ux * vx + uy * vy) / math.sqrt(norms)
+        if c < cos_limit - DECIDE_SLACK:
+            return False
+        if c > cos_limit + DECIDE_SLACK:
+            return True
+    return vertex_angle(ax, ay, bx, by, cx, cy) < limit
 
 
 @borrowing
@@ -129,6 +161,8 @@ def dash_velocity(vx: float, vy: float, cs: float, sn: float, effort: float, pow
     acc = min(acc, kp.player_accel_max) if acc > 0.0 else max(acc, -kp.player_accel_max)
     vx += acc * cs
     vy += acc * sn
+    if math.sqrt(vx * vx + vy * vy) < kp.player_speed_max - DECIDE_SLACK:
+        return vx, vy  # clearly below the cap: the exact speed would not cap it either
     speed = math.hypot(vx, vy)
     if speed > kp.player_speed_max:
         vx *= kp.player_speed_max / speed

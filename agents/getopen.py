@@ -19,7 +19,7 @@ import numpy as np
 from core.jit import borrowing, njit
 
 from agents.belief import AgentMemory, Belief
-from agents.geometry import distance, in_cone, vertex_angle
+from agents.geometry import DECIDE_SLACK, distance, in_cone, vertex_angle_below
 from agents.skills import (
     GETOPEN_HANDCODED,
     GETOPEN_HANDCODED_CONE,
@@ -216,10 +216,30 @@ def congestion(bel: Belief, r: int, px: float, py: float, cfg) -> float:
 
 
 @borrowing
+def congestion_estimate(bel: Belief, r: int, px: float, py: float, cfg) -> float:
+    """``congestion`` with one sqrt per player instead of hypot: within a few ulps of it per term, which
+    is all ``handcoded_target`` needs to pass over a point that is clearly worse than the best so far.
+    NaN (undecided) where a player is so close to P that the squares might underflow."""
+    total = 0.0
+    for j in range(1, bel.n_keepers + bel.n_takers + 1):
+        if j == bel.me[r] or bel.conf[r, j] < cfg.player_conf_threshold:
+            continue
+        dx, dy = bel.pos[r, j, 0] - px, bel.pos[r, j, 1] - py
+        squared = dx * dx + dy * dy
+        if squared < 1.0e-100:
+            if dx != 0.0 or dy != 0.0:
+                return math.nan
+            continue
+        total += 1.0 / math.sqrt(squared)
+    return total
+
+
+@borrowing
 def lane_open(bel: Belief, r: int, px: float, py: float, bx: float, by: float, cone: bool, cfg) -> bool:
     """Whether the lane from predictedBallPos B to P is open: the paper's min_j ang(P, B, Tj) >= 18.4 deg
     (`keepaway-task.md` 4), or with ``cone`` no taker in the framework's cone of half-width 0.3
     (`keepaway-agents.md` 2.5 step 4). Takers with conf < 0.88 are ignored."""
+    cos_limit = math.cos(math.radians(cfg.go_safety_angle))
     for j in range(bel.n_keepers + 1, bel.n_keepers + bel.n_takers + 1):
         if bel.conf[r, j] < cfg.player_conf_threshold:
             continue
@@ -227,7 +247,7 @@ def lane_open(bel: Belief, r: int, px: float, py: float, bx: float, by: float, c
         if cone:
             if in_cone(bx, by, px, py, tx, ty, cfg.go_cone_ratio):
                 return False
-        elif vertex_angle(px, py, bx, by, tx, ty) < cfg.go_safety_angle:
+        elif vertex_angle_below(px, py, bx, by, tx, ty, cfg.go_safety_angle, cos_limit):
             return False
     return True
 
@@ -243,6 +263,8 @@ def handcoded_target(bel: Belief, r: int, ball_cycles: int, cone: bool, kp, cfg)
         px, py = grid_point(k, kp, cfg)
         if not lane_open(bel, r, px, py, bx, by, cone, cfg):
             continue
+        if congestion_estimate(bel, r, px, py, cfg) - best > DECIDE_SLACK * (1.0 + best):
+            continue  # clearly not lower: the exact congestion cannot win (nor tie) either
         c = congestion(bel, r, px, py, cfg)
         if c < best:
             best_x, best_y, best = px, py, c

@@ -196,36 +196,38 @@ _UNH_TABLE = unh_random_table()
 
 
 @njit(cache=True)
+def _unh_word(value: int, offset: int) -> int:
+    """rndseq[(value + offset) mod 2048], the mod of a power of two as a mask: the mathematical mod for a
+    negative tile coordinate too, as ``%`` on Python ints, without its sign branch."""
+    return _UNH_TABLE[(value + offset) & (UNH_TABLE_SIZE - 1)]
+
+
+@njit(cache=True)
 def unh_hash(coordinate: int, tiling: int, action: int, variable: int, increment: int, m: int) -> int:
     """tiles2.cc hash_UNH of the coordinates (tile coordinate, tiling j, action a, variable v):
-    sum_i rndseq[(c_i + increment * i) mod 2048] mod m."""
-    total = (
-        _UNH_TABLE[coordinate % UNH_TABLE_SIZE]
-        + _UNH_TABLE[(tiling + increment) % UNH_TABLE_SIZE]
-        + _UNH_TABLE[(action + 2 * increment) % UNH_TABLE_SIZE]
-        + _UNH_TABLE[(variable + 3 * increment) % UNH_TABLE_SIZE]
-    )
+    sum_i rndseq[(c_i + increment * i) mod 2048] mod m. (``load_tiles`` sums the same words itself.)"""
+    total = (_unh_word(coordinate, 0) + _unh_word(tiling, increment) + _unh_word(action, 2 * increment)
+             + _unh_word(variable, 3 * increment))
     return total % m
 
 
 @njit(cache=True)
-def tile_index(
-    hash_check, hash_counts, r: int, coordinate: int, tiling: int, action: int, variable: int
-) -> int:
+def tile_index(hash_check, hash_counts, r: int, index_words: int, check_words: int) -> int:
     """tiles2.cc ``hash`` in safe mode on weight table ``r``'s collision table (``SarsaMemory.hash_check`` and
-    ``hash_counts``, passed alone to keep this per-tile call cheap): the home slot if it is empty or
-    holds this tile's check value, else re-probe with an odd stride until one does (so distinct tiles
-    never share a weight)."""
+    ``hash_counts``, passed alone to keep this per-tile call cheap), for a tile whose ``unh_hash`` word sums
+    (before the modulus) are ``index_words`` (increment INDEX_INCREMENT) and ``check_words``
+    (CHECK_INCREMENT): the home slot if it is empty or holds this tile's check value, else re-probe with
+    an odd stride until one does (so distinct tiles never share a weight)."""
     m = hash_check.shape[1]
-    index = unh_hash(coordinate, tiling, action, variable, INDEX_INCREMENT, m)
-    check = unh_hash(coordinate, tiling, action, variable, CHECK_INCREMENT, MAX_LONG_INT)
+    index = index_words % m
+    check = check_words % MAX_LONG_INT
     hash_counts[r, HASH_CALLS] += 1
     stored = hash_check[r, index]
     if stored == check or stored == EMPTY_SLOT:
         hash_counts[r, HASH_CLEAR_HITS] += 1
         hash_check[r, index] = check
         return index
-    stride = 1 + 2 * unh_hash(coordinate, tiling, action, variable, INDEX_INCREMENT, MAX_LONG_INT // 4)
+    stride = 1 + 2 * (index_words % (MAX_LONG_INT // 4))
     for _ in range(m):
         hash_counts[r, HASH_COLLISIONS] += 1
         index = (index + stride) % m
@@ -259,13 +261,21 @@ def load_tiles(mem: SarsaMemory, r: int, state) -> None:
     collision table fills."""
     n_vars = mem.code_order.shape[0]
     tilings = mem.tiles.shape[2] // n_vars
+    table = mem.table[r]
     for cv in range(n_vars):
         v = mem.code_order[cv]
         q = quantize(state[v], mem.widths[v], tilings)
         for a in range(mem.tiles.shape[1]):
+            # unh_hash's four table words for (coordinate, j, a, cv) with each increment; the words of a
+            # and cv are the same for every tiling, so they are looked up once (the sums are integers:
+            # the same sums, the same slots)
+            index_base = _unh_word(a, 2 * INDEX_INCREMENT) + _unh_word(cv, 3 * INDEX_INCREMENT)
+            check_base = _unh_word(a, 2 * CHECK_INCREMENT) + _unh_word(cv, 3 * CHECK_INCREMENT)
             for j in range(tilings):
-                coordinate = tiling_coordinate(q, j, tilings)
-                index = tile_index(mem.hash_check, mem.hash_counts, mem.table[r], coordinate, j, a, cv)
+                coordinate_word = _unh_word(tiling_coordinate(q, j, tilings), 0)
+                index = tile_index(mem.hash_check, mem.hash_counts, table,
+                                   coordinate_word + _unh_word(j, INDEX_INCREMENT) + index_base,
+                                   coordinate_word + _unh_word(j, CHECK_INCREMENT) + check_base)
                 mem.tiles[r, a, cv * tilings + j] = index
 
 

@@ -19,6 +19,7 @@ from core.jit import borrowing, njit
 
 from agents.belief import AgentMemory, Belief
 from agents.geometry import (
+    DECIDE_SLACK,
     ball_after_kick,
     dash_power_along,
     dash_power_for,
@@ -28,6 +29,7 @@ from agents.geometry import (
     final_position,
     geometric_sum,
     kick_rate,
+    near,
     normalize_angle,
     player_step,
     rolled_out,
@@ -389,6 +391,28 @@ def _intercept_turns(
 
 
 @borrowing
+def _clearly_dash(qx: float, qy: float, cs: float, sn: float, tx: float, ty: float, far: float, kp, cfg) -> bool:
+    """Whether ``_intercept_turns`` would dash, told without its atan2, sine and hypot where the answer
+    is clear: (qx, qy) is my rolled-out position, (cs, sn) my body's cosine and sine, ``far`` my distance
+    to the point. The point lies off my body line by |d x body| = ahead |sin(angle)| and ahead of me by
+    d . body = ahead cos(angle); when each test is more than DECIDE_SLACK from its threshold these decide
+    as the exact angle does. False means undecided (the caller asks ``_intercept_turns``)."""
+    dx, dy = tx - qx, ty - qy
+    ahead = math.sqrt(dx * dx + dy * dy)
+    if not ahead > DECIDE_SLACK:
+        return False
+    if far > cfg.turn_far_distance:
+        ratio = cfg.turn_ratio_far
+    elif far > cfg.turn_mid_distance:
+        ratio = cfg.turn_ratio_mid
+    else:
+        ratio = cfg.turn_ratio_near
+    if not abs(dx * sn - dy * cs) < ratio * kickable_distance(kp) - DECIDE_SLACK:
+        return False
+    return dx * cs + dy * sn > DECIDE_SLACK or ahead < backward_move_distance(kp, cfg) - DECIDE_SLACK
+
+
+@borrowing
 def intercept_move(
     px: float, py: float, vx: float, vy: float, body: float, effort: float,
     tx: float, ty: float, cycles: float, kp, cfg,
@@ -456,22 +480,42 @@ def travel(
     roll_far = geometric_sum(kp.player_decay, roll_limit) if n >= roll_limit else 0.0
     rad = math.radians(body)
     cs, sn = math.cos(rad), math.sin(rad)
+    reach_slack = 1.0 + _REACH_SLACK
     for c in range(n + 1):
-        far = distance(px, py, tx, ty)
+        # far and speed only meet thresholds (and speed a turn's arithmetic): a sqrt estimate stands for
+        # the exact hypot unless it lies within a hair of a threshold (geometry.near), so the comparisons
+        # come out as the exact ones would, and so do the games
+        dx, dy = tx - px, ty - py
+        far = math.sqrt(dx * dx + dy * dy)
+        exact_far = False
+        if near(far, radius):
+            far, exact_far = math.hypot(dx, dy), True
         if reached > n and far < radius:
             reached = c
             if not need_end:
                 return reached, math.nan
         if c == n:
             break
-        speed = math.hypot(vx, vy)
+        speed = math.sqrt(vx * vx + vy * vy)
+        exact_speed = not speed < kp.player_speed_max - DECIDE_SLACK
+        if exact_speed:
+            speed = math.hypot(vx, vy)
         left = n - c
-        step = max(kp.player_speed_max, speed) * (1.0 + _REACH_SLACK)
-        if reached > n and far - radius > left * step + _REACH_SLACK:
-            return n + 1, math.inf
+        step = max(kp.player_speed_max, speed) * reach_slack
+        if reached > n:
+            if not exact_far and near(far - radius, left * step + _REACH_SLACK):
+                far, exact_far = math.hypot(dx, dy), True
+            if far - radius > left * step + _REACH_SLACK:
+                return n + 1, math.inf
         roll = _decay_sum(sums, left, kp) if left < roll_limit else roll_far
-        turn, angle = _intercept_turns(px, py, vx, vy, body, tx, ty, far, roll, float(left), kp, cfg)
+        if not exact_far and (near(far, cfg.turn_far_distance) or near(far, cfg.turn_mid_distance)):
+            far = math.hypot(dx, dy)
+        turn, angle = False, 0.0
+        if not _clearly_dash(px + vx * roll, py + vy * roll, cs, sn, tx, ty, far, kp, cfg):
+            turn, angle = _intercept_turns(px, py, vx, vy, body, tx, ty, far, roll, float(left), kp, cfg)
         if turn:
+            if not exact_speed:
+                speed = math.hypot(vx, vy)
             body = normalize_angle(body + turn_effect(turn_moment(angle, speed, kp), speed, kp))
             rad = math.radians(body)
             cs, sn = math.cos(rad), math.sin(rad)

@@ -2,8 +2,11 @@
 
 ``agents/skills.py`` fuses the interception travel simulation (decay sums from a table, the body's cosine
 and sine kept between turns, an early stop once the target is provably out of reach), a keeper reuses its
-``fastest_to_ball`` result in ``interception_point``, and ``agents/worldmodel.py`` computes each flag's
-trigonometry once in ``localise_row``. None of this may change a decision or a belief by one bit. The
+``fastest_to_ball`` result in ``interception_point``, ``agents/worldmodel.py`` computes each flag's
+trigonometry once in ``localise_row``, the travel simulation, GO:HC's lane and congestion tests and the
+dash's speed cap decide their comparisons on sqrt estimates unless they are within a hair of the
+threshold (``agents.geometry.DECIDE_SLACK``), and the Sarsa tile hashing sums each tile's table words from
+parts shared by its tilings. None of this may change a decision or a belief by one bit. The
 references below are the pre-optimisation kernels kept verbatim as plain step-by-step code (spec
 `keepaway-agents.md` 1 step 4, 2.1 step 2; the Procrustes fit of ``localise_row``), compiled by numba
 without caching so their floating-point arithmetic is the kernels' (Python's own ``math.hypot`` rounds
@@ -20,6 +23,9 @@ from numba import njit
 
 from agents.belief import AgentMemory, belief_from_truth, new_memory
 from agents.geometry import direction, distance, final_position, normalize_angle, rolled_out
+from agents.getopen import grid_point, grid_size, handcoded_target, predicted_ball_pos
+from agents.sarsa import (EMPTY_SLOT, INDEX_INCREMENT, CHECK_INCREMENT, MAX_LONG_INT, SarsaConfig,
+                          load_tiles, new_memory as new_sarsa_memory, quantize, tiling_coordinate, unh_hash)
 from agents.skills import AgentConfig, fastest_to_ball, interception_point
 from agents.worldmodel import ModelState, SeeBuffer, localise_row
 from protocol.landmarks import FLAG_POSITIONS
@@ -250,6 +256,65 @@ def _ref_localise(flag_obs, flag_id, n, flag_pos, body, neck, kp):
     return mfx - (c * mqx - sn * mqy), mfy - (sn * mqx + c * mqy), normalize_angle(head - neck)
 
 
+@njit
+def _ref_vertex_angle(ax, ay, bx, by, cx, cy):
+    ux, uy = ax - bx, ay - by
+    vx, vy = cx - bx, cy - by
+    nu = math.hypot(ux, uy)
+    nv = math.hypot(vx, vy)
+    if nu == 0.0 or nv == 0.0:
+        return 0.0
+    return math.degrees(math.acos(min(1.0, max(-1.0, (ux * vx + uy * vy) / (nu * nv)))))
+
+
+@njit
+def _ref_handcoded_target(pos, conf, me, bx, by, kp, cfg):
+    """GO:HC as it was: every lane's angle by acos, every admissible point's congestion by hypots."""
+    best_x, best_y, best = 0.0, 0.0, math.inf
+    for k in range(grid_size(cfg)):
+        px, py = grid_point(k, kp, cfg)
+        open_lane = True
+        for j in range(1 + K, 1 + K + T):
+            if conf[j] >= cfg.player_conf_threshold and _ref_vertex_angle(
+                    px, py, bx, by, pos[j, 0], pos[j, 1]) < cfg.go_safety_angle:
+                open_lane = False
+        if not open_lane:
+            continue
+        c = 0.0
+        for j in range(1, 1 + K + T):
+            if j == me or conf[j] < cfg.player_conf_threshold:
+                continue
+            d = math.hypot(pos[j, 0] - px, pos[j, 1] - py)
+            if d > 0.0:
+                c += 1.0 / d
+        if c < best:
+            best_x, best_y, best = px, py, c
+    return best_x, best_y
+
+
+def _ref_load_tiles(config: SarsaConfig, state) -> np.ndarray:
+    """LinearSarsaAgent::loadTiles with tiles2.cc's safe hash, tile by tile through ``unh_hash`` on a fresh
+    table: the slots in hashing order."""
+    mem = new_sarsa_memory(config, K, T, 1, 0)
+    check_table = np.full(mem.hash_check.shape[1], EMPTY_SLOT, dtype=np.int64)
+    m = check_table.shape[0]
+    tilings = config.tilings
+    slots = []
+    for cv, v in enumerate(mem.code_order):
+        q = quantize(state[v], mem.widths[v], tilings)
+        for a in range(mem.tiles.shape[1]):
+            for j in range(tilings):
+                c = tiling_coordinate(q, j, tilings)
+                index = unh_hash(c, j, a, cv, INDEX_INCREMENT, m)
+                check = unh_hash(c, j, a, cv, CHECK_INCREMENT, MAX_LONG_INT)
+                stride = 1 + 2 * unh_hash(c, j, a, cv, INDEX_INCREMENT, MAX_LONG_INT // 4)
+                while check_table[index] not in (check, EMPTY_SLOT):
+                    index = (index + stride) % m
+                check_table[index] = check
+                slots.append(index)
+    return np.array(slots)
+
+
 # ------------------------------------------------------------------------------------------ helpers
 
 
@@ -367,3 +432,53 @@ def test_localisation_matches_the_reference_on_real_sees():
             s = ModelState(*[a.copy() for a in state])
             localise_row(r, s, one, FLAG_POSITIONS, KP)
             assert (s.pos[r, me, 0], s.pos[r, me, 1], s.body[r, me]) == ref
+
+
+def _check_handcoded_target(bel, r: int, kp=KP) -> None:
+    _, cycles = fastest_to_ball(bel, r, 1, K, kp, CFG)
+    bx, by = predicted_ball_pos(bel, r, cycles, kp, CFG)
+    ref = _ref_handcoded_target(bel.pos[r], bel.conf[r], int(bel.me[r]), bx, by, kp, CFG)
+    assert handcoded_target(bel, r, cycles, False, kp, CFG) == ref
+
+
+@pytest.mark.parametrize("params", ["classic", "current"])
+def test_handcoded_getopen_matches_the_reference_on_random_and_boundary_beliefs(params):
+    kp = parameter_set(params).kernel()
+    bel = _random_beliefs(200, seed=23)
+    bel.conf[:, K + 1] = np.where(np.arange(bel.batch) % 4 == 0, 0.5, 1.0)  # a taker sometimes unusable
+    bel.vel[:, 0] = 0.0  # the ball stays where it is: predictedBallPos is its position
+    for r in range(bel.batch):
+        if r % 2:
+            # taker 1 exactly on the safety angle seen from the ball, for grid point 7 (and a keeper
+            # exactly on point 12): the estimates cannot decide there, the exact code must
+            px, py = grid_point(7, kp, CFG)
+            bx, by = bel.pos[r, 0]
+            a = math.atan2(py - by, px - bx) + math.radians(CFG.go_safety_angle)
+            bel.pos[r, K + 1] = (bx + 4.0 * math.cos(a), by + 4.0 * math.sin(a))
+            bel.pos[r, 2] = grid_point(12, kp, CFG)
+        _check_handcoded_target(bel, r, kp)
+
+
+def test_handcoded_getopen_of_a_batched_game_matches_the_reference():
+    arenas = BatchedArenas(PARAMS, batch=4, seed=3, threads=1)
+    checked = 0
+    for _ in range(15):
+        arenas.run(max_cycles=20)
+        bel = arenas.players.belief
+        for r in range(bel.batch):
+            if bel.me[r] <= K and bel.conf[r, 0] >= CFG.ball_conf_threshold:
+                _check_handcoded_target(bel, r)
+                checked += 1
+    assert checked > 100
+
+
+def test_tile_slots_match_tile_by_tile_hashing():
+    config = SarsaConfig(table_size=1 << 12)  # a small table: the hash collides and re-probes
+    rng = np.random.default_rng(4)
+    for _ in range(3):
+        state = rng.uniform(-30.0, 30.0, 13)  # negative coordinates too
+        mem = new_sarsa_memory(config, K, T, 1, 0)
+        load_tiles(mem, 0, state)
+        got = np.concatenate([mem.tiles[0, a].reshape(-1, config.tilings)[cv]
+                              for cv in range(len(mem.code_order)) for a in range(mem.tiles.shape[1])])
+        assert np.array_equal(got, _ref_load_tiles(config, state))
