@@ -477,7 +477,10 @@ def travel(
     if distance(px, py, tx, ty) - radius > n * max(kp.player_speed_max, math.hypot(vx, vy)):
         return reached, math.inf
     roll_limit = cfg.intercept_roll_cycles
-    roll_far = geometric_sum(kp.player_decay, roll_limit) if n >= roll_limit else 0.0
+    roll_far = 0.0
+    if n >= roll_limit:  # through the table when it holds it (the same number)
+        whole = int(roll_limit)
+        roll_far = _decay_sum(sums, whole, kp) if whole == roll_limit else geometric_sum(kp.player_decay, roll_limit)
     rad = math.radians(body)
     cs, sn = math.cos(rad), math.sin(rad)
     reach_slack = 1.0 + _REACH_SLACK

@@ -61,6 +61,17 @@ NEVER = -(1 << 40)
 # seen one, which beats one that could not have moved there.
 _UNSEEN_COST = 1.0e6
 
+
+
+def whole_degree_table() -> np.ndarray:
+    """(cos, sin) of radians(d) for every whole degree d in -180..180 (row d + 180), computed by the
+    functions the kernels call (Python's math and numba's both call the C library's, on the same
+    double): a flag's seen direction is a whole degree, so ``localise_row`` looks them up."""
+    return np.array([[math.cos(math.radians(d)), math.sin(math.radians(d))] for d in range(-180, 181)])
+
+
+_WHOLE_DEGREES = whole_degree_table()
+
 SIDE_CODES = {"l": 0, "r": 1}
 _NO_SIDE = -1
 _NO_UNUM = 0
@@ -388,10 +399,13 @@ def localise_row(r: int, s: ModelState, see: SeeBuffer, flag_pos: np.ndarray, kp
     sw = mqx = mqy = mfx = mfy = 0.0
     for i in range(n):
         d = see.flag_obs[r, i, 0]
-        a = math.radians(see.flag_obs[r, i, 1])
+        a = see.flag_obs[r, i, 1]
         w = _flag_weight(d, kp)
-        ca = math.cos(a)
-        sa = math.sin(a)
+        if -180.0 <= a <= 180.0 and a == math.floor(a):  # a whole degree, as the server sends
+            k = int(a) + 180
+            ca, sa = _WHOLE_DEGREES[k, 0], _WHOLE_DEGREES[k, 1]
+        else:
+            ca, sa = math.cos(math.radians(a)), math.sin(math.radians(a))
         wdcs[i, 0] = w
         wdcs[i, 1] = d
         wdcs[i, 2] = ca
@@ -822,5 +836,6 @@ __all__ = [
     "sense_body_row",
     "update_ball_row",
     "update_players_row",
+    "whole_degree_table",
     "write_belief_row",
 ]

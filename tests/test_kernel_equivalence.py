@@ -27,7 +27,7 @@ from agents.getopen import grid_point, grid_size, handcoded_target, predicted_ba
 from agents.sarsa import (EMPTY_SLOT, INDEX_INCREMENT, CHECK_INCREMENT, MAX_LONG_INT, SarsaConfig,
                           load_tiles, new_memory as new_sarsa_memory, quantize, tiling_coordinate, unh_hash)
 from agents.skills import AgentConfig, fastest_to_ball, interception_point
-from agents.worldmodel import ModelState, SeeBuffer, localise_row
+from agents.worldmodel import ModelState, SeeBuffer, localise_row, whole_degree_table
 from protocol.landmarks import FLAG_POSITIONS
 from protocol.params import parameter_set
 from core.rng import seed_streams
@@ -482,3 +482,14 @@ def test_tile_slots_match_tile_by_tile_hashing():
         got = np.concatenate([mem.tiles[0, a].reshape(-1, config.tilings)[cv]
                               for cv in range(len(mem.code_order)) for a in range(mem.tiles.shape[1])])
         assert np.array_equal(got, _ref_load_tiles(config, state))
+
+
+@njit
+def _whole_degree(d):
+    return math.cos(math.radians(d)), math.sin(math.radians(d))
+
+
+def test_the_whole_degree_table_holds_what_the_kernels_compute():
+    table = whole_degree_table()
+    for d in range(-180, 181):
+        assert tuple(table[d + 180]) == _whole_degree(float(d))
