@@ -235,11 +235,18 @@ def congestion_estimate(bel: Belief, r: int, px: float, py: float, cfg) -> float
 
 
 @borrowing
-def lane_open(bel: Belief, r: int, px: float, py: float, bx: float, by: float, cone: bool, cfg) -> bool:
+def safety_cosine(cfg) -> float:
+    """cos(go_safety_angle), for ``lane_open``'s test."""
+    return math.cos(math.radians(cfg.go_safety_angle))
+
+
+@borrowing
+def lane_open(bel: Belief, r: int, px: float, py: float, bx: float, by: float, cone: bool, cos_limit: float,
+              cfg) -> bool:
     """Whether the lane from predictedBallPos B to P is open: the paper's min_j ang(P, B, Tj) >= 18.4 deg
     (`keepaway-task.md` 4), or with ``cone`` no taker in the framework's cone of half-width 0.3
-    (`keepaway-agents.md` 2.5 step 4). Takers with conf < 0.88 are ignored."""
-    cos_limit = math.cos(math.radians(cfg.go_safety_angle))
+    (`keepaway-agents.md` 2.5 step 4). Takers with conf < 0.88 are ignored. ``cos_limit``: the cosine of
+    the safety angle (``safety_cosine``), computed once for all grid points."""
     for j in range(bel.n_keepers + 1, bel.n_keepers + bel.n_takers + 1):
         if bel.conf[r, j] < cfg.player_conf_threshold:
             continue
@@ -258,10 +265,11 @@ def handcoded_target(bel: Belief, r: int, ball_cycles: int, cone: bool, kp, cfg)
     the region centre if none is admissible (spec `keepaway-agents.md` 2.5 steps 4-5).
     ``ball_cycles``: the fastest keeper's interception time (``fastest_to_ball``)."""
     bx, by = predicted_ball_pos(bel, r, ball_cycles, kp, cfg)
+    cos_limit = safety_cosine(cfg)
     best_x, best_y, best = 0.0, 0.0, math.inf
     for k in range(grid_size(cfg)):
         px, py = grid_point(k, kp, cfg)
-        if not lane_open(bel, r, px, py, bx, by, cone, cfg):
+        if not lane_open(bel, r, px, py, bx, by, cone, cos_limit, cfg):
             continue
         if congestion_estimate(bel, r, px, py, cfg) - best > DECIDE_SLACK * (1.0 + best):
             continue  # clearly not lower: the exact congestion cannot win (nor tie) either
@@ -381,6 +389,7 @@ def grid_values(bel: Belief, r: int, theta, kp, cfg, out) -> int:
         return 0
     _, ball_cycles = fastest_to_ball(bel, r, 1, bel.n_keepers, kp, cfg)
     bx, by = predicted_ball_pos(bel, r, ball_cycles, kp, cfg)
+    cos_limit = safety_cosine(cfg)
     ox, oy = lane_origin(bel, r, ball_cycles, kp, cfg)
     x = np.empty(getopen_state_size(bel.n_keepers, bel.n_takers))
     n = 0
@@ -389,7 +398,7 @@ def grid_values(bel: Belief, r: int, theta, kp, cfg, out) -> int:
         if policy == GETOPEN_LEARNED:
             getopen_state(bel, r, px, py, ox, oy, x)
             value = net_value(theta, x)
-        elif lane_open(bel, r, px, py, bx, by, policy == GETOPEN_HANDCODED_CONE, cfg):
+        elif lane_open(bel, r, px, py, bx, by, policy == GETOPEN_HANDCODED_CONE, cos_limit, cfg):
             value = -congestion(bel, r, px, py, cfg)
         else:
             continue

@@ -341,6 +341,19 @@ def backward_move_distance(kp, cfg) -> float:
 
 
 @borrowing
+def _turn_reach(far: float, kp, cfg) -> float:
+    """How far off my body line a point ``far`` away may lie before a move towards it turns first: ratio x
+    kickable distance, the ratio 0.9 within 10 m, 2 within 20 m, 3 beyond (``intercept_move``)."""
+    if far > cfg.turn_far_distance:
+        ratio = cfg.turn_ratio_far
+    elif far > cfg.turn_mid_distance:
+        ratio = cfg.turn_ratio_mid
+    else:
+        ratio = cfg.turn_ratio_near
+    return ratio * kickable_distance(kp)
+
+
+@borrowing
 def _intercept_turns(
     px: float, py: float, vx: float, vy: float, body: float, tx: float, ty: float, far: float, roll: float,
     cycles: float, kp, cfg,
@@ -359,13 +372,7 @@ def _intercept_turns(
     to_point = direction(tx - qx, ty - qy)
     angle = normalize_angle(to_point - body)
     ahead = distance(qx, qy, tx, ty)
-    if far > cfg.turn_far_distance:
-        ratio = cfg.turn_ratio_far
-    elif far > cfg.turn_mid_distance:
-        ratio = cfg.turn_ratio_mid
-    else:
-        ratio = cfg.turn_ratio_near
-    reach = ratio * kickable_distance(kp)
+    reach = _turn_reach(far, kp, cfg)
     back_distance = backward_move_distance(kp, cfg)
     far_behind = ahead > back_distance
     if not (ahead * abs(math.sin(math.radians(angle))) > reach or (far_behind and abs(angle) > 90.0)):
@@ -401,13 +408,7 @@ def _clearly_dash(qx: float, qy: float, cs: float, sn: float, tx: float, ty: flo
     ahead = math.sqrt(dx * dx + dy * dy)
     if not ahead > DECIDE_SLACK:
         return False
-    if far > cfg.turn_far_distance:
-        ratio = cfg.turn_ratio_far
-    elif far > cfg.turn_mid_distance:
-        ratio = cfg.turn_ratio_mid
-    else:
-        ratio = cfg.turn_ratio_near
-    if not abs(dx * sn - dy * cs) < ratio * kickable_distance(kp) - DECIDE_SLACK:
+    if not abs(dx * sn - dy * cs) < _turn_reach(far, kp, cfg) - DECIDE_SLACK:
         return False
     return dx * cs + dy * sn > DECIDE_SLACK or ahead < backward_move_distance(kp, cfg) - DECIDE_SLACK
 
