@@ -58,7 +58,6 @@ def vertex_angle(ax: float, ay: float, bx: float, by: float, cx: float, cy: floa
     return math.degrees(math.acos(min(1.0, max(-1.0, c))))
 
 
-
 @borrowing
 def vertex_angle_below(ax: float, ay: float, bx: float, by: float, cx: float, cy: float, limit: float,
                        cos_limit: float) -> bool:

@@ -62,7 +62,6 @@ NEVER = -(1 << 40)
 _UNSEEN_COST = 1.0e6
 
 
-
 def whole_degree_table() -> np.ndarray:
     """(cos, sin) of radians(d) for every whole degree d in -180..180 (row d + 180), computed by the
     functions the kernels call (Python's math and numba's both call the C library's, on the same
