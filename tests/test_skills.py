@@ -15,6 +15,7 @@ from agents.geometry import (
     player_step,
     turn_moment,
     vertex_angle,
+    vertex_angle_below,
 )
 from agents.skills import (
     AgentConfig,
@@ -49,6 +50,22 @@ def test_normalize_angle_and_vertex_angle():
     assert normalize_angle(540.0) == pytest.approx(180.0)
     # rays (4, 3) and (4, 0) from the origin: cos = 16/20 = 0.8 -> 36.8699 deg
     assert vertex_angle(4.0, 3.0, 0.0, 0.0, 4.0, 0.0) == pytest.approx(36.8699, abs=1e-4)
+
+
+@pytest.mark.parametrize("limit, below", [(40.0, True), (30.0, False), (36.8698, False), (36.8699, True)])
+def test_vertex_angle_below_decides_as_the_angle(limit, below):
+    # the same rays: 36.869898 deg; below 40 and 36.8699, not below 30 nor 36.8698 (the estimate decides)
+    cos_limit = math.cos(math.radians(limit))
+    assert vertex_angle_below(4.0, 3.0, 0.0, 0.0, 4.0, 0.0, limit, cos_limit) is below
+
+
+def test_vertex_angle_below_at_the_limit_asks_the_exact_angle():
+    # at exactly its own angle the estimate cannot decide: the exact comparison (strict <) says no
+    angle = vertex_angle(4.0, 3.0, 0.0, 0.0, 4.0, 0.0)
+    assert not vertex_angle_below(4.0, 3.0, 0.0, 0.0, 4.0, 0.0, angle, math.cos(math.radians(angle)))
+    assert vertex_angle_below(4.0, 3.0, 0.0, 0.0, 4.0, 0.0, math.nextafter(angle, 180.0),
+                              math.cos(math.radians(angle)))
+    assert not vertex_angle_below(0.0, 0.0, 0.0, 0.0, 4.0, 0.0, 0.0, 1.0)  # a degenerate ray: angle 0, not < 0
 
 
 def test_kick_rate_and_turn_inertia():
