@@ -491,9 +491,8 @@ def travel(
         # come out as the exact ones would, and so do the games
         dx, dy = tx - px, ty - py
         far = math.sqrt(dx * dx + dy * dy)
-        exact_far = False
-        if near(far, radius):
-            far, exact_far = math.hypot(dx, dy), True
+        if near(far, radius) or near(far, cfg.turn_far_distance) or near(far, cfg.turn_mid_distance):
+            far = math.hypot(dx, dy)
         if reached > n and far < radius:
             reached = c
             if not need_end:
@@ -501,25 +500,21 @@ def travel(
         if c == n:
             break
         speed = math.sqrt(vx * vx + vy * vy)
-        exact_speed = not speed < kp.player_speed_max - DECIDE_SLACK
-        if exact_speed:
+        if not speed < kp.player_speed_max - DECIDE_SLACK:
             speed = math.hypot(vx, vy)
         left = n - c
         step = max(kp.player_speed_max, speed) * reach_slack
         if reached > n:
-            if not exact_far and near(far - radius, left * step + _REACH_SLACK):
-                far, exact_far = math.hypot(dx, dy), True
+            if near(far - radius, left * step + _REACH_SLACK):
+                far = math.hypot(dx, dy)
             if far - radius > left * step + _REACH_SLACK:
                 return n + 1, math.inf
         roll = _decay_sum(sums, left, kp) if left < roll_limit else roll_far
-        if not exact_far and (near(far, cfg.turn_far_distance) or near(far, cfg.turn_mid_distance)):
-            far = math.hypot(dx, dy)
         turn, angle = False, 0.0
         if not _clearly_dash(px + vx * roll, py + vy * roll, cs, sn, tx, ty, far, kp, cfg):
             turn, angle = _intercept_turns(px, py, vx, vy, body, tx, ty, far, roll, float(left), kp, cfg)
         if turn:
-            if not exact_speed:
-                speed = math.hypot(vx, vy)
+            speed = math.hypot(vx, vy)  # the turn's arithmetic takes the exact speed
             body = normalize_angle(body + turn_effect(turn_moment(angle, speed, kp), speed, kp))
             rad = math.radians(body)
             cs, sn = math.cos(rad), math.sin(rad)
