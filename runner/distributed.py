@@ -139,7 +139,8 @@ class DistributedBackend(CoachedBackend):
         answers: list[EpisodesDone | None] = [None] * len(chunks)
         queue = list(range(len(chunks)))
         busy: dict[int, int] = {}  # arena index -> chunk index
-        since: dict[int, float] = {}  # arena index -> when its chunk was sent
+        since: dict[int, float] = {}  # arena index -> when its chunk was handed to it
+        unsent: set[int] = set()  # busy arenas whose request ZeroMQ has not taken yet
         poller = zmq.Poller()
         for arena in arenas:
             poller.register(arena.socket, zmq.POLLIN)
@@ -148,10 +149,12 @@ class DistributedBackend(CoachedBackend):
                 if a not in busy and queue:
                     busy[a] = queue.pop(0)
                     since[a] = time.monotonic()
-                    arena.socket.send(encode(chunks[busy[a]].request()))
+                    unsent.add(a)
+                if a in unsent and _send_now(arena.socket, encode(chunks[busy[a]].request())):
+                    unsent.discard(a)
             events = dict(poller.poll(POLL_MS))
             for a, arena in enumerate(arenas):
-                if a in busy and arena.socket in events:
+                if a in busy and a not in unsent and arena.socket in events:
                     index = busy.pop(a)
                     answers[index] = self._answer(arena, arena.socket.recv(), chunks[index])
                     if progress is not None:
@@ -181,6 +184,17 @@ def arena_server_args(game: Game, parameter_set: str, log_dir: Path) -> list[str
             "--field-size", str(game.params.keepaway_length), "--params", parameter_set,
             "--cycle-timeout", str(ARENA_CYCLE_TIMEOUT_S), "--max-missed", "1", "--on-hang", "stop",
             "--log-dir", str(log_dir), "--kwy-name", "keepaway"]
+
+
+def _send_now(sock: zmq.Socket, data: bytes) -> bool:
+    """Hand ``data`` to ZeroMQ without waiting; False if it cannot take it now. A DEALER whose only
+    connection has no peer (an arena that refused this trainer's CURVE handshake drops it) would block a
+    plain send for ever; retried instead, the wait is bounded by :meth:`Arena.check`."""
+    try:
+        sock.send(data, zmq.NOBLOCK)
+    except zmq.Again:
+        return False
+    return True
 
 
 def _socket(ctx: zmq.Context, keys: KeyDir | None) -> zmq.Socket:

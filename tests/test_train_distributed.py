@@ -60,6 +60,21 @@ def test_an_attached_arena_that_never_answers_is_given_up_in_one_line(fake_coach
         backend.close()
 
 
+def test_an_arena_whose_socket_takes_no_request_is_given_up_instead_of_blocking(monkeypatch):
+    # A DEALER with no peer blocks a plain send for ever: that is what a CURVE arena does to a trainer
+    # without the key (it drops the connection after the refused handshake). The request must wait
+    # under the same bound as an unanswered one.
+    monkeypatch.setattr(distributed, "ATTACHED_TIMEOUT_S", 0.5)
+    sock = zmq.Context.instance().socket(zmq.DEALER)
+    sock.setsockopt(zmq.LINGER, 0)
+    backend = DistributedBackend(TrainConfig().game(), [distributed.Arena("arena 0", "nowhere", sock)])
+    try:
+        with pytest.raises(ArenaFailure, match=r"arena 0: no answer for \d+ s"):
+            backend.play(Behaviours("handcoded", "handcoded"), 1, 3, 1, "greedy")
+    finally:
+        backend.close()
+
+
 def test_a_refused_run_is_named_with_the_coach_error(fake_coach):
     sock, endpoint = fake_coach
     backend = DistributedBackend.attach(TrainConfig().game(), [endpoint])
