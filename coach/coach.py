@@ -72,7 +72,10 @@ class Coach:
     def connect(self) -> m.CoachInitOk:
         """Say hello to the server; raises ConnectionError in one line if it does not answer."""
         self.server.connect(self.server_endpoint)
-        self.server.send(encode(coach_init()))
+        try:  # never blocks: a server that refused the handshake may already have left no peer to queue to
+            self.server.send(encode(coach_init()), zmq.NOBLOCK)
+        except zmq.Again:
+            raise ConnectionError(no_answer(self.server_endpoint, 0)) from None
         if not self.server.poll(int(self.connect_timeout_s * 1000)):
             raise ConnectionError(no_answer(self.server_endpoint, self.connect_timeout_s))
         reply = decode_for_coach(self.server.recv(), ARENA_MAX_MESSAGE_BYTES)
