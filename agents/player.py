@@ -636,7 +636,9 @@ class PlayerAgent:
             if decision != NO_PASS_DECISION and OUTSIDE_PASS in self.outside:
                 self.awaiting = Awaiting(OUTSIDE_PASS, cycle)
                 return None
-            if decision != NO_PASS_DECISION and self.learner is not None:
+            # the learner plays only while the Pass policy is the learned one (docs/advice.md: a keeper
+            # switched to another policy keeps its learner for a switch back; that policy has already acted)
+            if decision != NO_PASS_DECISION and self.learner is not None and self.cfg.pass_policy == PASS_EXTERNAL:
                 self._ask_learner(bel, decision, outs)
         else:
             taker_decide(bel, 0, self.memory, self.kp, self.cfg, *outs)

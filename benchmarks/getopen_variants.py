@@ -47,19 +47,19 @@ VARIANTS = {
 EVAL_SEED = 1_000_003  # + trial: the evaluation arenas, shared by the variants
 
 
-def run_trial(variant: str, seed: int, generations: int, cem: CEMConfig, arenas: int, eval_episodes: int,
+def run_trial(variant: str, seed: int, generations: int, cem: CEMConfig, eval_episodes: int,
               threads: int | None) -> dict:
     """One trial of ``variant`` (module docstring): its trace and final evaluation."""
     inputs, agent = VARIANTS[variant]
     episodes = generations * cem.population * cem.episodes_per_candidate
     config = TrainConfig(pass_policy="handcoded", getopen_policy="learned", schedule=(Phase(GETOPEN, episodes),),
-                         eval_every=episodes, eval_episodes=eval_episodes, arenas=arenas, seed=seed, cem=cem,
+                         eval_every=episodes, eval_episodes=eval_episodes, seed=seed, cem=cem,
                          getopen_inputs=inputs)
     backend = BatchedBackend(replace(config.game(), agent=agent), threads)
     state = TrialState(0, initial_behaviours(config, 0), curve=[CurvePoint(0, 0.0, 0.0)])  # no evaluation at 0
     while state.episodes < episodes:
         step(config, state, backend)
-    result = evaluate(backend, state.behaviours, EVAL_SEED + seed, eval_episodes, arenas)
+    result = evaluate(backend, state.behaviours, EVAL_SEED + seed, eval_episodes)
     summary = result.summary()
     return {"variant": variant, "seed": seed, "population_mean": [float(np.mean(t["fitness"])) for t in state.trace],
             "best_fitness": state.cem.best_fitness, "eval_mean_s": summary["mean_hold_time_s"],
@@ -75,7 +75,6 @@ def main() -> None:
     parser.add_argument("--population", type=int, default=20)
     parser.add_argument("--elite", type=int, default=5)
     parser.add_argument("--candidate-episodes", type=int, default=125)
-    parser.add_argument("--arenas", type=int, default=25)
     parser.add_argument("--eval-episodes", type=int, default=500)
     parser.add_argument("--threads", type=int, default=None)
     parser.add_argument("--json", type=Path, default=None, help="write every trial's results here")
@@ -88,7 +87,7 @@ def main() -> None:
     rows = []
     for seed in range(args.first_seed, args.first_seed + args.trials):
         for variant in variants:
-            row = run_trial(variant, seed, args.generations, cem, args.arenas, args.eval_episodes, args.threads)
+            row = run_trial(variant, seed, args.generations, cem, args.eval_episodes, args.threads)
             rows.append(row)
             print(f"{variant:15s} seed {seed}: population mean by generation "
                   f"{' '.join(f'{m:5.2f}' for m in row['population_mean'])} s, best {row['best_fitness']:5.2f} s, "

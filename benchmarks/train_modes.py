@@ -36,10 +36,10 @@ EVALUATIONS = 13
 EVAL_EPISODES = 500
 
 
-def rate(backend: Backend, behaviours: Behaviours, episodes: int, arenas: int, mode: str) -> float:
+def rate(backend: Backend, behaviours: Behaviours, episodes: int, mode: str) -> float:
     """Simulated cycles per second of wall time."""
     start = time.perf_counter()
-    result = backend.play(behaviours, 7, episodes, arenas, mode).result
+    result = backend.play(behaviours, 7, episodes, mode).result
     elapsed = time.perf_counter() - start
     return sum(e.end_cycle - e.start_cycle for e in result.episodes) / elapsed
 
@@ -63,7 +63,7 @@ def trial_cycles(training: Path | None) -> tuple[float, float, str]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--episodes", type=int, default=50, help="episodes per measurement")
-    parser.add_argument("--arenas", type=int, default=2, help="distributed arenas (batched: 25 per evaluation)")
+    parser.add_argument("--arenas", type=int, default=2, help="distributed arenas (batched: an arena per chunk)")
     parser.add_argument("--from-training", type=Path, default=None)
     opts = parser.parse_args()
     config = TrainConfig(pass_policy="learned", getopen_policy="handcoded", schedule=(Phase(PASS, TRIAL_EPISODES),),
@@ -74,13 +74,13 @@ def main() -> None:
     # the distributed mode first: numba's worker threads of the batched mode may keep spinning afterwards
     with tempfile.TemporaryDirectory() as logs:
         with DistributedBackend.start_local(config.game(), opts.arenas, Path(logs), "classic") as distributed:
-            rate(distributed, frozen, opts.arenas, opts.arenas, "greedy")  # processes up and warm
-            distributed_rates = (rate(distributed, learn, opts.episodes, 1, "learn"),
-                                 rate(distributed, frozen, opts.episodes, opts.arenas, "greedy"))
+            rate(distributed, frozen, opts.arenas, "greedy")  # processes up and warm
+            distributed_rates = (rate(distributed, learn, opts.episodes, "learn"),
+                                 rate(distributed, frozen, opts.episodes, "greedy"))
     batched = BatchedBackend(config.game(), threads=None)
-    rate(batched, frozen, 25, 25, "greedy")  # compile / load every kernel once
-    rows["batched (baseline)"] = (rate(batched, learn, opts.episodes, 1, "learn"),
-                                  rate(batched, frozen, opts.episodes * 4, 25, "greedy"))
+    rate(batched, frozen, 25, "greedy")  # compile / load every kernel once
+    rows["batched (baseline)"] = (rate(batched, learn, opts.episodes, "learn"),
+                                  rate(batched, frozen, opts.episodes * 4, "greedy"))
     rows[f"distributed, {opts.arenas} arenas"] = distributed_rates
     learning, frozen_cycles, source = trial_cycles(opts.from_training)
     print(f"3v2 on 20 m, classic parameters; one trial = {source}: "

@@ -57,7 +57,7 @@ def main() -> None:
     print("|---|---|---|---|")
     for name, config in configs.items():
         backend = BatchedBackend(config.game(), threads=args.threads)
-        backend.play(initial_behaviours(config, 0), 0, 2, 2, LEARN)  # load the kernels
+        backend.play(initial_behaviours(config, 0), 0, 2, LEARN)  # load the kernels
         alone, together = wall(config, backend, False), wall(config, backend, True)
         print(f"| {name} | {alone:.1f} | {together:.1f} | {alone / together:.2f}x |")
 

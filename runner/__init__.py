@@ -6,7 +6,8 @@ learning mode, from this seed". The backends implement it: batched (``runner.bat
 in compiled kernels; ``runner.batched_backend``), embedded (``runner.embedded``: the server's arena and
 the players' agents in this process) and distributed (``runner.distributed``: arenas of processes,
 started by ``runner.launch``, placed on Ray by ``runner.ray_backend``), both of the latter fed by the same
-chunks of coach requests (``runner.coached``). ``runner.run`` is ``keepaway run``; ``runner.kernels``
+chunks of coach requests (``runner.coached``); every backend plays a job's chunks (``runner.job.chunk_seeds``)
+as fresh arenas of their seeds, so all three play the same games. ``runner.run`` is ``keepaway run``; ``runner.kernels``
 compiles the numba kernels before processes load them.
 
 The name: ``server.arena`` is one game's world and referee, ``protocol.arena`` the trainer's messages to
@@ -22,7 +23,7 @@ from core.exports import lazy_exports
 
 _EXPORTS = {
     "runner.job": ("BATCHED_SARSA", "GREEDY", "LEARN", "LEARNED", "MODES", "Backend", "Behaviours", "EpisodeTable", "Game",
-                   "Played", "Progress", "RunResult", "derive_seed"),
+                   "Played", "Progress", "RunResult", "chunk_seeds", "derive_seed"),
     "runner.backends": ("Placement", "open_backend"),
     "runner.batched": ("BatchedArenas",),
     "runner.batched_backend": ("BatchedBackend",),

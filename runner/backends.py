@@ -9,7 +9,7 @@ from pathlib import Path
 from runner.batched_backend import BatchedBackend
 from runner.distributed import DistributedBackend
 from runner.embedded import EmbeddedBackend
-from runner.job import MODES, Backend, Game
+from runner.job import CHUNK_EPISODES, MODES, Backend, Game
 from runner.kernels import kernel_sets
 from runner.ray_backend import Launcher
 
@@ -34,24 +34,24 @@ class Placement:
 
 
 def open_backend(mode: str, game: Game, parameter_set: str, arenas: int, log_dir: Path,
-                 placement: Placement = Placement()) -> Backend:
+                 placement: Placement = Placement(), chunk_episodes: int = CHUNK_EPISODES) -> Backend:
     """The backend of ``mode`` for ``game`` (``parameter_set`` names its parameter table for the server
-    processes): batched; embedded; distributed on ``arenas`` arenas placed as ``placement`` says (those
-    started here log under ``log_dir``). Close it when done. ValueError (one line) for a placement that is
-    not for ``mode``."""
+    processes), cutting jobs into chunks of ``chunk_episodes`` (``runner.job``): batched; embedded;
+    distributed on ``arenas`` arenas placed as ``placement`` says (those started here log under
+    ``log_dir``). Close it when done. ValueError (one line) for a placement that is not for ``mode``."""
     if mode not in MODES:
         raise ValueError(f"mode must be one of {', '.join(MODES)}, not {mode!r}")
     if mode != "distributed" and (placement.attach or placement.launcher is not None):
         raise ValueError(f"running arenas (--arena) and --backend ray are for the distributed mode, not {mode}")
     if mode == "batched":
-        return BatchedBackend(game, placement.threads)
+        return BatchedBackend(game, placement.threads, chunk_episodes)
     if mode == "embedded":
-        return EmbeddedBackend(game)
+        return EmbeddedBackend(game, chunk_episodes)
     if placement.attach:
-        return DistributedBackend.attach(game, placement.attach, keys=placement.keys)
+        return DistributedBackend.attach(game, placement.attach, chunk_episodes, keys=placement.keys)
     if placement.launcher is not None:
-        return placement.launcher(game, parameter_set, arenas)
-    return DistributedBackend.start_local(game, arenas, log_dir, parameter_set, keys=placement.keys)
+        return placement.launcher(game, parameter_set, arenas, chunk_episodes)
+    return DistributedBackend.start_local(game, arenas, log_dir, parameter_set, chunk_episodes, keys=placement.keys)
 
 
 __all__ = ["Placement", "open_backend"]

@@ -104,10 +104,18 @@ def keys_for_distributed(keys: Path | None, mode: str) -> None:
                                f"add --mode distributed")
 
 
-def default_arenas(mode: str, attach: tuple[str, ...]) -> int:
-    """``--arenas`` when not given: the running arenas attached to, else 2 arenas of processes
-    (distributed) or 25 arenas stepped at once (batched; embedded plays in its one arena)."""
-    return len(attach) or (2 if mode == "distributed" else 25)
+ARENAS_HELP = ("distributed: arenas of processes started [2] (the games do not depend on it: every mode "
+               "plays each job in chunks of 25 episodes, a chunk per arena).")
+
+
+def arena_count(mode: str, attach: tuple[str, ...], arenas: int | None) -> int:
+    """``--arenas``, or when not given the running arenas attached to, else 2 arenas of processes; a usage
+    error in one line if given for a mode that starts no arenas of processes (batched and embedded play
+    every chunk in an in-process arena of its own)."""
+    if arenas is not None and mode != "distributed":
+        raise click.UsageError(f"--arenas counts the distributed mode's arenas of processes; the {mode} mode "
+                               f"plays each chunk of 25 episodes in an arena of its own: leave it out")
+    return arenas or len(attach) or 2
 
 
 @click.command("run")

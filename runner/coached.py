@@ -1,6 +1,7 @@
 """Jobs played as a trainer asks an arena's coach: chunks of ``run_episodes`` requests (``protocol.arena``).
 
-Work is cut into chunks of at most ``chunk_episodes`` episodes. A chunk is one ``run_episodes`` request
+Work is cut into chunks of at most ``chunk_episodes`` episodes (``runner.job.chunk_seeds``, as every
+backend cuts it). A chunk is one ``run_episodes`` request
 carrying everything the keepers need (policy names, the GetOpen net, each keeper's Pass policy and Sarsa
 mode) and its own seed, derived from the job's seed and the chunk's index; the coach restarts the arena
 from that seed (server and players reseeded), so a chunk plays the same in whichever arena runs it and
@@ -45,6 +46,7 @@ from protocol.advice import (
 )
 from protocol.arena import EpisodesDone, RunEpisodes
 from runner.job import (
+    CHUNK_EPISODES,
     LEARNED,
     Behaviours,
     Game,
@@ -53,12 +55,11 @@ from runner.job import (
     Progress,
     RunResult,
     Transitions,
-    derive_seed,
+    chunk_seeds,
 )
 from runner.launch import ArenaFailure
 from server.episode_log import EpisodeRecord
 
-CHUNK_EPISODES = 25  # episodes per request: progress granularity vs. per-request overhead
 # SMDP transitions a keeper keeps between two reports: a chunk's worth with room to spare (a keeper
 # decides a few times per second of hold time); the size does not change what is learned.
 TRANSITION_LOG = 1 << 14
@@ -75,12 +76,6 @@ class Chunk:
 
     def request(self) -> RunEpisodes:
         return RunEpisodes(episodes=self.episodes, seed=self.seed, advice=self.advice, reports=self.reports)
-
-
-def chunk_seeds(seed: int, episodes: int, chunk_episodes: int) -> list[tuple[int, int]]:
-    """A job's chunks as (episodes, seed) pairs: chunk j is seeded ``derive_seed(seed, j)``."""
-    sizes = [min(chunk_episodes, episodes - start) for start in range(0, episodes, chunk_episodes)]
-    return [(n, derive_seed(seed, j)) for j, n in enumerate(sizes)]
 
 
 def behaviour_advice(game: Game, behaviours: Behaviours, pass_mode: str) -> tuple:
@@ -161,12 +156,12 @@ class CoachedBackend(ABC):
     def __exit__(self, *exc: object) -> None:
         self.close()
 
-    def play(self, behaviours: Behaviours, seed: int, episodes: int, arenas: int, pass_mode: str,
+    def play(self, behaviours: Behaviours, seed: int, episodes: int, pass_mode: str,
              progress: Progress | None = None, alpha: float | None = None) -> Played:
         """``runner.job.Backend.play``. Frozen (any mode but learn), the chunks may spread over the arenas;
         learning, they run in order in one arena and the keepers' final weights and transitions come
-        back. ``arenas`` is the batched backend's batch size and does not matter here."""
-        return self.play_all([Job(behaviours, seed, episodes, arenas, pass_mode, alpha)], progress)[0]
+        back."""
+        return self.play_all([Job(behaviours, seed, episodes, pass_mode, alpha)], progress)[0]
 
     def play_all(self, jobs: Sequence[Job], progress: Progress | None = None) -> list[Played]:
         """``runner.job.Backend.play_all``: the frozen jobs' chunks all served at once, any arena taking
@@ -224,5 +219,5 @@ class CoachedBackend(ABC):
         return RunResult(self.mode, seed, records, elapsed_s, cycles, len(records))
 
 
-__all__ = ["CHUNK_EPISODES", "Chunk", "CoachedBackend", "behaviour_advice", "chunk_seeds",
-           "keeper_reports", "pass_load_advice", "policy_advice", "transitions_by_keeper"]
+__all__ = ["Chunk", "CoachedBackend", "behaviour_advice", "keeper_reports", "pass_load_advice", "policy_advice",
+           "transitions_by_keeper"]

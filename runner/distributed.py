@@ -20,8 +20,8 @@ from protocol import configure, encode
 from protocol import messages as m
 from protocol.arena import ARENA_MAX_MESSAGE_BYTES, EpisodesDone, StopArena, decode_for_trainer
 from protocol.security import KeyDir, open_keys, secure_client
-from runner.coached import CHUNK_EPISODES, Chunk, CoachedBackend
-from runner.job import Game, Progress
+from runner.coached import Chunk, CoachedBackend
+from runner.job import CHUNK_EPISODES, Game, Progress
 from runner.launch import ArenaFailure, ArenaProcesses
 
 # The options a coached arena's players start with (``keepaway player``): every policy comes as advice.

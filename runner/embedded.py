@@ -27,8 +27,8 @@ from protocol.advice import ReportRequest, SeedAdvice, decode_report
 from protocol.arena import EpisodesDone, RunEpisodes, decode_for_trainer, decode_from_trainer
 from protocol.messages import decode_for_player, decode_from_player
 from protocol.params import ServerParams
-from runner.coached import CHUNK_EPISODES, Chunk, CoachedBackend
-from runner.job import Game, Progress
+from runner.coached import Chunk, CoachedBackend
+from runner.job import CHUNK_EPISODES, Game, Progress
 from server.arena import Arena, PlayerSlot
 from server.episode_log import EpisodeRecord
 from server.game_log import ArenaGameLog

@@ -5,15 +5,16 @@ arenas of one :class:`Game`. A :class:`Backend` plays jobs; the trainer (``train
 evaluate`` and ``keepaway experiment`` ask for nothing else, so each runs on every backend:
 
 * ``runner.batched_backend.BatchedBackend``: in-process arenas stepped together by compiled kernels;
-  arena b of a job seeded s plays the game of one arena seeded s + b;
 * ``runner.embedded.EmbeddedBackend``: one in-process arena of the server's ``Arena`` and the players'
   ``PlayerAgent`` objects, served as a coach serves a trainer;
 * ``runner.distributed.DistributedBackend``: arenas of server, coach and player processes, started here,
   attached to, or placed on a Ray cluster (``runner.ray_backend``).
 
-The embedded and the distributed backend cut a job into the same chunks with the same seeds
-(``runner.coached``), so they play the same episodes and learn the same weights; the batched backend
-draws other games from the same seed (docs/design.md, "Runner interface").
+Every backend cuts a job into the same chunks of at most :data:`CHUNK_EPISODES` episodes, chunk j seeded
+``derive_seed(seed, j)`` (:func:`chunk_seeds`), and plays each chunk as a fresh arena with that seed plays
+its first episodes; a learning job's chunks follow one another, the keepers' weights carried over. So
+every backend plays the same episodes and learns the same weights from one seed (docs/design.md, "Runner
+interface").
 
 A leaf of the runner: it imports no other module of ``runner`` (nor ``trainer``), so every backend and
 every learner can build on it.
@@ -53,11 +54,19 @@ STREAM_EVALUATION = 3  # index: episodes trained at the evaluation
 STREAM_INITIAL_NET = 4
 STREAM_CROSS_TEST = 5  # Table 2's cross-tests of a trial's policies (trainer.experiments)
 
+CHUNK_EPISODES = 25  # episodes per chunk: a coached arena's request (progress granularity vs. overhead)
+
 
 def derive_seed(seed: int, *path: int) -> int:
     """An arena or CEM seed below 2^31 for the random stream ``path`` of the run seeded ``seed`` (a
-    trial's streams: the registry above; a job's chunks: ``runner.coached.chunk_seeds``)."""
+    trial's streams: the registry above; a job's chunks: :func:`chunk_seeds`)."""
     return int(np.random.SeedSequence([int(seed), *map(int, path)]).generate_state(1, dtype=np.uint32)[0] >> 1)
+
+
+def chunk_seeds(seed: int, episodes: int, chunk_episodes: int = CHUNK_EPISODES) -> list[tuple[int, int]]:
+    """A job's chunks as (episodes, seed) pairs: chunk j is seeded ``derive_seed(seed, j)``."""
+    sizes = [min(chunk_episodes, episodes - start) for start in range(0, episodes, chunk_episodes)]
+    return [(n, derive_seed(seed, j)) for j, n in enumerate(sizes)]
 
 
 @dataclass(frozen=True)
@@ -191,7 +200,6 @@ class Job(NamedTuple):
     behaviours: Behaviours
     seed: int
     episodes: int
-    arenas: int
     pass_mode: str
     alpha: float | None = None
 
@@ -207,12 +215,11 @@ class Backend(Protocol):
 
     game: Game
 
-    def play(self, behaviours: Behaviours, seed: int, episodes: int, arenas: int, pass_mode: str,
+    def play(self, behaviours: Behaviours, seed: int, episodes: int, pass_mode: str,
              progress: Progress | None = None, alpha: float | None = None) -> Played:
-        """``episodes`` episodes of ``behaviours`` from ``seed``, the learned Pass policy (if any) in Sarsa
-        mode ``pass_mode`` (every keeper starting from ``behaviours.pass_arrays``) with step size ``alpha``
-        (None: the game's). ``arenas``: how many in-process arenas may share the job (the batched
-        backend's batch; the others play on the arenas they have)."""
+        """``episodes`` episodes of ``behaviours`` from ``seed`` (its chunks: module docstring), the learned
+        Pass policy (if any) in Sarsa mode ``pass_mode`` (every keeper starting from
+        ``behaviours.pass_arrays``) with step size ``alpha`` (None: the game's)."""
         ...
 
     def play_all(self, jobs: Sequence[Job], progress: Progress | None = None) -> list[Played]:
@@ -226,6 +233,6 @@ class Backend(Protocol):
         ...
 
 
-__all__ = ["BATCHED_SARSA", "GREEDY", "LEARN", "LEARNED", "MODES", "STREAM_CEM", "STREAM_CROSS_TEST", "STREAM_EVALUATION",
+__all__ = ["BATCHED_SARSA", "CHUNK_EPISODES", "GREEDY", "LEARN", "LEARNED", "MODES", "STREAM_CEM", "STREAM_CROSS_TEST", "STREAM_EVALUATION",
            "STREAM_GENERATION", "STREAM_INITIAL_NET", "STREAM_PASS_BLOCK", "Backend", "Behaviours", "EpisodeTable",
-           "Game", "Job", "PassArrays", "Played", "Progress", "RunResult", "Transitions", "derive_seed"]
+           "Game", "Job", "PassArrays", "Played", "Progress", "RunResult", "Transitions", "chunk_seeds", "derive_seed"]

@@ -47,20 +47,20 @@ class ArenaHost:
         self.processes.stop()
 
 
-Launcher = Callable[[Game, str, int], DistributedBackend]
+Launcher = Callable[[Game, str, int, int], DistributedBackend]
 
 
 def ray_launcher(address: str | None = None, keys: Path | None = None) -> Launcher:
     """A ``launcher`` for ``runner.backends.open_backend``: joins the Ray cluster at ``address`` (None:
-    ``RAY_ADDRESS`` or a new local Ray); ``launch(game, parameter_set, arenas)`` places that many arenas
-    of ``game`` on it, with ``keys`` (a keys directory at that path on every node) over CURVE. Raises
+    ``RAY_ADDRESS`` or a new local Ray); ``launch(game, parameter_set, arenas, chunk_episodes)`` places that
+    many arenas of ``game`` on it (jobs cut into chunks of ``chunk_episodes``), with ``keys`` (a keys directory at that path on every node) over CURVE. Raises
     RuntimeError in one line when Ray is not installed."""
     try:
         import ray
     except ImportError:
         raise RuntimeError("--backend ray needs Ray: pip install 'keepaway[ray]'") from None
 
-    def launch(game: Game, parameter_set: str, arenas: int) -> DistributedBackend:
+    def launch(game: Game, parameter_set: str, arenas: int, chunk_episodes: int) -> DistributedBackend:
         ray.init(address=address, ignore_reinit_error=True, log_to_driver=False)
         actor = ray.remote(num_cpus=ARENA_CPUS)(ArenaHost)
         hosts = [actor.remote(game, parameter_set, i, keys) for i in range(arenas)]
@@ -75,7 +75,7 @@ def ray_launcher(address: str | None = None, keys: Path | None = None) -> Launch
         except BaseException:
             stop_hosts()
             raise
-        backend = DistributedBackend.attach(game, endpoints, keys=keys)
+        backend = DistributedBackend.attach(game, endpoints, chunk_episodes, keys=keys)
         backend.on_close = stop_hosts
         return backend
 

@@ -1,7 +1,8 @@
 """Every mode behind the one interface (``runner.job.Backend``): the same jobs through the batched, the
 embedded and the distributed backend, directly and through ``keepaway evaluate`` and ``keepaway
-experiment``; where the backends promise equality (embedded and distributed play the same chunks of coach
-requests, ``runner.coached``) the same episodes, the same learned weights and the same transitions."""
+experiment``. Every backend plays a job's chunks (``runner.job.chunk_seeds``) as fresh arenas of their
+seeds, so all three play the same episodes and learn the same weights; the embedded and the distributed
+backend, which serve the same coach requests (``runner.coached``), also report the same transitions."""
 
 from __future__ import annotations
 
@@ -24,6 +25,7 @@ GAME = Game(parameter_set("classic"))
 CHUNK = 2  # episodes per request: jobs of a few episodes still span several chunks
 FROZEN = Behaviours("random", "random")  # draws from the players' own streams: their reseeding counts
 LEARNING = Behaviours("learned", "handcoded")
+FROZEN_HC = Behaviours("handcoded", "handcoded")
 
 
 def durations(result: RunResult) -> list[tuple[int, str]]:
@@ -38,7 +40,7 @@ def backends(tmp_path_factory) -> dict[str, Backend]:
     distributed = DistributedBackend.start_local(GAME, 1, tmp_path_factory.mktemp("arenas"), "classic",
                                                  chunk_episodes=CHUNK)
     opened = {"batched": open_backend("batched", GAME, "classic", 1, tmp_path_factory.mktemp("unused"),
-                                      Placement(threads=1)),
+                                      Placement(threads=1), chunk_episodes=CHUNK),
               "embedded": EmbeddedBackend(GAME, chunk_episodes=CHUNK), "distributed": distributed}
     yield opened
     for backend in opened.values():
@@ -48,17 +50,17 @@ def backends(tmp_path_factory) -> dict[str, Backend]:
 @pytest.mark.parametrize("mode", MODES)
 def test_every_backend_plays_jobs_that_depend_only_on_their_arguments(backends, mode):
     backend = backends[mode]
-    learned = backend.play(LEARNING, 5, 3, 2, LEARN)
+    learned = backend.play(LEARNING, 5, 3, LEARN)
     assert learned.result.mode == mode and [e.episode for e in learned.result.episodes] == [1, 2, 3]
     assert len(learned.pass_arrays) == GAME.keepers
     assert any(np.any(arrays["pass_weights"] != 0.0) for arrays in learned.pass_arrays)
     trained = replace(LEARNING, pass_arrays=learned.pass_arrays)
-    first = backend.play(trained, 6, 3, 2, GREEDY)
+    first = backend.play(trained, 6, 3, GREEDY)
     assert first.pass_arrays is None and first.transitions is None  # frozen: nothing learned
-    backend.play(FROZEN, 7, 2, 2, GREEDY)
-    assert durations(backend.play(trained, 6, 3, 2, GREEDY).result) == durations(first.result)
+    backend.play(FROZEN, 7, 2, GREEDY)
+    assert durations(backend.play(trained, 6, 3, GREEDY).result) == durations(first.result)
     candidates = [FROZEN, replace(FROZEN, getopen_policy="handcoded"), FROZEN]
-    same, other, again = backend.play_all([Job(c, 8, 3, 2, GREEDY) for c in candidates])
+    same, other, again = backend.play_all([Job(c, 8, 3, GREEDY) for c in candidates])
     assert durations(same.result) == durations(again.result) != durations(other.result)  # common random numbers
 
 
@@ -76,41 +78,52 @@ def test_every_backend_plays_independent_jobs_together_as_each_alone(backends, m
     # jobs of the same and of other policies, more arenas than episodes; together (the batched backend:
     # in shared batches) each plays as it does alone.
     backend = backends[mode]
-    trained = replace(LEARNING, pass_arrays=backend.play(LEARNING, 21, 2, 1, LEARN).pass_arrays)
-    jobs = [Job(LEARNING, 22, 3, 1, LEARN), Job(trained, 23, 2, 1, LEARN), Job(trained, 24, 3, 2, GREEDY),
-            Job(FROZEN, 25, 2, 4, GREEDY), Job(trained, 26, 3, 2, GREEDY, alpha=0.5), Job(LEARNING, 27, 2, 1, GREEDY)]
+    trained = replace(LEARNING, pass_arrays=backend.play(LEARNING, 21, 2, LEARN).pass_arrays)
+    jobs = [Job(LEARNING, 22, 3, LEARN), Job(trained, 23, 2, LEARN), Job(trained, 24, 3, GREEDY),
+            Job(FROZEN, 25, 2, GREEDY), Job(trained, 26, 3, GREEDY, alpha=0.5), Job(LEARNING, 27, 2, GREEDY)]
     for together, job in zip(backend.play_all(jobs), jobs, strict=True):
         assert_same_played(together, backend.play_all([job])[0])
 
 
-def test_embedded_and_distributed_backends_play_the_same_frozen_jobs(backends):
-    embedded, distributed = backends["embedded"], backends["distributed"]
-    assert durations(embedded.play(FROZEN, 11, 5, 1, GREEDY).result) == \
-        durations(distributed.play(FROZEN, 11, 5, 1, GREEDY).result)
+def test_every_backend_plays_the_same_frozen_jobs(backends):
+    frozen = {mode: durations(backend.play(FROZEN, 11, 5, GREEDY).result) for mode, backend in backends.items()}
+    assert frozen["batched"] == frozen["embedded"] == frozen["distributed"]
+    assert len(frozen["batched"]) == 5  # three chunks of at most 2
     candidates = [FROZEN, replace(FROZEN, getopen_policy="handcoded")]
-    jobs = [Job(c, 12, 3, 1, GREEDY) for c in candidates]
-    assert [durations(p.result) for p in embedded.play_all(jobs)] == \
-        [durations(p.result) for p in distributed.play_all(jobs)]
+    jobs = [Job(c, 12, 3, GREEDY) for c in candidates]
+    together = {mode: [durations(p.result) for p in backend.play_all(jobs)] for mode, backend in backends.items()}
+    assert together["batched"] == together["embedded"] == together["distributed"]
 
 
-def test_embedded_and_distributed_backends_learn_the_same_weights_from_the_same_transitions(backends):
-    embedded = backends["embedded"].play(LEARNING, 3, 5, 1, LEARN)
-    distributed = backends["distributed"].play(LEARNING, 3, 5, 1, LEARN)
-    assert durations(embedded.result) == durations(distributed.result)
-    for mine, theirs in zip(embedded.pass_arrays, distributed.pass_arrays, strict=True):
-        assert mine.keys() == theirs.keys()
-        for name in mine:
-            np.testing.assert_array_equal(mine[name], theirs[name], err_msg=name)
+def test_every_backend_learns_the_same_weights_and_the_coached_ones_from_the_same_transitions(backends):
+    # 5 episodes in chunks of 2: the batched backend carries the weights over two restarts, as the
+    # coached arenas' keepers do
+    played = {mode: backend.play(LEARNING, 3, 5, LEARN) for mode, backend in backends.items()}
+    embedded, distributed = played["embedded"], played["distributed"]
+    for other in (played["batched"], distributed):
+        assert durations(embedded.result) == durations(other.result)
+        for mine, theirs in zip(embedded.pass_arrays, other.pass_arrays, strict=True):
+            assert mine.keys() == theirs.keys()
+            for name in mine:
+                np.testing.assert_array_equal(mine[name], theirs[name], err_msg=name)
     assert embedded.transitions.keys() == distributed.transitions.keys() == {1, 2, 3}
     for unum, arrays in embedded.transitions.items():
         for name, values in arrays.items():
             np.testing.assert_array_equal(values, distributed.transitions[unum][name], err_msg=f"keeper {unum} {name}")
 
 
+def test_a_coached_arena_that_learned_plays_a_fixed_pass_policy_as_a_fresh_one():
+    # Its keepers keep their learners (docs/advice.md), which must not play while Pass is hand-coded.
+    fresh = EmbeddedBackend(GAME, chunk_episodes=CHUNK).play(FROZEN_HC, 11, 3, GREEDY)
+    used = EmbeddedBackend(GAME, chunk_episodes=CHUNK)
+    used.play(LEARNING, 5, 3, LEARN)
+    assert durations(used.play(FROZEN_HC, 11, 3, GREEDY).result) == durations(fresh.result)
+
+
 def test_a_step_size_reaches_the_learners_of_every_backend(backends):
     for backend in backends.values():
-        constant = backend.play(LEARNING, 9, 3, 1, LEARN).pass_arrays
-        smaller = backend.play(LEARNING, 9, 3, 1, LEARN, alpha=GAME.sarsa.alpha / 4).pass_arrays
+        constant = backend.play(LEARNING, 9, 3, LEARN).pass_arrays
+        smaller = backend.play(LEARNING, 9, 3, LEARN, alpha=GAME.sarsa.alpha / 4).pass_arrays
         assert any(not np.array_equal(a["pass_weights"], b["pass_weights"]) for a, b in zip(constant, smaller))
 
 
@@ -134,40 +147,46 @@ def episode_durations(summary: dict) -> list[tuple[int, str]]:
     return [(e["end_cycle"] - e["start_cycle"], e["end"]) for e in summary["episodes"]]
 
 
-def test_evaluate_plays_a_policy_file_in_every_mode_the_same_embedded_and_distributed(processes, tmp_path, backends):
-    learned = backends["embedded"].play(LEARNING, 4, 3, 1, LEARN).pass_arrays
+def test_evaluate_plays_a_policy_file_the_same_in_every_mode(processes, tmp_path, backends):
+    learned = backends["embedded"].play(LEARNING, 4, 3, LEARN).pass_arrays
     theta = np.random.default_rng(2).uniform(-0.5, 0.5, getopen_theta_size())
     policy = save_policy(tmp_path / "policy.npz", getopen_theta=theta, pass_arrays=pack_pass_arrays(learned),
                          config={"keepers": 3, "takers": 2, "pass": "learned", "getopen": "learned",
                                  "sarsa": asdict(GAME.sarsa)})
     summaries = {mode: json.loads(run_keepaway(processes, "evaluate", "--policy", str(policy), "--mode", mode,
-                                               "--episodes", "3", "--arenas", "2", "--json", "--no-progress"))
+                                               "--episodes", "30", "--json", "--no-progress",
+                                               *(["--arenas", "2"] if mode == "distributed" else [])))
                  for mode in MODES}
     assert {mode: (s["mode"], s["pass"], s["getopen"], len(s["episodes"])) for mode, s in summaries.items()} == \
-        {mode: (mode, "learned", "learned", 3) for mode in MODES}
-    assert episode_durations(summaries["embedded"]) == episode_durations(summaries["distributed"])
+        {mode: (mode, "learned", "learned", 30) for mode in MODES}
+    assert episode_durations(summaries["batched"]) == episode_durations(summaries["embedded"]) == \
+        episode_durations(summaries["distributed"])
 
 
 @pytest.mark.slow
 @pytest.mark.timeout(600)
-def test_an_experiment_learns_the_same_embedded_and_distributed(processes, tmp_path):
+def test_an_experiment_learns_the_same_in_every_mode(processes, tmp_path):
     # P:L-GO:HC learns Pass in three blocks of 8 episodes (evaluations of 2 at 0, 8, 16 and 24); P:HC-GO:HC
-    # is only evaluated. Every curve, every learned weight and every reported transition must agree. (The
-    # CEM's generations of 4 episodes fit the schedules of the configurations not run.)
+    # is only evaluated. Every curve and every learned weight must agree, and every reported transition of
+    # the two modes that report them. (The CEM's generations of 4 episodes fit the schedules of the
+    # configurations not run.)
     settings = ["--only", "P:L-GO:HC", "--only", "P:HC-GO:HC", "--trials", "1", "--episodes", "24", "--eval-every",
                 "8", "--eval-episodes", "2", "--population", "2", "--elite", "1", "--candidate-episodes", "2",
-                "--seed", "2", "--arenas", "1", "--no-progress"]
-    outs = {mode: tmp_path / mode for mode in ("embedded", "distributed")}
+                "--seed", "2", "--no-progress"]
+    outs = {mode: tmp_path / mode for mode in MODES}
     for mode, out in outs.items():
-        run_keepaway(processes, "experiment", "figure3", *settings, "--mode", mode, "--out", str(out))
+        run_keepaway(processes, "experiment", "figure3", *settings, "--mode", mode, "--out", str(out),
+                     *(["--arenas", "1"] if mode == "distributed" else []))
     for configuration in ("P_L-GO_HC", "P_HC-GO_HC"):
         curves = [(out / configuration / "trial_000" / "curve.csv").read_text() for out in outs.values()]
-        assert curves[0] == curves[1] and len(curves[0].splitlines()) == 5, configuration
+        assert curves[0] == curves[1] == curves[2] and len(curves[0].splitlines()) == 5, configuration
     learned = [load_policy(out / "P_L-GO_HC" / "trial_000" / "policy.npz").pass_arrays for out in outs.values()]
-    assert learned[0].keys() == learned[1].keys()
+    assert learned[0].keys() == learned[1].keys() == learned[2].keys()
     for name in learned[0]:
-        np.testing.assert_array_equal(learned[0][name], learned[1][name], err_msg=name)
-    transitions = [sorted((out / "P_L-GO_HC" / "trial_000" / "transitions").iterdir()) for out in outs.values()]
+        for other in learned[1:]:
+            np.testing.assert_array_equal(learned[0][name], other[name], err_msg=name)
+    coached = [outs["embedded"], outs["distributed"]]
+    transitions = [sorted((out / "P_L-GO_HC" / "trial_000" / "transitions").iterdir()) for out in coached]
     assert [p.name for p in transitions[0]] == [p.name for p in transitions[1]] == \
         [f"pass_to_{episodes:06d}.npz" for episodes in range(8, 25, 8)]
     for mine, theirs in zip(*transitions):

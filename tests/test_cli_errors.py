@@ -163,6 +163,8 @@ def test_player_and_coach_refuse_bad_options(processes, command, args, problem):
     (["--field-size", "80"], "server parameter keepaway_width=80.0 must not exceed pitch_width=68.0"),
     (["--threads", "0"], "Invalid value for '--threads': 0 is not in the range x>=1."),
     (["--episodes", "-5"], "Invalid value for '--episodes': -5 is not in the range x>=1."),
+    (["--arenas", "3"], "--arenas counts the distributed mode's arenas of processes; the batched mode plays each "
+                        "chunk of 25 episodes in an arena of its own: leave it out"),
 ])
 def test_train_refuses_bad_options_before_writing_anything(processes, tmp_path, args, problem):
     out = tmp_path / "train"
@@ -225,6 +227,9 @@ def test_resume_from_a_damaged_checkpoint_names_it_and_the_way_out(processes, tr
     (lambda text: json.dumps({**json.loads(text), "trials": "2"}), "trials is '2', expected an integer"),
     (lambda text: json.dumps({**json.loads(text), "warp": 1}), "unknown setting(s) warp"),
     (lambda text: "[1, 2]", "not a JSON object"),
+    (lambda text: json.dumps({k: v for k, v in json.loads(text).items() if k != "chunk_episodes"}),
+     "begun by the batched mode before it played chunks as the other modes do: resumed now it would go on with "
+     "other games"),
 ])
 def test_resume_with_a_damaged_configuration_names_it_and_the_way_out(processes, training, edit, reason):
     config = training / "config.json"
@@ -240,7 +245,7 @@ def test_evaluate_plays_a_training_without_pass_learners_with_hand_coded_pass(pr
     save_policy(trial / "policy.npz", getopen_theta=np.zeros(getopen_theta_size()),
                 config={"keepers": 3, "takers": 2, "pass": "handcoded", "getopen": "learned"})
     proc = processes.popen(keepaway_command("evaluate", "--policy", str(tmp_path / "training"), "--pass",
-                                            "handcoded", "--episodes", "2", "--arenas", "2", "--json",
+                                            "handcoded", "--episodes", "2", "--json",
                                             "--no-progress"), stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     out, err = proc.communicate(timeout=PLAYING_S)
     assert proc.returncode == 0, err.decode()

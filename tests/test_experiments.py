@@ -43,8 +43,7 @@ from trainer.schedule import GETOPEN, LEARNED, PASS, Phase
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 # Evaluations at 0, 8, ..., 48 (7 points); Algorithm 3 scaled to 48: getopen 8, pass 8, getopen 24, pass 8.
-TINY = ["--trials", "2", "--episodes", "48", "--eval-every", "8", "--eval-episodes", "4", "--arenas", "4",
-        "--population", "4", "--elite", "2", "--candidate-episodes", "2", "--seed", "3", "--threads", "1",
+TINY = ["--trials", "2", "--episodes", "48", "--eval-every", "8", "--eval-episodes", "4", "--population", "4", "--elite", "2", "--candidate-episodes", "2", "--seed", "3", "--threads", "1",
         "--no-progress"]
 POINTS = [0, 8, 16, 24, 32, 40, 48]
 NAMES = [f"P:{p}-GO:{g}" for p in ("R", "HC", "L") for g in ("R", "HC", "L")]
@@ -236,7 +235,7 @@ def test_an_unfinished_evaluation_continues_where_it_stopped(copy, monkeypatch):
 
     monkeypatch.setattr(experiments, "evaluate", counting)
     run = experiments.run_configuration(ExperimentConfig(trials=2, episodes=48, eval_every=8, eval_episodes=4,
-                                                         arenas=4, seed=3), "handcoded", "handcoded", copy,
+                                                         seed=3), "handcoded", "handcoded", copy,
                                         Placement(threads=1), progress=False)
     assert len(played) == 2 and not run.skipped
     assert read_curve_csv(path) == complete  # the same seeds give the same evaluations

@@ -36,14 +36,14 @@ def test_ray_places_arenas_that_play_like_local_ones(tmp_path):
     config = TrainConfig(mode="distributed", arenas=2)
     job = Behaviours("random", "handcoded")
     try:
-        backend = ray_launcher(None)(config.game(), config.parameter_set, config.arenas)
+        backend = ray_launcher(None)(config.game(), config.parameter_set, config.arenas, config.chunk_episodes)
         try:
-            on_ray = backend.play(job, 21, 4, 2, "greedy")[0]
+            on_ray = backend.play(job, 21, 4, "greedy")[0]
         finally:
             backend.close()
     finally:
         ray.shutdown()
     with DistributedBackend.start_local(config.game(), 1, tmp_path, "classic") as local:
-        here = local.play(job, 21, 4, 1, "greedy")[0]
+        here = local.play(job, 21, 4, "greedy")[0]
     assert [(e.end_cycle - e.start_cycle, e.end) for e in on_ray.episodes] == \
         [(e.end_cycle - e.start_cycle, e.end) for e in here.episodes]

@@ -127,17 +127,17 @@ def test_a_trainer_drives_keyed_arenas_and_one_without_the_key_gets_no_answer(tm
     game = TrainConfig().game()
     job = Behaviours("handcoded", "handcoded")
     with DistributedBackend.start_local(game, 1, tmp_path, "classic", chunk_episodes=2, keys=keys) as backend:
-        played = backend.play(job, 11, 2, 1, "greedy")[0]
+        played = backend.play(job, 11, 2, "greedy")[0]
         monkeypatch.setattr(distributed, "ATTACHED_TIMEOUT_S", 2.0)
         keyless = DistributedBackend.attach(game, [backend.arenas[0].endpoint])
         try:
             with pytest.raises(ArenaFailure, match=r"no answer for \d+ s; .*\(--keys\)"):
-                keyless.play(job, 11, 2, 1, "greedy")
+                keyless.play(job, 11, 2, "greedy")
         finally:
             keyless.close(stop=False)
     assert len(played.episodes) == 2
     with DistributedBackend.start_local(game, 1, tmp_path / "plain", "classic", chunk_episodes=2) as plain:
-        assert plain.play(job, 11, 2, 1, "greedy")[0].episodes == played.episodes
+        assert plain.play(job, 11, 2, "greedy")[0].episodes == played.episodes
 
 
 def first_frame(url: str, timeout_s: float) -> dict:

@@ -51,13 +51,13 @@ PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 # GO:L with Pass random: 4 candidates x 4 episodes = 16 episodes per generation, 2 generations,
 # evaluations of 8 episodes at 0, 16 and 32.
 TINY_ARGS = ["train", "--pass", "random", "--getopen", "learned", "--episodes", "32", "--population", "4",
-             "--elite", "2", "--candidate-episodes", "4", "--arenas", "4", "--eval-every", "16",
+             "--elite", "2", "--candidate-episodes", "4", "--eval-every", "16",
              "--eval-episodes", "8", "--trials", "2", "--seed", "5", "--threads", "1", "--no-progress"]
 
 
 def tiny_config(**overrides) -> TrainConfig:
     values = dict(pass_policy="random", getopen_policy="learned", schedule=(Phase(GETOPEN, 32),), trials=2,
-                  eval_every=16, eval_episodes=8, arenas=4, seed=5,
+                  eval_every=16, eval_episodes=8, seed=5,
                   cem=CEMConfig(population=4, elite=2, episodes_per_candidate=4))
     values.update(overrides)
     return TrainConfig(**values)
@@ -375,7 +375,7 @@ def test_a_both_phase_runs_cem_generations_whose_candidates_also_train_pass(tmp_
     real_play_all = BatchedBackend.play_all
 
     def spy(self, jobs, *args, **kwargs):
-        played.extend((j.behaviours.pass_policy, j.behaviours.pass_arrays is None, j.episodes, j.arenas, j.pass_mode)
+        played.extend((j.behaviours.pass_policy, j.behaviours.pass_arrays is None, j.episodes, j.pass_mode)
                       for j in jobs)
         return real_play_all(self, jobs, *args, **kwargs)
 
@@ -385,10 +385,10 @@ def test_a_both_phase_runs_cem_generations_whose_candidates_also_train_pass(tmp_
     assert [(r["phase"], r["episodes"], r.get("block_episodes")) for r in trace] == [
         (BOTH, 4, 4), (BOTH, 8, 4), (PASS, 12, 4)]
     assert [r["generation"] for r in trace if r["phase"] == BOTH] == [0, 1]
-    learning = [p for p in played if p[4] == LEARN]
-    # 4 candidates, one arena and 2 episodes each, the first from fresh learners; then the Pass block.
-    assert learning == [("learned", True, 2, 1, LEARN)] + [("learned", False, 2, 1, LEARN)] * 3 + [
-        ("learned", False, 4, 1, LEARN)]
+    learning = [p for p in played if p[3] == LEARN]
+    # 4 candidates, 2 episodes each, the first from fresh learners; then the Pass block.
+    assert learning == [("learned", True, 2, LEARN)] + [("learned", False, 2, LEARN)] * 3 + [
+        ("learned", False, 4, LEARN)]
     policy = load_policy(tmp_path / "both/trial_000/policy.npz")
     assert policy.getopen_theta is not None and policy.config["pass"] == "learned"
     with pytest.raises(ValueError, match="needs Pass and GetOpen learned"):
@@ -452,7 +452,7 @@ def test_before_learning_algorithm_3_plays_random_policies_and_go_l_alone_a_smal
 def test_a_hive_mind_training_saves_one_table_for_every_keeper_and_plays_back(tmp_path):
     out = tmp_path / "hive"
     trained = CliRunner().invoke(main, ["train", "--pass", "learned", "--getopen", "handcoded", "--episodes", "8",
-                                        "--eval-every", "4", "--eval-episodes", "2", "--arenas", "2", "--seed",
+                                        "--eval-every", "4", "--eval-episodes", "2", "--seed",
                                         "4", "--threads", "1", "--no-progress", "--pass-hive-mind", "--out",
                                         str(out)])
     assert trained.exit_code == 0, trained.output
@@ -461,8 +461,7 @@ def test_a_hive_mind_training_saves_one_table_for_every_keeper_and_plays_back(tm
     weights = [policy.pass_arrays[f"pass{suffix}_weights"] for suffix in ("", "_keeper2", "_keeper3")]
     assert weights[0].any() and all(np.array_equal(w, weights[0]) for w in weights)
     for mode in ("batched", "embedded"):  # a lone keeper plays a hive mind's copy of the table
-        played = CliRunner().invoke(main, ["evaluate", "--policy", str(out), "--episodes", "2", "--arenas", "1",
-                                           "--mode", mode, "--no-progress", "--json"])
+        played = CliRunner().invoke(main, ["evaluate", "--policy", str(out), "--episodes", "2", "--mode", mode, "--no-progress", "--json"])
         assert played.exit_code == 0, played.output
     # A configuration stored before the option existed reads back with it off.
     stored = pass_config().to_dict()
@@ -485,13 +484,12 @@ def test_evaluate_plays_each_trials_policy_frozen_and_prints_the_summary(tmp_pat
     out = tmp_path / "run"
     assert CliRunner().invoke(main, TINY_ARGS + ["--out", str(out), "--episodes", "16"]).exit_code == 0
     runner = CliRunner()
-    table = runner.invoke(main, ["evaluate", "--policy", str(out), "--episodes", "6", "--arenas", "3",
-                                 "--threads", "1", "--no-progress"])
+    table = runner.invoke(main, ["evaluate", "--policy", str(out), "--episodes", "6", "--threads", "1", "--no-progress"])
     assert table.exit_code == 0, table.output
     assert table.output.count("mean hold time") == 2  # one table per trial
     assert "(Pass random, GetOpen learned)" in table.output
     as_json = runner.invoke(main, ["evaluate", "--policy", str(out / "trial_001/policy.npz"), "--episodes", "6",
-                                   "--arenas", "3", "--threads", "1", "--pass", "handcoded", "--json"])
+                                   "--threads", "1", "--pass", "handcoded", "--json"])
     assert as_json.exit_code == 0, as_json.output
     summary = strict_json(as_json.output)
     assert summary["pass"] == "handcoded" and summary["getopen"] == "learned"
@@ -506,7 +504,7 @@ def test_evaluate_plays_a_learned_pass_file_with_another_pass_in_its_place(tmp_p
     # Table 2's cross-test by hand: the file's Pass weights stay out of a game whose Pass is not learned.
     out = tmp_path / "run"
     args = TINY_ARGS[:TINY_ARGS.index("--population")] + ["--trials", "1", "--seed", "5", "--threads", "1",
-                                                          "--arenas", "2", "--eval-every", "8", "--eval-episodes",
+                                                          "--eval-every", "8", "--eval-episodes",
                                                           "2", "--no-progress"]
     args[args.index("random")] = "learned"
     args[args.index("--getopen") + 1] = "handcoded"
@@ -514,8 +512,7 @@ def test_evaluate_plays_a_learned_pass_file_with_another_pass_in_its_place(tmp_p
     trained = CliRunner().invoke(main, args + ["--out", str(out)])
     assert trained.exit_code == 0, trained.output
     for other in ("handcoded", "random"):
-        played = CliRunner().invoke(main, ["evaluate", "--policy", str(out), "--episodes", "4", "--arenas", "2",
-                                           "--threads", "1", "--pass", other, "--json"])
+        played = CliRunner().invoke(main, ["evaluate", "--policy", str(out), "--episodes", "4", "--threads", "1", "--pass", other, "--json"])
         assert played.exit_code == 0, played.output
         summary = strict_json(played.output)
         assert (summary["pass"], summary["getopen"], len(summary["episodes"])) == (other, "handcoded", 4)

@@ -21,7 +21,7 @@ from protocol import encode
 from protocol import messages as m
 from protocol.arena import RunEpisodes, decode_from_trainer
 from runner import distributed
-from runner.coached import chunk_seeds
+from runner.job import chunk_seeds
 from runner.distributed import DistributedBackend
 from runner.job import GREEDY, Behaviours, Job
 from runner.launch import ArenaFailure
@@ -55,7 +55,7 @@ def test_an_attached_arena_that_never_answers_is_given_up_in_one_line(fake_coach
     backend = DistributedBackend.attach(TrainConfig().game(), [endpoint])
     try:
         with pytest.raises(ArenaFailure, match=r"arena 0 \(tcp://127.0.0.1:\d+\): no answer for \d+ s"):
-            backend.play(Behaviours("handcoded", "handcoded"), 1, 3, 1, "greedy")
+            backend.play(Behaviours("handcoded", "handcoded"), 1, 3, "greedy")
     finally:
         backend.close()
 
@@ -70,7 +70,7 @@ def test_an_arena_whose_socket_takes_no_request_is_given_up_instead_of_blocking(
     backend = DistributedBackend(TrainConfig().game(), [distributed.Arena("arena 0", "nowhere", sock)])
     try:
         with pytest.raises(ArenaFailure, match=r"arena 0: no answer for \d+ s"):
-            backend.play(Behaviours("handcoded", "handcoded"), 1, 3, 1, "greedy")
+            backend.play(Behaviours("handcoded", "handcoded"), 1, 3, "greedy")
     finally:
         backend.close()
 
@@ -87,7 +87,7 @@ def test_a_refused_run_is_named_with_the_coach_error(fake_coach):
         thread = threading.Thread(target=refuse)
         thread.start()
         with pytest.raises(ArenaFailure, match="the coach refused a run: reports_missing: keeper 2's snapshot"):
-            backend.play(Behaviours("handcoded", "handcoded"), 1, 3, 1, "greedy")
+            backend.play(Behaviours("handcoded", "handcoded"), 1, 3, "greedy")
         thread.join()
     finally:
         backend.close()
@@ -101,10 +101,10 @@ def test_a_chunk_plays_the_same_in_any_arena_whatever_it_played_before(tmp_path)
     game = TrainConfig().game()
     job = Behaviours("random", "random")
     with DistributedBackend.start_local(game, 2, tmp_path, "classic", chunk_episodes=2) as backend:
-        split = backend.play(job, 11, 6, 2, "greedy")[0]
-        backend.play(Behaviours("handcoded", "handcoded"), 5, 3, 1, "greedy")
-        alone = DistributedBackend(game, backend.arenas[1:], chunk_episodes=2).play(job, 11, 6, 1, "greedy")[0]
-        other_seed = backend.play(job, 12, 6, 2, "greedy")[0]
+        split = backend.play(job, 11, 6, "greedy")[0]
+        backend.play(Behaviours("handcoded", "handcoded"), 5, 3, "greedy")
+        alone = DistributedBackend(game, backend.arenas[1:], chunk_episodes=2).play(job, 11, 6, "greedy")[0]
+        other_seed = backend.play(job, 12, 6, "greedy")[0]
     durations = [(e.end_cycle - e.start_cycle, e.end) for e in split.episodes]
     assert len(durations) == 6
     assert durations == [(e.end_cycle - e.start_cycle, e.end) for e in alone.episodes]
@@ -120,7 +120,7 @@ def test_cem_candidates_share_their_chunk_seeds_across_arenas(tmp_path):
     nets = [rng.normal(size=91), rng.normal(size=91)]
     candidates = [Behaviours("learned", "learned", theta) for theta in (nets[0], nets[1], nets[0])]
     with DistributedBackend.start_local(game, 2, tmp_path, "classic", chunk_episodes=2) as backend:
-        played = backend.play_all([Job(c, 9, 4, 2, GREEDY) for c in candidates])
+        played = backend.play_all([Job(c, 9, 4, GREEDY) for c in candidates])
     durations = [[(e.end_cycle - e.start_cycle, e.end) for e in p.result.episodes] for p in played]
     assert [len(d) for d in durations] == [4, 4, 4]
     assert durations[0] == durations[2]
@@ -210,8 +210,8 @@ def test_pass_learns_in_distributed_arenas_and_the_policy_reloads_and_plays(trai
                             capture_output=True, text=True, timeout=300)
     assert played.returncode == 0, played.stderr
     assert len(json.loads(played.stdout)["episodes"]) == 3
-    evaluated = subprocess.run(keepaway_command("evaluate", "--policy", str(out), "--episodes", "6", "--arenas", "3",
-                                                "--json", "--no-progress"), capture_output=True, text=True, timeout=300)
+    evaluated = subprocess.run(keepaway_command("evaluate", "--policy", str(out), "--episodes", "6", "--json",
+                                                "--no-progress"), capture_output=True, text=True, timeout=300)
     assert evaluated.returncode == 0, evaluated.stderr
     assert json.loads(evaluated.stdout)["pass"] == "learned"
 

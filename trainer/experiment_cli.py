@@ -11,7 +11,16 @@ from typing import TYPE_CHECKING, Any
 
 import click
 
-from runner.cli import COUNT_TYPE, SEED_TYPE, Command, default_arenas, placement, placement_options, with_options
+from runner.cli import (
+    ARENAS_HELP,
+    COUNT_TYPE,
+    SEED_TYPE,
+    Command,
+    arena_count,
+    placement,
+    placement_options,
+    with_options,
+)
 from trainer.train_cli import learning_options
 
 if TYPE_CHECKING:
@@ -31,8 +40,7 @@ def experiment_options(command: Command) -> Command:
         click.option("--eval-episodes", type=COUNT_TYPE, default=500, show_default=True,
                      help="Episodes per evaluation."),
         click.option("--arenas", type=COUNT_TYPE, default=None,
-                     help="batched: arenas per CEM candidate and per evaluation [25]; distributed: arenas of "
-                          "processes started [2]."),
+                     help=ARENAS_HELP),
         click.option("--population", type=COUNT_TYPE, default=20, show_default=True,
                      help="CEM candidates per generation."),
         click.option("--elite", type=COUNT_TYPE, default=5, show_default=True,
@@ -66,7 +74,7 @@ def _experiment(trials: int, episodes: int, eval_every: int | None, eval_episode
         cem = CEMConfig(population=population, elite=elite, episodes_per_candidate=candidate_episodes,
                         extra_noise=cem_extra_noise, extra_noise_generations=cem_noise_generations, play=cem_play)
         exp = ExperimentConfig(trials, episodes, default_eval_every(episodes) if eval_every is None else eval_every,
-                               eval_episodes, arenas or default_arenas(mode, attach), seed, cem, pass_alpha_halflife,
+                               eval_episodes, arena_count(mode, attach, arenas), seed, cem, pass_alpha_halflife,
                                mode, pass_hive_mind)
         exp.check()
     except ValueError as exc:

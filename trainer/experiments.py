@@ -39,7 +39,16 @@ from typing import Any
 from scipy import stats
 
 from runner.backends import Placement, open_backend
-from runner.job import STREAM_CROSS_TEST, STREAM_EVALUATION, Backend, Behaviours, Game, Progress, derive_seed
+from runner.job import (
+    CHUNK_EPISODES,
+    STREAM_CROSS_TEST,
+    STREAM_EVALUATION,
+    Backend,
+    Behaviours,
+    Game,
+    Progress,
+    derive_seed,
+)
 from runner.report import dump_json
 from trainer.cem import CEMConfig
 from trainer.curves import (
@@ -106,12 +115,13 @@ class ExperimentConfig:
     episodes: int = TRAINING_EPISODES
     eval_every: int = 2_500
     eval_episodes: int = 500
-    arenas: int = 25  # ours: batched, arenas per CEM candidate and per evaluation; distributed, of processes
+    arenas: int = 2  # ours: distributed, arenas of processes (where the chunks play, no part of any result)
     seed: int = 0
     cem: CEMConfig = CEMConfig()
     pass_alpha_halflife: int = 0  # ours, off by default (trainer.train.TrainConfig.pass_alpha)
-    mode: str = "batched"  # the backend (runner.job.MODES): batched and the others draw different games
+    mode: str = "batched"  # the backend (runner.job.MODES): every one plays the same games
     pass_hive_mind: bool = False  # ours, off by default (agents.sarsa.SarsaConfig.hive_mind)
+    chunk_episodes: int = CHUNK_EPISODES  # every job cut into chunks of this many (runner.job)
 
     def schedule(self, pass_policy: str, getopen_policy: str) -> tuple[Phase, ...]:
         """The phases of a learning configuration: one phase of ``episodes``, or with both behaviours
@@ -135,7 +145,8 @@ class ExperimentConfig:
                            self.eval_every, self.eval_episodes, self.arenas,
                            self.configuration_seed(pass_policy, getopen_policy), cem=self.cem, mode=self.mode,
                            pass_alpha_halflife=self.pass_alpha_halflife if pass_policy == LEARNED else 0,
-                           sarsa=hive_mind_sarsa(self.pass_hive_mind and pass_policy == LEARNED))
+                           sarsa=hive_mind_sarsa(self.pass_hive_mind and pass_policy == LEARNED),
+                           chunk_episodes=self.chunk_episodes)
 
     def points(self) -> list[int]:
         """Episodes trained at each evaluation: the same for every configuration."""
@@ -146,7 +157,8 @@ class ExperimentConfig:
         return {"name": configuration_name(pass_policy, getopen_policy), "pass_policy": pass_policy,
                 "getopen_policy": getopen_policy, "trials": self.trials, "points": self.points(),
                 "eval_episodes": self.eval_episodes, "arenas": self.arenas,
-                "seed": self.configuration_seed(pass_policy, getopen_policy), "mode": self.mode}
+                "seed": self.configuration_seed(pass_policy, getopen_policy), "mode": self.mode,
+                "chunk_episodes": self.chunk_episodes}
 
     def check(self) -> None:
         """ValueError (one line) unless every configuration of Figure 3 can be built."""
@@ -154,8 +166,8 @@ class ExperimentConfig:
             for g in POLICIES:
                 if LEARNED in (p, g):
                     self.train_config(p, g)
-        if min(self.trials, self.episodes, self.eval_every, self.eval_episodes, self.arenas) < 1:
-            raise ValueError("trials, episodes, eval_every, eval_episodes and arenas must be at least 1")
+        if min(self.trials, self.episodes, self.eval_every, self.eval_episodes, self.arenas, self.chunk_episodes) < 1:
+            raise ValueError("trials, episodes, eval_every, eval_episodes, arenas and chunk_episodes must be at least 1")
 
 
 def experiment_game() -> Game:
@@ -168,7 +180,7 @@ def experiment_backend(exp: ExperimentConfig, where: Path, placement: Placement)
     """A backend of the experiment's mode for :func:`experiment_game`, for the evaluations that are not
     a training's (arenas of processes started here log under ``where/arenas``)."""
     return open_backend(exp.mode, experiment_game(), TrainConfig().parameter_set, exp.arenas, where / "arenas",
-                        placement)
+                        placement, exp.chunk_episodes)
 
 
 def with_modes(record: dict[str, Any]) -> dict[str, Any]:
@@ -289,7 +301,7 @@ def _evaluate_fixed(exp: ExperimentConfig, behaviours: Behaviours, where: Path, 
                 trial_dir(where, trial).mkdir(exist_ok=True)
                 for episodes in points[len(curve):]:
                     result = evaluate(backend, behaviours, derive_seed(seed, trial, STREAM_EVALUATION, episodes),
-                                      exp.eval_episodes, exp.arenas, bar.update)
+                                      exp.eval_episodes, bar.update)
                     summary = result.summary()
                     curve.append(CurvePoint(episodes, summary["mean_hold_time_s"], summary["stderr_hold_time_s"]))
                     write_curve_csv(trial_dir(where, trial) / "curve.csv", curve)
@@ -450,7 +462,7 @@ def cross_test_trial(exp: ExperimentConfig, out: Path, trial: int, backend: Back
             trained = _behaviours(out, *trained_configuration(study, trained_with), trial)
             values[study].append([
                 evaluate(backend, with_counterpart(trained, study, tested_with, partner), seed, exp.eval_episodes,
-                         exp.arenas, progress).summary()["mean_hold_time_s"]
+                         progress).summary()["mean_hold_time_s"]
                 for tested_with in POLICIES])
     return values
 

@@ -62,6 +62,7 @@ from protocol.params import ServerParams, parameter_set
 from runner.backends import Placement, open_backend
 from runner.job import (
     BATCHED_SARSA,
+    CHUNK_EPISODES,
     GREEDY,
     LEARN,
     MODES,
@@ -120,7 +121,7 @@ class TrainConfig:
     trials: int = 1
     eval_every: int = 2_500  # keepaway-task.md 8
     eval_episodes: int = 500  # keepaway-task.md 8
-    arenas: int = 25  # batched: arenas per candidate and per evaluation; distributed: arenas of processes
+    arenas: int = 2  # distributed: arenas of processes (where the chunks play, no part of any result)
     seed: int = 0
     keepers: int = 3
     takers: int = 2
@@ -132,6 +133,7 @@ class TrainConfig:
     getopen_inputs: str = SCALED_INPUTS  # ours: how GO:L's inputs are scaled (agents.getopen.GETOPEN_INPUTS)
     # Ours, off (0) by default: Sarsa's step size annealed over Pass learning (:meth:`pass_alpha`).
     pass_alpha_halflife: int = 0
+    chunk_episodes: int = CHUNK_EPISODES  # every job cut into chunks of this many (runner.job), in every mode
 
     def __post_init__(self) -> None:
         if self.pass_policy not in POLICY_NAMES or self.getopen_policy not in POLICY_NAMES:
@@ -142,8 +144,8 @@ class TrainConfig:
             raise ValueError(f"the schedule {format_schedule(self.schedule)!r} must train learned behaviours only")
         if self.mode not in MODES:
             raise ValueError(f"mode must be one of {', '.join(MODES)}, not {self.mode!r}")
-        if min(self.trials, self.eval_episodes, self.arenas) < 1:
-            raise ValueError("trials, eval_episodes and arenas must be at least 1")
+        if min(self.trials, self.eval_episodes, self.arenas, self.chunk_episodes) < 1:
+            raise ValueError("trials, eval_episodes, arenas and chunk_episodes must be at least 1")
         if self.cem.n_params != getopen_theta_size(self.keepers, self.takers):
             raise ValueError(f"the CEM searches {self.cem.n_params} parameters; the GetOpen net of "
                              f"{self.keepers}v{self.takers} has {getopen_theta_size(self.keepers, self.takers)}")
@@ -243,22 +245,22 @@ class TrialState:
 
 
 # -- playing -----------------------------------------------------------------------------------------
-def evaluation_job(behaviours: Behaviours, seed: int, episodes: int, arenas: int) -> Job:
-    """The frozen policies (no learning, greedy Pass) over ``episodes`` episodes in up to ``arenas``
-    arenas (keepaway-task.md 8)."""
-    return Job(behaviours, seed, episodes, arenas, GREEDY)
+def evaluation_job(behaviours: Behaviours, seed: int, episodes: int) -> Job:
+    """The frozen policies (no learning, greedy Pass) over ``episodes`` episodes (keepaway-task.md 8)."""
+    return Job(behaviours, seed, episodes, GREEDY)
 
 
-def evaluate(backend: Backend, behaviours: Behaviours, seed: int, episodes: int, arenas: int,
+def evaluate(backend: Backend, behaviours: Behaviours, seed: int, episodes: int,
              progress: Progress | None = None) -> RunResult:
     """:func:`evaluation_job` played on ``backend``."""
-    return backend.play_all([evaluation_job(behaviours, seed, episodes, arenas)], progress)[0].result
+    return backend.play_all([evaluation_job(behaviours, seed, episodes)], progress)[0].result
 
 
 def open_training_backend(config: TrainConfig, out: Path, placement: Placement = Placement()) -> Backend:
     """The backend of ``config.mode`` for the training ``config``, its arenas placed by ``placement``
     (``runner.backends.open_backend``; arenas of processes started here log under ``out/arenas``)."""
-    return open_backend(config.mode, config.game(), config.parameter_set, config.arenas, out / "arenas", placement)
+    return open_backend(config.mode, config.game(), config.parameter_set, config.arenas, out / "arenas", placement,
+                        config.chunk_episodes)
 
 
 def _point(episodes: int, result: RunResult) -> CurvePoint:
@@ -313,7 +315,7 @@ def _step_jobs(config: TrainConfig, state: TrialState) -> StepJobs:
     points = evaluation_points(config.schedule, config.eval_every)
     if state.episodes == points[len(state.curve)]:
         seed = derive_seed(config.seed, state.trial, STREAM_EVALUATION, state.episodes)
-        [played] = yield [evaluation_job(state.behaviours, seed, config.eval_episodes, config.arenas)]
+        [played] = yield [evaluation_job(state.behaviours, seed, config.eval_episodes)]
         state.curve.append(_point(state.episodes, played.result))
         return f"evaluation at {state.episodes}"
     phase, phase_end = phase_at(config.schedule, state.episodes)
@@ -341,13 +343,13 @@ def _cem_generation(config: TrainConfig, state: TrialState, learn_pass: bool = F
         results = []
         for candidate in candidates:
             learner = replace(candidate, pass_policy=LEARNED, pass_arrays=state.behaviours.pass_arrays)
-            [played] = yield [Job(learner, seed, episodes, 1, LEARN, alpha if config.pass_alpha_halflife else None)]
+            [played] = yield [Job(learner, seed, episodes, LEARN, alpha if config.pass_alpha_halflife else None)]
             results.append(played.result)
             state.behaviours.pass_arrays, state.transitions = played.pass_arrays, played.transitions
         state.behaviours.pass_policy = LEARNED
         entry.update(block_episodes=config.generation_episodes, alpha=alpha)
     else:
-        results = [p.result for p in (yield [evaluation_job(c, seed, episodes, config.arenas) for c in candidates])]
+        results = [p.result for p in (yield [evaluation_job(c, seed, episodes) for c in candidates])]
     fitness = [result.summary()["mean_hold_time_s"] for result in results]
     cem.tell(np.array(fitness))
     state.behaviours.getopen_policy = LEARNED
@@ -370,7 +372,7 @@ def _pass_block(config: TrainConfig, state: TrialState, episodes: int) -> StepJo
     learner = replace(state.behaviours, pass_policy=LEARNED)
     seed = derive_seed(config.seed, state.trial, STREAM_PASS_BLOCK, state.episodes)
     alpha = config.pass_alpha(_pass_episodes_learned(state))
-    [played] = yield [Job(learner, seed, episodes, 1, LEARN, alpha if config.pass_alpha_halflife else None)]
+    [played] = yield [Job(learner, seed, episodes, LEARN, alpha if config.pass_alpha_halflife else None)]
     state.behaviours.pass_policy = LEARNED
     state.behaviours.pass_arrays = played.pass_arrays
     state.transitions = played.transitions
@@ -543,6 +545,9 @@ def read_config(out: Path) -> TrainConfig:
         unknown = sorted(set(data) - set(defaults))
         if unknown:
             raise ValueError(f"unknown setting(s) {', '.join(unknown)}")
+        if data.get("mode", "batched") == "batched" and "chunk_episodes" not in data:
+            raise ValueError("begun by the batched mode before it played chunks as the other modes do: "
+                             "resumed now it would go on with other games")
         for key, default in defaults.items():
             value = data.get(key, default)
             if type(value) is not type(default) and not (type(default) is float and type(value) is int):

@@ -11,10 +11,11 @@ from typing import TYPE_CHECKING
 import click
 
 from runner.cli import (
+    ARENAS_HELP,
     COUNT_TYPE,
     SEED_TYPE,
     Command,
-    default_arenas,
+    arena_count,
     game_options,
     placement,
     placement_options,
@@ -80,8 +81,7 @@ CONFIG_OPTIONS = ("pass_policy", "getopen_policy", "episodes", "schedule", "tria
               help="Training episodes between frozen evaluations.")
 @click.option("--eval-episodes", type=COUNT_TYPE, default=500, show_default=True, help="Episodes per evaluation.")
 @click.option("--arenas", type=COUNT_TYPE, default=None,
-              help="batched: arenas stepped at once per CEM candidate and per evaluation [25]; distributed: "
-                   "arenas of processes started [2] (a Pass block learns in one arena).")
+              help=ARENAS_HELP)
 @placement_options
 @click.option("--seed", type=SEED_TYPE, default=0, show_default=True, help="Seed of the whole training.")
 @click.option("--population", type=COUNT_TYPE, default=20, show_default=True, help="CEM candidates per generation.")
@@ -136,7 +136,7 @@ def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, s
                             episodes_per_candidate=candidate_episodes, extra_noise=cem_extra_noise,
                             extra_noise_generations=cem_noise_generations, play=cem_play)
             config = TrainConfig(pass_policy, getopen_policy, phases, trials, eval_every, eval_episodes,
-                                 arenas or default_arenas(mode, attach),
+                                 arena_count(mode, attach, arenas),
                                  seed, keepers, takers, field_size, parameter_set, cem, mode=mode,
                                  getopen_inputs=getopen_inputs, pass_alpha_halflife=pass_alpha_halflife,
                                  sarsa=hive_mind_sarsa(pass_hive_mind))
@@ -186,7 +186,7 @@ def _policy_files(path: Path) -> list[Path]:
 @click.option("--getopen", "getopen_policy", type=POLICY_CHOICES, default=None,
               help="GetOpen policy to play [the one the file was trained with].")
 @click.option("--arenas", type=COUNT_TYPE, default=None,
-              help="batched: arenas stepped at once [25]; distributed: arenas of processes started [2].")
+              help=ARENAS_HELP)
 @placement_options
 @click.option("--json", "as_json", is_flag=True, help="Print machine-readable summaries.")
 @click.option("--no-progress", is_flag=True, help="No progress bar.")
@@ -196,8 +196,7 @@ def evaluate_command(policy_path: Path, episodes: int, seed: int, pass_policy: s
                      as_json: bool, no_progress: bool) -> None:
     """Play saved policies frozen (greedy Pass, no learning) for --episodes episodes each; print the summary.
 
-    The batched mode and the others draw different games from one seed; the embedded and the distributed
-    mode play the same episodes."""
+    Every mode plays the same episodes from one seed."""
     import tempfile
     from itertools import groupby
 
@@ -235,7 +234,7 @@ def evaluate_command(policy_path: Path, episodes: int, seed: int, pass_policy: s
         plays.append((path, game, parameter_set, behaviours))
     interrupt_on_sigterm()
     prepare_kernels(where.kernel_sets(mode))
-    arenas = arenas or default_arenas(mode, attach)
+    arenas = arena_count(mode, attach, arenas)
     logs = Path(tempfile.gettempdir()) / f"keepaway-evaluate-{os.getpid()}"  # arenas of processes started here
     results = []
     try:
@@ -243,8 +242,7 @@ def evaluate_command(policy_path: Path, episodes: int, seed: int, pass_policy: s
             backend = open_backend(mode, game, parameter_set, arenas, logs, where)
             try:
                 for path, _, _, behaviours in group:
-                    results.append(_evaluate_one(backend, path, behaviours, seed, episodes, arenas,
-                                                 no_progress or as_json))
+                    results.append(_evaluate_one(backend, path, behaviours, seed, episodes, no_progress or as_json))
                     if not as_json:
                         click.echo(f"{path}  (Pass {behaviours.pass_policy}, GetOpen {behaviours.getopen_policy})")
                         click.echo(summary_table(results[-1]) + "\n")
@@ -260,7 +258,7 @@ def evaluate_command(policy_path: Path, episodes: int, seed: int, pass_policy: s
         click.echo(dump_json(results[0] if len(results) == 1 else results))
 
 
-def _evaluate_one(backend: Backend, path: Path, behaviours: Behaviours, seed: int, episodes: int, arenas: int,
+def _evaluate_one(backend: Backend, path: Path, behaviours: Behaviours, seed: int, episodes: int,
                   quiet: bool) -> dict:
     """The summary of one policy file's frozen evaluation, with a progress bar unless ``quiet``."""
     from tqdm import tqdm
@@ -269,7 +267,7 @@ def _evaluate_one(backend: Backend, path: Path, behaviours: Behaviours, seed: in
 
     with tqdm(total=episodes, unit="ep", desc=str(path), disable=quiet, dynamic_ncols=True) as bar:
         try:
-            result = evaluate(backend, behaviours, seed, episodes, arenas, bar.update)
+            result = evaluate(backend, behaviours, seed, episodes, bar.update)
         except ValueError as exc:  # Pass weights that do not fit the game's learners
             raise click.UsageError(f"{path}: {exc}") from None
     return {"policy": str(path), "pass": behaviours.pass_policy, "getopen": behaviours.getopen_policy,
