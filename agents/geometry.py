@@ -50,12 +50,24 @@ def vertex_angle(ax: float, ay: float, bx: float, by: float, cx: float, cy: floa
     (spec `keepaway-task.md` 3). A degenerate ray (A or C on B) gives 0: nothing separates them."""
     ux, uy = ax - bx, ay - by
     vx, vy = cx - bx, cy - by
-    nu = math.hypot(ux, uy)
-    nv = math.hypot(vx, vy)
+    return ray_angle(ux, uy, math.hypot(ux, uy), vx, vy, math.hypot(vx, vy))
+
+
+@borrowing
+def ray_angle(ux: float, uy: float, nu: float, vx: float, vy: float, nv: float) -> float:
+    """:func:`vertex_angle` of the rays u and v of lengths ``nu`` = hypot(u) and ``nv`` = hypot(v), for a
+    caller that has those lengths already (the same hypot calls: the same angle)."""
+    return math.degrees(math.acos(ray_cosine(ux, uy, nu, vx, vy, nv)))
+
+
+@borrowing
+def ray_cosine(ux: float, uy: float, nu: float, vx: float, vy: float, nv: float) -> float:
+    """The cosine :func:`ray_angle` takes the arccosine of, clamped to [-1, 1]; 1 (angle 0) for a
+    degenerate ray. The arccosine falls as the cosine grows, so the largest of several cosines names the
+    smallest angle (:func:`agents.state_vars.smallest_angle`)."""
     if nu == 0.0 or nv == 0.0:
-        return 0.0
-    c = (ux * vx + uy * vy) / (nu * nv)
-    return math.degrees(math.acos(min(1.0, max(-1.0, c))))
+        return 1.0
+    return min(1.0, max(-1.0, (ux * vx + uy * vy) / (nu * nv)))
 
 
 @borrowing

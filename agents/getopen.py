@@ -31,7 +31,13 @@ from agents.skills import (
     go_to_point,
     turn_to_point,
 )
-from agents.state_vars import getopen_state, getopen_state_kinds, getopen_state_size
+from agents.state_vars import (
+    getopen_point_state,
+    getopen_setup,
+    getopen_state_kinds,
+    getopen_state_size,
+    vertex_scratch,
+)
 from core.rng import randint
 
 NET_HIDDEN = 5  # keepaway-task.md 4: two hidden layers of 5 units
@@ -49,8 +55,14 @@ def net_value(theta, x) -> float:
     """The GO:L value f_theta(x) (spec `keepaway-task.md` 4). Layout of ``theta``: W1 (5 x n, row-major,
     row = hidden unit), b1 (5), W2 (5 x 5, row-major), b2 (5), W3 (1 x 5), b3 (1); hidden units
     1.7159 tanh(2z/3), linear output."""
+    return net_value_into(theta, x, np.empty(NET_HIDDEN))
+
+
+@borrowing
+def net_value_into(theta, x, h1) -> float:
+    """:func:`net_value` with the first hidden layer in ``h1`` (5 values), for a caller that scores many
+    points."""
     n = x.shape[0]
-    h1 = np.empty(NET_HIDDEN)
     at = NET_HIDDEN * n
     for u in range(NET_HIDDEN):
         z = theta[at + u]
@@ -304,11 +316,14 @@ def learned_target(bel: Belief, r: int, theta, ball_cycles: int, kp, cfg) -> tup
     me = bel.me[r]
     mx, my = bel.pos[r, me, 0], bel.pos[r, me, 1]
     x = np.empty(getopen_state_size(bel.n_keepers, bel.n_takers))
+    h1 = np.empty(NET_HIDDEN)
+    s = vertex_scratch(bel.n_keepers, bel.n_takers)
+    getopen_setup(bel, r, ox, oy, s)
     best_x, best_y, best, best_d = 0.0, 0.0, -math.inf, math.inf
     for k in range(grid_size(cfg)):
         px, py = grid_point(k, kp, cfg)
-        getopen_state(bel, r, px, py, ox, oy, x)
-        v = net_value(theta, x)
+        getopen_point_state(bel, r, px, py, ox, oy, s, x)
+        v = net_value_into(theta, x, h1)
         d = distance(mx, my, px, py)
         if v > best or (v == best and d < best_d):
             best_x, best_y, best, best_d = px, py, v, d
@@ -322,9 +337,11 @@ def grid_states(bel: Belief, r: int, kp, cfg, out) -> None:
     for a GetOpen decided outside (``agents.skills.GETOPEN_EXTERNAL``)."""
     _, ball_cycles = fastest_to_ball(bel, r, 1, bel.n_keepers, kp, cfg)
     ox, oy = lane_origin(bel, r, ball_cycles, kp, cfg)
+    s = vertex_scratch(bel.n_keepers, bel.n_takers)
+    getopen_setup(bel, r, ox, oy, s)
     for k in range(grid_size(cfg)):
         px, py = grid_point(k, kp, cfg)
-        getopen_state(bel, r, px, py, ox, oy, out[k])
+        getopen_point_state(bel, r, px, py, ox, oy, s, out[k])
 
 
 @borrowing
@@ -392,12 +409,15 @@ def grid_values(bel: Belief, r: int, theta, kp, cfg, out) -> int:
     cos_limit = safety_cosine(cfg)
     ox, oy = lane_origin(bel, r, ball_cycles, kp, cfg)
     x = np.empty(getopen_state_size(bel.n_keepers, bel.n_takers))
+    h1 = np.empty(NET_HIDDEN)
+    s = vertex_scratch(bel.n_keepers, bel.n_takers)
+    getopen_setup(bel, r, ox, oy, s)
     n = 0
     for k in range(grid_size(cfg)):
         px, py = grid_point(k, kp, cfg)
         if policy == GETOPEN_LEARNED:
-            getopen_state(bel, r, px, py, ox, oy, x)
-            value = net_value(theta, x)
+            getopen_point_state(bel, r, px, py, ox, oy, s, x)
+            value = net_value_into(theta, x, h1)
         elif lane_open(bel, r, px, py, bx, by, policy == GETOPEN_HANDCODED_CONE, cos_limit, cfg):
             value = -congestion(bel, r, px, py, cfg)
         else:

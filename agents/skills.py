@@ -181,16 +181,24 @@ def closest_to_ball(bel: Belief, r: int, first: int, last: int, skip: int, cfg) 
 
 
 @borrowing
-def sort_by_distance(bel: Belief, r: int, ox: float, oy: float, first: int, last: int, skip: int, out) -> int:
-    """Write the objects first..last except ``skip`` into ``out`` by increasing distance from (ox, oy)
-    (stable: lower index first on ties); returns how many were written."""
+def distances_from(bel: Belief, r: int, ox: float, oy: float, last: int, skip: int, out) -> None:
+    """``out[j]`` = distance((ox, oy), object j) for the players j = 1..last except ``skip``."""
+    for j in range(1, last + 1):
+        if j != skip:
+            out[j] = distance(ox, oy, bel.pos[r, j, 0], bel.pos[r, j, 1])
+
+
+@borrowing
+def sort_by_distance(dist, first: int, last: int, skip: int, out) -> int:
+    """Write the objects first..last except ``skip`` into ``out`` by increasing ``dist[j]`` (their
+    :func:`distances_from` a point; stable: lower index first on ties); returns how many were written."""
     n = 0
     for j in range(first, last + 1):
         if j == skip:
             continue
-        d = distance(ox, oy, bel.pos[r, j, 0], bel.pos[r, j, 1])
+        d = dist[j]
         k = n
-        while k > 0 and distance(ox, oy, bel.pos[r, out[k - 1], 0], bel.pos[r, out[k - 1], 1]) > d:
+        while k > 0 and dist[out[k - 1]] > d:
             out[k] = out[k - 1]
             k -= 1
         out[k] = j
@@ -761,7 +769,9 @@ def pass_ball(bel: Belief, r: int, k: int, kp, cfg) -> tuple:
     resolved from the current positions, at the pass end speed."""
     me = bel.me[r]
     order = np.empty(bel.n_keepers, dtype=np.int64)
-    sort_by_distance(bel, r, bel.pos[r, me, 0], bel.pos[r, me, 1], 1, bel.n_keepers, me, order)
+    dist = np.empty(bel.n_keepers + 1)
+    distances_from(bel, r, bel.pos[r, me, 0], bel.pos[r, me, 1], bel.n_keepers, me, dist)
+    sort_by_distance(dist, 1, bel.n_keepers, me, order)
     target = order[k - 1]
     return kick_to(bel, r, bel.pos[r, target, 0], bel.pos[r, target, 1], cfg.pass_end_speed, kp, cfg)
 

@@ -12,13 +12,14 @@ entries (3v2: 13, 4v3: 19) and the GetOpen vector 3K + T - 1 (3v2: 10).
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from core.jit import borrowing, njit
 
 from agents.belief import Belief
-from agents.geometry import distance, vertex_angle
-from agents.skills import closest_to_ball, sort_by_distance
+from agents.geometry import DECIDE_SLACK, distance, ray_cosine
+from agents.skills import closest_to_ball, distances_from, sort_by_distance
 
 
 @borrowing
@@ -49,27 +50,84 @@ def getopen_state_kinds(n_keepers: int, n_takers: int) -> tuple[str, ...]:
             + ("pass_distance", "lane_angle"))
 
 
+class VertexScratch(NamedTuple):
+    """Work arrays of the variables around a vertex: made once per decision and reused for every vertex
+    (GetOpen's 25 grid points), so that what no vertex changes is computed once. Indexed by object
+    where noted (1..K keepers, K+1..K+T takers)."""
+
+    keepers: np.ndarray  # int64 (K,): the other keepers, sorted by distance from the vertex
+    takers: np.ndarray  # int64 (T,): the takers, sorted likewise
+    dist: np.ndarray  # (K + T + 1,) by object: distance from the vertex
+    near: np.ndarray  # (K + T + 1,) by keeper object: distance to its nearest taker
+    lane: np.ndarray  # (K + T + 1,) by taker object: distance from the GetOpen lane origin
+
+
+@njit(cache=True)
+def vertex_scratch(n_keepers: int, n_takers: int) -> VertexScratch:
+    n = n_keepers + n_takers + 1
+    return VertexScratch(np.empty(n_keepers, dtype=np.int64), np.empty(n_takers, dtype=np.int64), np.empty(n),
+                         np.empty(n), np.empty(n))
+
+
 @borrowing
-def _around_vertex(
-    bel: Belief, r: int, vx: float, vy: float, keepers, nk: int, takers, nt: int, out, at: int
-) -> int:
-    """The shared block (module docstring) written from ``out[at]``; returns the next free index."""
+def nearest_taker_distances(bel: Belief, r: int, skip: int, near) -> None:
+    """``near[i]`` = min_j dist(Ki, Tj) for every keeper object i but ``skip`` (inf without takers)."""
+    k, t = bel.n_keepers, bel.n_takers
+    for i in range(1, k + 1):
+        if i == skip:
+            continue
+        kx, ky = bel.pos[r, i, 0], bel.pos[r, i, 1]
+        closest = math.inf
+        for j in range(k + 1, k + t + 1):
+            closest = min(closest, distance(kx, ky, bel.pos[r, j, 0], bel.pos[r, j, 1]))
+        near[i] = closest
+
+
+@borrowing
+def smallest_angle(bel: Belief, r: int, ux: float, uy: float, nu: float, cx: float, cy: float, objs, n: int,
+                   norms) -> float:
+    """min_j ray_angle(u, Pj - C) over the players ``objs[:n]`` (``norms[o]`` = dist(C, Po); inf for no
+    player): decided by the cosines, the largest naming the smallest angle; only the angles within
+    DECIDE_SLACK of it in cosine are taken (the arccosine of a clearly smaller cosine is clearly larger,
+    far beyond its rounding), so the minimum is the one every angle would give."""
+    largest = -math.inf
+    for j in range(n):
+        o = objs[j]
+        largest = max(largest, ray_cosine(ux, uy, nu, bel.pos[r, o, 0] - cx, bel.pos[r, o, 1] - cy, norms[o]))
+    angle = math.inf
+    for j in range(n):
+        o = objs[j]
+        c = ray_cosine(ux, uy, nu, bel.pos[r, o, 0] - cx, bel.pos[r, o, 1] - cy, norms[o])
+        if c >= largest - DECIDE_SLACK:
+            angle = min(angle, math.degrees(math.acos(c)))
+    return angle
+
+
+@borrowing
+def _around_vertex(bel: Belief, r: int, vx: float, vy: float, s: VertexScratch, nk: int, nt: int, out,
+                   at: int) -> int:
+    """The shared block (module docstring) written from ``out[at]``, from ``s`` filled for V (its sorted
+    players, their distances from V, the keepers' nearest-taker distances); returns the next free index."""
     for i in range(nk):
-        out[at + i] = distance(vx, vy, bel.pos[r, keepers[i], 0], bel.pos[r, keepers[i], 1])
+        out[at + i] = s.dist[s.keepers[i]]
     at += nk
     for j in range(nt):
-        out[at + j] = distance(vx, vy, bel.pos[r, takers[j], 0], bel.pos[r, takers[j], 1])
+        out[at + j] = s.dist[s.takers[j]]
     at += nt
     for i in range(nk):
-        kx, ky = bel.pos[r, keepers[i], 0], bel.pos[r, keepers[i], 1]
-        near, narrow = math.inf, math.inf
-        for j in range(nt):
-            tx, ty = bel.pos[r, takers[j], 0], bel.pos[r, takers[j], 1]
-            near = min(near, distance(kx, ky, tx, ty))
-            narrow = min(narrow, vertex_angle(kx, ky, vx, vy, tx, ty))
-        out[at + i] = near
-        out[at + nk + i] = narrow
+        ki = s.keepers[i]
+        out[at + i] = s.near[ki]
+        out[at + nk + i] = smallest_angle(bel, r, bel.pos[r, ki, 0] - vx, bel.pos[r, ki, 1] - vy, s.dist[ki], vx,
+                                          vy, s.takers, nt, s.dist)
     return at + 2 * nk
+
+
+@borrowing
+def _sort_around(bel: Belief, r: int, vx: float, vy: float, skip: int, s: VertexScratch) -> tuple:
+    """Fill ``s.dist`` from V and sort the keepers but ``skip`` and the takers by it; (nk, nt)."""
+    k, t = bel.n_keepers, bel.n_takers
+    distances_from(bel, r, vx, vy, k + t, skip, s.dist)
+    return (sort_by_distance(s.dist, 1, k, skip, s.keepers), sort_by_distance(s.dist, k + 1, k + t, -1, s.takers))
 
 
 @njit(cache=True)
@@ -86,18 +144,38 @@ def pass_state(bel: Belief, r: int, cfg, out) -> bool:
     k1 = closest_to_ball(bel, r, 1, k, -1, cfg)
     if k1 < 0:
         return False
-    keepers = np.empty(k, dtype=np.int64)
-    takers = np.empty(t, dtype=np.int64)
+    s = vertex_scratch(k, t)
     vx, vy = bel.pos[r, k1, 0], bel.pos[r, k1, 1]
-    nk = sort_by_distance(bel, r, vx, vy, 1, k, k1, keepers)
-    nt = sort_by_distance(bel, r, vx, vy, k + 1, k + t, -1, takers)
+    nk, nt = _sort_around(bel, r, vx, vy, k1, s)
+    nearest_taker_distances(bel, r, k1, s.near)
     out[0] = math.hypot(vx, vy)
     for i in range(nk):
-        out[1 + i] = math.hypot(bel.pos[r, keepers[i], 0], bel.pos[r, keepers[i], 1])
+        out[1 + i] = math.hypot(bel.pos[r, s.keepers[i], 0], bel.pos[r, s.keepers[i], 1])
     for j in range(nt):
-        out[1 + nk + j] = math.hypot(bel.pos[r, takers[j], 0], bel.pos[r, takers[j], 1])
-    _around_vertex(bel, r, vx, vy, keepers, nk, takers, nt, out, 1 + nk + nt)
+        out[1 + nk + j] = math.hypot(bel.pos[r, s.takers[j], 0], bel.pos[r, s.takers[j], 1])
+    _around_vertex(bel, r, vx, vy, s, nk, nt, out, 1 + nk + nt)
     return True
+
+
+@borrowing
+def getopen_setup(bel: Belief, r: int, ox: float, oy: float, s: VertexScratch) -> None:
+    """What :func:`getopen_point_state` takes from ``s`` that no grid point changes, for the deciding
+    keeper of row ``r`` and the lane origin O = (ox, oy): the other keepers' nearest-taker distances and
+    the takers' distances from O."""
+    k, t = bel.n_keepers, bel.n_takers
+    nearest_taker_distances(bel, r, bel.me[r], s.near)
+    for j in range(k + 1, k + t + 1):
+        s.lane[j] = distance(ox, oy, bel.pos[r, j, 0], bel.pos[r, j, 1])
+
+
+@borrowing
+def getopen_point_state(bel: Belief, r: int, px: float, py: float, ox: float, oy: float, s: VertexScratch,
+                        out) -> None:
+    """:func:`getopen_state` of point P from ``s`` set up for this decision (:func:`getopen_setup`)."""
+    nk, nt = _sort_around(bel, r, px, py, bel.me[r], s)
+    at = _around_vertex(bel, r, px, py, s, nk, nt, out, 0)
+    out[at] = distance(ox, oy, px, py)
+    out[at + 1] = smallest_angle(bel, r, px - ox, py - oy, out[at], ox, oy, s.takers, nt, s.lane)
 
 
 @njit(cache=True)
@@ -106,15 +184,10 @@ def getopen_state(bel: Belief, r: int, px: float, py: float, ox: float, oy: floa
     (length 3K + T - 1), `keepaway-task.md` 4 order: I imagine myself K1' at P; the other keepers and the
     takers (positions unchanged) sorted by distance from P; then dist(O, P) and min_j ang(P, O, Tj), where
     the lane origin O = (ox, oy) is the position of K1, the current keeper closest to the ball (the
-    paper's variables 9-10), or another point the pass would start from (``agents.getopen.lane_origin``)."""
-    k, t = bel.n_keepers, bel.n_takers
-    keepers = np.empty(k, dtype=np.int64)
-    takers = np.empty(t, dtype=np.int64)
-    nk = sort_by_distance(bel, r, px, py, 1, k, bel.me[r], keepers)
-    nt = sort_by_distance(bel, r, px, py, k + 1, k + t, -1, takers)
-    at = _around_vertex(bel, r, px, py, keepers, nk, takers, nt, out, 0)
-    out[at] = distance(ox, oy, px, py)
-    lane = math.inf
-    for j in range(nt):
-        lane = min(lane, vertex_angle(px, py, ox, oy, bel.pos[r, takers[j], 0], bel.pos[r, takers[j], 1]))
-    out[at + 1] = lane
+    paper's variables 9-10), or another point the pass would start from (``agents.getopen.lane_origin``).
+    A caller scoring many points sets up once (:func:`getopen_setup`, :func:`getopen_point_state`)."""
+    s = vertex_scratch(bel.n_keepers, bel.n_takers)
+    getopen_setup(bel, r, ox, oy, s)
+    getopen_point_state(bel, r, px, py, ox, oy, s, out)
+
+

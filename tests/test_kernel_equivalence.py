@@ -5,8 +5,10 @@ and sine kept between turns, an early stop once the target is provably out of re
 ``fastest_to_ball`` result in ``interception_point``, ``agents/worldmodel.py`` computes each flag's
 trigonometry once in ``localise_row``, the travel simulation, GO:HC's lane and congestion tests and the
 dash's speed cap decide their comparisons on sqrt estimates unless they are within a hair of the
-threshold (``agents.geometry.DECIDE_SLACK``), and the Sarsa tile hashing sums each tile's table words from
-parts shared by its tilings. None of this may change a decision or a belief by one bit. The
+threshold (``agents.geometry.DECIDE_SLACK``), the Sarsa tile hashing sums each tile's table words from
+parts shared by its tilings, and the Pass and GetOpen variables take each distance once per vertex (and
+what no grid point changes once per decision) and the smallest of several angles from the largest
+cosine. None of this may change a decision or a belief by one bit. The
 references below are the pre-optimisation kernels kept verbatim as plain step-by-step code (spec
 `keepaway-agents.md` 1 step 4, 2.1 step 2; the Procrustes fit of ``localise_row``), compiled by numba
 without caching so their floating-point arithmetic is the kernels' (Python's own ``math.hypot`` rounds
@@ -23,10 +25,11 @@ from numba import njit
 
 from agents.belief import AgentMemory, belief_from_truth, new_memory
 from agents.geometry import direction, distance, final_position, normalize_angle, rolled_out
-from agents.getopen import grid_point, grid_size, handcoded_target, predicted_ball_pos
+from agents.getopen import grid_point, grid_size, handcoded_target, lane_origin, predicted_ball_pos
 from agents.sarsa import (EMPTY_SLOT, INDEX_INCREMENT, CHECK_INCREMENT, MAX_LONG_INT, SarsaConfig,
                           load_tiles, new_memory as new_sarsa_memory, quantize, tiling_coordinate, unh_hash)
-from agents.skills import AgentConfig, fastest_to_ball, interception_point
+from agents.skills import AgentConfig, closest_to_ball, fastest_to_ball, interception_point
+from agents.state_vars import getopen_state, pass_state
 from agents.worldmodel import ModelState, SeeBuffer, localise_row, whole_degree_table
 from protocol.landmarks import FLAG_POSITIONS
 from protocol.params import parameter_set
@@ -292,6 +295,89 @@ def _ref_handcoded_target(pos, conf, me, bx, by, kp, cfg):
     return best_x, best_y
 
 
+@njit
+def _ref_sorted(pos, vx, vy, first, last, skip):
+    out = np.empty(last - first + 1, dtype=np.int64)
+    n = 0
+    for j in range(first, last + 1):
+        if j == skip:
+            continue
+        d = math.hypot(pos[j, 0] - vx, pos[j, 1] - vy)
+        k = n
+        while k > 0 and math.hypot(pos[out[k - 1], 0] - vx, pos[out[k - 1], 1] - vy) > d:
+            out[k] = out[k - 1]
+            k -= 1
+        out[k] = j
+        n += 1
+    return out[:n]
+
+
+@njit
+def _ref_around_vertex(pos, vx, vy, keepers, takers, out, at):
+    """The shared block as it was: every distance and every angle computed where it is used."""
+    nk, nt = keepers.shape[0], takers.shape[0]
+    for i in range(nk):
+        out[at + i] = math.hypot(pos[keepers[i], 0] - vx, pos[keepers[i], 1] - vy)
+    at += nk
+    for j in range(nt):
+        out[at + j] = math.hypot(pos[takers[j], 0] - vx, pos[takers[j], 1] - vy)
+    at += nt
+    for i in range(nk):
+        kx, ky = pos[keepers[i], 0], pos[keepers[i], 1]
+        near, narrow = math.inf, math.inf
+        for j in range(nt):
+            tx, ty = pos[takers[j], 0], pos[takers[j], 1]
+            near = min(near, math.hypot(tx - kx, ty - ky))
+            narrow = min(narrow, _ref_vertex_angle(kx, ky, vx, vy, tx, ty))
+        out[at + i] = near
+        out[at + nk + i] = narrow
+    return at + 2 * nk
+
+
+@njit
+def _ref_getopen_state(pos, me, px, py, ox, oy):
+    out = np.empty(3 * K + T - 1)
+    takers = _ref_sorted(pos, px, py, K + 1, K + T, -1)
+    at = _ref_around_vertex(pos, px, py, _ref_sorted(pos, px, py, 1, K, me), takers, out, 0)
+    out[at] = math.hypot(px - ox, py - oy)
+    lane = math.inf
+    for j in range(takers.shape[0]):
+        lane = min(lane, _ref_vertex_angle(px, py, ox, oy, pos[takers[j], 0], pos[takers[j], 1]))
+    out[at + 1] = lane
+    return out
+
+
+@njit
+def _ref_pass_state(pos, k1):
+    out = np.empty(4 * K + 2 * T - 3)
+    vx, vy = pos[k1, 0], pos[k1, 1]
+    keepers = _ref_sorted(pos, vx, vy, 1, K, k1)
+    takers = _ref_sorted(pos, vx, vy, K + 1, K + T, -1)
+    out[0] = math.hypot(vx, vy)
+    for i in range(keepers.shape[0]):
+        out[1 + i] = math.hypot(pos[keepers[i], 0], pos[keepers[i], 1])
+    for j in range(takers.shape[0]):
+        out[1 + K - 1 + j] = math.hypot(pos[takers[j], 0], pos[takers[j], 1])
+    _ref_around_vertex(pos, vx, vy, keepers, takers, out, K + T)
+    return out
+
+
+def _check_state_variables(bel, r, kp=KP) -> None:
+    """Every grid point's GetOpen variables and the Pass variables of row ``r`` as the reference's."""
+    pos, me = bel.pos[r], int(bel.me[r])
+    if me <= K:
+        _, cycles = fastest_to_ball(bel, r, 1, K, kp, CFG)
+        ox, oy = lane_origin(bel, r, cycles, kp, CFG)
+        out = np.empty(3 * K + T - 1)
+        for k in range(grid_size(CFG)):
+            px, py = grid_point(k, kp, CFG)
+            getopen_state(bel, r, px, py, ox, oy, out)
+            np.testing.assert_array_equal(out, _ref_getopen_state(pos, me, px, py, ox, oy), err_msg=f"row {r} point {k}")
+    out = np.empty(4 * K + 2 * T - 3)
+    if pass_state(bel, r, CFG, out):
+        np.testing.assert_array_equal(out, _ref_pass_state(pos, closest_to_ball(bel, r, 1, K, -1, CFG)), err_msg=f"row {r}")
+
+
 def _ref_load_tiles(config: SarsaConfig, state) -> np.ndarray:
     """LinearSarsaAgent::loadTiles with tiles2.cc's safe hash, tile by tile through ``unh_hash`` on a fresh
     table: the slots in hashing order."""
@@ -470,6 +556,41 @@ def test_handcoded_getopen_of_a_batched_game_matches_the_reference():
                 _check_handcoded_target(bel, r)
                 checked += 1
     assert checked > 100
+
+
+def test_state_variables_match_the_reference_on_random_and_boundary_beliefs():
+    bel = _random_beliefs(200, seed=29)
+    bel.conf[:] = 1.0
+    bel.me[:] = np.arange(bel.batch) % K + 1
+    for r in range(bel.batch):
+        px, py = grid_point(r % grid_size(CFG), KP, CFG)
+        if r % 4 == 1:  # the takers mirror images about the line from point to keeper: equal angles
+            kx, ky = bel.pos[r, 2 if bel.me[r] != 2 else 3]
+            tx, ty = bel.pos[r, K + 1]
+            ux, uy = (kx - px) / math.hypot(kx - px, ky - py), (ky - py) / math.hypot(kx - px, ky - py)
+            along = (tx - px) * ux + (ty - py) * uy
+            bel.pos[r, K + 2] = (2 * (px + along * ux) - tx, 2 * (py + along * uy) - ty)
+        elif r % 4 == 2:  # a keeper and a taker on a grid point: degenerate rays (angle 0)
+            bel.pos[r, 2 if bel.me[r] != 2 else 3] = (px, py)
+            bel.pos[r, K + 1] = grid_point((r + 5) % grid_size(CFG), KP, CFG)
+        elif r % 4 == 3:  # two takers at one spot: equal cosines
+            bel.pos[r, K + 2] = bel.pos[r, K + 1]
+        _check_state_variables(bel, r)
+
+
+def test_state_variables_of_a_batched_game_match_the_reference():
+    rng = np.random.default_rng(4)
+    nets = rng.normal(0.0, 0.3, (4, 91))
+    arenas = BatchedArenas(PARAMS, batch=4, seed=5, getopen_policy="learned", getopen_theta=nets, threads=1)
+    checked = 0
+    for _ in range(10):
+        arenas.run(max_cycles=20)
+        bel = arenas.players.belief
+        for r in range(bel.batch):
+            if bel.me[r] <= K and bel.conf[r, 0] >= CFG.ball_conf_threshold:
+                _check_state_variables(bel, r)
+                checked += 1
+    assert checked > 50
 
 
 def test_tile_slots_match_tile_by_tile_hashing():
