@@ -84,7 +84,6 @@ def forbid_playing(monkeypatch) -> None:
 
     monkeypatch.setattr(BatchedBackend, "play", refuse)
     monkeypatch.setattr(BatchedBackend, "play_all", refuse)
-    monkeypatch.setattr(experiments, "evaluate", refuse)
 
 
 # -- statistics --------------------------------------------------------------------------------------
@@ -227,17 +226,17 @@ def test_an_unfinished_evaluation_continues_where_it_stopped(copy, monkeypatch):
     complete = read_curve_csv(path)
     write_curve_csv(path, complete[:-2])
     played = []
-    original = experiments.evaluate
+    original = BatchedBackend.play_all
 
-    def counting(*args, **kwargs):
-        played.append(args[2])
-        return original(*args, **kwargs)
+    def counting(self, jobs, *args, **kwargs):
+        played.append(len(jobs))
+        return original(self, jobs, *args, **kwargs)
 
-    monkeypatch.setattr(experiments, "evaluate", counting)
+    monkeypatch.setattr(BatchedBackend, "play_all", counting)
     run = experiments.run_configuration(ExperimentConfig(trials=2, episodes=48, eval_every=8, eval_episodes=4,
                                                          seed=3), "handcoded", "handcoded", copy,
                                         Placement(threads=1), progress=False)
-    assert len(played) == 2 and not run.skipped
+    assert played == [1, 1] and not run.skipped  # the two missing points of the one unfinished trial
     assert read_curve_csv(path) == complete  # the same seeds give the same evaluations
 
 

@@ -545,16 +545,21 @@ def test_handcoded_getopen_matches_the_reference_on_random_and_boundary_beliefs(
         _check_handcoded_target(bel, r, kp)
 
 
-def test_handcoded_getopen_of_a_batched_game_matches_the_reference():
-    arenas = BatchedArenas(PARAMS, batch=4, seed=3, threads=1)
-    checked = 0
-    for _ in range(15):
+def _keeper_beliefs(arenas: BatchedArenas, rounds: int):
+    """(belief, row) of every keeper that sees the ball, every 20 cycles of ``arenas``' game."""
+    for _ in range(rounds):
         arenas.run(max_cycles=20)
         bel = arenas.players.belief
         for r in range(bel.batch):
             if bel.me[r] <= K and bel.conf[r, 0] >= CFG.ball_conf_threshold:
-                _check_handcoded_target(bel, r)
-                checked += 1
+                yield bel, r
+
+
+def test_handcoded_getopen_of_a_batched_game_matches_the_reference():
+    checked = 0
+    for bel, r in _keeper_beliefs(BatchedArenas(PARAMS, batch=4, seed=3, threads=1), 15):
+        _check_handcoded_target(bel, r)
+        checked += 1
     assert checked > 100
 
 
@@ -583,13 +588,9 @@ def test_state_variables_of_a_batched_game_match_the_reference():
     nets = rng.normal(0.0, 0.3, (4, 91))
     arenas = BatchedArenas(PARAMS, batch=4, seed=5, getopen_policy="learned", getopen_theta=nets, threads=1)
     checked = 0
-    for _ in range(10):
-        arenas.run(max_cycles=20)
-        bel = arenas.players.belief
-        for r in range(bel.batch):
-            if bel.me[r] <= K and bel.conf[r, 0] >= CFG.ball_conf_threshold:
-                _check_state_variables(bel, r)
-                checked += 1
+    for bel, r in _keeper_beliefs(arenas, 10):
+        _check_state_variables(bel, r)
+        checked += 1
     assert checked > 50
 
 

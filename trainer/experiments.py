@@ -75,7 +75,7 @@ from trainer.schedule import (
 )
 from trainer.train import (
     TrainConfig,
-    evaluate,
+    evaluation_job,
     hive_mind_sarsa,
     load_checkpoint,
     read_config,
@@ -288,8 +288,9 @@ def _run_fixed(exp: ExperimentConfig, pass_policy: str, getopen_policy: str, whe
 
 def _evaluate_fixed(exp: ExperimentConfig, behaviours: Behaviours, where: Path, seed: int,
                     curves: list[list[CurvePoint]], backend: Backend, progress: bool) -> None:
-    """The evaluations of ``behaviours`` that ``curves`` lack (:func:`_run_fixed`), each written to its
-    trial's ``curve.csv`` as it is measured, on ``backend``, which is closed after."""
+    """The evaluations of ``behaviours`` that ``curves`` lack (:func:`_run_fixed`) on ``backend``, which is
+    closed after: point by point, the trials' evaluations of a point side by side (``Backend.play_all``),
+    each written to its trial's ``curve.csv`` as the point is measured."""
     from tqdm import tqdm
 
     points = exp.points()
@@ -297,14 +298,19 @@ def _evaluate_fixed(exp: ExperimentConfig, behaviours: Behaviours, where: Path, 
         with tqdm(total=exp.trials * len(points) * exp.eval_episodes, unit="ep", dynamic_ncols=True,
                   desc=configuration_name(behaviours.pass_policy, behaviours.getopen_policy),
                   initial=sum(len(c) for c in curves) * exp.eval_episodes, disable=not progress) as bar:
-            for trial, curve in enumerate(curves):
+            for trial in range(len(curves)):
                 trial_dir(where, trial).mkdir(exist_ok=True)
-                for episodes in points[len(curve):]:
-                    result = evaluate(backend, behaviours, derive_seed(seed, trial, STREAM_EVALUATION, episodes),
-                                      exp.eval_episodes, bar.update)
-                    summary = result.summary()
-                    curve.append(CurvePoint(episodes, summary["mean_hold_time_s"], summary["stderr_hold_time_s"]))
-                    write_curve_csv(trial_dir(where, trial) / "curve.csv", curve)
+            for at, episodes in enumerate(points):
+                trials = [trial for trial, curve in enumerate(curves) if len(curve) == at]
+                if not trials:
+                    continue
+                jobs = [evaluation_job(behaviours, derive_seed(seed, trial, STREAM_EVALUATION, episodes),
+                                       exp.eval_episodes) for trial in trials]
+                for trial, played in zip(trials, backend.play_all(jobs, bar.update)):
+                    summary = played.result.summary()
+                    curves[trial].append(CurvePoint(episodes, summary["mean_hold_time_s"],
+                                                    summary["stderr_hold_time_s"]))
+                    write_curve_csv(trial_dir(where, trial) / "curve.csv", curves[trial])
     finally:
         backend.close()
 
@@ -452,19 +458,19 @@ def _behaviours(out: Path, pass_policy: str, getopen_policy: str, trial: int) ->
 def cross_test_trial(exp: ExperimentConfig, out: Path, trial: int, backend: Backend,
                      progress: Progress | None = None) -> dict[str, list[list[float]]]:
     """Trial ``trial``'s mean hold times of Table 2 on ``backend``: for each study, [trained with X][tested
-    with Y]. Every test plays the same arena seeds (common random numbers)."""
+    with Y]. Every test plays the same arena seeds (common random numbers); the 18 tests play side by side
+    (``Backend.play_all``), each as it would alone."""
     partner = _behaviours(out, LEARNED, LEARNED, trial)
     seed = derive_seed(exp.seed, trial, STREAM_CROSS_TEST)
-    values: dict[str, list[list[float]]] = {}
-    for study in STUDIES:
-        values[study] = []
-        for trained_with in POLICIES:
-            trained = _behaviours(out, *trained_configuration(study, trained_with), trial)
-            values[study].append([
-                evaluate(backend, with_counterpart(trained, study, tested_with, partner), seed, exp.eval_episodes,
-                         progress).summary()["mean_hold_time_s"]
-                for tested_with in POLICIES])
-    return values
+    cells = [(study, trained_with, tested_with) for study in STUDIES for trained_with in POLICIES
+             for tested_with in POLICIES]
+    trained = {(study, with_): _behaviours(out, *trained_configuration(study, with_), trial)
+               for study in STUDIES for with_ in POLICIES}
+    played = backend.play_all([evaluation_job(with_counterpart(trained[study, trained_with], study, tested_with,
+                                                               partner), seed, exp.eval_episodes)
+                               for study, trained_with, tested_with in cells], progress)
+    means = iter(p.result.summary()["mean_hold_time_s"] for p in played)
+    return {study: [[next(means) for _ in POLICIES] for _ in POLICIES] for study in STUDIES}
 
 
 def welch_p_value(a: Sequence[float], b: Sequence[float]) -> float | None:
