@@ -43,7 +43,7 @@ def main() -> None:
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--episodes", type=int, default=1000, help="training episodes per trial")
     args = parser.parse_args()
-    common = dict(trials=args.trials, eval_every=args.episodes, eval_episodes=100, arenas=25, seed=1)
+    common = dict(trials=args.trials, eval_every=args.episodes, eval_episodes=100, seed=1)
     configs = {
         "P:L-GO:HC (Pass blocks)": TrainConfig(pass_policy="learned", getopen_policy="handcoded",
                                                schedule=(Phase(PASS, args.episodes),), **common),
