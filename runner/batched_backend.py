@@ -113,7 +113,7 @@ class BatchedBackend:
         owner = [j for j, plan in enumerate(plans) for _ in plan]
         batch = self._arenas(jobs[0], [s for plan in plans for _, s in plan],
                              [jobs[j].behaviours.getopen_net for j in owner])
-        if jobs[0].behaviours.pass_policy == LEARNED:
+        if any(job.behaviours.pass_arrays is not None for job in jobs):
             fresh = batch.arena_pass_arrays(0)  # for jobs of fresh learners beside jobs of loaded ones
             batch.load_pass_arrays([jobs[j].behaviours.pass_arrays or fresh for j in owner])
         start = time.perf_counter()
