@@ -372,10 +372,12 @@ def _check_state_variables(bel, r, kp=KP) -> None:
         for k in range(grid_size(CFG)):
             px, py = grid_point(k, kp, CFG)
             getopen_state(bel, r, px, py, ox, oy, out)
-            np.testing.assert_array_equal(out, _ref_getopen_state(pos, me, px, py, ox, oy), err_msg=f"row {r} point {k}")
+            np.testing.assert_array_equal(out, _ref_getopen_state(pos, me, px, py, ox, oy),
+                                          err_msg=f"row {r} point {k}")
     out = np.empty(4 * K + 2 * T - 3)
     if pass_state(bel, r, CFG, out):
-        np.testing.assert_array_equal(out, _ref_pass_state(pos, closest_to_ball(bel, r, 1, K, -1, CFG)), err_msg=f"row {r}")
+        np.testing.assert_array_equal(out, _ref_pass_state(pos, closest_to_ball(bel, r, 1, K, -1, CFG)),
+                                      err_msg=f"row {r}")
 
 
 def _ref_load_tiles(config: SarsaConfig, state) -> np.ndarray:

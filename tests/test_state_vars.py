@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from agents.skills import AgentConfig
-from agents.state_vars import getopen_state, getopen_state_size, pass_state, pass_state_size
+from agents.state_vars import getopen_state, getopen_state_size, pass_state, pass_state_size, smallest_angle
 from beliefs import belief
 
 CFG = AgentConfig().kernel()
@@ -84,3 +84,22 @@ def test_getopen_state_for_a_point_by_hand():
         math.degrees(math.atan(1.0 / 3.0)),  # at K1: rays (6,0)/(6,-2): 18.43 < (6,0)/(3,3): 45
     ]
     assert out == pytest.approx(expected)
+
+
+def test_smallest_angle_by_hand():
+    # from C = (1, 1), ray u = (2, 0) (length 2); takers 4 and 5 at 30 and 60 degrees from it, 2 m and 3 m
+    # from C: 30 degrees; the same two at one spot: the one angle; taker 4 on C: a degenerate ray, 0
+    c30, s30 = math.cos(math.radians(30.0)), math.sin(math.radians(30.0))
+    pos = [[0.0, 0.0], [1.0, 1.0], [5.0, 5.0], [3.0, 4.0], [1.0 + 2 * c30, 1.0 + 2 * s30],
+           [1.0 + 1.5, 1.0 + 1.5 * 3 ** 0.5]]
+    bel = belief(pos, 1)
+    takers, norms = np.array([4, 5]), np.array([0.0, 0.0, 0.0, 0.0, 2.0, 3.0])
+    assert smallest_angle(bel, 0, 2.0, 0.0, 2.0, 1.0, 1.0, takers, 2, norms) == pytest.approx(30.0)
+    assert smallest_angle(bel, 0, 2.0, 0.0, 2.0, 1.0, 1.0, takers[::-1].copy(), 2, norms) == pytest.approx(30.0)
+    assert smallest_angle(bel, 0, 2.0, 0.0, 2.0, 1.0, 1.0, takers, 0, norms) == math.inf  # no takers
+    bel.pos[0, 5] = bel.pos[0, 4]
+    norms[5] = 2.0
+    assert smallest_angle(bel, 0, 2.0, 0.0, 2.0, 1.0, 1.0, takers, 2, norms) == pytest.approx(30.0)
+    bel.pos[0, 4] = (1.0, 1.0)
+    norms[4] = 0.0
+    assert smallest_angle(bel, 0, 2.0, 0.0, 2.0, 1.0, 1.0, takers, 2, norms) == 0.0

@@ -166,7 +166,8 @@ class ExperimentConfig:
             for g in POLICIES:
                 if LEARNED in (p, g):
                     self.train_config(p, g)
-        if min(self.trials, self.episodes, self.eval_every, self.eval_episodes, self.arenas, self.chunk_episodes) < 1:
+        if min(self.trials, self.episodes, self.eval_every, self.eval_episodes, self.arenas,
+               self.chunk_episodes) < 1:
             raise ValueError("trials, episodes, eval_every, eval_episodes, arenas and chunk_episodes must be at least 1")
 
 
