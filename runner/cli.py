@@ -105,7 +105,7 @@ def keys_for_distributed(keys: Path | None, mode: str) -> None:
 
 
 ARENAS_HELP = ("distributed: arenas of processes started [2] (the games do not depend on it: every mode "
-               "plays each job in chunks of 25 episodes, a chunk per arena).")
+               "plays each job in chunks of episodes, a chunk per arena).")
 
 
 def arena_count(mode: str, attach: tuple[str, ...], arenas: int | None) -> int:
@@ -113,8 +113,10 @@ def arena_count(mode: str, attach: tuple[str, ...], arenas: int | None) -> int:
     error in one line if given for a mode that starts no arenas of processes (batched and embedded play
     every chunk in an in-process arena of its own)."""
     if arenas is not None and mode != "distributed":
+        from runner.job import CHUNK_EPISODES
+
         raise click.UsageError(f"--arenas counts the distributed mode's arenas of processes; the {mode} mode "
-                               f"plays each chunk of 25 episodes in an arena of its own: leave it out")
+                               f"plays each chunk of {CHUNK_EPISODES} episodes in an arena of its own: leave it out")
     return arenas or len(attach) or 2
 
 
