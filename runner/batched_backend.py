@@ -122,7 +122,7 @@ class BatchedBackend:
         share = (time.perf_counter() - start) / len(owner)
         out, first = [], 0
         for job, plan in zip(jobs, plans):
-            out.append(Played(self._result(job.seed, [_arena_rows(table, a) for a in range(first, first + len(plan))],
+            out.append(Played(self._result(job.seed, _arena_rows(table, range(first, first + len(plan))),
                                             share * len(plan))))
             first += len(plan)
         return out
@@ -143,8 +143,8 @@ class BatchedBackend:
                 batch.load_pass_arrays([weights[j] or fresh for j in playing])
             table = batch.run(episodes_per_arena=np.array([plans[j][k][0] for j in playing]),
                               progress=_reporter(progress))
-            for a, j in enumerate(playing):
-                tables[j].append(_arena_rows(table, a))
+            for a, (j, rows) in enumerate(zip(playing, _arena_rows(table, range(len(playing))))):
+                tables[j].append(rows)
                 weights[j] = batch.arena_pass_arrays(a)
         elapsed = time.perf_counter() - start
         return [Played(self._result(job.seed, parts, elapsed / len(jobs)), weights[j])
@@ -174,14 +174,19 @@ def _reporter(progress: Progress | None) -> Callable[[int], None]:
     return report
 
 
-def _arena_rows(table: EpisodeTable, arena: int) -> EpisodeTable:
-    """The episodes of ``table``'s arena ``arena`` in their order, as arena 0 (the arena-cycles it simulated
-    are not known from the table: ``cycles`` counts the episodes' cycles)."""
-    mask = table.arena == arena
-    order = np.argsort(table.episode[mask], kind="stable")
-    start, end = table.start_cycle[mask][order], table.end_cycle[mask][order]
-    return EpisodeTable(np.zeros(len(order), dtype=np.int64), table.episode[mask][order], start, end,
-                        table.end[mask][order], int((end - start).sum()))
+def _arena_rows(table: EpisodeTable, arenas: range) -> list[EpisodeTable]:
+    """The episodes of each of ``table``'s arenas ``arenas``, in their order, each as arena 0 (the
+    arena-cycles it simulated are not known from the table: ``cycles`` counts the episodes' cycles)."""
+    order = np.lexsort((table.episode, table.arena))
+    arena = table.arena[order]
+    bounds = np.searchsorted(arena, [arenas.start, *(a + 1 for a in arenas)])
+    out = []
+    for lo, hi in zip(bounds[:-1], bounds[1:]):
+        rows = order[lo:hi]
+        start, end = table.start_cycle[rows], table.end_cycle[rows]
+        out.append(EpisodeTable(np.zeros(len(rows), dtype=np.int64), table.episode[rows], start, end,
+                                table.end[rows], int((end - start).sum())))
+    return out
 
 
 __all__ = ["MAX_ARENAS", "MAX_SARSA_BYTES", "BatchedBackend"]

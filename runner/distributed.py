@@ -140,7 +140,7 @@ class DistributedBackend(CoachedBackend):
         queue = list(range(len(chunks)))
         busy: dict[int, int] = {}  # arena index -> chunk index
         since: dict[int, float] = {}  # arena index -> when its chunk was handed to it
-        unsent: set[int] = set()  # busy arenas whose request ZeroMQ has not taken yet
+        unsent: dict[int, bytes] = {}  # busy arena index -> its encoded request, until ZeroMQ takes it
         poller = zmq.Poller()
         for arena in arenas:
             poller.register(arena.socket, zmq.POLLIN)
@@ -149,9 +149,9 @@ class DistributedBackend(CoachedBackend):
                 if a not in busy and queue:
                     busy[a] = queue.pop(0)
                     since[a] = time.monotonic()
-                    unsent.add(a)
-                if a in unsent and _send_now(arena.socket, encode(chunks[busy[a]].request())):
-                    unsent.discard(a)
+                    unsent[a] = encode(chunks[busy[a]].request())
+                if a in unsent and _send_now(arena.socket, unsent[a]):
+                    del unsent[a]
             events = dict(poller.poll(POLL_MS))
             for a, arena in enumerate(arenas):
                 if a in busy and a not in unsent and arena.socket in events:
