@@ -21,8 +21,12 @@ from __future__ import annotations
 
 from core.exports import lazy_exports
 
+# The backends (above), here rather than in ``runner.job`` so that the command line can offer them
+# without importing the players' kernels.
+MODES = ("batched", "embedded", "distributed")
+
 _EXPORTS = {
-    "runner.job": ("BATCHED_SARSA", "GREEDY", "LEARN", "LEARNED", "MODES", "Backend", "Behaviours", "EpisodeTable", "Game",
+    "runner.job": ("BATCHED_SARSA", "GREEDY", "LEARN", "LEARNED", "Backend", "Behaviours", "EpisodeTable", "Game",
                    "Played", "Progress", "RunResult", "chunk_seeds", "derive_seed"),
     "runner.backends": ("Placement", "open_backend"),
     "runner.batched": ("BatchedArenas",),
@@ -32,3 +36,4 @@ _EXPORTS = {
     "runner.launch": ("ArenaFailure", "ArenaProcesses"),
 }
 __all__, __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
+__all__ = ["MODES", *__all__]

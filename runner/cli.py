@@ -15,7 +15,7 @@ from protocol.messages import GETOPEN_NOTE_MODES, MAX_SEED
 from protocol.params import KEEPAWAY_KEEPERS, KEEPAWAY_TAKERS
 from protocol.security import keys_option
 from runner.kernels import KERNEL_SETS
-from runner.job import MODES
+from runner import MODES
 
 if TYPE_CHECKING:
     from runner.backends import Placement

@@ -34,10 +34,10 @@ from agents.player import LEARNED
 from agents.sarsa import SarsaConfig
 from agents.skills import AgentConfig
 from protocol.params import ServerParams
+from runner import MODES  # the backends (module docstring)
 from server.episode_log import EpisodeRecord
 from server.referee import END_OUT
 
-MODES = ("batched", "embedded", "distributed")  # the backends (module docstring)
 LEARN = "learn"  # Sarsa modes (agents.sarsa.MODE_NAMES): learning, ...
 GREEDY = "greedy"  # ... and the frozen Pass policy: greedy actions, no updates (keepaway-agents.md 5)
 # The Sarsa sizes every backend's learners use by default: a 2^16 weight table per keeper, 4,096 live

@@ -6,6 +6,9 @@ same time (about 5 x 50 + 20 CPU-seconds on a 2-core machine). Instead a launche
 compiled yet, each in its own ``keepaway compile --only SET`` process (independent sets side by side),
 under a lock so that concurrent launchers compile once between them; the processes started afterwards
 load the kernels from the cache (``core.jit``) in about a second each.
+
+``core.jit`` (which loads numba, a third of a second) is imported inside the functions that need it: the
+command line imports this module for :data:`KERNEL_SETS` and must start without numba.
 """
 
 from __future__ import annotations
@@ -22,7 +25,6 @@ from typing import Iterator
 
 import numpy as np
 
-from core.jit import cache_dir, is_warm, mark_warm
 from runner.launch import die_with_parent, keepaway_argv
 
 SERVER, PLAYERS, BATCHED = "server", "players", "batched"
@@ -56,6 +58,8 @@ def compile_set(kernel_set: str) -> float:
     else:
         raise ValueError(f"unknown kernel set {kernel_set!r}; choose from {', '.join(KERNEL_SETS)}")
     seconds = time.perf_counter() - start
+    from core.jit import mark_warm
+
     mark_warm(kernel_set, seconds)
     return seconds
 
@@ -83,6 +87,8 @@ def kernel_sets(mode: str) -> tuple[str, ...]:
 
 
 def missing(kernel_sets: Sequence[str]) -> list[str]:
+    from core.jit import is_warm
+
     return [s for s in KERNEL_SETS if s in kernel_sets and not is_warm(s)]
 
 
@@ -103,6 +109,8 @@ def _describe(seconds: float) -> str:
 
 @contextmanager
 def _compile_lock() -> Iterator[None]:
+    from core.jit import cache_dir
+
     with open(cache_dir() / "compile.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
         try:
@@ -116,6 +124,8 @@ def ensure_compiled(kernel_sets: Sequence[str], announce: Callable[[str], None] 
     """Compile the sets of ``kernel_sets`` that this source has not compiled yet (each once, in
     ``keepaway compile`` processes, independent sets side by side); return those compiled. ``announce``
     gets one line saying what happens and roughly how long it takes. Raises CompileError in one line."""
+    from core.jit import cache_dir
+
     todo = missing(kernel_sets)
     if not todo:
         return []

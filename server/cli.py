@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import logging
 import sys
 from pathlib import Path
@@ -140,10 +141,28 @@ def server_command(config_file: Path | None, parameter_set_name: str | None, par
     sys.exit(code)
 
 
-def _replay_trace_command() -> click.Command:
-    from server.trace_replay import replay_trace_command
+@click.command("replay-trace")
+@click.argument("paths", nargs=-1, required=True, type=click.Path(exists=True))
+@click.option("--show", default=5, show_default=True, help="Mismatches printed per failing file.")
+def replay_trace_command(paths: tuple[str, ...], show: int) -> None:
+    """Replay rcssserver physics traces (FILEs or directories of *.json) against our physics."""
+    from server.trace_replay import is_physics_trace, replay_trace, trace_files  # loads numba
 
-    return replay_trace_command
+    failed = False
+    for path in trace_files(paths):
+        if not is_physics_trace(json.loads(path.read_text())):
+            click.echo(f"SKIP {path.name}: not a physics trace")
+            continue
+        report = replay_trace(path)
+        if report.ok:
+            click.echo(f"OK {report.scenario} {report.cycles} cycles, max error {report.max_abs_error:.3g}")
+            continue
+        failed = True
+        click.echo(f"FAIL {report.scenario}: {len(report.mismatches)} mismatches in {report.cycles} cycles")
+        for mismatch in report.mismatches[:show]:
+            click.echo(f"  {mismatch}")
+    if failed:
+        raise SystemExit(1)
 
 
-commands = [server_command, _replay_trace_command()]
+commands = [server_command, replay_trace_command]

@@ -17,8 +17,6 @@ import re
 from pathlib import Path
 from typing import Any
 
-import click
-
 from protocol.params import ServerParams, parameter_set
 from server.physics import kick_possible, physics_step, place_object
 from core.objects import BALL, CMD_DASH, CMD_KICK, CMD_TURN
@@ -236,33 +234,12 @@ def replay_trace(path: str | Path) -> ReplayReport:
                         comparison.max_abs_error)
 
 
-def _trace_files(paths: tuple[str, ...]) -> list[Path]:
+def trace_files(paths: tuple[str, ...]) -> list[Path]:
+    """The files named by ``paths``: each file itself, each directory's ``*.json``."""
     files: list[Path] = []
     for p in map(Path, paths):
         files.extend(sorted(p.glob("*.json")) if p.is_dir() else [p])
     return files
-
-
-@click.command("replay-trace")
-@click.argument("paths", nargs=-1, required=True, type=click.Path(exists=True))
-@click.option("--show", default=5, show_default=True, help="Mismatches printed per failing file.")
-def replay_trace_command(paths: tuple[str, ...], show: int) -> None:
-    """Replay rcssserver physics traces (FILEs or directories of *.json) against our physics."""
-    failed = False
-    for path in _trace_files(paths):
-        if not is_physics_trace(json.loads(path.read_text())):
-            click.echo(f"SKIP {path.name}: not a physics trace")
-            continue
-        report = replay_trace(path)
-        if report.ok:
-            click.echo(f"OK {report.scenario} {report.cycles} cycles, max error {report.max_abs_error:.3g}")
-            continue
-        failed = True
-        click.echo(f"FAIL {report.scenario}: {len(report.mismatches)} mismatches in {report.cycles} cycles")
-        for mismatch in report.mismatches[:show]:
-            click.echo(f"  {mismatch}")
-    if failed:
-        raise SystemExit(1)
 
 
 __all__ = [
@@ -270,6 +247,6 @@ __all__ = [
     "ReplayReport",
     "is_physics_trace",
     "replay_trace",
-    "replay_trace_command",
+    "trace_files",
     "trace_params",
 ]

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -30,6 +31,16 @@ def refused(processes, *args: str, code: int = 2, timeout_s: float = QUICK_S) ->
     assert len(lines) == 1, err
     assert err.rstrip().splitlines()[-1] == lines[0]
     return lines[0]
+
+
+def test_the_command_line_loads_without_numba_so_usage_errors_come_at_once(processes):
+    """Loading numba takes a third of a second or more: ``keepaway --help`` and every refusal before
+    anything plays must not pay it (each package's cli imports its kernels only inside commands)."""
+    probe = "import sys, keepaway.cli; print(sorted(m for m in sys.modules if m.split('.')[0] in ('numba', 'llvmlite')))"
+    proc = processes.popen([sys.executable, "-c", probe], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    out, err = proc.communicate(timeout=QUICK_S)
+    assert proc.returncode == 0, err.decode()
+    assert out.decode().strip() == "[]"
 
 
 @pytest.fixture
