@@ -27,7 +27,7 @@ from dataclasses import dataclass, replace
 from typing import NamedTuple
 
 import numpy as np
-from core.jit import njit
+from core.jit import borrowing
 
 from agents.keeper import PASS_DECISION_START, PASS_DECISION_STEP
 from core.rng import randint, seed_streams, uniform
@@ -195,14 +195,14 @@ def unh_random_table() -> np.ndarray:
 _UNH_TABLE = unh_random_table()
 
 
-@njit(cache=True)
+@borrowing
 def _unh_word(value: int, offset: int) -> int:
     """rndseq[(value + offset) mod 2048], the mod of a power of two as a mask: the mathematical mod for a
     negative tile coordinate too, as ``%`` on Python ints, without its sign branch."""
     return _UNH_TABLE[(value + offset) & (UNH_TABLE_SIZE - 1)]
 
 
-@njit(cache=True)
+@borrowing
 def unh_hash(coordinate: int, tiling: int, action: int, variable: int, increment: int, m: int) -> int:
     """tiles2.cc hash_UNH of the coordinates (tile coordinate, tiling j, action a, variable v):
     sum_i rndseq[(c_i + increment * i) mod 2048] mod m. (``load_tiles`` sums the same words itself.)"""
@@ -211,7 +211,7 @@ def unh_hash(coordinate: int, tiling: int, action: int, variable: int, increment
     return total % m
 
 
-@njit(cache=True)
+@borrowing
 def tile_index(hash_check, hash_counts, r: int, index_words: int, check_words: int) -> int:
     """tiles2.cc ``hash`` in safe mode on weight table ``r``'s collision table (``SarsaMemory.hash_check`` and
     ``hash_counts``, passed alone to keep this per-tile call cheap), for a tile whose ``unh_hash`` word sums
@@ -240,21 +240,21 @@ def tile_index(hash_check, hash_counts, r: int, index_words: int, check_words: i
     raise RuntimeError("Sarsa weight table full (tiles2.cc: Out of Memory)")
 
 
-@njit(cache=True)
+@borrowing
 def quantize(value: float, width: float, tilings: int) -> int:
     """q = floor(tilings * x), x = value / width rounded to float32 as the C++ ``float`` argument of
     GetTiles is (spec `keepaway-agents.md` 5)."""
     return int(math.floor(np.float64(np.float32(value / width)) * tilings))
 
 
-@njit(cache=True)
+@borrowing
 def tiling_coordinate(q: int, tiling: int, tilings: int) -> int:
     """Coordinate of the tile of tiling j holding quantised value q: q - ((q - j) mod tilings)
     (tilings offset by 1/tilings of a tile each; spec `keepaway-agents.md` 5)."""
     return q - (q - tiling) % tilings
 
 
-@njit(cache=True)
+@borrowing
 def load_tiles(mem: SarsaMemory, r: int, state) -> None:
     """The active weight indices of ``state`` for every action into ``mem.tiles[r]``, hashed in the C++
     order (variable, then action, then tiling; `LinearSarsaAgent::loadTiles`), which fixes how the
@@ -279,7 +279,7 @@ def load_tiles(mem: SarsaMemory, r: int, state) -> None:
                 mem.tiles[r, a, cv * tilings + j] = index
 
 
-@njit(cache=True)
+@borrowing
 def action_value(mem: SarsaMemory, r: int, a: int) -> float:
     """Q(s, a) = sum of the weights of a's active tiles in the loaded state."""
     total = 0.0
@@ -289,14 +289,14 @@ def action_value(mem: SarsaMemory, r: int, a: int) -> float:
     return total
 
 
-@njit(cache=True)
+@borrowing
 def load_action_values(mem: SarsaMemory, r: int) -> None:
     """Q(s, .) of the loaded state into ``mem.q[r]``."""
     for a in range(mem.q.shape[1]):
         mem.q[r, a] = action_value(mem, r, a)
 
 
-@njit(cache=True)
+@borrowing
 def select_action(mem: SarsaMemory, r: int, explore: bool, sp: SarsaParams) -> int:
     """Epsilon-greedy on ``mem.q[r]`` (uniform random action with probability epsilon when ``explore``),
     argmax ties broken uniformly (reservoir draw; the C++ argmaxQ never resets its tie count, which only
@@ -315,7 +315,7 @@ def select_action(mem: SarsaMemory, r: int, explore: bool, sp: SarsaParams) -> i
     return best
 
 
-@njit(cache=True)
+@borrowing
 def _drop_trace(trace_slot, trace_feature, trace_value, n_traces, r: int, slot: int) -> None:
     """Remove trace list entry ``slot`` of row ``r`` by moving the last entry into it
     (clearExistentTrace); takes the trace arrays alone to keep this per-tile call cheap."""
@@ -329,7 +329,7 @@ def _drop_trace(trace_slot, trace_feature, trace_value, n_traces, r: int, slot: 
         trace_slot[r, moved] = slot
 
 
-@njit(cache=True)
+@borrowing
 def decay_traces(mem: SarsaMemory, r: int, rate: float) -> None:
     """Multiply every trace by ``rate`` and drop those below the minimum trace (rate 0 clears all)."""
     for slot in range(mem.n_traces[r] - 1, -1, -1):
@@ -338,7 +338,7 @@ def decay_traces(mem: SarsaMemory, r: int, rate: float) -> None:
             _drop_trace(mem.trace_slot, mem.trace_feature, mem.trace_value, mem.n_traces, r, slot)
 
 
-@njit(cache=True)
+@borrowing
 def clear_action_traces(mem: SarsaMemory, r: int, a: int) -> None:
     """Drop the traces of action ``a``'s active tiles in the loaded state."""
     for f in mem.tiles[r, a]:
@@ -347,7 +347,7 @@ def clear_action_traces(mem: SarsaMemory, r: int, a: int) -> None:
             _drop_trace(mem.trace_slot, mem.trace_feature, mem.trace_value, mem.n_traces, r, slot)
 
 
-@njit(cache=True)
+@borrowing
 def set_action_traces(mem: SarsaMemory, r: int, a: int) -> None:
     """Replacing traces: the traces of action ``a``'s active tiles become 1 (setTrace). A full list
     raises the minimum trace by 10 % and culls until there is room (increaseMinTrace)."""
@@ -366,7 +366,7 @@ def set_action_traces(mem: SarsaMemory, r: int, a: int) -> None:
         mem.n_traces[r] = n + 1
 
 
-@njit(cache=True)
+@borrowing
 def update_weights(mem: SarsaMemory, r: int, delta: float, sp: SarsaParams) -> None:
     """w += (alpha / active tiles) * delta * e over the live traces."""
     step_size = delta * sp.alpha / mem.tiles.shape[2]
@@ -375,11 +375,19 @@ def update_weights(mem: SarsaMemory, r: int, delta: float, sp: SarsaParams) -> N
         mem.weights[table, mem.trace_feature[r, slot]] += step_size * mem.trace_value[r, slot]
 
 
-@njit(cache=True)
+@borrowing
+def _keep_state(mem: SarsaMemory, r: int, state) -> None:
+    """Row ``r``'s last state := ``state``, element by element (a borrowing kernel copies no slices)."""
+    for v in range(state.shape[0]):
+        mem.last_state[r, v] = state[v]
+
+
+@borrowing
 def _log_transition(mem: SarsaMemory, r: int, reward: float, next_action: int, terminal: bool) -> None:
     """Append (last state, last action, reward, next action, terminal) to row ``r``'s ring buffer."""
     slot = mem.log_count[r] % mem.log_action.shape[1]
-    mem.log_state[r, slot, :] = mem.last_state[r]
+    for v in range(mem.last_state.shape[1]):
+        mem.log_state[r, slot, v] = mem.last_state[r, v]
     mem.log_action[r, slot] = mem.last_action[r]
     mem.log_reward[r, slot] = reward
     mem.log_next_action[r, slot] = next_action
@@ -387,7 +395,7 @@ def _log_transition(mem: SarsaMemory, r: int, reward: float, next_action: int, t
     mem.log_count[r] += 1
 
 
-@njit(cache=True)
+@borrowing
 def start_episode(mem: SarsaMemory, r: int, state, sp: SarsaParams) -> int:
     """startEpisode(s): clear all traces, compute Q(s, .), choose a (epsilon-greedy unless greedy mode),
     set a's traces to 1 (spec `keepaway-agents.md` 5)."""
@@ -396,12 +404,12 @@ def start_episode(mem: SarsaMemory, r: int, state, sp: SarsaParams) -> int:
     load_action_values(mem, r)
     a = select_action(mem, r, mem.mode[r] != MODE_GREEDY, sp)
     mem.last_action[r] = a
-    mem.last_state[r, :] = state
+    _keep_state(mem, r, state)
     set_action_traces(mem, r, a)
     return a
 
 
-@njit(cache=True)
+@borrowing
 def step(mem: SarsaMemory, r: int, reward: float, state, sp: SarsaParams) -> int:
     """step(r, s') (spec `keepaway-agents.md` 5): delta = r - Q(s, a) with Q(s, a) cached after the
     previous update; compute Q(s', .) and choose a'. Learning only: delta += Q(s', a'); w += (alpha / n)
@@ -416,7 +424,7 @@ def step(mem: SarsaMemory, r: int, reward: float, state, sp: SarsaParams) -> int
     a = select_action(mem, r, mem.mode[r] != MODE_GREEDY, sp)
     _log_transition(mem, r, reward, a, False)
     mem.last_action[r] = a
-    mem.last_state[r, :] = state
+    _keep_state(mem, r, state)
     if mem.mode[r] != MODE_LEARN:
         return a
     delta += mem.q[r, a]
@@ -430,7 +438,7 @@ def step(mem: SarsaMemory, r: int, reward: float, state, sp: SarsaParams) -> int
     return a
 
 
-@njit(cache=True)
+@borrowing
 def end_episode(mem: SarsaMemory, r: int, reward: float, sp: SarsaParams) -> None:
     """endEpisode(r) (spec `keepaway-agents.md` 5): if a decision was made this episode, log the terminal
     transition and, when learning, w += (alpha / n) (r - Q(s, a)) e with no bootstrap; then forget it."""
@@ -443,7 +451,7 @@ def end_episode(mem: SarsaMemory, r: int, reward: float, sp: SarsaParams) -> Non
     mem.last_action[r] = NO_ACTION
 
 
-@njit(cache=True)
+@borrowing
 def pass_decisions(mem: SarsaMemory, decision, reward, state, out_action, sp: SarsaParams) -> None:
     """The batched mode's learner call after ``agents.keeper.keepers_decide`` with PASS_EXTERNAL: each
     row with PASS_DECISION_START starts its episode, each with PASS_DECISION_STEP steps with
