@@ -539,6 +539,27 @@ def policy_arrays(mem: SarsaMemory, r: int) -> dict[str, np.ndarray]:
     }
 
 
+def restart_learners(mem: SarsaMemory, config: SarsaConfig, mode: int) -> None:
+    """Every row of ``mem`` as :func:`new_memory` (``config``, ``mode``) followed by
+    :func:`load_policy_arrays` of its own :func:`policy_arrays` would leave it, in place: the weights,
+    collision tables and their counts are kept; traces, open decisions, transition logs and the minimum
+    trace start afresh. (The exploration streams are the caller's to seed.) For learners that go on in
+    fresh arenas without copying their tables out and back."""
+    mem.trace_slot.fill(EMPTY_SLOT)
+    mem.trace_feature.fill(0)
+    mem.trace_value.fill(0.0)
+    mem.n_traces.fill(0)
+    mem.min_trace.fill(config.min_trace)
+    mem.tiles.fill(0)
+    mem.q.fill(0.0)
+    mem.last_action.fill(NO_ACTION)
+    mem.last_state.fill(0.0)
+    mem.mode.fill(mode)
+    for log in (mem.log_state, mem.log_action, mem.log_reward, mem.log_next_action, mem.log_terminal,
+                mem.log_count):
+        log.fill(0)
+
+
 def load_policy_arrays(mem: SarsaMemory, r: int, arrays: dict[str, np.ndarray]) -> None:
     """Restore row ``r``'s weight table from ``policy_arrays`` output (same table size); traces and the
     open decision are cleared, as after the C++ loadWeights, for every learner of the table (a hive
@@ -638,6 +659,7 @@ __all__ = [
     "pass_decisions",
     "policy_arrays",
     "quantize",
+    "restart_learners",
     "select_action",
     "set_action_traces",
     "start_episode",

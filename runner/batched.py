@@ -66,6 +66,7 @@ from agents.sarsa import (
     load_policy_arrays,
     new_memory as new_sarsa_memory,
     policy_arrays,
+    restart_learners,
     start_episode,
     step as sarsa_step,
 )
@@ -449,7 +450,10 @@ class BatchedArenas:
     ``pass_policy="learned"``: each keeper of each arena learns its own Pass policy by SMDP Sarsa
     (module docstring) with the constants and sizes of ``sarsa`` (default ``runner.job.BATCHED_SARSA``), from
     zero weights, in ``pass_mode`` (a name of :data:`agents.sarsa.MODE_NAMES`) until :meth:`set_pass_mode`
-    says otherwise.
+    says otherwise; or, with ``learners`` (another batch's ``sarsa``, the same shape and Sarsa
+    configuration), each keeper goes on from the weights of the learner in its place there, as if they had
+    been copied out and loaded (:meth:`pass_policy_arrays`, :meth:`load_pass_arrays`) without the copies:
+    the arenas of a learning job's next chunk take over the last chunk's tables.
     Arenas learn independently: a trainer that wants more experience per policy picks the best row
     (:meth:`pass_policy_arrays`) and shares it with :meth:`load_pass_arrays`. Averaging weights is only
     meaningful between rows whose collision tables agree (the tile -> slot map depends on the order in
@@ -459,7 +463,7 @@ class BatchedArenas:
                  pass_policy: str = "handcoded", getopen_policy: str = "handcoded",
                  getopen_theta: np.ndarray | None = None, agent_config: AgentConfig = AgentConfig(),
                  threads: int | None = None, sarsa: SarsaConfig | None = None,
-                 pass_mode: str = "learn") -> None:
+                 pass_mode: str = "learn", learners: SarsaMemory | None = None) -> None:
         if batch < 1:
             raise ValueError("batch must be at least 1")
         mode = _policy_code(MODE_NAMES, pass_mode, "Sarsa mode")
@@ -480,8 +484,11 @@ class BatchedArenas:
         self.learning = pass_policy == "learned"
         self.sarsa_config = (sarsa or BATCHED_SARSA) if self.learning else _NO_LEARNERS
         self.sarsa_params = self.sarsa_config.kernel()
-        self.sarsa = new_sarsa_memory(self.sarsa_config, keepers, takers, batch * keepers if self.learning else 0,
-                                      seeds[0], mode)
+        learner_rows = batch * keepers if self.learning else 0
+        if learners is None:
+            self.sarsa = new_sarsa_memory(self.sarsa_config, keepers, takers, learner_rows, seeds[0], mode)
+        else:
+            self.sarsa = self._go_on_with(learners, learner_rows, mode)
         if self.learning:
             self.sarsa.rng[:] = [seed_streams(learner_seed(s, k), 1)[0] for s in seeds for k in range(1, keepers + 1)]
         self.world = new_world(params, keepers, takers, batch=batch)
@@ -563,6 +570,19 @@ class BatchedArenas:
         code = _policy_code(MODE_NAMES, mode, "Sarsa mode")
         self.book.pass_mode[:] = code
         self.sarsa.mode.reshape(self.batch, self.keepers)[self.world.time == 0] = code
+
+    def _go_on_with(self, learners: SarsaMemory, rows: int, mode: int) -> SarsaMemory:
+        """``learners`` restarted for these arenas (``learners`` in :meth:`__init__`)."""
+        if not self.learning:
+            raise ValueError("learners to go on with need pass_policy='learned'")
+        c = self.sarsa_config
+        shape = (len(learners.mode), learners.weights.shape[1], learners.trace_feature.shape[1],
+                 learners.log_action.shape[1])
+        if shape != (rows, c.table_size, c.max_traces, c.transition_log_size):
+            raise ValueError(f"the learners to go on with must be {rows} of this Sarsa configuration "
+                             f"(rows, table, traces, log: {shape})")
+        restart_learners(learners, self.sarsa_config, mode)
+        return learners
 
     def pass_policy_arrays(self) -> list[list[dict[str, np.ndarray]]]:
         """Every keeper's learned Pass policy, ``[arena][keeper]``, as policy-file arrays

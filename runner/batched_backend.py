@@ -25,6 +25,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
+from agents.sarsa import SarsaMemory
 from runner.batched import BatchedArenas
 from runner.job import (
     CHUNK_EPISODES,
@@ -96,12 +97,14 @@ class BatchedBackend:
             open_batches[key] = (members, size + n)
         return batches
 
-    def _arenas(self, first: Job, seeds: list[int], nets: list[np.ndarray | None]) -> BatchedArenas:
+    def _arenas(self, first: Job, seeds: list[int], nets: list[np.ndarray | None],
+                learners: SarsaMemory | None = None) -> BatchedArenas:
         """Fresh arenas, one per seed, playing ``first``'s kernel configuration (the batch's), arena a with
-        GetOpen net ``nets[a]``."""
+        GetOpen net ``nets[a]`` (and, if given, going on with ``learners``: ``BatchedArenas``)."""
         game = self.game.learning_at(first.alpha)
         behaviours = first.behaviours
-        learning = {"sarsa": game.sarsa, "pass_mode": first.pass_mode} if behaviours.pass_policy == LEARNED else {}
+        learning = ({"sarsa": game.sarsa, "pass_mode": first.pass_mode, "learners": learners}
+                    if behaviours.pass_policy == LEARNED else {})
         thetas = None if behaviours.getopen_policy != LEARNED else np.stack(nets)
         return BatchedArenas(game.params, len(seeds), seeds, keepers=game.keepers, takers=game.takers,
                              pass_policy=behaviours.pass_policy, getopen_policy=behaviours.getopen_policy,
@@ -129,23 +132,35 @@ class BatchedBackend:
 
     def _learn_batch(self, jobs: list[Job], progress: Progress | None) -> list[Played]:
         """Learning jobs side by side: their k-th chunks, each in a fresh arena whose keepers start from
-        the weights the (k-1)-th ended with."""
+        the weights the (k-1)-th ended with (taken over in place while the same jobs play on, copied out
+        and loaded when some have ended)."""
         plans = [self._plan(job) for job in jobs]
         weights: list[list[PassArrays] | None] = [job.behaviours.pass_arrays for job in jobs]
         tables: list[list[EpisodeTable]] = [[] for _ in jobs]
+        last: BatchedArenas | None = None
+        last_playing: list[int] = []
+
+        def copy_out() -> None:
+            for a, j in enumerate(last_playing):
+                weights[j] = last.arena_pass_arrays(a)
+
         start = time.perf_counter()
         for k in range(max(len(plan) for plan in plans)):
             playing = [j for j, plan in enumerate(plans) if k < len(plan)]
+            go_on = last is not None and playing == last_playing
+            if last is not None and not go_on:
+                copy_out()
             batch = self._arenas(jobs[0], [plans[j][k][1] for j in playing],
-                                 [jobs[j].behaviours.getopen_net for j in playing])
-            if any(weights[j] is not None for j in playing):
+                                 [jobs[j].behaviours.getopen_net for j in playing], last.sarsa if go_on else None)
+            if not go_on and any(weights[j] is not None for j in playing):
                 fresh = batch.arena_pass_arrays(0)
                 batch.load_pass_arrays([weights[j] or fresh for j in playing])
             table = batch.run(episodes_per_arena=np.array([plans[j][k][0] for j in playing]),
                               progress=_reporter(progress))
-            for a, (j, rows) in enumerate(zip(playing, _arena_rows(table, range(len(playing))))):
+            for j, rows in zip(playing, _arena_rows(table, range(len(playing)))):
                 tables[j].append(rows)
-                weights[j] = batch.arena_pass_arrays(a)
+            last, last_playing = batch, playing
+        copy_out()
         elapsed = time.perf_counter() - start
         return [Played(self._result(job.seed, parts, elapsed / len(jobs)), weights[j])
                 for j, (job, parts) in enumerate(zip(jobs, tables))]

@@ -16,10 +16,14 @@ from agents.sarsa import (
     action_value,
     code_variable_order,
     glibc_rand,
+    load_policy_arrays,
     new_memory,
     pass_decisions,
     policy_arrays,
     quantize,
+    restart_learners,
+    start_episode,
+    step,
     tile_widths,
     tiling_coordinate,
     unh_hash,
@@ -321,6 +325,28 @@ def test_save_load_reproduces_values_and_tile_indices():
     assert not np.array_equal(weights_only.memory.tiles, teacher.memory.tiles)
     with pytest.raises(ValueError):
         SarsaLearner().load(saved)
+
+
+@pytest.mark.parametrize("hive_mind", [False, True])
+def test_restarted_learners_are_fresh_ones_with_their_own_policies_loaded(hive_mind):
+    # Mid-episode learners with traces, a raised minimum trace and a logged transition: restarted in
+    # place they must be, array for array, fresh learners into which each row's saved policy was loaded.
+    config = SarsaConfig(table_size=1 << 15, max_traces=500, trace_decay=0.9, hive_mind=hive_mind)
+    params = config.kernel()
+    rng = np.random.default_rng(3)
+    used = new_memory(config, 3, 2, rows=6, seed=1)
+    for r in range(6):
+        start_episode(used, r, rng.uniform(0, 30, 13), params)
+        for _ in range(3):
+            step(used, r, 2.0, rng.uniform(0, 30, 13), params)
+    assert used.n_traces.min() > 0 and used.min_trace.max() > config.min_trace and used.log_count.min() > 0
+    expected = new_memory(config, 3, 2, rows=6, seed=1, mode=MODE_GREEDY)
+    for r in range(6):
+        load_policy_arrays(expected, r, policy_arrays(used, r))
+    restart_learners(used, config, MODE_GREEDY)
+    for name, value in expected._asdict().items():
+        if name != "rng":  # the caller seeds the streams
+            np.testing.assert_array_equal(getattr(used, name), value, err_msg=name)
 
 
 def test_pass_decisions_drives_independent_rows():
