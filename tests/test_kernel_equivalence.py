@@ -25,7 +25,9 @@ from numba import njit
 
 from agents.belief import AgentMemory, belief_from_truth, new_memory
 from agents.geometry import direction, distance, final_position, normalize_angle, rolled_out
-from agents.getopen import grid_point, grid_size, handcoded_target, lane_origin, predicted_ball_pos
+from agents.getopen import (TANH_ESTIMATE_ERROR, grid_point, grid_size, handcoded_target, lane_origin,
+                            learned_target, net_estimate_error, net_first_layer, net_output, net_output_estimate,
+                            net_value, predicted_ball_pos, tanh_estimate)
 from agents.sarsa import (EMPTY_SLOT, INDEX_INCREMENT, CHECK_INCREMENT, MAX_LONG_INT, SarsaConfig,
                           load_tiles, new_memory as new_sarsa_memory, quantize, tiling_coordinate, unh_hash)
 from agents.skills import AgentConfig, closest_to_ball, fastest_to_ball, interception_point
@@ -426,6 +428,46 @@ def _check_interception(bel, r: int, last_point, last_time: int, kp=KP) -> None:
     assert got == ref
 
 
+@njit
+def _ref_net_value(theta, x):
+    """The GO:L net as it was before tanh was estimated: every unit squashed by libm's tanh."""
+    n = x.shape[0]
+    at = 5 * n
+    h1 = np.empty(5)
+    for u in range(5):
+        z = theta[at + u]
+        for i in range(n):
+            z += theta[u * n + i] * x[i]
+        h1[u] = 1.7159 * math.tanh((2.0 / 3.0) * z)
+    w2 = at + 5
+    b2 = w2 + 25
+    w3 = b2 + 5
+    out = theta[w3 + 5]
+    for u in range(5):
+        z = theta[b2 + u]
+        for i in range(5):
+            z += theta[w2 + u * 5 + i] * h1[i]
+        out += theta[w3 + u] * 1.7159 * math.tanh((2.0 / 3.0) * z)
+    return out
+
+
+def _ref_learned_target(bel, r, theta, kp=KP):
+    """GO:L scoring every grid point exactly, in scan order, exact ties to the point nearest to me."""
+    _, cycles = fastest_to_ball(bel, r, 1, K, kp, CFG)
+    ox, oy = lane_origin(bel, r, cycles, kp, CFG)
+    me = int(bel.me[r])
+    x = np.empty(3 * K + T - 1)
+    best_xy, best, best_d = (0.0, 0.0), -math.inf, math.inf
+    for k in range(grid_size(CFG)):
+        px, py = grid_point(k, kp, CFG)
+        getopen_state(bel, r, px, py, ox, oy, x)
+        v = _ref_net_value(theta, x)
+        d = distance(bel.pos[r, me, 0], bel.pos[r, me, 1], px, py)
+        if v > best or (v == best and d < best_d):
+            best_xy, best, best_d = (px, py), v, d
+    return best_xy, cycles
+
+
 def _random_beliefs(count: int, seed: int):
     """Beliefs of a 3v2 game in a 20 m region: players anywhere near it, slow; the ball fast or slow."""
     rng = np.random.default_rng(seed)
@@ -592,6 +634,58 @@ def test_state_variables_of_a_batched_game_match_the_reference():
     checked = 0
     for bel, r in _keeper_beliefs(arenas, 10):
         _check_state_variables(bel, r)
+        checked += 1
+    assert checked > 50
+
+
+@pytest.mark.parametrize("spread", [0.0, 1e-6, 0.3, 1.0, 5.0, 1e4])
+def test_learned_getopen_decided_on_estimates_is_the_exact_argmax(spread):
+    # Nets from flat (every point ties: the nearest wins) through nearly flat (values closer than the
+    # estimate's error: all scored exactly) to saturated (many exact ties) and huge (a loose bound).
+    rng = np.random.default_rng(31)
+    bel = _random_beliefs(120, seed=37)
+    bel.conf[:] = 1.0
+    bel.me[:] = np.arange(bel.batch) % K + 1
+    for r in range(bel.batch):
+        theta = rng.normal(0.0, spread, 91)
+        if spread == 1e-6:
+            theta[90] = 3.0
+        (px, py), cycles = _ref_learned_target(bel, r, theta)
+        assert learned_target(bel, r, theta, cycles, KP, CFG) == (px, py), f"row {r}"
+        x = rng.uniform(-30.0, 30.0, 3 * K + T - 1)
+        assert net_value(theta, x) == _ref_net_value(theta, x)
+
+
+def test_the_tanh_estimate_stays_within_its_bound_and_the_net_estimate_within_its_own():
+    z = np.linspace(-12.0, 12.0, 2_400_001)
+    off = np.abs(np.array([tanh_estimate(v) for v in z[::100]]) - np.tanh(z[::100]))
+    assert off.max() <= TANH_ESTIMATE_ERROR / 2 < off.max() * 2.1  # the bound is twice the worst seen
+    # nets whose units land anywhere on tanh, including where the estimate is worst (|2z/3| near 5)
+    rng = np.random.default_rng(41)
+    worst = 0.0
+    for _ in range(300):
+        theta = rng.normal(0.0, rng.choice([0.3, 1.0, 3.0]), 91)
+        bound = net_estimate_error(theta, 10)
+        for x in rng.uniform(-20.0, 20.0, (20, 10)):
+            z1 = np.empty(5)
+            net_first_layer(theta, x, z1)
+            estimate = net_output_estimate(theta, 10, z1)
+            exact = net_output(theta, 10, z1.copy())
+            assert exact == _ref_net_value(theta, x)
+            assert abs(estimate - exact) <= bound
+            worst = max(worst, abs(estimate - exact) / bound)
+    assert worst > 0.01  # the estimates do differ: the bound is what keeps the decisions exact
+
+
+def test_learned_getopen_of_a_batched_game_is_the_exact_argmax():
+    rng = np.random.default_rng(8)
+    nets = rng.normal(0.0, 1.0, (4, 91))
+    arenas = BatchedArenas(PARAMS, batch=4, seed=9, getopen_policy="learned", getopen_theta=nets, threads=1)
+    checked = 0
+    for bel, r in _keeper_beliefs(arenas, 10):
+        theta = nets[r // (N - 1)]
+        (px, py), cycles = _ref_learned_target(bel, r, theta)
+        assert learned_target(bel, r, theta, cycles, KP, CFG) == (px, py)
         checked += 1
     assert checked > 50
 
