@@ -83,9 +83,24 @@ def net_first_layer(theta, x, z1) -> None:
 def net_output(theta, n: int, h1) -> float:
     """The net's value from its first layer's net inputs in ``h1`` (:func:`net_first_layer`), which
     become that layer's outputs."""
+    return _upper_layers(theta, n, h1, False)
+
+
+@borrowing
+def net_output_estimate(theta, n: int, z1, h1) -> float:
+    """:func:`net_output` of the first layer's net inputs ``z1`` (left as they are; ``h1``: 5 values of
+    scratch) with :func:`tanh_estimate` for tanh: within :func:`net_estimate_error` of it."""
+    for u in range(NET_HIDDEN):
+        h1[u] = z1[u]
+    return _upper_layers(theta, n, h1, True)
+
+
+@borrowing
+def _upper_layers(theta, n: int, h1, estimate: bool) -> float:
+    """:func:`net_output`, with libm's tanh or (``estimate``) :func:`tanh_estimate`."""
     at = NET_HIDDEN * n
     for u in range(NET_HIDDEN):
-        h1[u] = SCALED_TANH_A * math.tanh(SCALED_TANH_B * h1[u])
+        h1[u] = SCALED_TANH_A * _tanh(SCALED_TANH_B * h1[u], estimate)
     w2 = at + NET_HIDDEN
     b2 = w2 + NET_HIDDEN * NET_HIDDEN
     w3 = b2 + NET_HIDDEN
@@ -94,7 +109,7 @@ def net_output(theta, n: int, h1) -> float:
         z = theta[b2 + u]
         for i in range(NET_HIDDEN):
             z += theta[w2 + u * NET_HIDDEN + i] * h1[i]
-        out += theta[w3 + u] * SCALED_TANH_A * math.tanh(SCALED_TANH_B * z)
+        out += theta[w3 + u] * SCALED_TANH_A * _tanh(SCALED_TANH_B * z, estimate)
     return out
 
 
@@ -106,6 +121,11 @@ TANH_ESTIMATE_ERROR = 2e-4
 
 
 @borrowing
+def _tanh(z: float, estimate: bool) -> float:
+    return tanh_estimate(z) if estimate else math.tanh(z)
+
+
+@borrowing
 def tanh_estimate(z: float) -> float:
     """tanh(z) within TANH_ESTIMATE_ERROR, without libm."""
     if z > TANH_ESTIMATE_CLAMP:
@@ -114,22 +134,6 @@ def tanh_estimate(z: float) -> float:
         return -1.0
     z2 = z * z
     return z * (135135.0 + z2 * (17325.0 + z2 * (378.0 + z2))) / (135135.0 + z2 * (62370.0 + z2 * (3150.0 + z2 * 28.0)))
-
-
-@borrowing
-def net_output_estimate(theta, n: int, z1) -> float:
-    """:func:`net_output` of the first layer's net inputs ``z1`` (left as they are) with
-    :func:`tanh_estimate` for tanh: within :func:`net_estimate_error` of it."""
-    w2 = NET_HIDDEN * n + NET_HIDDEN
-    b2 = w2 + NET_HIDDEN * NET_HIDDEN
-    w3 = b2 + NET_HIDDEN
-    out = theta[w3 + NET_HIDDEN]
-    for u in range(NET_HIDDEN):
-        z = theta[b2 + u]
-        for i in range(NET_HIDDEN):
-            z += theta[w2 + u * NET_HIDDEN + i] * SCALED_TANH_A * tanh_estimate(SCALED_TANH_B * z1[i])
-        out += theta[w3 + u] * SCALED_TANH_A * tanh_estimate(SCALED_TANH_B * z)
-    return out
 
 
 @borrowing
@@ -398,6 +402,7 @@ def learned_target(bel: Belief, r: int, theta, ball_cycles: int, kp, cfg) -> tup
     points = grid_size(cfg)
     x = np.empty(n)
     z1 = np.empty((points, NET_HIDDEN))
+    h1 = np.empty(NET_HIDDEN)
     estimate = np.empty(points)
     s = vertex_scratch(bel.n_keepers, bel.n_takers)
     getopen_setup(bel, r, ox, oy, s)
@@ -406,7 +411,7 @@ def learned_target(bel: Belief, r: int, theta, ball_cycles: int, kp, cfg) -> tup
         px, py = grid_point(k, kp, cfg)
         getopen_point_state(bel, r, px, py, ox, oy, s, x)
         net_first_layer(theta, x, z1[k])
-        estimate[k] = net_output_estimate(theta, n, z1[k])
+        estimate[k] = net_output_estimate(theta, n, z1[k], h1)
         if estimate[k] > top:
             top = estimate[k]
     error = net_estimate_error(theta, n)
