@@ -104,4 +104,8 @@ def test_the_cycle_check_sees_imports_inside_functions_and_finds_cycles(tmp_path
 
 
 def test_the_job_types_are_the_runners_leaf():
-    assert not {name for name in import_graph()["runner.job"] if name.startswith("runner")}
+    # runner.job may read the package's own constants (runner.MODES, kept there so that the command line
+    # need not import the players' kernels), and the package imports none of its modules itself
+    graph = import_graph()
+    assert not {name for name in graph["runner.job"] if name.startswith("runner.")}
+    assert not {name for name in graph["runner"] if name.startswith("runner")}
