@@ -477,31 +477,33 @@ def new_memory(
         raise ValueError(f"hive-mind learners come in teams of {n_keepers}; {rows} rows do not")
     table = np.arange(rows, dtype=np.int64) // (n_keepers if config.hive_mind else 1)
     tables = int(table[-1]) + 1 if rows else 0
-    return SarsaMemory(
+    mem = SarsaMemory(
         weights=np.zeros((tables, m)),
         hash_check=np.full((tables, m), EMPTY_SLOT, dtype=np.int32),
         hash_counts=np.zeros((tables, 3), dtype=np.int64),
         table=table,
-        trace_slot=np.full((rows, m), EMPTY_SLOT, dtype=np.int32),
-        trace_feature=np.zeros((rows, config.max_traces), dtype=np.int64),
-        trace_value=np.zeros((rows, config.max_traces)),
-        n_traces=np.zeros(rows, dtype=np.int64),
-        min_trace=np.full(rows, config.min_trace),
-        tiles=np.zeros((rows, n_keepers, n_vars * config.tilings), dtype=np.int64),
-        q=np.zeros((rows, n_keepers)),
-        last_action=np.full(rows, NO_ACTION, dtype=np.int64),
-        last_state=np.zeros((rows, n_vars)),
-        mode=np.full(rows, mode, dtype=np.int64),
+        trace_slot=np.empty((rows, m), dtype=np.int32),
+        trace_feature=np.empty((rows, config.max_traces), dtype=np.int64),
+        trace_value=np.empty((rows, config.max_traces)),
+        n_traces=np.empty(rows, dtype=np.int64),
+        min_trace=np.empty(rows),
+        tiles=np.empty((rows, n_keepers, n_vars * config.tilings), dtype=np.int64),
+        q=np.empty((rows, n_keepers)),
+        last_action=np.empty(rows, dtype=np.int64),
+        last_state=np.empty((rows, n_vars)),
+        mode=np.empty(rows, dtype=np.int64),
         rng=seed_streams(seed, rows),
-        log_state=np.zeros((rows, log, n_vars)),
-        log_action=np.zeros((rows, log), dtype=np.int64),
-        log_reward=np.zeros((rows, log)),
-        log_next_action=np.zeros((rows, log), dtype=np.int64),
-        log_terminal=np.zeros((rows, log), dtype=np.bool_),
-        log_count=np.zeros(rows, dtype=np.int64),
+        log_state=np.empty((rows, log, n_vars)),
+        log_action=np.empty((rows, log), dtype=np.int64),
+        log_reward=np.empty((rows, log)),
+        log_next_action=np.empty((rows, log), dtype=np.int64),
+        log_terminal=np.empty((rows, log), dtype=np.bool_),
+        log_count=np.empty(rows, dtype=np.int64),
         widths=tile_widths(config, n_keepers, n_takers),
         code_order=code_variable_order(n_keepers, n_takers),
     )
+    restart_learners(mem, config, mode)  # the learners' own state, as every fresh start sets it
+    return mem
 
 
 def weight_snapshot(mem: SarsaMemory, r: int) -> tuple[np.ndarray, np.ndarray]:
@@ -540,11 +542,11 @@ def policy_arrays(mem: SarsaMemory, r: int) -> dict[str, np.ndarray]:
 
 
 def restart_learners(mem: SarsaMemory, config: SarsaConfig, mode: int) -> None:
-    """Every row of ``mem`` as :func:`new_memory` (``config``, ``mode``) followed by
-    :func:`load_policy_arrays` of its own :func:`policy_arrays` would leave it, in place: the weights,
-    collision tables and their counts are kept; traces, open decisions, transition logs and the minimum
-    trace start afresh. (The exploration streams are the caller's to seed.) For learners that go on in
-    fresh arenas without copying their tables out and back."""
+    """Every row of ``mem`` as fresh learners (``config``, ``mode``) into which its own
+    :func:`policy_arrays` were loaded, in place: the weights, collision tables and their counts are kept;
+    traces, open decisions, transition logs and the minimum trace start afresh (:func:`new_memory` sets
+    them here too). The exploration streams are the caller's to seed. For learners that go on in fresh
+    arenas without copying their tables out and back."""
     mem.trace_slot.fill(EMPTY_SLOT)
     mem.trace_feature.fill(0)
     mem.trace_value.fill(0.0)
