@@ -113,6 +113,7 @@ class AgentMemory(NamedTuple):
     rng: np.ndarray  # (B,) uint64 per-agent random stream (`core/rng.py`)
     getopen_point: np.ndarray  # (B, 2) float64 the point the last GetOpen decision moved towards
     getopen_time: np.ndarray  # (B,) int64 the cycle of that decision, -1 none (for notes, never read back)
+    stuck_dashes: np.ndarray  # (B,) int64 backward dashes sent standing still since I last moved (skills.intercept)
 
 
 def new_memory(batch: int, seeds: np.ndarray) -> AgentMemory:
@@ -130,6 +131,7 @@ def new_memory(batch: int, seeds: np.ndarray) -> AgentMemory:
         rng=seeds,
         getopen_point=np.zeros((batch, 2)),
         getopen_time=np.full(batch, -1, dtype=np.int64),
+        stuck_dashes=np.zeros(batch, dtype=np.int64),
     )
 
 
@@ -142,6 +144,7 @@ def forget_episode(mem: AgentMemory, r: int) -> None:
     mem.intercept_time[r] = -1
     mem.has_target[r] = False
     mem.search_time[r] = -1
+    mem.stuck_dashes[r] = 0
 
 
 __all__ = ["AgentMemory", "Belief", "belief_from_truth", "empty_belief", "forget_episode", "new_memory"]

@@ -149,6 +149,16 @@ def dash_power_for(
 
 
 @borrowing
+def believed_dash_power(power: float, kp) -> float:
+    """A dash power clipped to the range the players believe in, [min_power, max_dash_power]: keepaway-0.6
+    reads one minimum for kicks and dashes (``ServerSettings::getMinPower``, -100), so its players believe a
+    negative power dashes backwards. rcssserver clips a dash at min_dash_power, 0 with CURRENT (17.0 on),
+    and such a dash then does nothing; the players keep the C++ belief, as the reference stack's do
+    (docs/design.md "Backward dashes"), and ``skills._unstuck`` ends the deadlock it can lead to."""
+    return min(kp.max_dash_power, max(kp.min_power, power))
+
+
+@borrowing
 def dash_power_along(
     dx: float, dy: float, cs: float, sn: float, vx: float, vy: float, effort: float, decay_sum: float, kp
 ) -> float:
@@ -159,15 +169,15 @@ def dash_power_along(
     speed = min(speed, kp.player_speed_max)
     speed -= vx * cs + vy * sn
     power = speed / (kp.dash_power_rate * effort)
-    return min(kp.max_dash_power, max(kp.min_dash_power, power))
+    return believed_dash_power(power, kp)
 
 
 @borrowing
 def dash_velocity(vx: float, vy: float, cs: float, sn: float, effort: float, power: float, kp) -> tuple:
     """Velocity after a dash of ``power`` along the body (cosine ``cs``, sine ``sn``), before the move:
     effort * power * dash_power_rate capped at player_accel_max, the speed at player_speed_max
-    (`server-physics.md` 3, dash, noise-free)."""
-    power = min(kp.max_dash_power, max(kp.min_dash_power, power))
+    (`server-physics.md` 3, dash, noise-free), the power as the players believe it (``believed_dash_power``)."""
+    power = believed_dash_power(power, kp)
     acc = effort * power * kp.dash_power_rate
     acc = min(acc, kp.player_accel_max) if acc > 0.0 else max(acc, -kp.player_accel_max)
     vx += acc * cs

@@ -110,6 +110,10 @@ class AgentConfig:
     stability_ball_speed: float = 0.6  # agents.md 2.1 step 2
     stability_window: float = 2.0  # agents.md 2.1 step 2 (cycles)
     intercept_stay_radius: float = 0.5  # agents.md 2.1 step 3
+    # Not in the framework (a deviation, docs/design.md): a player that has sent this many backward dashes
+    # while standing still, since it last moved, turns to its interception point instead of the next one.
+    stuck_dash_limit: float = 30.0
+    still_speed: float = 0.01  # standing still: sensed speed below this (m/cycle)
     search_turn: float = 60.0  # agents.md 1 step 2
     search_memory: float = 3.0  # BasicPlayer::searchBall: side kept for 3 cycles
     hc_hold_distance: float = 5.0  # keepaway-task.md 3, P:HC C1
@@ -338,17 +342,6 @@ def go_to_point(bel: Belief, r: int, tx: float, ty: float, kp, cfg) -> tuple:
 
 
 @borrowing
-def backward_move_distance(kp, cfg) -> float:
-    """How far behind it a player moving to a point dashes backwards instead of turning round: the
-    framework's 2.5 m (WorldModel::predictCommandToMoveToPos), or 0 when the server clips a negative dash
-    power to nothing (min_dash_power >= 0, rcssserver 17 on). The C++ players predate that server and
-    send such dashes regardless; a player that sends them to a ball behind it never reaches it, and two
-    takers doing so next to a keeper that holds the ball deadlocked the episode (docs/design.md). 0 is
-    the framework's own setting for when it must not dash backwards (isDeadBallUs)."""
-    return cfg.intercept_back_distance if kp.min_dash_power < 0.0 else 0.0
-
-
-@borrowing
 def _turn_reach(far: float, kp, cfg) -> float:
     """How far off my body line a point ``far`` away may lie before a move towards it turns first: ratio x
     kickable distance, the ratio 0.9 within 10 m, 2 within 20 m, 3 beyond (``intercept_move``)."""
@@ -374,14 +367,14 @@ def _intercept_turns(
     rolled-out position, or behind me beyond the back distance. When more than one turn would be needed
     (the framework simulates up to 5, its velocity decaying), the point is within the back distance and
     is to be reached in fewer than 4 cycles, the player turns its back to it instead if that puts it within
-    0.9 x kickable distance of the body line (the next dash then goes backwards). The back distance is
-    ``backward_move_distance``: 0 where the server cannot dash backwards."""
+    0.9 x kickable distance of the body line (the next dash then goes backwards, as the players believe
+    it can: ``geometry.believed_dash_power``)."""
     qx, qy = px + vx * roll, py + vy * roll
     to_point = direction(tx - qx, ty - qy)
     angle = normalize_angle(to_point - body)
     ahead = distance(qx, qy, tx, ty)
     reach = _turn_reach(far, kp, cfg)
-    back_distance = backward_move_distance(kp, cfg)
+    back_distance = cfg.intercept_back_distance
     far_behind = ahead > back_distance
     if not (ahead * abs(math.sin(math.radians(angle))) > reach or (far_behind and abs(angle) > 90.0)):
         return False, angle
@@ -418,7 +411,7 @@ def _clearly_dash(qx: float, qy: float, cs: float, sn: float, tx: float, ty: flo
         return False
     if not abs(dx * sn - dy * cs) < _turn_reach(far, kp, cfg) - DECIDE_SLACK:
         return False
-    return dx * cs + dy * sn > DECIDE_SLACK or ahead < backward_move_distance(kp, cfg) - DECIDE_SLACK
+    return dx * cs + dy * sn > DECIDE_SLACK or ahead < cfg.intercept_back_distance - DECIDE_SLACK
 
 
 @borrowing
@@ -995,7 +988,7 @@ def intercept(bel: Belief, r: int, mem: AgentMemory, kp, cfg, known_first: int =
     if 0 <= i < cfg.close_max_cycle:
         ok, code, a1 = close_intercept(bel, r, kp, cfg)
         if ok:
-            return code, a1, 0.0
+            return _unstuck(bel, r, mem, code, a1, x, y, kp, cfg)
     px, py = bel.pos[r, me, 0], bel.pos[r, me, 1]
     roll = cfg.intercept_roll_cycles if i < 0 else min(float(i), cfg.intercept_roll_cycles)
     fx, fy = rolled_out(px, py, bel.vel[r, me, 0], bel.vel[r, me, 1], roll, kp.player_decay)
@@ -1006,4 +999,22 @@ def intercept(bel: Belief, r: int, mem: AgentMemory, kp, cfg, known_first: int =
         bel.pos[r, me, 0], bel.pos[r, me, 1], bel.vel[r, me, 0], bel.vel[r, me, 1], bel.body[r, me],
         bel.effort[r], x, y, max(i, 1), kp, cfg,
     )
+    return _unstuck(bel, r, mem, code, a1, x, y, kp, cfg)
+
+
+@borrowing
+def _unstuck(bel: Belief, r: int, mem: AgentMemory, code: int, a1: float, x: float, y: float, kp, cfg) -> tuple:
+    """The intercept's command (code, a1), unless it is one backward dash too many: a player believes,
+    as the C++ players do, that it can dash backwards, and rcssserver 17 on (min_dash_power 0) ignores
+    such dashes; two takers doing so to a ball held behind them never get it (docs/design.md). So after
+    ``stuck_dash_limit`` backward dashes sent standing still since it last moved, a player turns to the
+    interception point (x, y) instead. Returns (code, arg1, arg2)."""
+    me = bel.me[r]
+    if math.hypot(bel.vel[r, me, 0], bel.vel[r, me, 1]) >= cfg.still_speed:
+        mem.stuck_dashes[r] = 0
+    elif code == CMD_DASH and a1 < 0.0:
+        mem.stuck_dashes[r] += 1
+        if mem.stuck_dashes[r] > cfg.stuck_dash_limit:
+            mem.stuck_dashes[r] = 0
+            return turn_to_point(bel, r, x, y, 1.0, kp)
     return code, a1, 0.0

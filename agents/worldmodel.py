@@ -5,9 +5,13 @@ deciding player (one row of a batch), an estimate of every object and writes it 
 :class:`agents.belief.Belief`:
 
 * **prediction** (every cycle): my own motion from the commands I sent, with the server's model (dash
-  acceleration with effort along the body, turn with inertia, neck, decay; spec 2-3) and no noise; my kick
-  changes the ball's velocity; the ball and the other players roll out their velocities with decay;
+  acceleration with effort along the body, turn with inertia, neck, decay; spec 2-3) and no noise, but
+  with the C++ players' belief that a negative dash power moves me backwards
+  (``geometry.believed_dash_power``); my kick changes the ball's velocity; the ball and the other players
+  roll out their velocities with decay;
 * **sense_body**: my neck (head_angle), velocity (speed) and effort, both angles truncated to integers;
+  a collision guessed from the speed, as the C++ guesses it; and my position as the C++ sets it: moved by
+  the sensed speed from where I was a cycle ago, unless I guessed a collision (then as predicted);
 * **see**: self-localisation from the flags, a weighted 2-D rigid fit (Procrustes) of the flags' relative
   positions onto their global positions, which gives my head direction and position without a prior; the
   players, then the ball, from their polar observations, velocities from dist_chg/dir_chg (spec 4
@@ -17,16 +21,16 @@ deciding player (one row of a batch), an estimate of every object and writes it 
 The ball follows the rules of the keepaway-0.6 C++ players' world model (tjpalmer/keepaway
 `player/WorldModelUpdate.cc`, docs/design.md "The ball in the players' world model"), which keepers and
 takers share: a ball that an opponent can kick is believed to stand still (in the prediction and after a
-see), a seen velocity is averaged with the predicted one when they agree, and a velocity from position
-differences is refused where a player could have kicked the ball. The players' own settings
+see), a seen velocity is averaged with the predicted one when they agree, a velocity from position
+differences is refused where a player could have kicked the ball or I collided, and a guessed collision
+puts a ball nearer to me than to anyone else out of me. The players' own settings
 (``AgentConfig``: which players are usable) enter these rules as in the C++
 (``PlayerSettings::getPlayerConfThr``).
 
 What a teammate says is taken in by `agents/say.py` (on these arrays, after the see). Not modelled:
-collisions, the line observations (the flags suffice), fusing successive noisy sightings of
-a player (each see replaces the estimate), commands that arrive late and act a cycle later, the C++
-model's guesses about unseen players (moving the fastest opponent towards the ball) and its own position
-from the sense_body speed.
+the line observations (the flags suffice), fusing successive noisy sightings of a player (each see
+replaces the estimate), commands that arrive late and act a cycle later, and the C++ model's guesses
+about unseen players (moving the fastest opponent towards the ball).
 
 Hot paths are ``@njit`` kernels over arrays with a row per player; a row kernel takes the row index ``r``
 so the batched mode can compose them in one loop. :class:`WorldModel` is the per-process Python wrapper
@@ -44,10 +48,10 @@ import numpy as np
 from core.jit import borrowing, njit
 
 from agents.belief import Belief, empty_belief
-from agents.geometry import kick_rate, normalize_angle, turn_effect
+from agents.geometry import believed_dash_power, kick_rate, normalize_angle, turn_effect
 from agents.skills import AgentConfig, kickable_distance, opponent_range
 from protocol.params import ServerParams
-from core.objects import BALL, CMD_DASH, CMD_KICK, CMD_NONE, CMD_TURN
+from core.objects import BALL, CMD_DASH, CMD_KICK, CMD_NONE, CMD_TURN, COLLISION_VEL_FACTOR
 
 # Confidence falls to 0 after this many unseen cycles (spec `keepaway-agents.md` 1).
 CONF_HORIZON_CYCLES = 100.0
@@ -55,6 +59,20 @@ CONF_HORIZON_CYCLES = 100.0
 DIR_STEP_DEG = 1.0
 # The outer quantisation of every seen distance, Q(exp(Q(ln d, q)), 0.1) (spec 4 "Distance").
 DIST_PRINT_STEP = 0.1
+# WorldModel::calculateStateBall (WorldModelUpdate.cc): a velocity from two ball positions seen 2 cycles
+# apart is refused if I collided within this many cycles (1 cycle apart: if the last sense showed one).
+POSITION_DIFF_COLLISION_CYCLES = 3
+# WorldModel::updateAgentAndBallAfterSense: a collision is guessed when my sensed speed is below
+# SPEED_EPSILON (Geometry.h EPSILON) while I was predicted to move faster than COLLISION_MOVING_SPEED with
+# the ball within COLLISION_BALL_NEAR (m) ...
+SPEED_EPSILON = 0.0001
+COLLISION_MOVING_SPEED = 0.01
+COLLISION_BALL_NEAR = 0.8
+COLLISION_BALL_MARGIN = 0.5  # or within kickable + this (m) ...
+COLLISION_SMALL_COMPONENT = 0.08  # ... each velocity component flipped or below this ...
+COLLISION_SPEED_DROP = 0.25  # ... and the speed below this fraction of the predicted one
+# WorldModel::updateBallForCollision: the ball is put this far from my centre (m), towards where it was.
+COLLISION_BALL_DISTANCE = 0.2
 # seen/obs time of an object never seen since the last forget.
 NEVER = -(1 << 40)
 # Association tiers (spec: nearest compatible predicted player): a player within its reach beats a never
@@ -97,6 +115,8 @@ class ModelState(NamedTuple):
     cmd_main: np.ndarray  # (B,) int8 my main command of this cycle (CMD_*), applied at the next step
     cmd_args: np.ndarray  # (B, 3) its arg1, arg2 and my turn_neck moment
     kicked: np.ndarray  # (B,) bool my last predicted step had a kick command (C++ m_bPerformedKick)
+    collided: np.ndarray  # (B,) bool my last sense_body suggested a collision (C++ m_bWasCollision)
+    collision_time: np.ndarray  # (B,) int64 cycle of that collision (NEVER if none)
     loc_shift: np.ndarray  # (B, 2) my seen minus predicted position at the last see (C++ PositionDifference)
 
 
@@ -141,6 +161,8 @@ def new_model_state(batch: int, n_keepers: int, n_takers: int, me: np.ndarray | 
         cmd_main=np.full(batch, CMD_NONE, dtype=np.int8),
         cmd_args=np.zeros((batch, 3)),
         kicked=np.zeros(batch, dtype=np.bool_),
+        collided=np.zeros(batch, dtype=np.bool_),
+        collision_time=np.full(batch, NEVER, dtype=np.int64),
         loc_shift=np.zeros((batch, 2)),
     )
 
@@ -252,9 +274,10 @@ def _kick_acceleration(r, s, power, direction, kp):
 
 @borrowing
 def _dash_acceleration(r, s, power, kp):
-    """My dash acceleration along the body, limited by the stamina left (spec 3 dash). The agents
-    always dash straight ahead, so CURRENT's dash direction is not modelled."""
-    power = _clamp(power, kp.min_dash_power, kp.max_dash_power)
+    """My dash acceleration along the body, limited by the stamina left (spec 3 dash), the power as I
+    believe it acts (``believed_dash_power``). The agents always dash straight ahead, so CURRENT's dash
+    direction is not modelled."""
+    power = believed_dash_power(power, kp)
     cost = power if power >= 0.0 else -2.0 * power
     cost = min(cost, max(0.0, s.stamina[r] + kp.extra_stamina))
     s.stamina[r] = max(0.0, s.stamina[r] - cost)
@@ -347,22 +370,79 @@ def advance_row(r: int, s: ModelState, cycle: int, n_keepers: int, kp, cfg) -> N
 # sense_body (spec 4 "sense_body")
 
 
+@njit(cache=True, inline="always")
+def _sign(x):
+    """C++ ``sign`` (Geometry.cc): 1 for positive, else -1 (zero counts as negative)."""
+    return 1.0 if x > 0.0 else -1.0
+
+
 @borrowing
-def _velocity_from_speed(r, s):
+def _sensed_velocity(r, s):
     """My velocity from the last sense_body speed, relative to my current head estimate."""
     me = s.me[r]
     a = math.radians(s.body[r, me] + s.neck[r, me] + _truncated_centre(s.speed[r, 1]))
-    s.vel[r, me, 0] = s.speed[r, 0] * math.cos(a)
-    s.vel[r, me, 1] = s.speed[r, 0] * math.sin(a)
+    return s.speed[r, 0] * math.cos(a), s.speed[r, 0] * math.sin(a)
+
+
+@borrowing
+def _velocity_from_speed(r, s):
+    """My velocity from the last sense_body speed."""
+    me = s.me[r]
+    s.vel[r, me, 0], s.vel[r, me, 1] = _sensed_velocity(r, s)
+
+
+@borrowing
+def _guess_collision(r, s, x, y, vx, vy, nx, ny, kp, cfg):
+    """Whether I collided in the last step, guessed from the sensed velocity (nx, ny) as the C++ guesses
+    it (``WorldModel::updateAgentAndBallAfterSense``); if so and the ball is nearer to me than any other
+    player, the ball is moved out of me (``updateBallForCollision``). (x, y), (vx, vy) is my state the C++
+    compares with: predicted after a dash or turn, else (a kick or no command) as it was before the step.
+    A collision is guessed when the sensed speed is zero while I was predicted to move with the ball
+    within 0.8 m, when the ball overlaps me with zero speed, or when near the ball the speed dropped below
+    a quarter of the predicted one with each component flipped or small. A ball not seen since the last
+    forget is nowhere (the C++ keeps unknown positions far off the pitch)."""
+    sensed = math.hypot(nx, ny)
+    predicted = math.hypot(vx, vy)
+    d_ball = np.inf
+    if s.seen[r, BALL] != NEVER:
+        d_ball = math.hypot(s.pos[r, BALL, 0] - x, s.pos[r, BALL, 1] - y)
+    stopped = sensed < SPEED_EPSILON
+    reversed_x = _sign(vx) != _sign(nx) or abs(vx) < COLLISION_SMALL_COMPONENT
+    reversed_y = _sign(vy) != _sign(ny) or abs(vy) < COLLISION_SMALL_COMPONENT
+    collided = ((stopped and predicted > COLLISION_MOVING_SPEED and d_ball < COLLISION_BALL_NEAR)
+                or (stopped and d_ball < kp.player_size + kp.ball_size)
+                or (not stopped and d_ball < kickable_distance(kp) + COLLISION_BALL_MARGIN
+                    and reversed_x and reversed_y and sensed < COLLISION_SPEED_DROP * predicted))
+    if not collided:
+        return False
+    s.collision_time[r] = s.time[r]
+    _, d_player = _closest_player(r, s, x, y, 1, s.pos.shape[1], s.me[r], cfg)
+    if d_ball < d_player:
+        a = math.atan2(s.pos[r, BALL, 1] - y, s.pos[r, BALL, 0] - x)
+        s.pos[r, BALL, 0] = x + COLLISION_BALL_DISTANCE * math.cos(a)
+        s.pos[r, BALL, 1] = y + COLLISION_BALL_DISTANCE * math.sin(a)
+        s.vel[r, BALL, 0] *= COLLISION_VEL_FACTOR
+        s.vel[r, BALL, 1] *= COLLISION_VEL_FACTOR
+    return True
 
 
 @borrowing
 def sense_body_row(r: int, s: ModelState, cycle: int, speed_amount: float, speed_dir: float, head_angle: int,
                    stamina: float, effort: float, n_keepers: int, kp, cfg) -> None:
     """Take a sense_body: advance to its cycle, correct my neck (kept if the prediction truncates to
-    the reported head_angle), velocity, stamina and effort."""
-    advance_row(r, s, cycle, n_keepers, kp, cfg)
+    the reported head_angle), stamina and effort, guess whether I collided (:func:`_guess_collision`), and
+    take my velocity from the speed. My position, as the C++ sets it: without a collision, where the
+    sensed speed took me from where I was a cycle ago; after one, where my commands were predicted to take
+    me (``WorldModel::updateAgentAndBallAfterSense``)."""
     me = s.me[r]
+    x0, y0, t0 = s.pos[r, me, 0], s.pos[r, me, 1], s.time[r]
+    moved = s.cmd_main[r] == CMD_DASH or s.cmd_main[r] == CMD_TURN
+    x, y = x0, y0
+    vx, vy = s.vel[r, me, 0], s.vel[r, me, 1]
+    advance_row(r, s, cycle, n_keepers, kp, cfg)
+    if moved:
+        x, y = s.pos[r, me, 0], s.pos[r, me, 1]
+        vx, vy = s.vel[r, me, 0], s.vel[r, me, 1]
     if int(s.neck[r, me]) != head_angle:
         s.neck[r, me] = _truncated_centre(float(head_angle))
     s.stamina[r] = stamina
@@ -370,7 +450,12 @@ def sense_body_row(r: int, s: ModelState, cycle: int, speed_amount: float, speed
     s.speed[r, 0] = speed_amount
     s.speed[r, 1] = speed_dir
     s.speed_time[r] = cycle
-    _velocity_from_speed(r, s)
+    nx, ny = _sensed_velocity(r, s)
+    s.collided[r] = t0 >= 0 and _guess_collision(r, s, x, y, vx, vy, nx, ny, kp, cfg)
+    s.vel[r, me, 0], s.vel[r, me, 1] = nx, ny
+    if not s.collided[r] and cycle - t0 == 1:
+        s.pos[r, me, 0] = x0 + nx / kp.player_decay
+        s.pos[r, me, 1] = y0 + ny / kp.player_decay
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -481,10 +566,13 @@ def _mark_seen(r, s, obj, px, py):
 def _ball_velocity_from_positions(r, s, px, py, vx, vy, kp, cfg):
     """The ball's velocity from its last seen position (C++ ``calculateStateBall`` without the change
     pair): seen 1 cycle ago, v = (p1 - p0) d; 2 cycles ago, v0 = (p1 - p0) d/(1 + d) and v = v0 d unless
-    a player (me included) was within kickable distance of the ball's position a cycle ago or I kicked;
-    otherwise the predicted (vx, vy) stays. The displacement discounts my own localisation correction
-    (``loc_shift``): both positions then carry the same error of my position.
+    a player (me included) was within kickable distance of the ball's position a cycle ago, or I kicked,
+    or collided within 3 cycles; otherwise, or after a collision at the last sense, the predicted
+    (vx, vy) stays. The displacement discounts my own localisation correction (``loc_shift``): both
+    positions then carry the same error of my position.
     """
+    if s.collided[r]:
+        return vx, vy
     d = kp.ball_decay
     gap = s.time[r] - s.obs_time[r, BALL]
     dx = px - s.obs_pos[r, BALL, 0] - s.loc_shift[r, 0]
@@ -495,7 +583,8 @@ def _ball_velocity_from_positions(r, s, px, py, vx, vy, kp, cfg):
         tx = dx / (1.0 + d) * d
         ty = dy / (1.0 + d) * d
         _, near = _closest_player(r, s, px - tx, py - ty, 1, s.pos.shape[1], -1, cfg)
-        if near > kickable_distance(kp) and not s.kicked[r]:
+        if (near > kickable_distance(kp) and not s.kicked[r]
+                and s.time[r] - s.collision_time[r] > POSITION_DIFF_COLLISION_CYCLES):
             return tx * d, ty * d
     return vx, vy
 

@@ -27,7 +27,7 @@ from core.jit import njit
 
 from protocol.params import NOISE_POLAR
 from core.rng import randint, uniform
-from core.objects import BALL, CMD_DASH, CMD_KICK, CMD_TURN
+from core.objects import BALL, CMD_DASH, CMD_KICK, CMD_TURN, COLLISION_VEL_FACTOR
 from server.world import (
     COLLIDED_BALL,
     COLLIDED_PLAYER,
@@ -44,7 +44,6 @@ EPS = 1.0e-10  # separation margin of a collision and the floor of PVector::norm
 COLLISION_PASSES = 10  # Stadium::collisions: at most 10 passes
 COLLISION_ENLARGE = 1.0001  # calcCollisionPos: +0.01 % per retry while rounding leaves an overlap
 COLLISION_ENLARGE_TRIES = 10
-COLLISION_VEL_FACTOR = -0.1  # MPObject::updateCollisionVel
 
 # Columns of the collision scratch array: accumulated target position, number of targets, collided.
 _SUM_X, _SUM_Y, _COUNT, _COLLIDED = range(4)

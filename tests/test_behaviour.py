@@ -276,9 +276,9 @@ def ours(policy: str):
 @pytest.mark.parametrize("policy", [
     "hold",
     pytest.param("random", marks=pytest.mark.xfail(strict=True, reason=(
-        "known gap: random Pass holds 4.93 +- 0.05 s, 5.4 % below the reference's 5.21-5.34 s: our keepers "
-        "mis-aim the first kick after a ball collision, which the C++ players' collision guess corrects "
-        "(docs/design.md, 'Random Pass: the gap located')"))),
+        "known gap: random Pass holds 4.93 +- 0.05 s, 5.4 % below the reference's 5.21-5.34 s; the keepers' "
+        "and the takers' belief in backward dashes both shorten it (docs/design.md, 'The C++ world model "
+        "taken over')"))),
     "handcoded",
 ])
 def test_hold_time_is_within_5_percent_of_the_reference_range(policy):

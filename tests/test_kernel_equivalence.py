@@ -76,13 +76,13 @@ def _ref_dash_power_for(dx, dy, body, vx, vy, effort, cycles, kp):
     speed = min(speed, kp.player_speed_max)
     speed -= vx * cs + vy * sn
     power = speed / (kp.dash_power_rate * effort)
-    return min(kp.max_dash_power, max(kp.min_dash_power, power))
+    return min(kp.max_dash_power, max(kp.min_power, power))  # the C++ players' belief: min_power
 
 
 @njit
 def _ref_player_step(px, py, vx, vy, body, effort, cmd, a1, kp):
     if cmd == CMD_DASH:
-        power = min(kp.max_dash_power, max(kp.min_dash_power, a1))
+        power = min(kp.max_dash_power, max(kp.min_power, a1))
         acc = effort * power * kp.dash_power_rate
         acc = min(acc, kp.player_accel_max) if acc > 0.0 else max(acc, -kp.player_accel_max)
         rad = math.radians(body)
@@ -113,7 +113,7 @@ def _ref_intercept_move(px, py, vx, vy, body, effort, tx, ty, cycles, kp, cfg):
     else:
         ratio = cfg.turn_ratio_near
     off_line = ahead * abs(math.sin(math.radians(angle)))
-    back_distance = cfg.intercept_back_distance if kp.min_dash_power < 0.0 else 0.0
+    back_distance = cfg.intercept_back_distance
     behind = ahead > back_distance and abs(angle) > 90.0
     kickable = kp.player_size + kp.kickable_margin + kp.ball_size
     if off_line > ratio * kickable or behind:

@@ -36,6 +36,7 @@ from protocol.params import parameter_set
 from core.rng import seed_streams
 from core.objects import CMD_DASH, CMD_KICK, CMD_TURN
 from beliefs import belief
+from runner.embedded import ArenaSpec, EmbeddedGame
 
 KP = parameter_set("classic").kernel()
 CFG = AgentConfig().kernel()
@@ -222,14 +223,47 @@ def test_intercept_move_turns_its_back_to_a_close_point():
     assert intercept_move(0.0, 0.0, 0.5, 0.0, 0.0, 1.0, 0.0, 2.0, 4.0, KP, CFG) == (CMD_TURN, 180.0)
 
 
-def test_intercept_move_turns_round_where_the_server_cannot_dash_backwards():
-    # a still player facing 0, the point 1.5 m straight behind it, 2 cycles away. CLASSIC (min_dash_power
-    # -100): within the 2.5 m back distance and on the body line -> dash backwards, -1.5 / (1 + 0.4) =
-    # -1.0714 m/cycle over 0.006 -> -178.6, cut to -100. CURRENT (min 0: that dash would do nothing): turn
-    # round (moment 180 for a still player)
+def test_intercept_move_dashes_backwards_as_the_cpp_players_believe_they_can():
+    # a still player facing 0, the point 1.5 m straight behind it, 2 cycles away: within the 2.5 m back
+    # distance and on the body line -> dash backwards, -1.5 / (1 + 0.4) = -1.0714 m/cycle over 0.006 ->
+    # -178.6, cut to min_power -100. With CURRENT too (min_dash_power 0, so the server ignores it): the
+    # players believe in min_power, as keepaway-0.6's do
     assert intercept_move(0.0, 0.0, 0.0, 0.0, 0.0, 1.0, -1.5, 0.0, 2.0, KP, CFG) == (CMD_DASH, -100.0)
     current = parameter_set("current").kernel()
-    assert intercept_move(0.0, 0.0, 0.0, 0.0, 0.0, 1.0, -1.5, 0.0, 2.0, current, CFG) == (CMD_TURN, 180.0)
+    assert intercept_move(0.0, 0.0, 0.0, 0.0, 0.0, 1.0, -1.5, 0.0, 2.0, current, CFG) == (CMD_DASH, -100.0)
+
+
+def test_a_player_stuck_dashing_backwards_turns_round():
+    # CURRENT: a still keeper facing 0 with a still ball 1.5 m straight behind it dashes backwards (above),
+    # which the server ignores, so nothing changes: after stuck_dash_limit (30) such dashes standing still
+    # the next intercept turns to the ball instead (moment 180), and the count starts again
+    current = parameter_set("current").kernel()
+    pos = np.array([[-1.5, 0.0], [0.0, 0.0], [9.0, 0.0], [0.0, 9.0]] + FAR_TAKERS, dtype=float)
+    mem = new_memory(1, seed_streams(0, 1))
+    commands = []
+    for t in range(32):
+        bel = belief_from_truth(pos, np.zeros_like(pos), np.zeros(6), np.zeros(6), 1, t, 3, 2)
+        commands.append(intercept(bel, 0, mem, current, CFG))
+    assert commands[:30] == [(CMD_DASH, -100.0, 0.0)] * 30
+    assert commands[30] == (CMD_TURN, 180.0, 0.0)
+    assert commands[31] == (CMD_DASH, -100.0, 0.0) and mem.stuck_dashes[0] == 1
+    # moving resets the count
+    vel = np.zeros_like(pos)
+    vel[1] = (0.05, 0.0)
+    intercept(belief_from_truth(pos, vel, np.zeros(6), np.zeros(6), 1, 32, 3, 2), 0, mem, current, CFG)
+    assert mem.stuck_dashes[0] == 0
+
+
+def test_two_takers_dashing_backwards_at_a_held_ball_do_not_deadlock():
+    # Always hold, CURRENT, arena seed 85: in episode 9 both takers stood 1.4-2.0 m from a ball the keeper
+    # held behind them, sending dash -100 every cycle, for ever, until _unstuck (docs/design.md)
+    game = EmbeddedGame(ArenaSpec(parameter_set("current"), seed=85, pass_policy="hold"))
+    ends = []
+    while len(ends) < 10 and game.arena.cycle < 2000:
+        record = game.cycle()
+        if record is not None:
+            ends.append(record.end_cycle)
+    assert len(ends) == 10
 
 
 def _run_intercept(ball_pos, ball_vel, me_pos, me_body, cycles):

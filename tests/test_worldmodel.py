@@ -194,13 +194,42 @@ def test_dash_from_rest_moves_0_6_and_leaves_0_24():
 
 
 def test_dash_uses_effort():
-    # effort 0.8: a = 0.8 * 50 * 0.006 = 0.24
+    # effort 0.8: a = 0.8 * 50 * 0.006 = 0.24, predicted to (0.24, 0). The sensed speed 0 with the still
+    # ball 0.26 m from there reads as a collision, so the predicted position stands
     wm = model_for(1, HAND_FLAGS)
     wm.on_sense_body(sense(3, effort=0.8))
-    wm.on_see(hand_see(3))
+    wm.on_see(hand_see(3, ball=[0.5, 0, 0.0, 0.0]))
     wm.on_own_commands(CMD_DASH, 50.0, 0.0)
-    wm.on_sense_body(sense(4, speed=(0.1, 0), effort=0.8))
+    wm.on_sense_body(sense(4, effort=0.8))
+    assert wm.state.collided[0]
     assert wm.belief().pos[0, 1] == pytest.approx([0.24, 0.0])
+
+
+def test_position_follows_the_sensed_speed():
+    # I dash 100 from rest (predicted to (0.6, 0)) but sense_body reports 0.1 along x, no ball near: as the
+    # C++ (updateAgentAndBallAfterSense) I moved by the speed before decay, 0.1 / 0.4 = 0.25
+    wm = model_for(1, HAND_FLAGS)
+    wm.on_sense_body(sense(3))
+    wm.on_see(hand_see(3))
+    wm.on_own_commands(CMD_DASH, 100.0, 0.0)
+    wm.on_sense_body(sense(4, speed=(0.1, 0)))
+    b = wm.belief()
+    assert not wm.state.collided[0]
+    assert b.pos[0, 1] == pytest.approx([0.25, 0.0])
+    assert b.vel[0, 1] == pytest.approx([0.1, 0.0])
+
+
+def test_a_backward_dash_is_believed_to_move_me_back():
+    # CURRENT (min_dash_power 0): the server ignores dash -100, but the players believe in it as the C++
+    # ones do (min_power -100): from rest, a = -100 * 0.006 = -0.6, predicted to (-0.6, 0). With the ball
+    # 0.5 m behind and a sensed speed 0, the C++ guesses a collision and keeps that position
+    wm = WorldModel(parameter_set("current"), "l", 1, K, T, HAND_FLAGS)
+    wm.on_sense_body(sense(3))
+    wm.on_see(hand_see(3, ball=[0.5, 180, 0.0, 0.0]))
+    wm.on_own_commands(CMD_DASH, -100.0, 0.0)
+    wm.on_sense_body(sense(4))
+    assert wm.state.collided[0]
+    assert wm.belief().pos[0, 1] == pytest.approx([-0.6, 0.0])
 
 
 def test_turn_with_inertia_and_turn_neck():
@@ -213,8 +242,9 @@ def test_turn_with_inertia_and_turn_neck():
     b = wm.belief()
     assert b.body[0, 1] == pytest.approx(45.0)
     assert b.neck[0, 1] == pytest.approx(30.0)
-    # rolled out 0.2 along x, then decayed
-    assert b.pos[0, 1] == pytest.approx([0.2, 0.0])
+    # moved by the sensed speed before decay, 0.08 / 0.4 = 0.2, towards head 75 + the truncated -75's
+    # centre -75.5 = -0.5 deg: (0.2 cos 0.5 deg, -0.2 sin 0.5 deg)
+    assert b.pos[0, 1] == pytest.approx([0.199992385, -0.001745307])
 
 
 def test_own_kick_accelerates_the_predicted_ball():
@@ -436,6 +466,50 @@ def test_predicted_ball_stops_when_it_rolls_into_an_opponents_reach(me, other):
     assert b.pos[0, 0] == pytest.approx([5.97, 0.0])
     opponent = other[0] != ("l" if me <= K else "r")
     assert b.vel[0, 0] == pytest.approx([0.0, 0.0] if opponent else [0.4418, 0.0])
+
+
+def test_collision_guessed_from_a_zero_speed_moves_the_ball_out_of_me():
+    # I dash 100 from rest (predicted to (0.6, 0), v 0.24) towards a ball at 0.5 m rolling at -0.1. The
+    # predicted ball is at 0.4 (v -0.094), 0.2 m from me; sense_body reports speed 0: a collision
+    # (zero speed, predicted > 0.01, ball within 0.8 m). No player is nearer, so the ball goes 0.2 m
+    # from me towards where it was, (0.4, 0), its velocity x -0.1 = 0.0094; I stay where the dash was
+    # predicted to take me (WorldModel::updateAgentAndBallAfterSense, updateBallForCollision).
+    wm = model_for(1, HAND_FLAGS)
+    wm.on_sense_body(sense(3))
+    wm.on_see(hand_see(3, ball=[0.5, 0, -0.1, 0.0]))
+    wm.on_own_commands(CMD_DASH, 100.0, 0.0)
+    wm.on_sense_body(sense(4))
+    b = wm.belief()
+    assert b.pos[0, 0] == pytest.approx([0.4, 0.0])
+    assert b.vel[0, 0] == pytest.approx([0.0094, 0.0])
+    assert b.pos[0, 1] == pytest.approx([0.6, 0.0])
+    assert wm.state.collided[0] and wm.state.collision_time[0] == 4
+
+
+def test_no_collision_when_the_sensed_speed_matches_the_prediction():
+    # the same with speed 0.24 reported: the predicted ball stays at 0.4 with v -0.094
+    wm = model_for(1, HAND_FLAGS)
+    wm.on_sense_body(sense(3))
+    wm.on_see(hand_see(3, ball=[0.5, 0, -0.1, 0.0]))
+    wm.on_own_commands(CMD_DASH, 100.0, 0.0)
+    wm.on_sense_body(sense(4, speed=(0.24, 0)))
+    b = wm.belief()
+    assert b.vel[0, 0] == pytest.approx([-0.094, 0.0])
+    assert not wm.state.collided[0]
+
+
+def test_collision_from_a_sharp_speed_drop_near_the_ball():
+    # moving at 0.5 along x (sense 3), the ball 1.5 m ahead moving with me (change pair -0.5: still), I
+    # dash 100: v = 0.5 + 0.6 = 1.1 (below player_speed_max 1.2), at (1.1, 0) with v 0.44 after decay;
+    # the ball, 0.4 m away, is within 1.085 + 0.5. Sensed speed 0.05 along -x: x flipped, y below 0.08,
+    # and 0.05 < 0.25 * 0.44 -> collision; the ball goes 0.2 m from me, to (1.3, 0)
+    wm = model_for(1, HAND_FLAGS)
+    wm.on_sense_body(sense(3, speed=(0.5, 0)))
+    wm.on_see(hand_see(3, ball=[1.5, 0, -0.5, 0.0]))
+    wm.on_own_commands(CMD_DASH, 100.0, 0.0)
+    wm.on_sense_body(sense(4, speed=(0.05, 180)))
+    assert wm.state.collided[0]
+    assert wm.belief().pos[0, 0] == pytest.approx([1.3, 0.0])
 
 
 def test_prediction_between_sees_follows_ball_decay():
