@@ -188,7 +188,10 @@ def main() -> None:
     ours = {}
     for policy in args.policies:
         start = time.perf_counter()
-        ours[policy] = measure_policy(params, policy, args.episodes, args.seed, args.batch)
+        try:
+            ours[policy] = measure_policy(params, policy, args.episodes, args.seed, args.batch)
+        except RuntimeError as exc:  # a stuck episode (trainer.behaviour.record_batched)
+            parser.exit(1, f"side_by_side.py: {policy}: {exc}\n")
         print(f"{policy}: {args.episodes} episodes in {time.perf_counter() - start:.0f} s", file=sys.stderr)
     source = "played live" if args.reference else "stored campaigns"
     print(f"# Side by side: our players ({args.episodes} episodes per policy, seed {args.seed}, batch "

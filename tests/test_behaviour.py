@@ -209,6 +209,14 @@ def test_recording_starts_at_episode_starts():
     assert table.episode.tolist() == [2, 2] and episodes[0].cycles == table.hold_cycles[0]
 
 
+def test_recording_stops_at_an_episode_that_does_not_end():
+    # hand-coded Pass holds the ball longer than 40 cycles in some of the first episodes of 4 arenas;
+    # with a 40-cycle limit the recorder names the first such arena instead of recording on
+    arenas = BatchedArenas(CURRENT, 4, 5, threads=1)
+    with pytest.raises(RuntimeError, match=r"arena \d: an episode has lasted 40 cycles without ending"):
+        record_batched(arenas, 8, max_episode_cycles=40)
+
+
 # --------------------------------------------------------------------------------------------------
 # game logs: the reference stack's and ours, cut into the same episodes
 

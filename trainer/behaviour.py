@@ -245,9 +245,16 @@ def behaviour_statistics(episodes: Sequence[Episode], n_keepers: int, seconds_pe
     )
 
 
-def record_batched(arenas: BatchedArenas, total_episodes: int) -> tuple[EpisodeTable, list[Episode]]:
+# An episode this long (10 minutes of play at 100 ms a cycle) is stuck: issue 14's limit for any episode.
+MAX_EPISODE_CYCLES = 6000
+
+
+def record_batched(arenas: BatchedArenas, total_episodes: int,
+                   max_episode_cycles: int = MAX_EPISODE_CYCLES) -> tuple[EpisodeTable, list[Episode]]:
     """Play ``total_episodes`` more episodes of ``arenas`` (quotas as :meth:`BatchedArenas.run`) one
     cycle per chunk, and return them as ``run`` would, with each one's :class:`Episode` (same order).
+    RuntimeError (one line) as soon as an episode has lasted ``max_episode_cycles`` cycles: its players
+    are stuck, and every further cycle would only add snapshots until memory runs out.
 
     After every chunk each arena that played has advanced exactly one cycle, so snapshot k of arena b
     is its state at cycle time0[b] + k. A successful kick is the one the server counts (its kick counter
@@ -266,9 +273,16 @@ def record_batched(arenas: BatchedArenas, total_episodes: int) -> tuple[EpisodeT
 
     snapshot()
     parts = []
+    before = time0.copy()
     for part in arenas.chunks(total_episodes=total_episodes, cycles_per_chunk=1):
         parts.append(part)
         snapshot()
+        stuck = (w.time != before) & (w.time - arenas.referee.start_cycle >= max_episode_cycles)
+        if stuck.any():
+            b = int(np.flatnonzero(stuck)[0])
+            raise RuntimeError(f"arena {b}: an episode has lasted {max_episode_cycles} cycles without ending; "
+                               "its players are stuck")
+        before[:] = w.time
     table = EpisodeTable.concatenate(parts)
     pos, ball_vel, kick_count = (np.stack(arrays) for arrays in zip(*snapshots))
     episodes = []
