@@ -245,7 +245,7 @@ class Server:
             for ident, conn in list(self.conns.items()):
                 due = self.next_see.setdefault(ident, now)  # a new player's (or a reset's) first see: now
                 if now >= due:
-                    self._send(conn, self.arena.see_message(conn.slot))
+                    self._send_raw(self.players, conn.identity, self.arena.see_frame(conn.slot))
                     self.next_see[ident] = due + conn.slot.see_period_ms(self.config.params.send_step_ms) / 1000.0
             # the end-of-cycle marker: once no see of this player falls before the next step
             self._send_thinks(to_think, next_step)
@@ -405,7 +405,7 @@ class Server:
         # one stream, so the order must not depend on which process connected first (determinism)
         for conn in sorted(self.conns.values(), key=lambda c: c.slot.obj):
             with_see = see and arena.see_due(conn.slot, cycle)
-            frames = [encode(msg) for msg in arena.cycle_percepts(conn.slot, with_see)]
+            frames = arena.cycle_frames(conn.slot, with_see)
             if think_frame is not None:
                 frames.append(think_frame)
             for data in frames:
