@@ -33,7 +33,7 @@ from protocol.security import KeyDir, SecurityError, keys_option, no_answer, ope
 EXIT_OK = 0
 EXIT_START_FAILED = 2
 EXIT_SERVER_SILENT = 4
-POLL_MS = 100  # longest wait between checks of the stop flag and the connect deadline
+POLL_MS = 100  # longest wait between checks of the stop flag and the connect deadline (receive timeout)
 # Sockets have LINGER 0, except after a bye: closing then waits this long for the bye to leave, so it
 # is not discarded unsent (and never longer, should the server be gone).
 BYE_LINGER_MS = 1000
@@ -94,6 +94,10 @@ def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop
     ctx = zmq.Context()
     sock = ctx.socket(zmq.DEALER)
     configure(sock)
+    # a blocking receive with a timeout, not a poll and then non-blocking receives: a cycle's percepts
+    # arrive in a few bursts, and each wake-up then costs one call instead of a poll, a receive and a
+    # failed receive
+    sock.setsockopt(zmq.RCVTIMEO, POLL_MS)
     linger_ms = 0
     try:
         secure_client(sock, keys)
@@ -139,48 +143,45 @@ def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop
             if agent.ready and time.monotonic() - last_heard > silence_s:
                 raise PlayerExit(EXIT_SERVER_SILENT, f"the server at {endpoint} has sent nothing for "
                                                      f"{silence_s:g} s; giving it up")
-            if not sock.poll(POLL_MS):
+            try:
+                data = sock.recv()
+            except zmq.Again:  # nothing within POLL_MS
                 continue
             last_heard = time.monotonic()
-            while True:
-                try:
-                    data = sock.recv(zmq.NOBLOCK)
-                except zmq.Again:
-                    break
-                try:
-                    msg = decode_for_player(data)
-                except ProtocolError as exc:
-                    log.warning("dropped a message from the server: %s: %s", exc.code, exc.message)
+            try:
+                msg = decode_for_player(data)
+            except ProtocolError as exc:
+                log.warning("dropped a message from the server: %s: %s", exc.code, exc.message)
+                continue
+            if isinstance(msg, m.Shutdown):
+                log.info("server shut down: %s", msg.reason)
+                return EXIT_OK
+            if isinstance(msg, m.Error):
+                if not agent.ready and msg.code == "cannot_reconnect" and reconnect is not None:
+                    if refused is None:
+                        log.info("the server refused reconnect (%s); asking again every %g s for %g s",
+                                 msg.message, RECONNECT_RETRY_S, connect_timeout_s)
+                    refused = f"{msg.code}: {msg.message}"
+                    retry_at = time.monotonic() + RECONNECT_RETRY_S
                     continue
-                if isinstance(msg, m.Shutdown):
-                    log.info("server shut down: %s", msg.reason)
-                    return EXIT_OK
-                if isinstance(msg, m.Error):
-                    if not agent.ready and msg.code == "cannot_reconnect" and reconnect is not None:
-                        if refused is None:
-                            log.info("the server refused reconnect (%s); asking again every %g s for %g s",
-                                     msg.message, RECONNECT_RETRY_S, connect_timeout_s)
-                        refused = f"{msg.code}: {msg.message}"
-                        retry_at = time.monotonic() + RECONNECT_RETRY_S
-                        continue
-                    if not agent.ready:
-                        raise PlayerExit(EXIT_START_FAILED,
-                                         f"the server refused {joining}: {msg.code}: {msg.message}")
-                    log.warning("server error at cycle %d: %s: %s", msg.cycle, msg.code, msg.message)
-                    continue
-                try:
-                    command = agent.on_message(msg)
-                except (PolicyFileError, ValueError) as exc:
-                    if agent.ready and not isinstance(msg, m.InitOk):
-                        raise
-                    say_bye()
-                    raise PlayerExit(EXIT_START_FAILED, str(exc)) from None
-                if isinstance(msg, m.InitOk):
-                    log.info("joined as %s %d (%s mode)", agent.team, agent.unum, agent.mode)
-                if command is not None:
-                    send(command)
-                for report in agent.pending_reports():
-                    send(report)
+                if not agent.ready:
+                    raise PlayerExit(EXIT_START_FAILED,
+                                     f"the server refused {joining}: {msg.code}: {msg.message}")
+                log.warning("server error at cycle %d: %s: %s", msg.cycle, msg.code, msg.message)
+                continue
+            try:
+                command = agent.on_message(msg)
+            except (PolicyFileError, ValueError) as exc:
+                if agent.ready and not isinstance(msg, m.InitOk):
+                    raise
+                say_bye()
+                raise PlayerExit(EXIT_START_FAILED, str(exc)) from None
+            if isinstance(msg, m.InitOk):
+                log.info("joined as %s %d (%s mode)", agent.team, agent.unum, agent.mode)
+            if command is not None:
+                send(command)
+            for report in agent.pending_reports():
+                send(report)
     finally:
         sock.close(linger=linger_ms)
         ctx.term()

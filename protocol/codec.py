@@ -199,18 +199,30 @@ def fixed(*items: Loader) -> Loader:
     return load
 
 
-def rows(accept: Callable[[Any], bool], row: Loader, max_len: int) -> Loader:
-    """:func:`sequence` of ``row`` with a fast path: an array whose every element ``accept`` passes as
-    already valid is returned as a tuple of tuples without calling ``row`` per value. ``accept`` must only
-    pass elements ``row`` returns unchanged; anything else goes through the full loader, so results and
-    error messages are the same. Used for the percept arrays a client decodes every cycle."""
-    load = sequence(row, max_len)
+def row(accept: Callable[[Any], bool], load: Loader) -> Loader:
+    """``load`` (a :func:`fixed` row, maybe :func:`optional`) with a fast path: a value ``accept`` passes as already valid is
+    returned as a tuple without calling a loader per element. ``accept`` must only pass values ``load``
+    returns unchanged (as a tuple); anything else goes through ``load``, so results and error messages
+    are the same. Used for the percepts a client decodes every cycle."""
+
+    def load_fast(value: Any) -> Any:
+        return tuple(value) if accept(value) else load(value)
+
+    load_fast.full = load  # type: ignore[attr-defined]  # what the fast path must agree with (tested)
+    return load_fast
+
+
+def rows(accept: Callable[[Any], bool], load_row: Loader, max_len: int) -> Loader:
+    """:func:`sequence` of ``load_row`` with the fast path of :func:`row` for the whole array: one whose
+    every element ``accept`` passes is returned as a tuple of tuples."""
+    load = sequence(load_row, max_len)
 
     def load_fast(value: Any) -> Any:
         if type(value) is list and len(value) <= max_len and all(map(accept, value)):
             return tuple(map(tuple, value))
         return load(value)
 
+    load_fast.full = load  # type: ignore[attr-defined]
     return load_fast
 
 

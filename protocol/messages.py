@@ -37,6 +37,7 @@ from protocol.codec import (
     text,
     protocol_version,
     wire,
+    row,
     rows,
 )
 from protocol.endpoints import DEFAULT_MAX_MESSAGE_BYTES, MONITOR_EPISODE_TOPIC, MONITOR_FRAME_TOPIC
@@ -321,19 +322,47 @@ def _seen_flag(row: Any) -> bool:
             and (row[3] is None or is_finite_float(row[3])) and (row[4] is None or is_finite_float(row[4])))
 
 
+def _seen_line(row: Any) -> bool:
+    """A well-formed ``see`` line row needing no conversion (as :func:`_seen_flag`)."""
+    return (type(row) is list and len(row) == 3 and type(row[0]) is int and 0 <= row[0] < MAX_LANDMARKS
+            and is_finite_float(row[1], 0.0) and type(row[2]) is int and -180 <= row[2] <= 180)
+
+
+def _seen_direction(value: Any) -> bool:
+    return type(value) is int and -180 <= value <= 180
+
+
+def _seen_player(row: Any) -> bool:
+    """A well-formed ``see`` player row needing no conversion (as :func:`_seen_flag`)."""
+    return (type(row) is list and len(row) == 8
+            and (row[0] is None or (type(row[0]) is str and row[0] in SIDES))
+            and (row[1] is None or (type(row[1]) is int and 1 <= row[1] <= MAX_UNUM))
+            and is_finite_float(row[2], 0.0) and _seen_direction(row[3])
+            and (row[4] is None or is_finite_float(row[4])) and (row[5] is None or is_finite_float(row[5]))
+            and (row[6] is None or _seen_direction(row[6])) and (row[7] is None or _seen_direction(row[7])))
+
+
+def _seen_ball(row: Any) -> bool:
+    """A well-formed ``see`` ball needing no conversion (as :func:`_seen_flag`)."""
+    return (type(row) is list and len(row) == 4 and is_finite_float(row[0], 0.0) and _seen_direction(row[1])
+            and (row[2] is None or is_finite_float(row[2])) and (row[3] is None or is_finite_float(row[3])))
+
+
 @message
 class See(Message):
-    """A visual percept (rcssserver's ``see``, spec 4); directions relative to the head."""
+    """A visual percept (rcssserver's ``see``, spec 4); directions relative to the head. Every row
+    kind has a fast path (``protocol.codec.rows``): players decode a see every other cycle."""
 
     TYPE: ClassVar[str] = "see"
     cycle: int = wire(CYCLE)
     flags: tuple = wire(
         rows(_seen_flag, fixed(optional(LANDMARK_ID), non_negative, DIRECTION, CHANGE, CHANGE), MAX_LANDMARKS)
     )
-    lines: tuple = wire(sequence(fixed(LANDMARK_ID, non_negative, DIRECTION), MAX_LANDMARKS))
-    ball: tuple | None = wire(optional(fixed(non_negative, DIRECTION, CHANGE, CHANGE)))
+    lines: tuple = wire(rows(_seen_line, fixed(LANDMARK_ID, non_negative, DIRECTION), MAX_LANDMARKS))
+    ball: tuple | None = wire(row(_seen_ball, optional(fixed(non_negative, DIRECTION, CHANGE, CHANGE))))
     players: tuple = wire(
-        sequence(
+        rows(
+            _seen_player,
             fixed(optional(SIDE), optional(UNUM), non_negative, DIRECTION, CHANGE, CHANGE,
                   optional(DIRECTION), optional(DIRECTION)),
             MAX_PLAYERS,

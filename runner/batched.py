@@ -245,7 +245,7 @@ def see_to_model_row(out: SeeBuffers, b: int, obs: int, cycle: int, n_keepers: i
 def perceive(b: int, obs: int, row: int, w: World, with_see: bool, episode_message: bool, cone: float, kp, cfg,
              pl: Players, see_out: SeeBuffers, body_out: SenseBodyBuffers) -> None:
     """Player ``obs``'s percepts of this cycle into its world-model row, in the server's order
-    (sense_body, hears, see; ``server.arena.Arena.cycle_percepts``)."""
+    (sense_body, hears, see; ``server.arena.Arena.cycle_frames``)."""
     p = obs - 1
     cycle = w.time[b]
     sense_body_arena(b, w, obs, body_out)

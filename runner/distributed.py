@@ -87,7 +87,7 @@ class DistributedBackend(CoachedBackend):
         try:
             for i in range(count):
                 where = log_dir / f"arena_{i:02d}"
-                processes = ArenaProcesses(where).__enter__()
+                processes = ArenaProcesses(where, batch_scheduled=True).__enter__()  # synchronous arenas
                 arenas.append(Arena(f"arena {i}", "", _socket(ctx, key_dir), processes))
                 endpoints = processes.start_arena(arena_server_args(game, parameter_set, where),
                                                   list(ARENA_PLAYER_ARGS), game.keepers, game.takers,

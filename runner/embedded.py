@@ -91,8 +91,8 @@ class EmbeddedGame:
         """This cycle's percepts to every player: sense_body, hears, and the see when one is due."""
         arena = self.arena
         for slot, player in self.players:
-            for msg in arena.cycle_percepts(slot, arena.see_due(slot, arena.cycle)):
-                player.on_message(_wire(msg, decode_for_player))
+            for frame in arena.cycle_frames(slot, arena.see_due(slot, arena.cycle)):
+                player.on_message(decode_for_player(frame))
 
     def think(self) -> None:
         """Every player's think and command for this cycle (none from a keeper left waiting)."""

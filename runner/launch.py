@@ -3,6 +3,13 @@
 Every process gets its own session so the whole arena can be stopped at once; a process that dies is
 named in one line; nothing is left running whatever happens (architecture, "Processes"): on Linux each
 process also gets SIGTERM when the process that started it dies, even by SIGKILL.
+
+A synchronous arena's processes run under Linux's ``SCHED_BATCH`` policy (docs/design.md, "Processes
+and sockets"): each message wakes its receiver (a player, or a ZeroMQ I/O thread), which otherwise
+preempts the sender at once; on a machine with fewer cores than processes the server was switched out
+about 30 times a cycle, and every switch costs the caches. Batch tasks do not preempt on wake-up, so
+the server sends a cycle's percepts in one go and the players then run. Time slices and fairness are
+the same; only a real-time arena, which keeps wall-clock deadlines, is left as it is.
 """
 
 from __future__ import annotations
@@ -65,6 +72,7 @@ class ArenaProcesses:
     """The processes of one arena; use as a context manager so they are always stopped."""
 
     log_dir: Path
+    batch_scheduled: bool = False  # start the members under SCHED_BATCH (module docstring)
     members: list[Member] = field(default_factory=list)
     _clean_exit_seen: dict[str, float] = field(default_factory=dict)
 
@@ -80,7 +88,7 @@ class ArenaProcesses:
         stderr = open(self.log_dir / f"{name.replace(' ', '_')}.log", "ab")  # a resumed run appends
         proc = subprocess.Popen(argv, stdout=subprocess.PIPE if capture_stdout else subprocess.DEVNULL,
                                 stderr=stderr, start_new_session=True, cwd=cwd,
-                                preexec_fn=die_with_parent if sys.platform == "linux" else None)
+                                preexec_fn=child_setup(self.batch_scheduled))
         stderr.close()
         member = Member(name, proc)
         self.members.append(member)
@@ -178,6 +186,24 @@ class ArenaProcesses:
                 member.proc.wait()
             if member.proc.stdout is not None:
                 member.proc.stdout.close()
+
+
+def child_setup(batch_scheduled: bool) -> Callable[[], None] | None:
+    """What a child runs before exec on Linux (None elsewhere): :func:`die_with_parent`, and with
+    ``batch_scheduled`` the ``SCHED_BATCH`` policy (module docstring). The policy is a hint: a system
+    that refuses it runs the process as it would have run anyway."""
+    if sys.platform != "linux":
+        return None
+
+    def setup() -> None:
+        die_with_parent()
+        if batch_scheduled:
+            try:
+                os.sched_setscheduler(0, os.SCHED_BATCH, os.sched_param(0))
+            except OSError:
+                pass
+
+    return setup
 
 
 def die_with_parent() -> None:

@@ -29,7 +29,7 @@ class ArenaHost:
         import ray
 
         log_dir = Path(tempfile.mkdtemp(prefix=f"keepaway-arena-{index:02d}-"))
-        self.processes = ArenaProcesses(log_dir).__enter__()
+        self.processes = ArenaProcesses(log_dir, batch_scheduled=True).__enter__()  # a synchronous arena
         try:
             endpoints = self.processes.start_arena(arena_server_args(game, parameter_set, log_dir),
                                                    list(ARENA_PLAYER_ARGS),

@@ -227,7 +227,8 @@ def run(opts: RunOptions, progress: bool = True, announce: Callable[[str], None]
     last_at = 0.0
     first_cycle = last_cycle = 0
     start = time.perf_counter()
-    processes = ArenaProcesses(opts.out / "processes") if opts.mode == "distributed" else None
+    processes = (ArenaProcesses(opts.out / "processes", batch_scheduled=not opts.realtime)
+                 if opts.mode == "distributed" else None)
     viewer = ArenaProcesses(opts.out / "processes") if opts.view else None  # not one of the arena's
     stopped: BaseException | None = None
     stream: Iterator[tuple[EpisodeRecord, int]] | None = None

@@ -25,6 +25,7 @@ import logging
 import math
 import signal
 import time
+from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
@@ -55,6 +56,10 @@ log.addFilter(repeat_limit)
 HARD_LIMIT_FACTOR = 4
 # While paused, sockets are polled this often (ms): a hear queued meanwhile goes out within it.
 PAUSE_POLL_MS = 50
+# Send flags as plain ints: pyzmq's send_multipart combines enum flags in Python for every frame, a
+# cost paid ~30 times a cycle.
+_NOBLOCK = int(zmq.NOBLOCK)
+_NOBLOCK_MORE = int(zmq.NOBLOCK | zmq.SNDMORE)
 
 
 @dataclass
@@ -102,7 +107,7 @@ class Server:
         for sock in (self.players, self.coach, self.monitor):
             configure(sock, cfg.max_message_bytes * HARD_LIMIT_FACTOR)
         self.guard: PortGuard | None = None  # made by bind(): CURVE and ZAP with keys (protocol/security.py)
-        self.monitor_subscribers = 0
+        self.monitor_topics: Counter[bytes] = Counter()  # the monitor's subscribed topic prefixes
         self.kwy: KwyLog | None = None
         self.jsonl: JsonlLog | None = None
         self.rcg: ArenaGameLog | None = None
@@ -240,7 +245,7 @@ class Server:
             for ident, conn in list(self.conns.items()):
                 due = self.next_see.setdefault(ident, now)  # a new player's (or a reset's) first see: now
                 if now >= due:
-                    self._send(conn, self.arena.see_message(conn.slot))
+                    self._send_raw(self.players, conn.identity, self.arena.see_frame(conn.slot))
                     self.next_see[ident] = due + conn.slot.see_period_ms(self.config.params.send_step_ms) / 1000.0
             # the end-of-cycle marker: once no see of this player falls before the next step
             self._send_thinks(to_think, next_step)
@@ -341,7 +346,7 @@ class Server:
         self._close_budget_windows(seated=True)
         if self.rcg is not None:
             self.rcg.step()
-        if self.monitor_subscribers:
+        if self._subscribed(MONITOR_FRAME_TOPIC):
             self._publish(MONITOR_FRAME_TOPIC, m.Frame(cycle=self.arena.cycle, **truth_state(self.arena),
                                                        getopen=self.arena.step_notes))
         if record is not None:
@@ -374,7 +379,7 @@ class Server:
                            end_cycle=record.end_cycle, end=record.end, missed=record.missed)
         for ident in self.coaches:
             self._send_raw(self.coach, ident, encode(end))
-        if self.monitor_subscribers:
+        if self._subscribed(MONITOR_EPISODE_TOPIC):
             self._publish(MONITOR_EPISODE_TOPIC, end)
         if self.episodes_left is not None:
             self.episodes_left -= 1
@@ -390,17 +395,21 @@ class Server:
                 self._send(conn, msg)
 
     def _send_cycle_percepts(self, think: bool, see: bool = True) -> None:
+        """Each player's percepts of this cycle (and ``think``), encoded first and then sent together,
+        so that they leave in one burst and the player wakes once for them rather than once each."""
         arena = self.arena
         cycle = arena.cycle
         self.percepts_cycle = cycle
+        think_frame = encode(m.Think(cycle=cycle)) if think else None
         # object order, not connection order: the see draws identity-loss randomness from the arena's
         # one stream, so the order must not depend on which process connected first (determinism)
         for conn in sorted(self.conns.values(), key=lambda c: c.slot.obj):
             with_see = see and arena.see_due(conn.slot, cycle)
-            for msg in arena.cycle_percepts(conn.slot, with_see):
-                self._send(conn, msg)
-            if think:
-                self._send(conn, m.Think(cycle=cycle))
+            frames = arena.cycle_frames(conn.slot, with_see)
+            if think_frame is not None:
+                frames.append(think_frame)
+            for data in frames:
+                self._send_raw(self.players, conn.identity, data)
 
     # -- sockets -------------------------------------------------------------------------------------
     def _poll(self, poller: zmq.Poller, timeout_ms: int) -> None:
@@ -459,23 +468,34 @@ class Server:
                     message=f"dropped {count} messages beyond your budget of {budget} per {window}")))
 
     def _drain_monitor(self) -> None:
-        """Count the monitor's (un)subscriptions: at most ROUND_MESSAGES a round, like the other ports."""
+        """Count the monitor's (un)subscriptions per topic prefix: at most ROUND_MESSAGES a round, like
+        the other ports."""
         for _ in range(ROUND_MESSAGES):
             try:
                 event = self.monitor.recv(zmq.NOBLOCK)
             except zmq.Again:
                 return
+            topic = event[1:]
             if event[:1] == b"\x01":
-                self.monitor_subscribers += 1
-            elif event[:1] == b"\x00":
-                self.monitor_subscribers = max(0, self.monitor_subscribers - 1)
+                self.monitor_topics[topic] += 1
+            elif event[:1] == b"\x00" and self.monitor_topics[topic] > 0:
+                self.monitor_topics[topic] -= 1
+                if not self.monitor_topics[topic]:
+                    del self.monitor_topics[topic]
+
+    def _subscribed(self, topic: bytes) -> bool:
+        """Whether a monitor subscriber takes ``topic`` (ZeroMQ matches subscriptions as prefixes): a
+        frame is built and encoded every cycle only while someone watches frames, not for a subscriber
+        that follows episodes only (``keepaway run``)."""
+        return any(topic.startswith(prefix) for prefix in self.monitor_topics)
 
     def _send(self, conn: Connection, msg: Any) -> None:
         self._send_raw(self.players, conn.identity, encode(msg))
 
     def _send_raw(self, sock: zmq.Socket, ident: bytes, data: bytes) -> None:
         try:
-            sock.send_multipart([ident, data], zmq.NOBLOCK)
+            sock.send(ident, _NOBLOCK_MORE)
+            sock.send(data, _NOBLOCK)
         except zmq.ZMQError as exc:  # peer gone (ROUTER_MANDATORY) or its queue is full
             if exc.errno != zmq.EHOSTUNREACH:
                 return

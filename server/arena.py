@@ -17,6 +17,7 @@ import numpy as np
 
 from protocol import PROTOCOL_VERSION
 from protocol import messages as m
+from protocol.codec import encode
 from protocol.landmarks import to_wire as landmarks_to_wire
 from protocol.params import ServerParams
 from server import perception
@@ -86,6 +87,9 @@ class Arena:
         self.pending_says: list[tuple[int, str]] = []
         self.see_out = perception.SeeBuffers.empty(1, self.world.n_objects, self.kp)
         self.body_out = perception.SenseBodyBuffers.empty(1, self.world.n_objects)
+        self.see_buf = np.empty(perception.see_frame_bytes(self.world.n_objects), dtype=np.uint8)
+        self.body_buf = np.empty(perception.SENSE_BODY_FRAME_BYTES, dtype=np.uint8)
+        self.view_modes = {width: perception.packed_view_mode("high", width) for width in VIEW_WIDTHS}
         # what the referee said since the owner last took it (``take_referee_log``); None: not kept
         self.referee_log: list[str] | None = None
         self._noted: dict[int, tuple[float, ...]] = {}  # this cycle's GetOpen notes, by keeper unum
@@ -367,16 +371,19 @@ class Arena:
         return perception.see_due(cycle, self.params.simulator_step_ms,
                                   s.see_period_ms(self.params.send_step_ms), s.see_phase_ms)
 
-    def see_message(self, s: PlayerSlot) -> m.See:
+    def see_frame(self, s: PlayerSlot) -> bytes:
+        """``s``'s see of this cycle, encoded (``perception.write_see``: the bytes of ``encode(m.See(...))``)."""
         factor = perception.cone_factor(s.view_width, s.synch_see)
         perception.see_arena(0, self.world, s.obj, factor, self.kp, self.see_out)
-        payload = perception.see_payload(self.see_out, 0, s.obj, self.world.n_keepers)
-        return m.See(cycle=self.cycle, **payload)
+        n = perception.write_see(self.see_out, 0, s.obj, self.world.n_keepers, self.cycle, self.see_buf)
+        return self.see_buf[:n].tobytes()
 
-    def sense_body_message(self, s: PlayerSlot) -> m.SenseBody:
+    def sense_body_frame(self, s: PlayerSlot) -> bytes:
+        """``s``'s sense_body of this cycle, encoded (``perception.write_sense_body``)."""
         perception.sense_body_arena(0, self.world, s.obj, self.body_out)
-        payload = perception.sense_body_payload(self.body_out, 0, s.obj, "high", s.view_width)
-        return m.SenseBody(cycle=self.cycle, **payload)
+        n = perception.write_sense_body(self.body_out, 0, s.obj, self.cycle, self.view_modes[s.view_width],
+                                        self.body_buf)
+        return self.body_buf[:n].tobytes()
 
     def fullstate_payload(self) -> dict:
         payload = perception.fullstate(self.world, 0)
@@ -384,15 +391,16 @@ class Arena:
         payload["episode"] = int(self.referee.episode[0])
         return payload
 
-    def cycle_percepts(self, s: PlayerSlot, with_see: bool) -> list:
-        """Percepts of this cycle for one player, in rcssserver's order: sense_body, (fullstate),
-        hears, then see."""
-        out: list = [self.sense_body_message(s)]
+    def cycle_frames(self, s: PlayerSlot, with_see: bool) -> list[bytes]:
+        """Percepts of this cycle for one player, encoded, in rcssserver's order: sense_body,
+        (fullstate), hears, then see. Encoded here because the server sends them as they are and the
+        percepts the server writes most are written straight from the perception buffers."""
+        out = [self.sense_body_frame(s)]
         if s.fullstate:
-            out.append(m.Fullstate(cycle=self.cycle, **self.fullstate_payload()))
-        out.extend(self.take_hears(s))
+            out.append(encode(m.Fullstate(cycle=self.cycle, **self.fullstate_payload())))
+        out.extend(encode(msg) for msg in self.take_hears(s))
         if with_see:
-            out.append(self.see_message(s))
+            out.append(self.see_frame(s))
         return out
 
     def init_ok(self, s: PlayerSlot, team: str, config: dict) -> m.InitOk:
@@ -433,7 +441,7 @@ def compile_kernels(params: ServerParams, keepers: int, takers: int) -> None:
         scratch.connect("keepers" if s.side == "l" else "takers")
     scratch.start()
     for s in scratch.slots:
-        scratch.cycle_percepts(s, True)
+        scratch.cycle_frames(s, True)
         scratch.submit(s.obj, [])
     scratch.step()
 

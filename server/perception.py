@@ -5,8 +5,8 @@ The kernels mirror rcssserver's ``VisualSenderPlayerV1``/``BodySenderPlayerV6`` 
 the same log/exp quantisation, read from an exact lookup table), so a ``see`` computed here equals the
 real server's to the printed digit. A kernel works on one observer of one arena and writes into preallocated
 :class:`SeeBuffers`/:class:`SenseBodyBuffers`, which hold every observer of every arena, so the batched
-mode runs without Python objects; the ``*_payload`` functions turn one observer's record into the
-msgpack-ready map the protocol module wraps.
+mode runs without Python objects; :func:`write_see` and :func:`write_sense_body` turn one observer's
+record into its message's msgpack frame, the ``*_payload`` functions into the map that frame holds.
 
 Object slots of a see record: ``0 .. N_FLAGS-1`` are the flags (:data:`protocol.landmarks.FLAGS`), slot
 ``N_FLAGS + i`` is world object ``i`` (``i = 0`` the ball, then the players). Observer row ``p`` belongs
@@ -16,10 +16,12 @@ to player object ``p + 1``.
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
+import msgpack
 import numpy as np
 from core.jit import njit
+from core.msgpack_out import FLOAT_BYTES, MAX_INT_BYTES, packed, put_array, put_float, put_int, put_nil, put_raw
 
 from protocol.landmarks import FLAG_POSITIONS, LINE_LEFT, LINE_RIGHT, LINE_TOP, N_FLAGS, N_LINES
 from protocol.params import KernelParams
@@ -476,55 +478,184 @@ def sense_body_batch(w: World, out: SenseBodyBuffers) -> None:
 
 
 # --------------------------------------------------------------------------------------------------
-# Wire conversion (msgpack-ready maps; the protocol module wraps them into messages)
+# Wire conversion: one observer's record as its message's msgpack frame, written by a kernel
+# (core/msgpack_out.py: the packer's own bytes, so the wire is what packing the map would give)
+
+_PACKER = msgpack.Packer(use_bin_type=True)
+
+
+def _fragment(*parts: Any) -> np.ndarray:
+    """Constant parts of a frame, packed one after another (bytes are taken as already packed)."""
+    return np.concatenate([np.frombuffer(part, dtype=np.uint8) if isinstance(part, bytes) else packed(part)
+                           for part in parts])
+
+
+# the message maps' keys in the order of their fields (protocol.messages.See, SenseBody)
+_SEE_HEAD = _fragment(_PACKER.pack_map_header(6), "type", "see", "cycle")
+_SEE_FLAGS, _SEE_LINES, _SEE_BALL, _SEE_PLAYERS = (packed(key) for key in ("flags", "lines", "ball", "players"))
+_SIDE_L, _SIDE_R = packed("l"), packed("r")
+_BODY_HEAD = _fragment(_PACKER.pack_map_header(8), "type", "sense_body", "cycle")
+_BODY_VIEW_MODE, _BODY_STAMINA, _BODY_SPEED, _BODY_HEAD_ANGLE, _BODY_COLLISION = (
+    packed(key) for key in ("view_mode", "stamina", "speed", "head_angle", "collision"))
+_BODY_COUNTS = _fragment("counts", _PACKER.pack_map_header(len(COUNT_NAMES)))
+_COUNT_KEYS = _fragment(*COUNT_NAMES)
+_COUNT_KEY_ENDS = np.cumsum([len(packed(name)) for name in COUNT_NAMES])
+_COLLIDED_BALL_NAME, _COLLIDED_PLAYER_NAME = packed("ball"), packed("player")
+# The largest see row of each kind (array header, ints, doubles; core/msgpack_out.py), and the rest.
+_FLAG_ROW_BYTES = 1 + 2 * MAX_INT_BYTES + 3 * FLOAT_BYTES
+_LINE_ROW_BYTES = 1 + 2 * MAX_INT_BYTES + FLOAT_BYTES
+_PLAYER_ROW_BYTES = 1 + 6 * MAX_INT_BYTES + 4 * FLOAT_BYTES
+_FRAME_HEAD_BYTES = 256
+SENSE_BODY_FRAME_BYTES = 512
+"""Room for any sense_body frame (its map is fixed but for the counts' ints, at most 9 bytes each)."""
+
+
+def see_frame_bytes(n_objects: int) -> int:
+    """Room for any see frame of an arena of ``n_objects`` world objects (ball included)."""
+    return (_FRAME_HEAD_BYTES + N_FLAGS * _FLAG_ROW_BYTES + N_LINES * _LINE_ROW_BYTES
+            + n_objects * _PLAYER_ROW_BYTES)
+
+
+@njit(cache=True)
+def write_see(out: SeeBuffers, b: int, obs: int, n_keepers: int, cycle: int, buf: np.ndarray) -> int:
+    """One observer's ``see`` message (``protocol.messages.See``) as msgpack into ``buf``; returns its
+    length. Rows in spec 4 "Content" order: flags, lines, the ball, players left then right. Omitted
+    fields are nil: a CLOSE flag has no id, a NAMELESS player no side, a PARTIAL one no unum; changes
+    and facing only at FULL; an unseen ball is nil."""
+    p = obs - 1
+    ball_slot = N_FLAGS + BALL
+    n_slots = out.level.shape[2]
+    n_flags = 0
+    n_players = 0
+    for slot in range(n_slots):
+        if out.level[b, p, slot] != UNSEEN:
+            if slot < ball_slot:
+                n_flags += 1
+            elif slot > ball_slot:
+                n_players += 1
+    n_lines = 0
+    for k in range(N_LINES):
+        if out.line_seen[b, p, k]:
+            n_lines += 1
+    n = put_raw(buf, 0, _SEE_HEAD)
+    n = put_int(buf, n, cycle)
+    n = put_raw(buf, n, _SEE_FLAGS)
+    n = put_array(buf, n, n_flags)
+    for slot in range(ball_slot):
+        level = out.level[b, p, slot]
+        if level == UNSEEN:
+            continue
+        n = put_array(buf, n, 5)
+        n = put_int(buf, n, slot) if level >= PARTIAL else put_nil(buf, n)
+        n = put_float(buf, n, out.dist[b, p, slot])
+        n = put_int(buf, n, out.direction[b, p, slot])
+        n = _put_changes(buf, n, out, b, p, slot, level == FULL)
+    n = put_raw(buf, n, _SEE_LINES)
+    n = put_array(buf, n, n_lines)
+    for k in range(N_LINES):
+        if out.line_seen[b, p, k]:
+            n = put_array(buf, n, 3)
+            n = put_int(buf, n, k)
+            n = put_float(buf, n, out.line_dist[b, p, k])
+            n = put_int(buf, n, out.line_dir[b, p, k])
+    n = put_raw(buf, n, _SEE_BALL)
+    level = out.level[b, p, ball_slot]
+    if level == UNSEEN:
+        n = put_nil(buf, n)
+    else:
+        n = put_array(buf, n, 4)
+        n = put_float(buf, n, out.dist[b, p, ball_slot])
+        n = put_int(buf, n, out.direction[b, p, ball_slot])
+        n = _put_changes(buf, n, out, b, p, ball_slot, level == FULL)
+    n = put_raw(buf, n, _SEE_PLAYERS)
+    n = put_array(buf, n, n_players)
+    for slot in range(ball_slot + 1, n_slots):
+        level = out.level[b, p, slot]
+        if level == UNSEEN:
+            continue
+        i = slot - N_FLAGS
+        n = put_array(buf, n, 8)
+        if level >= PARTIAL:
+            n = put_raw(buf, n, _SIDE_L if i <= n_keepers else _SIDE_R)
+        else:
+            n = put_nil(buf, n)
+        if level == FULL:
+            n = put_int(buf, n, i if i <= n_keepers else i - n_keepers)
+        else:
+            n = put_nil(buf, n)
+        n = put_float(buf, n, out.dist[b, p, slot])
+        n = put_int(buf, n, out.direction[b, p, slot])
+        n = _put_changes(buf, n, out, b, p, slot, level == FULL)
+        if level == FULL:
+            n = put_int(buf, n, out.body_dir[b, p, slot])
+            n = put_int(buf, n, out.head_dir[b, p, slot])
+        else:
+            n = put_nil(buf, put_nil(buf, n))
+    return n
+
+
+@njit(cache=True)
+def _put_changes(buf: np.ndarray, n: int, out: SeeBuffers, b: int, p: int, slot: int, full: bool) -> int:
+    """dist_chg and dir_chg of a FULL record, else two nils."""
+    if full:
+        return put_float(buf, put_float(buf, n, out.dist_chg[b, p, slot]), out.dir_chg[b, p, slot])
+    return put_nil(buf, put_nil(buf, n))
+
+
+@njit(cache=True)
+def write_sense_body(out: SenseBodyBuffers, b: int, obs: int, cycle: int, view_mode: np.ndarray,
+                     buf: np.ndarray) -> int:
+    """One player's ``sense_body`` message (``protocol.messages.SenseBody``, spec 4 "sense_body") as
+    msgpack into ``buf``; returns its length. The view mode is server-side connection state: the caller
+    passes it packed (:func:`packed_view_mode`)."""
+    p = obs - 1
+    n = put_raw(buf, 0, _BODY_HEAD)
+    n = put_int(buf, n, cycle)
+    n = put_raw(buf, n, _BODY_VIEW_MODE)
+    n = put_raw(buf, n, view_mode)
+    n = put_raw(buf, n, _BODY_STAMINA)
+    n = put_array(buf, n, 3)
+    n = put_float(buf, n, out.stamina[b, p])
+    n = put_float(buf, n, out.effort[b, p])
+    n = put_float(buf, n, out.capacity[b, p])
+    n = put_raw(buf, n, _BODY_SPEED)
+    n = put_array(buf, n, 2)
+    n = put_float(buf, n, out.speed[b, p])
+    n = put_int(buf, n, out.speed_dir[b, p])
+    n = put_raw(buf, n, _BODY_HEAD_ANGLE)
+    n = put_int(buf, n, out.head_angle[b, p])
+    n = put_raw(buf, n, _BODY_COUNTS)
+    start = 0
+    for c in range(_COUNT_KEY_ENDS.shape[0]):
+        n = put_raw(buf, n, _COUNT_KEYS[start:_COUNT_KEY_ENDS[c]])
+        n = put_int(buf, n, out.counts[b, p, c])
+        start = _COUNT_KEY_ENDS[c]
+    bits = out.collision[b, p]
+    n = put_raw(buf, n, _BODY_COLLISION)
+    n = put_array(buf, n, (1 if bits & COLLIDED_BALL else 0) + (1 if bits & COLLIDED_PLAYER else 0))
+    if bits & COLLIDED_BALL:
+        n = put_raw(buf, n, _COLLIDED_BALL_NAME)
+    if bits & COLLIDED_PLAYER:
+        n = put_raw(buf, n, _COLLIDED_PLAYER_NAME)
+    return n
+
+
+def packed_view_mode(view_quality: str, view_width: str) -> np.ndarray:
+    """A sense_body's ``view_mode`` value, packed for :func:`write_sense_body`."""
+    return packed([view_quality, view_width])
+
+
+def _payload(frame: np.ndarray) -> dict:
+    """A frame's message map without its type and cycle: the msgpack-ready payload of a percept."""
+    wire = msgpack.unpackb(frame.tobytes())
+    del wire["type"], wire["cycle"]
+    return wire
 
 
 def see_payload(out: SeeBuffers, b: int, obs: int, n_keepers: int) -> dict:
-    """One observer's see as the wire map (spec 4 "Content" order: flags, ball, players left then
-    right, lines). Omitted fields are None: a CLOSE flag has no id, a NAMELESS player no side, a
-    PARTIAL one no unum; changes and facing only at FULL."""
-    p = obs - 1
-    levels = out.level[b, p]
-    slots = np.flatnonzero(levels)
-    rows = zip(
-        slots.tolist(),
-        levels[slots].tolist(),
-        out.dist[b, p, slots].tolist(),
-        out.direction[b, p, slots].tolist(),
-        out.dist_chg[b, p, slots].tolist(),
-        out.dir_chg[b, p, slots].tolist(),
-        out.body_dir[b, p, slots].tolist(),
-        out.head_dir[b, p, slots].tolist(),
-    )
-    flags: list = []
-    ball = None
-    players: list = []
-    ball_slot = N_FLAGS + BALL
-    for slot, level, dist, direction, dist_chg, dir_chg, body_dir, head_dir in rows:
-        if slot < ball_slot:
-            if level == FULL:
-                flags.append([slot, dist, direction, dist_chg, dir_chg])
-            else:
-                flags.append([slot if level == PARTIAL else None, dist, direction, None, None])
-        elif slot == ball_slot:
-            ball = [dist, direction, dist_chg, dir_chg] if level == FULL else [dist, direction, None, None]
-        else:
-            i = slot - N_FLAGS
-            side, unum = ("l", i) if i <= n_keepers else ("r", i - n_keepers)
-            if level == FULL:
-                players.append([side, unum, dist, direction, dist_chg, dir_chg, body_dir, head_dir])
-            else:
-                players.append(
-                    [side if level == PARTIAL else None, None, dist, direction, None, None, None, None]
-                )
-    seen = np.flatnonzero(out.line_seen[b, p])
-    lines = [
-        [k, d, r]
-        for k, d, r in zip(
-            seen.tolist(), out.line_dist[b, p, seen].tolist(), out.line_dir[b, p, seen].tolist()
-        )
-    ]
-    return {"flags": flags, "lines": lines, "ball": ball, "players": players}
+    """One observer's see as the map the wire carries (:func:`write_see`), without type and cycle."""
+    buf = np.empty(see_frame_bytes(out.level.shape[2] - N_FLAGS), dtype=np.uint8)
+    return _payload(buf[: write_see(out, b, obs, n_keepers, 0, buf)])
 
 
 @njit(cache=True)
@@ -562,19 +693,10 @@ def hear_picks(b: int, w: World, speakers: np.ndarray, listener: int, hear_max: 
 
 
 def sense_body_payload(out: SenseBodyBuffers, b: int, obs: int, view_quality: str, view_width: str) -> dict:
-    """One player's sense_body as the wire map (spec 4 "sense_body"); the view mode is server-side
-    connection state, so the caller passes it."""
-    p = obs - 1
-    bits = int(out.collision[b, p])
-    collision = [name for bit, name in ((COLLIDED_BALL, "ball"), (COLLIDED_PLAYER, "player")) if bits & bit]
-    return {
-        "view_mode": [view_quality, view_width],
-        "stamina": [float(out.stamina[b, p]), float(out.effort[b, p]), float(out.capacity[b, p])],
-        "speed": [float(out.speed[b, p]), int(out.speed_dir[b, p])],
-        "head_angle": int(out.head_angle[b, p]),
-        "counts": dict(zip(COUNT_NAMES, out.counts[b, p].tolist())),
-        "collision": collision,
-    }
+    """One player's sense_body as the map the wire carries (:func:`write_sense_body`), without type and
+    cycle."""
+    buf = np.empty(SENSE_BODY_FRAME_BYTES, dtype=np.uint8)
+    return _payload(buf[: write_sense_body(out, b, obs, 0, packed_view_mode(view_quality, view_width), buf)])
 
 
 def fullstate(w: World, b: int) -> dict:
@@ -611,6 +733,7 @@ __all__ = [
     "PARTIAL",
     "RAD2DEG",
     "SYNCH_SEE_WIDTH_FACTOR",
+    "SENSE_BODY_FRAME_BYTES",
     "SeeBuffers",
     "SenseBodyBuffers",
     "UNSEEN",
@@ -625,10 +748,14 @@ __all__ = [
     "round_deg",
     "see_arena",
     "see_batch",
+    "see_frame_bytes",
     "see_payload",
     "sense_body_arena",
     "sense_body_batch",
     "sense_body_payload",
+    "packed_view_mode",
     "table_distance",
     "trunc_deg",
+    "write_see",
+    "write_sense_body",
 ]

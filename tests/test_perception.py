@@ -16,6 +16,8 @@ import msgpack
 import numpy as np
 import pytest
 
+from protocol import encode
+from protocol import messages as m
 from protocol.landmarks import FLAG_INDEX, FLAG_POSITIONS, FLAGS, LINES, N_FLAGS, to_wire
 from protocol.params import parameter_set
 from server.perception import (
@@ -24,6 +26,7 @@ from server.perception import (
     NAMELESS,
     PARTIAL,
     RAD2DEG,
+    SENSE_BODY_FRAME_BYTES,
     UNSEEN,
     SeeBuffers,
     SenseBodyBuffers,
@@ -35,11 +38,15 @@ from server.perception import (
     round_deg,
     see_arena,
     see_batch,
+    see_frame_bytes,
     see_payload,
     sense_body_arena,
     sense_body_payload,
+    packed_view_mode,
     table_distance,
     trunc_deg,
+    write_see,
+    write_sense_body,
 )
 from core.objects import BALL
 from server.world import COLLIDED_BALL, COLLIDED_PLAYER, COUNT_DASH, COUNT_TURN_NECK, new_world
@@ -352,6 +359,36 @@ def test_see_payload_is_msgpack_ready_and_ordered():
     assert [f[0] for f in see["flags"]] == sorted(f[0] for f in see["flags"])
     assert all(isinstance(f[2], int) for f in see["flags"])
     assert msgpack.unpackb(msgpack.packb(see)) == see
+
+
+def test_percept_frames_are_the_packers_bytes_of_their_messages():
+    """The kernels write exactly what encoding the message of their map gives (the wire of before):
+    a see with every kind of row, sense_bodies with each collision and counts of every int size."""
+    rng = np.random.default_rng(3)
+    params = parameter_set("classic", visible_distance=30.0)
+    for seed in range(20):
+        w = new_world(params, K, T, batch=1, seed=seed)
+        w.pos[0] = rng.uniform(-40.0, 40.0, (N, 2))
+        w.vel[0] = rng.uniform(-1.0, 1.0, (N, 2))
+        w.body[0] = rng.uniform(-180.0, 180.0, N)
+        w.enabled[0] = True
+        w.counts[0] = rng.integers(0, 2**40, w.counts.shape[1:]) >> rng.integers(0, 40, w.counts.shape[1:])
+        w.collision[0] = rng.integers(0, 4, N)
+        see_out = SeeBuffers.empty(1, N, params.kernel())
+        body_out = SenseBodyBuffers.empty(1, N)
+        buf = np.empty(see_frame_bytes(N), dtype=np.uint8)
+        cycle = int(rng.integers(0, 2**31 - 1)) >> int(rng.integers(0, 31))
+        for obs in range(1, N):
+            see_arena(0, w, obs, 1.0, params.kernel(), see_out)
+            frame = buf[: write_see(see_out, 0, obs, K, cycle, buf)].tobytes()
+            assert frame == encode(m.See(cycle=cycle, **see_payload(see_out, 0, obs, K)))
+            sense_body_arena(0, w, obs, body_out)
+            body = np.empty(SENSE_BODY_FRAME_BYTES, dtype=np.uint8)
+            frame = body[: write_sense_body(body_out, 0, obs, cycle, packed_view_mode("high", "wide"), body)]
+            payload = sense_body_payload(body_out, 0, obs, "high", "wide")
+            assert frame.tobytes() == encode(m.SenseBody(cycle=cycle, **payload))
+            assert payload["view_mode"] == ["high", "wide"]
+            assert payload["counts"] == dict(zip(m.COMMAND_COUNTS, w.counts[0, obs].tolist()))
 
 
 def test_sense_body_by_hand():

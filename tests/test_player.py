@@ -66,8 +66,8 @@ class Game:
     def percepts(self):
         """Deliver this cycle's percepts; sync agents answer nothing before think."""
         for slot, agent in self.players:
-            for msg in self.arena.cycle_percepts(slot, self.arena.see_due(slot, self.arena.cycle)):
-                assert agent.on_message(wire(msg)) is None
+            for frame in self.arena.cycle_frames(slot, self.arena.see_due(slot, self.arena.cycle)):
+                assert agent.on_message(decode_for_player(frame)) is None
 
     def think(self, slot, agent):
         """The agent's answer to think, as the server decodes it."""
@@ -137,8 +137,8 @@ def test_realtime_agents_answer_on_sense_body_or_on_fullstate():
     for fullstate, answers_on in ((False, m.SenseBody), (True, m.Fullstate)):
         game = Game(mode="realtime", fullstate=fullstate)
         slot, agent = game.players[0]
-        for msg in game.arena.cycle_percepts(slot, True):
-            cmd = agent.on_message(wire(msg))
+        for msg in map(decode_for_player, game.arena.cycle_frames(slot, True)):
+            cmd = agent.on_message(msg)
             assert (cmd is not None) == isinstance(msg, answers_on)
             if cmd is not None:
                 assert cmd.cycle == game.arena.cycle
@@ -294,9 +294,9 @@ def play_keeper_one(game, agents, cycles):
     for _ in range(cycles):
         cycle = game.arena.cycle
         for slot, agent in game.players:
-            for msg in game.arena.cycle_percepts(slot, game.arena.see_due(slot, cycle)):
+            for frame in game.arena.cycle_frames(slot, game.arena.see_due(slot, cycle)):
                 for listener in agents if slot is slot_one else [agent]:
-                    listener.on_message(wire(msg))
+                    listener.on_message(decode_for_player(frame))
         for slot, agent in game.players:
             if slot is slot_one:
                 commands = [a.on_message(wire(m.Think(cycle=cycle))) for a in agents]

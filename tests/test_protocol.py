@@ -62,9 +62,10 @@ from protocol import (
     decode_monitor,
     encode,
 )
-from protocol.codec import MAX_PAYLOAD_DEPTH
+from protocol.codec import MAX_PAYLOAD_DEPTH, Invalid
 from protocol.endpoints import bind, configure, connect_endpoint, parse_endpoint
 from protocol.errors import CODEC_ERROR_CODES
+from protocol import messages as m
 from protocol.messages import MAX_COMMANDS, MONITOR_TOPICS
 
 # ------------------------------------------------------------------------------- one sample per message
@@ -651,3 +652,43 @@ def test_see_fast_path_gives_what_the_full_loader_gives():
 
 def encode_map(value: dict) -> bytes:
     return msgpack.packb(value, use_bin_type=True)
+
+
+SEE_ROWS = {  # a valid row of each of the see's fast-path fields
+    "flags": [[0, 12.2, -30, 0.5, -0.25], [None, 3.0, 180, None, None]],
+    "lines": [[3, 20.5, -90]],
+    "ball": [2.5, 10, 0.1, -0.2],
+    "players": [["l", 2, 5.5, -20, 0.1, 0.2, 10, -10], ["r", None, 30.0, 40, None, None, None, None],
+                [None, None, 40.0, 0, None, None, None, None]],
+}
+ODD_VALUES = [None, True, False, 0, 1, -1, 12, 180, 181, -181, 256, 2**53 + 1, 0.0, -0.0, 1.5, -1.5, 1e308,
+              float("nan"), float("inf"), float("-inf"), "l", "r", "x", b"l", [], [1.0], {}]
+
+
+def _outcome(load, value):
+    try:
+        result = load(value)
+    except Invalid as exc:
+        return ("invalid", exc.code, exc.what, tuple(exc.path))
+    return ("ok", result, repr(result))  # repr tells -0.0 from 0.0 and a float from an int
+
+
+def test_see_fast_paths_agree_with_the_full_loaders_on_every_odd_value():
+    """Every see field with a fast path (protocol.codec.row/rows) gives exactly what its full loader
+    gives, value and type, or the same error, for each element of a valid row replaced by odd values,
+    for rows too short or long, and for non-arrays."""
+    loaders = {name: load for name, _, load, _, _, _ in m.See._WIRE}
+    for name, good in SEE_ROWS.items():
+        load = loaders[name]
+        single = name == "ball"
+        variants = [good, None, 5, "x", (), [], good + good if not single else good + [0.0]]
+        for i, row in enumerate([good] if single else good):
+            for j in range(len(row)):
+                for odd in ODD_VALUES:
+                    changed = [*row[:j], odd, *row[j + 1:]]
+                    variants.append(changed if single else [*good[:i], changed, *good[i + 1:]])
+            variants.append(row[:-1] if single else [*good[:i], row[:-1]])
+            variants.append(row + [0] if single else [*good[:i], row + [0]])
+        variants.append([good[0]] * (m.MAX_LANDMARKS + 1) if not single else good)
+        for value in variants:
+            assert _outcome(load, value) == _outcome(load.full, value), (name, value)

@@ -323,3 +323,16 @@ def test_batched_rates_count_the_episodes_and_arena_cycles_after_the_first_chunk
     assert result.cycles == sum(c.cycles for c in chunks[first + 1:])  # arena-cycles, compilation excluded
     assert result.rate_episodes == sum(len(c) for c in chunks[first + 1:]), \
         "run() must count the episodes by the cycles the stream yields, not by each arena's own end cycle"
+
+
+@pytest.mark.skipif(not hasattr(os, "SCHED_BATCH"), reason="SCHED_BATCH is Linux's")
+def test_a_synchronous_arenas_processes_run_batch_scheduled_and_others_as_they_were(tmp_path):
+    """runner/launch.py: members of a batch-scheduled arena run under SCHED_BATCH (a woken process does
+    not preempt the one that woke it); other processes keep the launcher's policy."""
+    from runner.launch import ArenaProcesses
+
+    sleeper = [sys.executable, "-c", "import time; time.sleep(60)"]
+    for batch, expected in ((True, os.SCHED_BATCH), (False, os.sched_getscheduler(0))):
+        with ArenaProcesses(tmp_path / str(batch), batch_scheduled=batch) as arena:
+            member = arena.start("sleeper", sleeper)
+            assert os.sched_getscheduler(member.proc.pid) == expected
