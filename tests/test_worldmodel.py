@@ -181,16 +181,20 @@ def test_velocity_from_sense_body_matches_the_server_within_its_quantisation():
 # own motion prediction (spec `server-physics.md` 2-3)
 
 
-def test_dash_from_rest_moves_0_6_and_leaves_0_24():
-    # a = effort 1 * 100 * 0.006 = 0.6; p += 0.6; v = 0.6 * 0.4 = 0.24 (trace README hand check)
+@pytest.mark.parametrize("sensed, moved", [(0.24, 0.6), (0.1, 0.25)])
+def test_dash_moves_me_by_the_sensed_speed(sensed, moved):
+    # a = effort 1 * 100 * 0.006 = 0.6; p += 0.6; v = 0.6 * 0.4 = 0.24 (trace README hand check): sensed
+    # 0.24, I moved 0.24 / 0.4 = 0.6, as predicted. Sensed 0.1 (no ball near, no collision guessed): as the
+    # C++ (updateAgentAndBallAfterSense) I moved by the speed before decay, 0.1 / 0.4 = 0.25
     wm = model_for(1, HAND_FLAGS)
     wm.on_sense_body(sense(3))
     wm.on_see(hand_see(3))
     wm.on_own_commands(CMD_DASH, 100.0, 0.0)
-    wm.on_sense_body(sense(4, speed=(0.24, 0)))
+    wm.on_sense_body(sense(4, speed=(sensed, 0)))
     b = wm.belief()
-    assert b.pos[0, 1] == pytest.approx([0.6, 0.0])
-    assert b.vel[0, 1] == pytest.approx([0.24, 0.0])
+    assert not wm.state.collided[0]
+    assert b.pos[0, 1] == pytest.approx([moved, 0.0])
+    assert b.vel[0, 1] == pytest.approx([sensed, 0.0])
 
 
 def test_dash_uses_effort():
@@ -203,20 +207,6 @@ def test_dash_uses_effort():
     wm.on_sense_body(sense(4, effort=0.8))
     assert wm.state.collided[0]
     assert wm.belief().pos[0, 1] == pytest.approx([0.24, 0.0])
-
-
-def test_position_follows_the_sensed_speed():
-    # I dash 100 from rest (predicted to (0.6, 0)) but sense_body reports 0.1 along x, no ball near: as the
-    # C++ (updateAgentAndBallAfterSense) I moved by the speed before decay, 0.1 / 0.4 = 0.25
-    wm = model_for(1, HAND_FLAGS)
-    wm.on_sense_body(sense(3))
-    wm.on_see(hand_see(3))
-    wm.on_own_commands(CMD_DASH, 100.0, 0.0)
-    wm.on_sense_body(sense(4, speed=(0.1, 0)))
-    b = wm.belief()
-    assert not wm.state.collided[0]
-    assert b.pos[0, 1] == pytest.approx([0.25, 0.0])
-    assert b.vel[0, 1] == pytest.approx([0.1, 0.0])
 
 
 def test_a_backward_dash_is_believed_to_move_me_back():
