@@ -453,7 +453,7 @@ def sense_body_row(r: int, s: ModelState, cycle: int, speed_amount: float, speed
     nx, ny = _sensed_velocity(r, s)
     s.collided[r] = t0 >= 0 and _guess_collision(r, s, x, y, vx, vy, nx, ny, kp, cfg)
     s.vel[r, me, 0], s.vel[r, me, 1] = nx, ny
-    if not s.collided[r] and cycle - t0 == 1:
+    if t0 >= 0 and not s.collided[r] and cycle - t0 == 1:
         s.pos[r, me, 0] = x0 + nx / kp.player_decay
         s.pos[r, me, 1] = y0 + ny / kp.player_decay
 
