@@ -154,7 +154,8 @@ def believed_dash_power(power: float, kp) -> float:
     reads one minimum for kicks and dashes (``ServerSettings::getMinPower``, -100), so its players believe a
     negative power dashes backwards. rcssserver clips a dash at min_dash_power, 0 with CURRENT (17.0 on),
     and such a dash then does nothing; the players keep the C++ belief, as the reference stack's do
-    (docs/design.md "Backward dashes"), and ``skills._unstuck`` ends the deadlock it can lead to."""
+    (docs/design.md, "The ball in the players' world model"), and ``skills._unstuck`` ends the deadlock it
+    can lead to."""
     return min(kp.max_dash_power, max(kp.min_power, power))
 
 
