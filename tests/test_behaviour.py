@@ -284,8 +284,8 @@ def ours(policy: str):
 @pytest.mark.parametrize("policy", [
     "hold",
     pytest.param("random", marks=pytest.mark.xfail(strict=True, reason=(
-        "known gap: random Pass holds 4.93 +- 0.05 s, 5.4 % below the reference's 5.21-5.34 s; the keepers' "
-        "and the takers' belief in backward dashes both shorten it (docs/design.md, 'The C++ world model "
+        "known gap: random Pass holds 4.93 +- 0.05 s, 5.4 % below the reference's 5.21-5.34 s; our takers "
+        "chase passes otherwise than the C++ ones and win more of them (docs/design.md, 'The C++ world model "
         "taken over')"))),
     "handcoded",
 ])
