@@ -88,6 +88,7 @@ class AgentConfig:
     max_direct_turns: float = 2.0  # agents.md 2.4: 1-2 turns -> turn, 3+ -> brake
     turn_aim_cycles: float = 2.0  # agents.md 2.4: turn aimed at my position 2 cycles ahead
     intercept_horizon: float = 30.0  # agents.md 1 step 4, 2.1 step 2
+    no_intercept_cycles: float = 100.0  # predictCommandToInterceptBall: no point reachable -> the ball 100 ahead
     intercept_roll_cycles: float = 4.0  # WorldModel::predictCommandTurnTowards: position min(i, 4) ahead
     intercept_back_distance: float = 2.5  # WorldModel::predictCommandToMoveToPos default dDistBack
     turn_ratio_near: float = 0.9  # WorldModel::predictCommandTurnTowards dRatioTurn (<= 10 m)
@@ -921,8 +922,8 @@ def close_intercept(bel: Belief, r: int, kp, cfg) -> tuple:
 
 @njit(cache=True)
 def interception_point(bel: Belief, r: int, mem: AgentMemory, kp, cfg, known_first: int = -1) -> tuple:
-    """(i, x, y): the cycle and ball position at which I intercept (spec 2.1 step 2), -1 if none within
-    the horizon. First reachable i by default; the stability rule prefers a reachable i (at most 2 cycles
+    """(i, x, y): the cycle and ball position at which I intercept (spec 2.1 step 2); (-1, the ball's
+    position ``no_intercept_cycles`` ahead) if none within the horizon. First reachable i by default; the stability rule prefers a reachable i (at most 2 cycles
     after the first) whose ball position is within 1 m of the point chosen last cycle, with margin and a
     ball still moving, if I intercepted during the last 2 cycles. The choice is remembered in ``mem``.
     (The framework scans on to first + 20 cycles, but only first..first + 2 can be chosen, so the scan
@@ -967,7 +968,8 @@ def interception_point(bel: Belief, r: int, mem: AgentMemory, kp, cfg, known_fir
             stable = i
     chosen = stable if stable >= 0 else first
     if chosen < 0:
-        return -1, bel.pos[r, 0, 0], bel.pos[r, 0, 1]
+        x, y = ball_in(bel, r, cfg.no_intercept_cycles, kp)
+        return -1, x, y
     x, y = ball_in(bel, r, chosen, kp)
     mem.intercept_point[r, 0] = x
     mem.intercept_point[r, 1] = y
@@ -980,8 +982,10 @@ def intercept(bel: Belief, r: int, mem: AgentMemory, kp, cfg, known_first: int =
     """Intercept / GoToBall (spec 2.1 step 3): the close intercept when the chosen point is < 3 cycles
     away and one exists; no move when my position rolled out min(i, 4) cycles is already within 0.5 m of
     the point (the framework then turns to its global 0 deg, ``forward_angle``, a quirk kept); else move
-    to the point, sized to arrive in i cycles (``intercept_move``). With no reachable point, head for the
-    ball's current position.
+    to the point, sized to arrive in i cycles (``intercept_move``). With no reachable point, move towards
+    the ball's position 100 cycles ahead, paced to arrive in 100 cycles, as the C++ code does
+    (``predictCommandToInterceptBall``: iFirstBall stays 100; the spec's comment says the ball's current
+    position).
     ``known_first``: as in ``interception_point``."""
     me = bel.me[r]
     i, x, y = interception_point(bel, r, mem, kp, cfg, known_first)
@@ -990,14 +994,15 @@ def intercept(bel: Belief, r: int, mem: AgentMemory, kp, cfg, known_first: int =
         if ok:
             return _unstuck(bel, r, mem, code, a1, x, y, kp, cfg)
     px, py = bel.pos[r, me, 0], bel.pos[r, me, 1]
-    roll = cfg.intercept_roll_cycles if i < 0 else min(float(i), cfg.intercept_roll_cycles)
+    cycles = cfg.no_intercept_cycles if i < 0 else float(i)
+    roll = min(cycles, cfg.intercept_roll_cycles)
     fx, fy = rolled_out(px, py, bel.vel[r, me, 0], bel.vel[r, me, 1], roll, kp.player_decay)
     if distance(fx, fy, x, y) < cfg.intercept_stay_radius:
         fwd = math.radians(forward_angle(bel, r))
         return turn_to_point(bel, r, px + math.cos(fwd), py + math.sin(fwd), 1.0, kp)
     code, a1 = intercept_move(
         bel.pos[r, me, 0], bel.pos[r, me, 1], bel.vel[r, me, 0], bel.vel[r, me, 1], bel.body[r, me],
-        bel.effort[r], x, y, max(i, 1), kp, cfg,
+        bel.effort[r], x, y, max(cycles, 1.0), kp, cfg,
     )
     return _unstuck(bel, r, mem, code, a1, x, y, kp, cfg)
 
