@@ -199,8 +199,9 @@ def _ref_interception_point(pos, vel, body, effort, me, time, last_x, last_y, la
         ):
             stable = i
     chosen = stable if stable >= 0 else first
-    if chosen < 0:
-        return -1, pos[0, 0], pos[0, 1]
+    if chosen < 0:  # none within reach: the C++ heads for the ball 100 cycles ahead
+        x, y = _ref_ball_plan(pos, vel, cfg.no_intercept_cycles, kp)
+        return -1, x, y
     x, y = _ref_ball_plan(pos, vel, chosen, kp)
     return chosen, x, y
 
