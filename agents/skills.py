@@ -923,7 +923,8 @@ def close_intercept(bel: Belief, r: int, kp, cfg) -> tuple:
 @njit(cache=True)
 def interception_point(bel: Belief, r: int, mem: AgentMemory, kp, cfg, known_first: int = -1) -> tuple:
     """(i, x, y): the cycle and ball position at which I intercept (spec 2.1 step 2); (-1, the ball's
-    position ``no_intercept_cycles`` ahead) if none within the horizon. First reachable i by default; the stability rule prefers a reachable i (at most 2 cycles
+    position ``no_intercept_cycles`` ahead) if none within the horizon. First reachable i by default; the
+    stability rule prefers a reachable i (at most 2 cycles
     after the first) whose ball position is within 1 m of the point chosen last cycle, with margin and a
     ball still moving, if I intercepted during the last 2 cycles. The choice is remembered in ``mem``.
     (The framework scans on to first + 20 cycles, but only first..first + 2 can be chosen, so the scan
