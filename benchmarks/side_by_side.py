@@ -15,9 +15,16 @@ statistics computed from its game log and episode log by the same code as ours
 (``trainer.behaviour.game_log_episodes``), and printed as the reference. ``--save-reference TAG``
 appends each such campaign to the stored file as a new campaign named after the policy and TAG
 ("hold", "rand" or "hand" + TAG, as the file's earlier campaigns; an existing name is refused).
+``--reference-logs DIR`` measures the logs an earlier ``--log-dir DIR`` kept instead of playing again
+(``DIR/<policy>/game.rcg`` and ``game.kwy``; ``--seed`` names the seed they were played with).
+
+The first table weighs each statistic of ours against all the reference campaigns of its policy, as
+``tests/test_behaviour.py`` does (``trainer.behaviour.judge``): within tolerance of one campaign, or
+between the campaigns' lowest and highest value.
 
     python benchmarks/side_by_side.py [--episodes 1000] [--seed 7] [--batch 100] [--policies random]
     python benchmarks/side_by_side.py --reference /work/rcss-build/b --seed 31 [--save-reference 31]
+    python benchmarks/side_by_side.py --reference-logs DIR --seed 31 --save-reference 31
 """
 
 from __future__ import annotations
@@ -43,12 +50,22 @@ from trainer.behaviour import (  # noqa: E402
     behaviour_statistics,
     compare,
     game_log_episodes,
+    judge,
     load_reference,
     measure_policy,
     reference_entry,
 )
 from runner.launch import ArenaFailure, interrupt_on_sigterm  # noqa: E402
-from benchmarks.reference_stack import CPP_POLICY, KEEPERS, TAKERS, ReferenceStack, play_reference  # noqa: E402
+from benchmarks.reference_stack import (  # noqa: E402
+    CPP_POLICY,
+    KEEPERS,
+    LOG_NAME,
+    TAKERS,
+    ReferenceStack,
+    play_reference,
+)
+from server.episode_log import read_kwy  # noqa: E402
+from server.game_log import read_rcg  # noqa: E402
 
 REFERENCE = REPO / "tests" / "data" / "rcss-behaviour" / "stats_real.json"
 # A policy's references: (label, statistics), one row each.
@@ -64,19 +81,36 @@ def optional_text(x: float | None, unit: str) -> str:
 
 
 def scalar_tables(ours: dict[str, BehaviourStats], references: References) -> list[str]:
-    """One markdown table per single-number statistic, a row per (our policy, reference campaign)."""
-    pairs = [(policy, campaign, compare(ours[policy], stats))
-             for policy in ours for campaign, stats in references[policy]]
+    """One markdown table per single-number statistic, a row per (our policy, reference campaign that has
+    the statistic)."""
+    rows: dict[str, list[str]] = {name: [] for stats in ours.values() for name in stats.scalars()}
+    for policy in ours:
+        for campaign, stats in references[policy]:
+            for row in compare(ours[policy], stats):
+                rows[row.statistic].append(
+                    f"| {policy} (ref. {campaign}) | {estimate_text(row.ours)} | {estimate_text(row.reference)} | "
+                    f"{row.difference:+.3f} | {optional_text(row.z, '')} | {optional_text(row.percent, ' %')} | "
+                    f"{'' if row.within_tolerance else '**beyond**'} |")
     lines = []
-    for i, name in enumerate(row.statistic for row in pairs[0][2]):
-        lines += [f"\n### {name}\n", "| policy | ours | reference | difference | in s.e. | in % | beyond tolerance |",
-                  "|---|---|---|---|---|---|---|"]
-        for policy, campaign, rows in pairs:
-            row = rows[i]
-            lines.append(f"| {policy} (ref. {campaign}) | {estimate_text(row.ours)} | "
-                         f"{estimate_text(row.reference)} | {row.difference:+.3f} | "
-                         f"{optional_text(row.z, '')} | {optional_text(row.percent, ' %')} | "
-                         f"{'' if row.within_tolerance else '**beyond**'} |")
+    for name, table in rows.items():
+        if table:
+            lines += [f"\n### {name}\n",
+                      "| policy | ours | reference | difference | in s.e. | in % | beyond tolerance |",
+                      "|---|---|---|---|---|---|---|", *table]
+    return lines
+
+
+def verdict_table(ours: dict[str, BehaviourStats], references: References) -> list[str]:
+    """One row per (policy, statistic): ours, the campaigns' range, and whether ours is within tolerance
+    of the campaigns (``trainer.behaviour.judge``)."""
+    lines = ["\n### Verdict: ours against every reference campaign of the policy\n",
+             "| policy | statistic | ours | reference campaigns | within tolerance |", "|---|---|---|---|---|"]
+    for policy, stats in ours.items():
+        for v in judge(stats, [campaign for _, campaign in references[policy]]):
+            low, high = v.reference_range
+            span = f"{low:.3f}" if low == high else f"{low:.3f} - {high:.3f}"
+            lines.append(f"| {policy} | {v.statistic} | {estimate_text(v.ours)} | {span} ({len(v.rows)}) | "
+                         f"{'yes' if v.within_tolerance else '**no**'} |")
     return lines
 
 
@@ -131,14 +165,26 @@ def play_live_reference(stack: ReferenceStack, policy: str, episodes: int, seed:
     return behaviour_statistics(recorded, KEEPERS, seconds_per_cycle)
 
 
+def logged_reference(log_dir: Path, policy: str, episodes: int, seconds_per_cycle: float) -> BehaviourStats:
+    """The statistics of the first ``episodes`` episodes of the reference stack's logs an earlier
+    ``--log-dir`` kept for ``policy`` (the stack plays on a little beyond the episodes asked for)."""
+    where = log_dir / policy
+    kwy = where / f"{LOG_NAME}.kwy"
+    recorded = game_log_episodes(read_rcg(where / f"{LOG_NAME}.rcg", kwy), read_kwy(kwy)[:episodes], KEEPERS, TAKERS)
+    if len(recorded) < episodes:
+        raise ValueError(f"{where} holds {len(recorded)} whole episodes, fewer than --episodes {episodes}")
+    return behaviour_statistics(recorded, KEEPERS, seconds_per_cycle)
+
+
 def live_references(parser: argparse.ArgumentParser, args: argparse.Namespace, step_s: float) -> References:
     """Each policy of ``args`` played live on the reference stack (and stored with ``--save-reference``);
     a bad build directory or a taken campaign name is refused before anything is played, a dead process
     or Ctrl-C ends the harness in one line with every process stopped."""
-    stack = ReferenceStack(args.reference)
+    stack = ReferenceStack(args.reference) if args.reference else None
     names = {policy: campaign_name(policy, args.save_reference or "") for policy in args.policies}
     try:
-        stack.check()
+        if stack:
+            stack.check()
         if args.save_reference:
             stored_entries(REFERENCE, set(names.values()))
     except ValueError as exc:
@@ -147,13 +193,17 @@ def live_references(parser: argparse.ArgumentParser, args: argparse.Namespace, s
     for policy in args.policies:
         start = time.perf_counter()
         try:
-            stats = play_live_reference(stack, policy, args.episodes, args.seed, args.log_dir, step_s)
-        except (ArenaFailure, ValueError) as exc:
+            if stack:
+                stats = play_live_reference(stack, policy, args.episodes, args.seed, args.log_dir, step_s)
+            else:
+                stats = logged_reference(args.reference_logs, policy, args.episodes, step_s)
+        except (ArenaFailure, ValueError, OSError) as exc:
             sys.exit(f"side_by_side: {exc}")
         except KeyboardInterrupt:
             sys.exit("side_by_side: interrupted; the reference stack is stopped")
-        references[policy] = [(f"live, seed {args.seed}", stats)]
-        print(f"{policy}: reference stack, {stats.episodes} episodes in {time.perf_counter() - start:.0f} s",
+        references[policy] = [(f"{'live' if stack else 'logged'}, seed {args.seed}", stats)]
+        print(f"{policy}: reference {'stack' if stack else 'logs'}, {stats.episodes} episodes in "
+              f"{time.perf_counter() - start:.0f} s",
               file=sys.stderr)
     if args.save_reference:
         save_campaigns(REFERENCE, {names[p]: reference_entry(references[p][0][1], names[p], args.seed)
@@ -169,18 +219,24 @@ def main() -> None:
     parser.add_argument("--policies", nargs="+", choices=list(REFERENCE_CAMPAIGNS), default=list(REFERENCE_CAMPAIGNS))
     parser.add_argument("--reference", type=Path, metavar="BUILD",
                         help="play the reference stack built in BUILD live (else: the stored campaigns)")
+    parser.add_argument("--reference-logs", type=Path, metavar="DIR",
+                        help="measure the reference logs an earlier --log-dir DIR kept (instead of --reference)")
     parser.add_argument("--log-dir", type=Path, help="keep the reference stack's logs here (per policy)")
     parser.add_argument("--save-reference", metavar="TAG",
                         help="store the live campaigns in stats_real.json as <policy>TAG")
     args = parser.parse_args()
-    if args.reference is None and (args.log_dir or args.save_reference):
-        parser.error("--log-dir and --save-reference need --reference")
+    if args.reference and args.reference_logs:
+        parser.error("--reference and --reference-logs are two sources of one reference: give one")
+    if args.reference is None and args.log_dir:
+        parser.error("--log-dir needs --reference")
+    if args.reference is None and args.reference_logs is None and args.save_reference:
+        parser.error("--save-reference needs --reference or --reference-logs")
     if args.episodes < 2:
         parser.error("--episodes must be at least 2")
     interrupt_on_sigterm()  # a terminated harness stops the reference stack as Ctrl-C does
     params = parameter_set("current")
     step_s = params.simulator_step_ms / 1000.0
-    if args.reference is None:
+    if args.reference is None and args.reference_logs is None:
         stored = load_reference(REFERENCE)
         references = {policy: [(c, stored[c]) for c in REFERENCE_CAMPAIGNS[policy]] for policy in args.policies}
     else:
@@ -193,13 +249,13 @@ def main() -> None:
         except RuntimeError as exc:  # a stuck episode (trainer.behaviour.record_batched)
             parser.exit(1, f"side_by_side.py: {policy}: {exc}\n")
         print(f"{policy}: {args.episodes} episodes in {time.perf_counter() - start:.0f} s", file=sys.stderr)
-    source = "played live" if args.reference else "stored campaigns"
+    source = "played live" if args.reference else "its logs" if args.reference_logs else "stored campaigns"
     print(f"# Side by side: our players ({args.episodes} episodes per policy, seed {args.seed}, batch "
           f"{args.batch}) and the reference stack ({source})\n")
     print("CURRENT parameters, 3v2 on 20 m, hand-coded GetOpen and takers. 'in s.e.': difference / "
           "sqrt(s.e. ours^2 + s.e. ref.^2). Beyond tolerance: more than "
           f"{TOLERANCE_SE:g} such s.e. and more than {100 * TOLERANCE_SHARE:g} % of the reference.")
-    print("\n".join(scalar_tables(ours, references) + curve_tables(ours, references)))
+    print("\n".join(verdict_table(ours, references) + scalar_tables(ours, references) + curve_tables(ours, references)))
 
 
 if __name__ == "__main__":

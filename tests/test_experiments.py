@@ -12,6 +12,7 @@ import csv
 import json
 import math
 import shutil
+import time
 from pathlib import Path
 
 import numpy as np
@@ -172,6 +173,10 @@ def test_figure3_writes_a_png_and_final_evaluations_of_nine_configurations(finis
     # Hand-coded keepers hold the ball far longer than random ones (keepaway-task.md 8).
     finals = {r["name"]: float(r["final_mean_hold_time_s"]) for r in rows}
     assert finals["P:HC-GO:HC"] > 2 * finals["P:R-GO:R"]
+    # what each configuration cost, in the one sitting that played it
+    timings = [c["timing"] for c in data["configurations"]]
+    assert all(t["sittings"] == 1 and t["wall_s"] > 0.0 and t["cpu_s"] > 0.0 for t in timings)
+    assert data["timing"]["wall_s"] == pytest.approx(sum(t["wall_s"] for t in timings))
 
 
 @pytest.mark.slow
@@ -217,6 +222,24 @@ def test_running_again_skips_finished_work(copy, monkeypatch):
     assert skipped == [8, 5]  # figure3 resumed P:L-GO:L (no summary) without playing; table2 needs 5
     assert checkpoint.stat().st_mtime_ns == before
     assert (configuration_dir(copy, LEARNED, LEARNED) / "summary.json").is_file()
+    # the resumed configuration had a second sitting; the skipped ones and the cached tests none
+    figure = json.loads((copy / "figure3.json").read_text())
+    sittings = {c["name"]: c["timing"]["sittings"] for c in figure["configurations"]}
+    assert sittings == {name: 2 if name == "P:L-GO:L" else 1 for name in NAMES}
+    assert json.loads((copy / "table2.json").read_text())["tests_timing"]["sittings"] == 1
+
+
+def test_a_sitting_is_timed_even_when_it_is_interrupted(tmp_path):
+    with pytest.raises(KeyboardInterrupt):
+        with experiments.timed_sitting(tmp_path):
+            raise KeyboardInterrupt
+    with experiments.timed_sitting(tmp_path):
+        start = time.process_time()
+        while time.process_time() - start < 0.05:  # some CPU
+            pass
+    timing = experiments.Timing.read(tmp_path)
+    assert timing.sittings == 2 and timing.wall_s >= 0.05 and timing.cpu_s >= 0.04
+    assert experiments.Timing.read(tmp_path / "none") == experiments.Timing()
 
 
 @pytest.mark.slow

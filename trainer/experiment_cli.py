@@ -88,7 +88,8 @@ def _report(run: Any) -> None:
     final = run.final()
     state = "finished before, skipped" if run.skipped else "done"
     click.echo(f"{run.name}: {state}; final evaluation "
-               f"{format_hold(final.mean_hold_time_s, final.stderr_hold_time_s, run.stderr_basis())}")
+               f"{format_hold(final.mean_hold_time_s, final.stderr_hold_time_s, run.stderr_basis())}; "
+               f"{run.timing.text()}")
 
 
 def _run(what: Callable[..., Any], exp: Any, where: Placement, out: Path, no_progress: bool) -> Any:

@@ -31,8 +31,12 @@ from __future__ import annotations
 import csv
 import io
 import json
-from collections.abc import Callable, Sequence
+import os
+import time
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager, nullcontext
 from dataclasses import asdict, dataclass, replace
+from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
@@ -88,6 +92,7 @@ SHORT = {"random": "R", "handcoded": "HC", LEARNED: "L"}
 SIGNIFICANCE = 0.05  # keepaway-task.md 8 / the issue: Welch's t-test, p < 0.05
 INTERVALS = 12  # keepaway-task.md 8: an evaluation every 2,500 of 30,000 episodes
 FIXED_RECORD = "fixed.json"  # a configuration that learns nothing records itself here (a training: config.json)
+TIMING = "timing.json"  # each sitting's wall and CPU time in a configuration's directory (Table 2's tests too)
 # Figure 3's measured reference levels: the configurations that learn nothing at the paper's two extremes.
 REFERENCES = {("handcoded", "handcoded"): "hand-coded", ("random", "random"): "random"}
 
@@ -196,10 +201,51 @@ def stored_settings(settings: dict[str, Any]) -> dict[str, Any]:
     return {"pass_hive_mind": False, **with_modes(settings)}
 
 
+def cpu_seconds() -> float:
+    """User + system CPU time of this process and of its children that have ended (the distributed and
+    Ray backends' players and servers are children, the batched backend's threads this process)."""
+    t = os.times()
+    return t.user + t.system + t.children_user + t.children_system
+
+
+@dataclass(frozen=True)
+class Timing:
+    """Wall-clock and CPU seconds spent on a piece of an experiment over all its sittings (a sitting: one
+    run of the command that did some of its work; an interrupted one counts what it did)."""
+
+    wall_s: float = 0.0
+    cpu_s: float = 0.0
+    sittings: int = 0
+
+    @classmethod
+    def read(cls, where: Path) -> Timing:
+        sittings = (_read_json(where / TIMING) or {"sittings": []})["sittings"]
+        return cls(sum(s["wall_s"] for s in sittings), sum(s["cpu_s"] for s in sittings), len(sittings))
+
+    def text(self) -> str:
+        return f"{self.wall_s:.0f} s wall, {self.cpu_s:.0f} s CPU over {self.sittings} sitting(s)"
+
+
+@contextmanager
+def timed_sitting(where: Path) -> Iterator[None]:
+    """Append this sitting's wall and CPU seconds to ``where/timing.json`` when the work inside ends, also
+    when it is interrupted or fails: a study resumed across sittings then still knows what it cost."""
+    wall, cpu = time.perf_counter(), cpu_seconds()
+    try:
+        yield
+    finally:
+        where.mkdir(parents=True, exist_ok=True)
+        record = _read_json(where / TIMING) or {"sittings": []}
+        record["sittings"].append({"ended": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+                                   "wall_s": round(time.perf_counter() - wall, 3),
+                                   "cpu_s": round(cpu_seconds() - cpu, 3)})
+        write_atomic(where / TIMING, json.dumps(record, indent=1).encode())
+
+
 @dataclass(frozen=True)
 class ConfigurationRun:
-    """A configuration's learning curves, one per trial, whether this run found it already finished, and
-    the episodes of each evaluation (what a single trial's standard errors are over)."""
+    """A configuration's learning curves, one per trial, whether this run found it already finished, the
+    episodes of each evaluation (what a single trial's standard errors are over), and what it cost."""
 
     name: str
     pass_policy: str
@@ -207,6 +253,7 @@ class ConfigurationRun:
     curves: list[list[CurvePoint]]
     skipped: bool
     eval_episodes: int
+    timing: Timing = Timing()
 
     def mean_curve(self) -> list[CurvePoint]:
         return mean_curve(self.curves)
@@ -246,7 +293,8 @@ def run_configuration(exp: ExperimentConfig, pass_policy: str, getopen_policy: s
     where = configuration_dir(out, pass_policy, getopen_policy)
     name = configuration_name(pass_policy, getopen_policy)
     if LEARNED not in (pass_policy, getopen_policy):
-        return _run_fixed(exp, pass_policy, getopen_policy, where, placement, progress)
+        run = _run_fixed(exp, pass_policy, getopen_policy, where, placement, progress)
+        return replace(run, timing=Timing.read(where))
     config = exp.train_config(pass_policy, getopen_policy)
     started = (where / "config.json").is_file()
     if started and read_config(where) != config:
@@ -254,9 +302,10 @@ def run_configuration(exp: ExperimentConfig, pass_policy: str, getopen_policy: s
     summary = _read_json(where / "summary.json") if started else None
     skipped = _finished(summary, config.trials)
     if not skipped:
-        summary = train(config, where, resume=started, progress=progress, placement=placement)
+        with timed_sitting(where):
+            summary = train(config, where, resume=started, progress=progress, placement=placement)
     return ConfigurationRun(name, pass_policy, getopen_policy, _trial_curves(summary), skipped,
-                            config.eval_episodes)
+                            config.eval_episodes, Timing.read(where))
 
 
 def _run_fixed(exp: ExperimentConfig, pass_policy: str, getopen_policy: str, where: Path, placement: Placement,
@@ -278,8 +327,9 @@ def _run_fixed(exp: ExperimentConfig, pass_policy: str, getopen_policy: str, whe
         curves.append(read_curve_csv(path) if path.is_file() else [])
     skipped = all(len(c) == len(points) for c in curves)
     if not skipped:
-        _evaluate_fixed(exp, Behaviours(pass_policy, getopen_policy), where, record["seed"], curves,
-                        experiment_backend(exp, where, placement), progress)
+        with timed_sitting(where):
+            _evaluate_fixed(exp, Behaviours(pass_policy, getopen_policy), where, record["seed"], curves,
+                            experiment_backend(exp, where, placement), progress)
     trials = [{"trial": t, "episodes": exp.episodes, "finished": True, "curve": [asdict(p) for p in c]}
               for t, c in enumerate(curves)]
     write_atomic(where / "summary.json", dump_json(
@@ -424,9 +474,12 @@ def write_final_evaluations(out: Path, exp: ExperimentConfig, runs: Sequence[Con
     writer.writeheader()
     writer.writerows(rows)
     write_atomic(out / "figure3.csv", text.getvalue().encode())
-    configurations = [{**row, "curve": [asdict(p) for p in run.mean_curve()]} for row, run in zip(rows, runs)]
-    write_atomic(out / "figure3.json", dump_json({"experiment": asdict(exp), "configurations": configurations},
-                                                 indent=1).encode())
+    configurations = [{**row, "timing": asdict(run.timing), "curve": [asdict(p) for p in run.mean_curve()]}
+                      for row, run in zip(rows, runs)]
+    total = Timing(sum(r.timing.wall_s for r in runs), sum(r.timing.cpu_s for r in runs),
+                   max((r.timing.sittings for r in runs), default=0))
+    write_atomic(out / "figure3.json", dump_json({"experiment": asdict(exp), "timing": asdict(total),
+                                                  "configurations": configurations}, indent=1).encode())
 
 
 # -- Table 2 -----------------------------------------------------------------------------------------
@@ -591,17 +644,18 @@ def table2(exp: ExperimentConfig, out: Path, placement: Placement = Placement(),
     per_trial = []
     cells_per_trial = len(STUDIES) * len(POLICIES) ** 2
     backend: Backend | None = None  # opened when a trial's tests are missing
+    cached = [_read_json(tests / f"trial_{trial:03d}.json") for trial in range(exp.trials)]
+    cached = [c if c is not None and stored_settings(c["experiment"]) == settings else None for c in cached]
     try:
-        with tqdm(total=exp.trials * cells_per_trial * exp.eval_episodes, unit="ep", dynamic_ncols=True,
-                  desc="Table 2 tests", disable=not progress) as bar:
-            for trial in range(exp.trials):
-                path = tests / f"trial_{trial:03d}.json"
-                stored = _read_json(path)
-                if stored is None or stored_settings(stored["experiment"]) != settings:
+        with timed_sitting(tests) if None in cached else nullcontext(), \
+                tqdm(total=exp.trials * cells_per_trial * exp.eval_episodes, unit="ep", dynamic_ncols=True,
+                     desc="Table 2 tests", disable=not progress) as bar:
+            for trial, stored in enumerate(cached):
+                if stored is None:
                     backend = backend or experiment_backend(exp, tests, placement)
                     stored = {"experiment": settings, "trial": trial,
                               "values": cross_test_trial(exp, out, trial, backend, bar.update)}
-                    write_atomic(path, dump_json(stored).encode())
+                    write_atomic(tests / f"trial_{trial:03d}.json", dump_json(stored).encode())
                 else:
                     bar.update(cells_per_trial * exp.eval_episodes)
                 per_trial.append(stored["values"])
@@ -611,8 +665,8 @@ def table2(exp: ExperimentConfig, out: Path, placement: Placement = Placement(),
     tables = [CrossTable(study, table_cells([[[v[study][r][c] for v in per_trial] for c in range(len(POLICIES))]
                                              for r in range(len(POLICIES))]))
               for study in STUDIES]
-    write_atomic(out / "table2.json", dump_json({"experiment": settings, "tables": [t.to_dict() for t in tables]},
-                                                indent=1).encode())
+    write_atomic(out / "table2.json", dump_json({"experiment": settings, "tests_timing": asdict(Timing.read(tests)),
+                                                 "tables": [t.to_dict() for t in tables]}, indent=1).encode())
     write_atomic(out / "table2.md", "\n".join(t.markdown() for t in tables).encode())
     return tables
 
@@ -624,6 +678,7 @@ __all__ = [
     "CrossTable",
     "ExperimentConfig",
     "POLICIES",
+    "Timing",
     "configuration_dir",
     "configuration_name",
     "cross_test_trial",
