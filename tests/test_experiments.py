@@ -88,6 +88,14 @@ def forbid_playing(monkeypatch) -> None:
 
 
 # -- statistics --------------------------------------------------------------------------------------
+def test_figure3_tables_columns_and_ratios_by_hand():
+    assert experiments.table_columns(list(range(0, 30001, 2500))) == [0, 2500, 5000, 10000, 20000, 30000]
+    assert experiments.table_columns([0, 8, 16, 24, 32, 40, 48]) == [0, 8, 16, 32, 48]
+    # 12.1 / 11.5 = 1.052; relative errors 0.3606 / sqrt(3) / 12.1 and 0.1 / sqrt(3) / 11.5: 1.052 x 0.0179
+    assert experiments.ratio_text([12.0, 12.5, 11.8], [11.5, 11.6, 11.4]).startswith("1.05 +- 0.02 (p = ")
+    assert experiments.ratio_text([3.0], [4.0]) == "0.75"  # one trial: no standard error, no test
+
+
 def test_welch_p_value_by_hand():
     # a = 1, 2, 3 and b = 4, 5, 6: means 2 and 5, sample variances 1, squared standard errors 1/3 each;
     # t^2 = 9 / (2/3) = 27/2; df = (2/3)^2 / (2 (1/3)^2 / 2) = 4. Student's t with 4 degrees of freedom:
@@ -173,6 +181,14 @@ def test_figure3_writes_a_png_and_final_evaluations_of_nine_configurations(finis
     # Hand-coded keepers hold the ball far longer than random ones (keepaway-task.md 8).
     finals = {r["name"]: float(r["final_mean_hold_time_s"]) for r in rows}
     assert finals["P:HC-GO:HC"] > 2 * finals["P:R-GO:R"]
+    # the same as a table: the pairs first, five columns of the curve, the final beside the hand-coded pair's
+    table = (finished / "figure3.md").read_text().splitlines()
+    assert table[0].startswith("| configuration | trials | 0 | 8 | 16 | 32 | 48 episodes | / P:HC-GO:HC at 48")
+    assert len(table) == 2 + 9 and table[2].startswith("| P:HC-GO:HC (hand-coded pair) | 2 | ")
+    assert table[2].endswith(" | 1 |") and table[3].startswith("| P:R-GO:R (random pair) | 2 | ")
+    finals = {c["name"]: c["curve"][-1]["mean_hold_time_s"] for c in data["configurations"]}
+    ratio = table[3].split(" | ")[-1]
+    assert ratio.startswith(f"{finals['P:R-GO:R'] / finals['P:HC-GO:HC']:.2f} +- ") and "(p = " in ratio
     # what each configuration cost, in the one sitting that played it
     timings = [c["timing"] for c in data["configurations"]]
     assert all(t["sittings"] == 1 and t["wall_s"] > 0.0 and t["cpu_s"] > 0.0 for t in timings)

@@ -31,6 +31,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import math
 import os
 import time
 from collections.abc import Callable, Iterator, Sequence
@@ -40,6 +41,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 from scipy import stats
 
 from runner.backends import Placement, open_backend
@@ -457,10 +459,63 @@ FINAL_HEADER = ("name", "pass", "getopen", "trials", "episodes", "final_mean_hol
                 "stderr_over")
 
 
+# Figure 3's table: its columns as shares of the training (at 30,000 episodes: 0, 2,500, 5,000, 10,000,
+# 20,000 and 30,000), each the nearest evaluation point.
+TABLE_FRACTIONS = (0.0, 1 / 12, 1 / 6, 1 / 3, 2 / 3, 1.0)
+LABELS = {("handcoded", "handcoded"): "hand-coded pair", ("random", "random"): "random pair",
+          ("handcoded", LEARNED): "CEM GetOpen, hand-coded Pass", ("random", LEARNED): "CEM GetOpen, random Pass",
+          (LEARNED, "handcoded"): "Sarsa Pass, hand-coded GetOpen", (LEARNED, "random"): "Sarsa Pass, random GetOpen",
+          (LEARNED, LEARNED): "Algorithm 3"}
+
+
+def table_columns(episodes: Sequence[int]) -> list[int]:
+    """The evaluation points (``episodes``, ascending) nearest to :data:`TABLE_FRACTIONS` of the last."""
+    return sorted({min(episodes, key=lambda e: abs(e - f * episodes[-1])) for f in TABLE_FRACTIONS})
+
+
+def format_estimate(value: float, se: float | None) -> str:
+    return f"{value:.2f}" if se is None or math.isnan(se) else f"{value:.2f} +- {se:.2f}"
+
+
+def ratio_text(a: Sequence[float], b: Sequence[float]) -> str:
+    """mean(a) / mean(b) with its delta-method standard error over the two independent samples' means
+    and Welch's p (each only with two or more values per sample)."""
+    ratio = float(np.mean(a) / np.mean(b))
+    if len(a) < 2 or len(b) < 2:
+        return f"{ratio:.2f}"
+    relative = [np.std(x, ddof=1) / math.sqrt(len(x)) / np.mean(x) for x in (a, b)]
+    p = welch_p_value(a, b)
+    return f"{ratio:.2f} +- {ratio * math.hypot(*relative):.2f}" + ("" if p is None else f" (p = {p:.2g})")
+
+
+def figure3_markdown(runs: Sequence[ConfigurationRun]) -> str:
+    """Figure 3 as a table (``figure3.md``): a row per configuration, the two reference pairs first; its
+    trials, the mean curve +- its standard error at :func:`table_columns`, the last in bold, and the final
+    evaluation beside the hand-coded pair's (:func:`ratio_text` over the trials' finals)."""
+    first = [run for config in REFERENCES for run in runs if (run.pass_policy, run.getopen_policy) == config]
+    ordered = first + [run for run in runs if run not in first]
+    columns = table_columns([p.episodes for p in ordered[0].mean_curve()])
+    hand = next((run for run in runs if (run.pass_policy, run.getopen_policy) == ("handcoded", "handcoded")), None)
+    lines = ["| configuration | trials | " + " | ".join(f"{e:,}" for e in columns)
+             + f" episodes | / P:HC-GO:HC at {columns[-1]:,} (Welch p) |", "|---" * (len(columns) + 3) + "|"]
+    for run in ordered:
+        curve = {p.episodes: p for p in run.mean_curve()}
+        cells = [format_estimate(curve[e].mean_hold_time_s, curve[e].stderr_hold_time_s) for e in columns]
+        cells[-1] = f"**{cells[-1]}**"
+        finals = [trial[-1].mean_hold_time_s for trial in run.curves]
+        versus = "-" if hand is None else "1" if run is hand else ratio_text(
+            finals, [trial[-1].mean_hold_time_s for trial in hand.curves])
+        label = LABELS.get((run.pass_policy, run.getopen_policy))
+        name = f"{run.name} ({label})" if label else run.name
+        lines.append(f"| {name} | {len(run.curves)} | {' | '.join(cells)} | {versus} |")
+    return "\n".join(lines) + "\n"
+
+
 def write_final_evaluations(out: Path, exp: ExperimentConfig, runs: Sequence[ConfigurationRun]) -> None:
     """``figure3.csv`` (one row per configuration: its last evaluation, mean over trials and standard
-    error, and what that is over; an undefined one is an empty field) and ``figure3.json`` (the same with
-    the experiment's settings and every mean curve; ``null`` where undefined)."""
+    error, and what that is over; an undefined one is an empty field), ``figure3.json`` (the same with
+    the experiment's settings and every mean curve; ``null`` where undefined) and ``figure3.md``
+    (:func:`figure3_markdown`)."""
     rows = []
     for run in runs:
         final = run.final()
@@ -480,6 +535,7 @@ def write_final_evaluations(out: Path, exp: ExperimentConfig, runs: Sequence[Con
                    max((r.timing.sittings for r in runs), default=0))
     write_atomic(out / "figure3.json", dump_json({"experiment": asdict(exp), "timing": asdict(total),
                                                   "configurations": configurations}, indent=1).encode())
+    write_atomic(out / "figure3.md", figure3_markdown(runs).encode())
 
 
 # -- Table 2 -----------------------------------------------------------------------------------------
@@ -685,6 +741,7 @@ __all__ = [
     "default_eval_every",
     "experiment_game",
     "figure3",
+    "figure3_markdown",
     "parse_configurations",
     "plot_figure3",
     "reference_levels",
