@@ -177,9 +177,10 @@ def logged_reference(log_dir: Path, policy: str, episodes: int, seconds_per_cycl
 
 
 def live_references(parser: argparse.ArgumentParser, args: argparse.Namespace, step_s: float) -> References:
-    """Each policy of ``args`` played live on the reference stack (and stored with ``--save-reference``);
-    a bad build directory or a taken campaign name is refused before anything is played, a dead process
-    or Ctrl-C ends the harness in one line with every process stopped."""
+    """Each policy of ``args`` played live on the reference stack, or measured from the logs
+    ``--reference-logs`` names (and stored with ``--save-reference``); a bad build directory or a taken
+    campaign name is refused before anything is played, a dead process, unreadable logs or Ctrl-C end the
+    harness in one line with every process stopped."""
     stack = ReferenceStack(args.reference) if args.reference else None
     names = {policy: campaign_name(policy, args.save_reference or "") for policy in args.policies}
     try:

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import functools
 import math
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -353,7 +355,38 @@ def test_statistics_written_as_a_reference_entry_read_back_the_same():
 
 
 # --------------------------------------------------------------------------------------------------
-# our players beside the reference stack
+# the harness's command line (benchmarks/side_by_side.py)
+
+HARNESS = Path(__file__).resolve().parent.parent / "benchmarks" / "side_by_side.py"
+
+
+def harness(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, str(HARNESS), *args], capture_output=True, text=True, timeout=300)
+
+
+def test_the_harness_refuses_two_references_and_logs_it_cannot_read_in_one_line(tmp_path):
+    both = harness("--reference", str(tmp_path), "--reference-logs", str(tmp_path))
+    assert both.returncode == 2 and both.stderr.splitlines()[-1].endswith("give one")
+    missing = harness("--reference-logs", str(tmp_path), "--policies", "hold", "--episodes", "4")
+    assert missing.returncode == 1 and missing.stderr.count("\n") == 1
+    assert missing.stderr.startswith("side_by_side: cannot read ") and "hold/game.rcg" in missing.stderr
+
+
+def test_the_harness_measures_kept_logs_as_the_reference(tmp_path):
+    # our own game log of 6 always-hold episodes, kept as the reference stack's --log-dir would keep it
+    spec = ArenaSpec(CURRENT, seed=5, pass_policy="hold")
+    run(RunOptions(spec, episodes=6, mode="batched", batch=1, out=tmp_path, parameter_set="current",
+                   game_log_arenas=(0,)), progress=False)
+    kept = tmp_path / "logs" / "hold"
+    kept.mkdir(parents=True)
+    (tmp_path / "keepaway-arena0.rcg").rename(kept / "game.rcg")
+    (tmp_path / "keepaway.kwy").rename(kept / "game.kwy")
+    measured = harness("--reference-logs", str(tmp_path / "logs"), "--policies", "hold", "--episodes", "5",
+                       "--batch", "2", "--seed", "5")
+    assert measured.returncode == 0, measured.stderr
+    assert "hold: reference logs, 5 episodes" in measured.stderr
+    verdicts = [line for line in measured.stdout.splitlines() if line.startswith("| hold | ")]
+    assert len(verdicts) == 19 and "(1) |" in verdicts[0]  # every statistic, against the one logged campaign
 
 
 @functools.cache
