@@ -531,6 +531,8 @@ def write_final_evaluations(out: Path, exp: ExperimentConfig, runs: Sequence[Con
     write_atomic(out / "figure3.csv", text.getvalue().encode())
     configurations = [{**row, "timing": asdict(run.timing), "curve": [asdict(p) for p in run.mean_curve()]}
                       for row, run in zip(rows, runs)]
+    # the sums over the configurations (processes sharing the work with --only overlap in time) and the
+    # most sittings any configuration took
     total = Timing(sum(r.timing.wall_s for r in runs), sum(r.timing.cpu_s for r in runs),
                    max((r.timing.sittings for r in runs), default=0))
     write_atomic(out / "figure3.json", dump_json({"experiment": asdict(exp), "timing": asdict(total),
