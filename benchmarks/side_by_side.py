@@ -176,7 +176,7 @@ def logged_reference(log_dir: Path, policy: str, episodes: int, seconds_per_cycl
     return behaviour_statistics(recorded, KEEPERS, seconds_per_cycle)
 
 
-def live_references(parser: argparse.ArgumentParser, args: argparse.Namespace, step_s: float) -> References:
+def measured_references(parser: argparse.ArgumentParser, args: argparse.Namespace, step_s: float) -> References:
     """Each policy of ``args`` played live on the reference stack, or measured from the logs
     ``--reference-logs`` names (and stored with ``--save-reference``); a bad build directory or a taken
     campaign name is refused before anything is played, a dead process, unreadable logs or Ctrl-C end the
@@ -241,7 +241,7 @@ def main() -> None:
         stored = load_reference(REFERENCE)
         references = {policy: [(c, stored[c]) for c in REFERENCE_CAMPAIGNS[policy]] for policy in args.policies}
     else:
-        references = live_references(parser, args, step_s)
+        references = measured_references(parser, args, step_s)
     ours = {}
     for policy in args.policies:
         start = time.perf_counter()

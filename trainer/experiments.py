@@ -55,7 +55,7 @@ from runner.job import (
     Progress,
     derive_seed,
 )
-from runner.report import dump_json
+from runner.report import dump_json, finite_or_none
 from trainer.cem import CEMConfig
 from trainer.curves import (
     CurvePoint,
@@ -474,7 +474,8 @@ def table_columns(episodes: Sequence[int]) -> list[int]:
 
 
 def format_estimate(value: float, se: float | None) -> str:
-    return f"{value:.2f}" if se is None or math.isnan(se) else f"{value:.2f} +- {se:.2f}"
+    se = finite_or_none(se)
+    return f"{value:.2f}" if se is None else f"{value:.2f} +- {se:.2f}"
 
 
 def ratio_text(a: Sequence[float], b: Sequence[float]) -> str:
