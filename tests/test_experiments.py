@@ -12,6 +12,8 @@ import csv
 import json
 import math
 import shutil
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -44,8 +46,8 @@ from trainer.schedule import GETOPEN, LEARNED, PASS, Phase
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 # Evaluations at 0, 8, ..., 48 (7 points); Algorithm 3 scaled to 48: getopen 8, pass 8, getopen 24, pass 8.
-TINY = ["--trials", "2", "--episodes", "48", "--eval-every", "8", "--eval-episodes", "4", "--population", "4", "--elite", "2", "--candidate-episodes", "2", "--seed", "3", "--threads", "1",
-        "--no-progress"]
+TINY = ["--trials", "2", "--episodes", "48", "--eval-every", "8", "--eval-episodes", "4", "--population", "4",
+        "--elite", "2", "--candidate-episodes", "2", "--seed", "3", "--threads", "1", "--no-progress"]
 POINTS = [0, 8, 16, 24, 32, 40, 48]
 NAMES = [f"P:{p}-GO:{g}" for p in ("R", "HC", "L") for g in ("R", "HC", "L")]
 
@@ -256,6 +258,25 @@ def test_a_sitting_is_timed_even_when_it_is_interrupted(tmp_path):
     timing = experiments.Timing.read(tmp_path)
     assert timing.sittings == 2 and timing.wall_s >= 0.05 and timing.cpu_s >= 0.04
     assert experiments.Timing.read(tmp_path / "none") == experiments.Timing()
+    assert not any("running" in s for s in json.loads((tmp_path / "timing.json").read_text())["sittings"])
+
+
+def test_a_sitting_killed_by_sigkill_keeps_its_last_refresh(tmp_path):
+    # the machine's end or a SIGKILL runs no finally: the record rewritten while the sitting runs remains
+    script = ("import sys, time; from pathlib import Path; from trainer.experiments import timed_sitting\n"
+              "with timed_sitting(Path(sys.argv[1]), refresh_s=0.05):\n"
+              "    while True: time.process_time()\n")
+    child = subprocess.Popen([sys.executable, "-c", script, str(tmp_path)], stdout=subprocess.DEVNULL,
+                             stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 60
+        while experiments.Timing.read(tmp_path).cpu_s < 0.2 and time.monotonic() < deadline:
+            time.sleep(0.05)
+    finally:
+        child.kill()
+        child.wait()
+    (sitting,) = json.loads((tmp_path / "timing.json").read_text())["sittings"]
+    assert sitting["running"] is True and sitting["cpu_s"] >= 0.2 and sitting["wall_s"] > 0
 
 
 @pytest.mark.slow

@@ -33,6 +33,7 @@ import io
 import json
 import math
 import os
+import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager, nullcontext
@@ -175,7 +176,8 @@ class ExperimentConfig:
                     self.train_config(p, g)
         if min(self.trials, self.episodes, self.eval_every, self.eval_episodes, self.arenas,
                self.chunk_episodes) < 1:
-            raise ValueError("trials, episodes, eval_every, eval_episodes, arenas and chunk_episodes must be at least 1")
+            raise ValueError("trials, episodes, eval_every, eval_episodes, arenas and chunk_episodes must be "
+                             "at least 1")
 
 
 def experiment_game() -> Game:
@@ -228,20 +230,41 @@ class Timing:
         return f"{self.wall_s:.0f} s wall, {self.cpu_s:.0f} s CPU over {self.sittings} sitting(s)"
 
 
+TIMING_REFRESH_S = 30.0  # how often a sitting under way rewrites its record: what a SIGKILL can lose
+
+
 @contextmanager
-def timed_sitting(where: Path) -> Iterator[None]:
-    """Append this sitting's wall and CPU seconds to ``where/timing.json`` when the work inside ends, also
-    when it is interrupted or fails: a study resumed across sittings then still knows what it cost."""
+def timed_sitting(where: Path, refresh_s: float = TIMING_REFRESH_S) -> Iterator[None]:
+    """Record this sitting's wall and CPU seconds in ``where/timing.json``: when the work inside ends, also
+    when it is interrupted or fails, and every ``refresh_s`` while it runs (a sitting killed by SIGKILL or
+    the machine's end then keeps what it did up to its last refresh, marked ``"running": true``). A study
+    resumed across sittings still knows what it cost."""
     wall, cpu = time.perf_counter(), cpu_seconds()
+    where.mkdir(parents=True, exist_ok=True)
+    record = _read_json(where / TIMING) or {"sittings": []}
+    record["sittings"].append({})
+    lock, done = threading.Lock(), threading.Event()
+
+    def write(running: bool) -> None:
+        with lock:
+            record["sittings"][-1] = {"ended": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+                                      "wall_s": round(time.perf_counter() - wall, 3),
+                                      "cpu_s": round(cpu_seconds() - cpu, 3), **({"running": True} if running else {})}
+            write_atomic(where / TIMING, json.dumps(record, indent=1).encode())
+
+    def refresh() -> None:
+        while not done.wait(refresh_s):
+            write(running=True)
+
+    write(running=True)
+    refresher = threading.Thread(target=refresh, name="timing", daemon=True)
+    refresher.start()
     try:
         yield
     finally:
-        where.mkdir(parents=True, exist_ok=True)
-        record = _read_json(where / TIMING) or {"sittings": []}
-        record["sittings"].append({"ended": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-                                   "wall_s": round(time.perf_counter() - wall, 3),
-                                   "cpu_s": round(cpu_seconds() - cpu, 3)})
-        write_atomic(where / TIMING, json.dumps(record, indent=1).encode())
+        done.set()
+        refresher.join()
+        write(running=False)
 
 
 @dataclass(frozen=True)
