@@ -12,6 +12,7 @@ import csv
 import json
 import math
 import shutil
+import signal
 import subprocess
 import sys
 import time
@@ -301,9 +302,76 @@ def test_an_unfinished_evaluation_continues_where_it_stopped(copy, monkeypatch):
 
 
 @pytest.mark.slow
-def test_a_directory_of_other_settings_is_refused(copy):
-    result = CliRunner().invoke(main, ["experiment", "figure3", *TINY, "--eval-episodes", "6", "--out", str(copy)])
+@pytest.mark.parametrize("workers", ["1", "2"])
+def test_a_directory_of_other_settings_is_refused(copy, workers):
+    result = CliRunner().invoke(main, ["experiment", "figure3", *TINY, "--eval-episodes", "6", "--workers", workers,
+                                       "--out", str(copy)])
     assert result.exit_code == 2 and "holds a different" in result.output
+
+
+@pytest.mark.slow
+def test_configurations_trained_in_worker_processes_give_the_same_results(finished, tmp_path):
+    result = invoke("figure3", tmp_path, "--workers", "2")
+    assert result.exit_code == 0, result.output + repr(result.exception)
+    ours, theirs = (json.loads((where / "figure3.json").read_text())["configurations"] for where in (tmp_path, finished))
+    assert [(c["name"], c["curve"]) for c in ours] == [(c["name"], c["curve"]) for c in theirs]
+    for name in NAMES:  # each trial's curve too, and its timing was recorded in the worker
+        where = tmp_path / name.replace(":", "_")
+        assert [read_curve_csv(where / f"trial_{t:03d}" / "curve.csv") for t in range(2)] == \
+            [read_curve_csv(finished / name.replace(":", "_") / f"trial_{t:03d}" / "curve.csv") for t in range(2)]
+        assert experiments.Timing.read(where).sittings == 1
+    # each configuration reported once, as it ended: the longest started first
+    reported = [line.split(": ")[0] for line in result.output.splitlines() if line.startswith("P:")]
+    assert sorted(reported) == sorted(NAMES)
+    assert reported.index("P:L-GO:HC") < reported.index("P:R-GO:R")
+
+
+def children_of(pid: int) -> set[int]:
+    """The direct children of ``pid`` (from /proc)."""
+    found = set()
+    for entry in Path("/proc").iterdir():
+        try:
+            if entry.name.isdigit() and int((entry / "stat").read_text().rsplit(")", 1)[1].split()[1]) == pid:
+                found.add(int(entry.name))
+        except (OSError, ValueError, IndexError):
+            continue
+    return found
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="finds the worker processes through /proc")
+def test_an_interrupted_run_in_worker_processes_stops_them_and_keeps_their_timing(tmp_path):
+    longer = [*TINY, "--episodes", "1200", "--eval-every", "200"]
+    proc = subprocess.Popen([sys.executable, "-m", "keepaway", "experiment", "figure3", *longer, "--workers", "2",
+                             "--out", str(tmp_path)], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    children: set[int] = set()
+    workers: set[int] = set()
+    try:
+        deadline = time.monotonic() + 120
+        started = tmp_path / "P_L-GO_HC" / "timing.json"  # the longest configuration's worker is training
+        while time.monotonic() < deadline and not (len(workers) == 2 and started.is_file()):
+            children = children_of(proc.pid)  # the two workers and multiprocessing's resource tracker
+            workers = {pid for pid in children if b"spawn_main" in Path(f"/proc/{pid}/cmdline").read_bytes()}
+            time.sleep(0.1)
+        assert len(workers) == 2 and started.is_file(), "the workers did not start"
+        proc.send_signal(signal.SIGINT)  # to the parent alone: it interrupts its workers
+        out, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode == 130, err.decode()
+    assert err.decode().strip().splitlines()[-1].startswith("keepaway experiment: interrupted; run the same command")
+    for pid in children:
+        assert not Path(f"/proc/{pid}").exists() or "zombie" in Path(f"/proc/{pid}/status").read_text()
+    # the interrupted sitting ended in its worker's finally, not at a refresh
+    (sitting,) = json.loads(started.read_text())["sittings"]
+    assert "running" not in sitting and sitting["wall_s"] > 0
+
+
+def test_worker_processes_do_not_attach_to_running_arenas(tmp_path):
+    result = invoke("figure3", tmp_path, "--workers", "2", "--mode", "distributed", "--arena", "tcp://127.0.0.1:1")
+    assert result.exit_code == 2 and "not with --arena or --backend ray" in result.output
 
 
 def test_settings_that_cannot_be_trained_are_usage_errors(tmp_path):

@@ -32,7 +32,10 @@ import csv
 import io
 import json
 import math
+import multiprocessing
+import multiprocessing.connection
 import os
+import signal
 import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
@@ -410,24 +413,119 @@ def parse_configurations(names: Sequence[str]) -> list[tuple[str, str]]:
 
 def figure3(exp: ExperimentConfig, out: Path, placement: Placement = Placement(), progress: bool = True,
             on_configuration: Callable[[ConfigurationRun], None] | None = None,
-            only: Sequence[tuple[str, str]] | None = None) -> list[ConfigurationRun]:
+            only: Sequence[tuple[str, str]] | None = None, workers: int = 1) -> list[ConfigurationRun]:
     """Run the nine configurations in ``out`` (each skipped when finished), then write ``figure3.png``
     (:func:`plot_figure3`), ``figure3.csv`` and ``figure3.json`` (final evaluations); returns the runs
     in the order P:R-GO:R, P:R-GO:HC, ..., P:L-GO:L. With ``only`` (pairs from :func:`parse_configurations`)
     just those configurations run and nothing experiment-wide is written: processes or machines sharing
-    ``out`` can each take some, and a last run without ``only`` finds them all finished and draws the figure."""
+    ``out`` can each take some, and a last run without ``only`` finds them all finished and draws the figure.
+    With ``workers`` > 1 the configurations run in that many worker processes at once
+    (:func:`run_in_workers`); the results are the same."""
     exp.check()
     out.mkdir(parents=True, exist_ok=True)
-    runs = []
-    for pass_policy, getopen_policy in CONFIGURATIONS if only is None else only:
-        run = run_configuration(exp, pass_policy, getopen_policy, out, placement, progress)
-        runs.append(run)
-        if on_configuration is not None:
-            on_configuration(run)
+    runs = run_configurations(exp, CONFIGURATIONS if only is None else only, out, placement, progress,
+                              on_configuration, workers)
     if only is None:
         plot_figure3(out / "figure3.png", runs)
         write_final_evaluations(out, exp, runs)
     return runs
+
+
+def run_configurations(exp: ExperimentConfig, configurations: Sequence[tuple[str, str]], out: Path,
+                       placement: Placement, progress: bool,
+                       on_configuration: Callable[[ConfigurationRun], None] | None,
+                       workers: int) -> list[ConfigurationRun]:
+    """:func:`run_configuration` of each of ``configurations``, one after another or in ``workers``
+    processes at once (:func:`run_in_workers`; no progress bars there), each reported to
+    ``on_configuration`` as it ends; the runs in the order of ``configurations``."""
+    report = on_configuration or (lambda run: None)
+    if workers > 1:
+        done = run_in_workers(exp, configurations, out, placement, workers, report)
+        return [done[config] for config in configurations]
+    runs = []
+    for pass_policy, getopen_policy in configurations:
+        runs.append(run_configuration(exp, pass_policy, getopen_policy, out, placement, progress))
+        report(runs[-1])
+    return runs
+
+
+# The configurations from the longest to the shortest to train, as measured in the 20-trial study
+# (README, "Figure 3 at 20 trials"): workers that take them in this order finish at about the same time.
+LONGEST_FIRST = tuple((p, g) for p, g in (
+    (LEARNED, "handcoded"), ("handcoded", LEARNED), (LEARNED, LEARNED), (LEARNED, "random"), ("random", LEARNED),
+    ("handcoded", "handcoded"), ("random", "handcoded"), ("handcoded", "random"), ("random", "random")))
+
+
+def run_in_workers(exp: ExperimentConfig, configurations: Sequence[tuple[str, str]], out: Path,
+                   placement: Placement, workers: int,
+                   on_configuration: Callable[[ConfigurationRun], None]) -> dict[tuple[str, str], ConfigurationRun]:
+    """Run ``configurations`` (:func:`run_configuration`) in up to ``workers`` processes at once, each on
+    one thread unless ``placement`` names the threads, the longest first (:data:`LONGEST_FIRST`), and
+    report each as it ends. A process per core beats one process stepping arenas on every core (Python's
+    share of the work runs in parallel too), and the order keeps every core busy to the end; every
+    configuration's results depend only on the seed, so they are the same as one after another.
+
+    Workers are spawned (numba's threads do not survive a fork). A worker's error is raised here after
+    the others have been interrupted (SIGINT: they keep their checkpoints, as Ctrl-C does); so is an
+    interruption of this process."""
+    if placement.attach or placement.launcher is not None:
+        raise ValueError("worker processes start their own arenas: not with --arena or --backend ray")
+    placement = replace(placement, threads=placement.threads or 1)
+    waiting = sorted(configurations, key=LONGEST_FIRST.index)
+    context = multiprocessing.get_context("spawn")
+    running: dict[Any, tuple[Any, tuple[str, str]]] = {}  # a worker's end of its pipe -> (process, configuration)
+    done: dict[tuple[str, str], ConfigurationRun] = {}
+    try:
+        while waiting or running:
+            while waiting and len(running) < workers:
+                config = waiting.pop(0)
+                receive, send = context.Pipe(duplex=False)
+                process = context.Process(target=_configuration_worker, args=(send, exp, config, out, placement),
+                                          name=configuration_name(*config))
+                process.start()
+                send.close()
+                running[receive] = (process, config)
+            for receive in multiprocessing.connection.wait(list(running)):
+                process, config = running.pop(receive)
+                try:
+                    outcome = receive.recv()
+                except EOFError:  # it died without a word (killed, out of memory)
+                    process.join()
+                    outcome = RuntimeError(f"the worker process of {configuration_name(*config)} ended with exit "
+                                           f"code {process.exitcode} and no result")
+                process.join()
+                if isinstance(outcome, BaseException):
+                    raise outcome
+                done[config] = outcome
+                on_configuration(outcome)
+    finally:
+        for process, _ in running.values():
+            if process.is_alive():
+                os.kill(process.pid, signal.SIGINT)
+        for process, _ in running.values():
+            process.join()
+    return done
+
+
+def _configuration_worker(send: Any, exp: ExperimentConfig, config: tuple[str, str], out: Path,
+                          placement: Placement) -> None:
+    """A worker process of :func:`run_in_workers`: one configuration, its run or its exception sent back.
+    The first SIGINT or SIGTERM interrupts it (Ctrl-C reaches it from the terminal and from the parent);
+    later ones are ignored, so it still writes its checkpoint and timing."""
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, _interrupt_once)
+    try:
+        outcome: Any = run_configuration(exp, *config, out, placement, progress=False)
+    except BaseException as exc:  # noqa: BLE001 - every ending, Ctrl-C included, is reported to the parent
+        outcome = exc
+    send.send(outcome)
+    send.close()
+
+
+def _interrupt_once(signum: int, frame: Any) -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    raise KeyboardInterrupt
 
 
 def plot_figure3(path: Path, runs: Sequence[ConfigurationRun]) -> None:
@@ -706,20 +804,18 @@ class CrossTable:
 
 
 def table2(exp: ExperimentConfig, out: Path, placement: Placement = Placement(), progress: bool = True,
-           on_configuration: Callable[[ConfigurationRun], None] | None = None) -> list[CrossTable]:
-    """Train the five configurations Table 2 needs (as :func:`figure3` would, in the same directories),
-    cross-test every trial's learned policies (cached per trial in ``table2_tests/``, so a re-run only
-    plays what is missing), and write ``table2.json`` and ``table2.md``; returns the Pass and GetOpen
-    tables."""
+           on_configuration: Callable[[ConfigurationRun], None] | None = None, workers: int = 1) -> list[CrossTable]:
+    """Train the five configurations Table 2 needs (as :func:`figure3` would, in the same directories, in
+    ``workers`` processes), cross-test every trial's learned policies (cached per trial in
+    ``table2_tests/``, so a re-run only plays what is missing), and write ``table2.json`` and
+    ``table2.md``; returns the Pass and GetOpen tables."""
     from tqdm import tqdm
 
     exp.check()
     out.mkdir(parents=True, exist_ok=True)
     needed = {trained_configuration(s, p) for s in STUDIES for p in POLICIES}
-    for pass_policy, getopen_policy in sorted(needed, key=lambda c: (POLICIES.index(c[0]), POLICIES.index(c[1]))):
-        run = run_configuration(exp, pass_policy, getopen_policy, out, placement, progress)
-        if on_configuration is not None:
-            on_configuration(run)
+    run_configurations(exp, [c for c in CONFIGURATIONS if c in needed], out, placement, progress, on_configuration,
+                       workers)
     tests = out / "table2_tests"
     tests.mkdir(exist_ok=True)
     settings = asdict(exp)
