@@ -29,7 +29,8 @@ from agents.getopen import (TANH_ESTIMATE_ERROR, grid_point, grid_size, handcode
                             learned_target, net_estimate_error, net_first_layer, net_output, net_output_estimate,
                             net_value, predicted_ball_pos, tanh_estimate)
 from agents.sarsa import (EMPTY_SLOT, INDEX_INCREMENT, CHECK_INCREMENT, MAX_LONG_INT, SarsaConfig,
-                          load_tiles, new_memory as new_sarsa_memory, quantize, tiling_coordinate, unh_hash)
+                          load_policy_arrays, load_tiles, new_memory as new_sarsa_memory, policy_arrays, quantize,
+                          tiling_coordinate, unh_hash)
 from agents.skills import AgentConfig, closest_to_ball, fastest_to_ball, interception_point
 from agents.state_vars import getopen_state, pass_state
 from agents.worldmodel import ModelState, SeeBuffer, localise_row, whole_degree_table
@@ -383,11 +384,15 @@ def _check_state_variables(bel, r, kp=KP) -> None:
                                       err_msg=f"row {r}")
 
 
-def _ref_load_tiles(config: SarsaConfig, state) -> np.ndarray:
-    """LinearSarsaAgent::loadTiles with tiles2.cc's safe hash, tile by tile through ``unh_hash`` on a fresh
-    table: the slots in hashing order."""
+def _ref_load_tiles(config: SarsaConfig, state, check_table: np.ndarray | None = None,
+                    counts: np.ndarray | None = None) -> np.ndarray:
+    """LinearSarsaAgent::loadTiles with tiles2.cc's safe hash, tile by tile through ``unh_hash``, on
+    ``check_table`` (a fresh one if None) and counting into ``counts`` (calls, clear hits, collisions):
+    the slots in hashing order."""
     mem = new_sarsa_memory(config, K, T, 1, 0)
-    check_table = np.full(mem.hash_check.shape[1], EMPTY_SLOT, dtype=np.int64)
+    if check_table is None:
+        check_table = np.full(mem.hash_check.shape[1], EMPTY_SLOT, dtype=np.int64)
+    counts = np.zeros(3, dtype=np.int64) if counts is None else counts
     m = check_table.shape[0]
     tilings = config.tilings
     slots = []
@@ -399,11 +404,21 @@ def _ref_load_tiles(config: SarsaConfig, state) -> np.ndarray:
                 index = unh_hash(c, j, a, cv, INDEX_INCREMENT, m)
                 check = unh_hash(c, j, a, cv, CHECK_INCREMENT, MAX_LONG_INT)
                 stride = 1 + 2 * unh_hash(c, j, a, cv, INDEX_INCREMENT, MAX_LONG_INT // 4)
+                counts[0] += 1
+                counts[1] += check_table[index] in (check, EMPTY_SLOT)
                 while check_table[index] not in (check, EMPTY_SLOT):
+                    counts[2] += 1
                     index = (index + stride) % m
                 check_table[index] = check
                 slots.append(index)
     return np.array(slots)
+
+
+def _loaded_slots(mem) -> np.ndarray:
+    """Row 0's loaded tile slots in hashing order (variable, action, tiling)."""
+    tilings = mem.tiles.shape[2] // len(mem.code_order)
+    return np.concatenate([mem.tiles[0, a].reshape(-1, tilings)[cv]
+                           for cv in range(len(mem.code_order)) for a in range(mem.tiles.shape[1])])
 
 
 # ------------------------------------------------------------------------------------------ helpers
@@ -688,9 +703,43 @@ def test_tile_slots_match_tile_by_tile_hashing():
         state = rng.uniform(-30.0, 30.0, 13)  # negative coordinates too
         mem = new_sarsa_memory(config, K, T, 1, 0)
         load_tiles(mem, 0, state)
-        got = np.concatenate([mem.tiles[0, a].reshape(-1, config.tilings)[cv]
-                              for cv in range(len(mem.code_order)) for a in range(mem.tiles.shape[1])])
-        assert np.array_equal(got, _ref_load_tiles(config, state))
+        assert np.array_equal(_loaded_slots(mem), _ref_load_tiles(config, state))
+
+
+@pytest.mark.parametrize("table_size", [1 << 15, 1 << 20])
+def test_remembered_tile_slots_are_the_slots_hashing_gives_with_the_same_counts(table_size):
+    # states revisiting quantised values (remembered) and new ones (hashed, filling the table further),
+    # values beyond what is remembered and negative ones; a small table collides and re-probes often
+    config = SarsaConfig(table_size=table_size)
+    rng = np.random.default_rng(7)
+    pool = rng.uniform(0.0, 25.0, (6, 13))
+    mem = new_sarsa_memory(config, K, T, 1, 0)
+    check_table = np.full(table_size, EMPTY_SLOT, dtype=np.int64)
+    counts = np.zeros(3, dtype=np.int64)
+    for i in range(60):
+        state = pool[i % len(pool)] + (rng.uniform(0.0, 0.05, 13) if i % 4 == 3 else 0.0)
+        if i % 10 == 9:
+            state = rng.uniform(-30.0, 300.0, 13)
+        load_tiles(mem, 0, state)
+        assert np.array_equal(_loaded_slots(mem), _ref_load_tiles(config, state, check_table, counts)), i
+        assert np.array_equal(mem.hash_check[0], check_table) and np.array_equal(mem.hash_counts[0], counts), i
+    assert (mem.memo_slots != EMPTY_SLOT).any()
+
+
+def test_a_loaded_table_is_hashed_afresh_not_from_remembered_slots():
+    config = SarsaConfig(table_size=1 << 13)
+    state = np.random.default_rng(8).uniform(0.0, 25.0, 13)
+    mem = new_sarsa_memory(config, K, T, 1, 0)
+    load_tiles(mem, 0, np.random.default_rng(9).uniform(0.0, 25.0, 13))  # other tiles first: other slots
+    load_tiles(mem, 0, state)
+    filled = policy_arrays(mem, 0)
+    load_policy_arrays(mem, 0, policy_arrays(new_sarsa_memory(config, K, T, 1, 0), 0))  # an empty table
+    load_tiles(mem, 0, state)
+    assert np.array_equal(_loaded_slots(mem), _ref_load_tiles(config, state))
+    load_policy_arrays(mem, 0, filled)
+    check_table = filled["pass_hash_check"].astype(np.int64)
+    load_tiles(mem, 0, state)
+    assert np.array_equal(_loaded_slots(mem), _ref_load_tiles(config, state, check_table))
 
 
 @njit

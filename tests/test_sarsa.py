@@ -345,7 +345,9 @@ def test_restarted_learners_are_fresh_ones_with_their_own_policies_loaded(hive_m
         load_policy_arrays(expected, r, policy_arrays(used, r))
     restart_learners(used, config, MODE_GREEDY)
     for name, value in expected._asdict().items():
-        if name != "rng":  # the caller seeds the streams
+        # the caller seeds the streams; the remembered tile slots are a cache of what hashing gives
+        # (tests/test_kernel_equivalence.py), kept by a restart and not carried by a policy
+        if name != "rng" and not name.startswith("memo_"):
             np.testing.assert_array_equal(getattr(used, name), value, err_msg=name)
 
 
