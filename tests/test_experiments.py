@@ -313,7 +313,8 @@ def test_a_directory_of_other_settings_is_refused(copy, workers):
 def test_configurations_trained_in_worker_processes_give_the_same_results(finished, tmp_path):
     result = invoke("figure3", tmp_path, "--workers", "2")
     assert result.exit_code == 0, result.output + repr(result.exception)
-    ours, theirs = (json.loads((where / "figure3.json").read_text())["configurations"] for where in (tmp_path, finished))
+    ours, theirs = (json.loads((where / "figure3.json").read_text())["configurations"]
+                    for where in (tmp_path, finished))
     assert [(c["name"], c["curve"]) for c in ours] == [(c["name"], c["curve"]) for c in theirs]
     for name in NAMES:  # each trial's curve too, and its timing was recorded in the worker
         where = tmp_path / name.replace(":", "_")

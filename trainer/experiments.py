@@ -33,7 +33,6 @@ import io
 import json
 import math
 import multiprocessing
-import multiprocessing.connection
 import os
 import signal
 import threading
@@ -42,6 +41,8 @@ from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager, nullcontext
 from dataclasses import asdict, dataclass, replace
 from datetime import datetime, timezone
+from multiprocessing.connection import Connection, wait as ready_connections
+from multiprocessing.process import BaseProcess
 from pathlib import Path
 from typing import Any
 
@@ -451,9 +452,9 @@ def run_configurations(exp: ExperimentConfig, configurations: Sequence[tuple[str
 
 # The configurations from the longest to the shortest to train, as measured in the 20-trial study
 # (README, "Figure 3 at 20 trials"): workers that take them in this order finish at about the same time.
-LONGEST_FIRST = tuple((p, g) for p, g in (
-    (LEARNED, "handcoded"), ("handcoded", LEARNED), (LEARNED, LEARNED), (LEARNED, "random"), ("random", LEARNED),
-    ("handcoded", "handcoded"), ("random", "handcoded"), ("handcoded", "random"), ("random", "random")))
+LONGEST_FIRST = ((LEARNED, "handcoded"), ("handcoded", LEARNED), (LEARNED, LEARNED), (LEARNED, "random"),
+                 ("random", LEARNED), ("handcoded", "handcoded"), ("random", "handcoded"), ("handcoded", "random"),
+                 ("random", "random"))
 
 
 def run_in_workers(exp: ExperimentConfig, configurations: Sequence[tuple[str, str]], out: Path,
@@ -473,7 +474,8 @@ def run_in_workers(exp: ExperimentConfig, configurations: Sequence[tuple[str, st
     placement = replace(placement, threads=placement.threads or 1)
     waiting = sorted(configurations, key=LONGEST_FIRST.index)
     context = multiprocessing.get_context("spawn")
-    running: dict[Any, tuple[Any, tuple[str, str]]] = {}  # a worker's end of its pipe -> (process, configuration)
+    # a worker's end of its pipe -> (the worker, its configuration)
+    running: dict[Connection, tuple[BaseProcess, tuple[str, str]]] = {}
     done: dict[tuple[str, str], ConfigurationRun] = {}
     try:
         while waiting or running:
@@ -485,7 +487,7 @@ def run_in_workers(exp: ExperimentConfig, configurations: Sequence[tuple[str, st
                 process.start()
                 send.close()
                 running[receive] = (process, config)
-            for receive in multiprocessing.connection.wait(list(running)):
+            for receive in ready_connections(list(running)):
                 process, config = running.pop(receive)
                 try:
                     outcome = receive.recv()
@@ -507,7 +509,7 @@ def run_in_workers(exp: ExperimentConfig, configurations: Sequence[tuple[str, st
     return done
 
 
-def _configuration_worker(send: Any, exp: ExperimentConfig, config: tuple[str, str], out: Path,
+def _configuration_worker(send: Connection, exp: ExperimentConfig, config: tuple[str, str], out: Path,
                           placement: Placement) -> None:
     """A worker process of :func:`run_in_workers`: one configuration, its run or its exception sent back.
     The first SIGINT or SIGTERM interrupts it (Ctrl-C reaches it from the terminal and from the parent);
