@@ -342,7 +342,7 @@ def children_of(pid: int) -> set[int]:
 @pytest.mark.slow
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="finds the worker processes through /proc")
 def test_an_interrupted_run_in_worker_processes_stops_them_and_keeps_their_timing(tmp_path):
-    longer = [*TINY, "--episodes", "1200", "--eval-every", "200"]
+    longer = [*TINY, "--episodes", "60000", "--eval-every", "10000"]  # far more than the test waits for
     proc = subprocess.Popen([sys.executable, "-m", "keepaway", "experiment", "figure3", *longer, "--workers", "2",
                              "--out", str(tmp_path)], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     children: set[int] = set()
