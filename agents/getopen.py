@@ -32,6 +32,9 @@ from agents.skills import (
     turn_to_point,
 )
 from agents.state_vars import (
+    ESTIMATE_ANGLE_ERROR,
+    ESTIMATE_DISTANCE_ERROR,
+    getopen_point_estimate,
     getopen_point_state,
     getopen_setup,
     getopen_state_kinds,
@@ -137,12 +140,22 @@ def tanh_estimate(z: float) -> float:
 
 
 @borrowing
-def net_estimate_error(theta, n: int) -> float:
-    """A bound on |net_output_estimate - net_output| for any input: each squashed unit is off by at most
-    a (TANH_ESTIMATE_ERROR + the error passed to it times b) (tanh' <= 1), each weighted sum by its
-    weights' absolute sum times its inputs' error; plus a margin for the two paths' rounding (each sum's
-    terms are at most its weights times a). Infinite (or NaN) for a net with infinite weights."""
-    e1 = SCALED_TANH_A * TANH_ESTIMATE_ERROR
+def net_estimate_error(theta, n: int, input_error: float, input_size: float) -> float:
+    """A bound on |net_output_estimate(z1') - net_output(z1)| where z1' is the first layer's net input of
+    inputs each off by at most ``input_error`` from z1's, all at most ``input_size`` in size (0 and 0:
+    the same z1): each first-layer net input is off by its weights' absolute sum times ``input_error``,
+    each squashed unit by at most a (TANH_ESTIMATE_ERROR + the error passed to it times b) (tanh' <= 1),
+    each weighted sum by its weights' absolute sum times its inputs' error; plus a margin for the two
+    paths' rounding (each sum's terms are at most its weights times its inputs' size). Infinite (or NaN)
+    for a net with infinite weights."""
+    z_error = 0.0
+    for u in range(NET_HIDDEN):
+        spread = 0.0
+        for i in range(n):
+            spread += abs(theta[u * n + i])
+        size = abs(theta[NET_HIDDEN * n + u]) + spread * input_size
+        z_error = max(z_error, spread * input_error + 1e-12 * size)
+    e1 = SCALED_TANH_A * (TANH_ESTIMATE_ERROR + SCALED_TANH_B * z_error)
     w2 = NET_HIDDEN * n + NET_HIDDEN
     b2 = w2 + NET_HIDDEN * NET_HIDDEN
     w3 = b2 + NET_HIDDEN
@@ -391,37 +404,46 @@ def learned_target(bel: Belief, r: int, theta, ball_cycles: int, kp, cfg) -> tup
     ``theta`` takes the raw state variables (a scaling folded in: ``InputScaling.fold``);
     ``ball_cycles``: the fastest keeper's interception time (``fastest_to_ball``).
 
-    Every point is first scored with tanh estimated (:func:`net_output_estimate`); the net's exact value
-    is computed only for the points whose estimate lies within twice the estimate's error bound of the
-    best estimate. Any other point's exact value lies below the best point's, so it could neither win nor
-    tie: the same target as scoring every point exactly, in the same scan order."""
+    Every point is first scored on estimates: its variables (:func:`getopen_point_estimate`: a sqrt for
+    each hypot, a polynomial for each acos) and tanh (:func:`net_output_estimate`); its exact variables
+    and value are computed only where the estimate lies within twice its error bound
+    (:func:`net_estimate_error` of the variables' error) of the best estimate, or could not be made. Any
+    other point's exact value lies below the best point's, so it could neither win nor tie: the same
+    target as scoring every point exactly, in the same scan order."""
     ox, oy = lane_origin(bel, r, ball_cycles, kp, cfg)
     me = bel.me[r]
     mx, my = bel.pos[r, me, 0], bel.pos[r, me, 1]
     n = getopen_state_size(bel.n_keepers, bel.n_takers)
     points = grid_size(cfg)
     x = np.empty(n)
-    z1 = np.empty((points, NET_HIDDEN))
+    z1 = np.empty(NET_HIDDEN)
     h1 = np.empty(NET_HIDDEN)
     estimate = np.empty(points)
+    sure = np.empty(points, dtype=np.bool_)
     s = vertex_scratch(bel.n_keepers, bel.n_takers)
     getopen_setup(bel, r, ox, oy, s)
-    top = -math.inf
+    top, size = -math.inf, 0.0
     for k in range(points):
         px, py = grid_point(k, kp, cfg)
-        getopen_point_state(bel, r, px, py, ox, oy, s, x)
-        net_first_layer(theta, x, z1[k])
-        estimate[k] = net_output_estimate(theta, n, z1[k], h1)
+        sure[k] = getopen_point_estimate(bel, r, px, py, ox, oy, s, x)
+        if not sure[k]:
+            continue
+        for i in range(n):
+            size = max(size, abs(x[i]))
+        net_first_layer(theta, x, z1)
+        estimate[k] = net_output_estimate(theta, n, z1, h1)
         if estimate[k] > top:
             top = estimate[k]
-    error = net_estimate_error(theta, n)
+    error = net_estimate_error(theta, n, ESTIMATE_ANGLE_ERROR + ESTIMATE_DISTANCE_ERROR * size, size)
     floor = top - error if error < math.inf else -math.inf  # the best point's exact value is above it
     best_x, best_y, best, best_d = 0.0, 0.0, -math.inf, math.inf
     for k in range(points):
-        if estimate[k] + error < floor:  # NaN estimates are scored exactly, as all are without a bound
+        if sure[k] and estimate[k] + error < floor:  # NaN estimates are scored exactly, as all are without a bound
             continue
         px, py = grid_point(k, kp, cfg)
-        v = net_output(theta, n, z1[k])
+        getopen_point_state(bel, r, px, py, ox, oy, s, x)
+        net_first_layer(theta, x, z1)
+        v = net_output(theta, n, z1)
         d = distance(mx, my, px, py)
         if v > best or (v == best and d < best_d):
             best_x, best_y, best, best_d = px, py, v, d

@@ -462,6 +462,19 @@ _REACH_SLACK = 1.0e-9
 
 
 @borrowing
+def _out_of_reach(dx: float, dy: float, vx: float, vy: float, radius: float, n: int, kp) -> bool:
+    """hypot(dx, dy) - radius > n max(player_speed_max, hypot(vx, vy)): the target beyond the longest
+    n steps (``travel``'s first test, made for every player at every cycle of an interception search),
+    decided by sqrt estimates unless the two sides lie within DECIDE_SLACK of each other."""
+    far = math.sqrt(dx * dx + dy * dy) - radius
+    step = math.sqrt(vx * vx + vy * vy)
+    reach = n * max(kp.player_speed_max, step)
+    if near(far, reach) or not (far < math.inf and reach < math.inf):
+        return math.hypot(dx, dy) - radius > n * max(kp.player_speed_max, math.hypot(vx, vy))
+    return far > reach
+
+
+@borrowing
 def travel(
     px: float, py: float, vx: float, vy: float, body: float, effort: float,
     tx: float, ty: float, radius: float, n: int, need_end: bool, sums, kp, cfg,
@@ -477,7 +490,7 @@ def travel(
     (a dash caps the speed, a turn lets it decay). Without ``need_end`` it also stops at the first cycle
     within ``radius`` (distance NaN)."""
     reached = n + 1
-    if distance(px, py, tx, ty) - radius > n * max(kp.player_speed_max, math.hypot(vx, vy)):
+    if _out_of_reach(tx - px, ty - py, vx, vy, radius, n, kp):
         return reached, math.inf
     roll_limit = cfg.intercept_roll_cycles
     roll_far = 0.0

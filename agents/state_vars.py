@@ -18,7 +18,7 @@ import numpy as np
 from core.jit import borrowing, njit
 
 from agents.belief import Belief
-from agents.geometry import DECIDE_SLACK, distance, ray_cosine
+from agents.geometry import ACOS_ESTIMATE_ERROR, DECIDE_SLACK, acos_estimate, distance, ray_cosine
 from agents.skills import closest_to_ball, distances_from, sort_by_distance
 
 
@@ -48,6 +48,17 @@ def getopen_state_kinds(n_keepers: int, n_takers: int) -> tuple[str, ...]:
     return (("teammate_distance",) * others + ("taker_distance",) * n_takers
             + ("teammate_taker_distance",) * others + ("teammate_taker_angle",) * others
             + ("pass_distance", "lane_angle"))
+
+
+# GO:L first scores its grid points on estimated variables (agents.getopen.learned_target): distances by
+# one sqrt instead of hypot (a few ulps apart; ESTIMATE_DISTANCE_ERROR, relative, is far beyond that),
+# cosines from those distances (so off by at most ESTIMATE_COSINE_ERROR), angles by acos_estimate: off by
+# at most ESTIMATE_ANGLE_ERROR degrees, since acos moves by at most acos(1 - e) <= 1.01 sqrt(2 e) when its
+# argument moves by e.
+ESTIMATE_DISTANCE_ERROR = 1e-13
+ESTIMATE_COSINE_ERROR = 1e-12
+ESTIMATE_ANGLE_ERROR = math.degrees(ACOS_ESTIMATE_ERROR + 1.01 * math.sqrt(2.0 * ESTIMATE_COSINE_ERROR)) + 1e-12
+_TINY_SQUARE = 1e-200  # a sum of squares below it may have underflowed: no estimate
 
 
 class VertexScratch(NamedTuple):
@@ -85,15 +96,18 @@ def nearest_taker_distances(bel: Belief, r: int, skip: int, near) -> None:
 
 @borrowing
 def smallest_angle(bel: Belief, r: int, ux: float, uy: float, nu: float, cx: float, cy: float, objs, n: int,
-                   norms) -> float:
+                   norms, estimate: bool) -> float:
     """min_j ray_angle(u, Pj - C) over the players ``objs[:n]`` (``norms[o]`` = dist(C, Po); inf for no
     player): decided by the cosines, the largest naming the smallest angle; only the angles within
     DECIDE_SLACK of it in cosine are taken (the arccosine of a clearly smaller cosine is clearly larger,
-    far beyond its rounding), so the minimum is the one every angle would give."""
+    far beyond its rounding), so the minimum is the one every angle would give. ``estimate``: the
+    largest cosine's :func:`acos_estimate` instead."""
     largest = -math.inf
     for j in range(n):
         o = objs[j]
         largest = max(largest, ray_cosine(ux, uy, nu, bel.pos[r, o, 0] - cx, bel.pos[r, o, 1] - cy, norms[o]))
+    if estimate:
+        return math.degrees(acos_estimate(largest)) if n > 0 else math.inf
     angle = math.inf
     for j in range(n):
         o = objs[j]
@@ -105,9 +119,10 @@ def smallest_angle(bel: Belief, r: int, ux: float, uy: float, nu: float, cx: flo
 
 @borrowing
 def _around_vertex(bel: Belief, r: int, vx: float, vy: float, s: VertexScratch, nk: int, nt: int, out,
-                   at: int) -> int:
+                   at: int, estimate: bool) -> int:
     """The shared block (module docstring) written from ``out[at]``, from ``s`` filled for V (its sorted
-    players, their distances from V, the keepers' nearest-taker distances); returns the next free index."""
+    players, their distances from V, the keepers' nearest-taker distances); returns the next free index.
+    ``estimate``: the angles by :func:`acos_estimate`."""
     for i in range(nk):
         out[at + i] = s.dist[s.keepers[i]]
     at += nk
@@ -118,7 +133,7 @@ def _around_vertex(bel: Belief, r: int, vx: float, vy: float, s: VertexScratch, 
         ki = s.keepers[i]
         out[at + i] = s.near[ki]
         out[at + nk + i] = smallest_angle(bel, r, bel.pos[r, ki, 0] - vx, bel.pos[r, ki, 1] - vy, s.dist[ki], vx,
-                                          vy, s.takers, nt, s.dist)
+                                          vy, s.takers, nt, s.dist, estimate)
     return at + 2 * nk
 
 
@@ -153,7 +168,7 @@ def pass_state(bel: Belief, r: int, cfg, out) -> bool:
         out[1 + i] = math.hypot(bel.pos[r, s.keepers[i], 0], bel.pos[r, s.keepers[i], 1])
     for j in range(nt):
         out[1 + nk + j] = math.hypot(bel.pos[r, s.takers[j], 0], bel.pos[r, s.takers[j], 1])
-    _around_vertex(bel, r, vx, vy, s, nk, nt, out, 1 + nk + nt)
+    _around_vertex(bel, r, vx, vy, s, nk, nt, out, 1 + nk + nt, False)
     return True
 
 
@@ -173,9 +188,58 @@ def getopen_point_state(bel: Belief, r: int, px: float, py: float, ox: float, oy
                         out) -> None:
     """:func:`getopen_state` of point P from ``s`` set up for this decision (:func:`getopen_setup`)."""
     nk, nt = _sort_around(bel, r, px, py, bel.me[r], s)
-    at = _around_vertex(bel, r, px, py, s, nk, nt, out, 0)
+    at = _around_vertex(bel, r, px, py, s, nk, nt, out, 0, False)
     out[at] = distance(ox, oy, px, py)
-    out[at + 1] = smallest_angle(bel, r, px - ox, py - oy, out[at], ox, oy, s.takers, nt, s.lane)
+    out[at + 1] = smallest_angle(bel, r, px - ox, py - oy, out[at], ox, oy, s.takers, nt, s.lane, False)
+
+
+@borrowing
+def _distance_estimate(ax: float, ay: float, bx: float, by: float) -> float:
+    """distance(A, B) by one sqrt (within ESTIMATE_DISTANCE_ERROR of it, relative); NaN where the sum of
+    squares could have underflowed or is not finite."""
+    dx, dy = bx - ax, by - ay
+    d2 = dx * dx + dy * dy
+    return math.sqrt(d2) if _TINY_SQUARE < d2 < math.inf else math.nan
+
+
+@borrowing
+def _clearly_apart(dist, objs, n: int) -> bool:
+    """The sorted ``objs[:n]``'s distances each more than DECIDE_SLACK beyond the one before: an order
+    the exact distances give too."""
+    for i in range(1, n):
+        before = dist[objs[i - 1]]
+        if not dist[objs[i]] - before > DECIDE_SLACK * (1.0 + before):
+            return False
+    return True
+
+
+@borrowing
+def getopen_point_estimate(bel: Belief, r: int, px: float, py: float, ox: float, oy: float, s: VertexScratch,
+                           out) -> bool:
+    """:func:`getopen_point_state`'s variables estimated: distances within ESTIMATE_DISTANCE_ERROR of
+    theirs (relative), angles within ESTIMATE_ANGLE_ERROR degrees, the nearest-taker distances exact.
+    False (``out`` then undefined) where an estimate cannot stand for them: two players so nearly at one
+    distance from P that the exact sort could order them the other way, P (nearly) on a player or on the
+    lane origin, a variable not finite. ``s`` set up as for getopen_point_state; its ``near`` and
+    ``lane`` are left as they are."""
+    k, t = bel.n_keepers, bel.n_takers
+    me = bel.me[r]
+    for j in range(1, k + t + 1):
+        if j != me:
+            s.dist[j] = _distance_estimate(px, py, bel.pos[r, j, 0], bel.pos[r, j, 1])
+            if math.isnan(s.dist[j]):
+                return False
+    nk = sort_by_distance(s.dist, 1, k, me, s.keepers)
+    nt = sort_by_distance(s.dist, k + 1, k + t, -1, s.takers)
+    if not (_clearly_apart(s.dist, s.keepers, nk) and _clearly_apart(s.dist, s.takers, nt)):
+        return False
+    at = _around_vertex(bel, r, px, py, s, nk, nt, out, 0, True)
+    out[at] = _distance_estimate(ox, oy, px, py)
+    out[at + 1] = smallest_angle(bel, r, px - ox, py - oy, out[at], ox, oy, s.takers, nt, s.lane, True)
+    for i in range(at + 2):
+        if not abs(out[i]) < math.inf:
+            return False
+    return True
 
 
 @njit(cache=True)

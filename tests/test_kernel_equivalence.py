@@ -24,7 +24,8 @@ import pytest
 from numba import njit
 
 from agents.belief import AgentMemory, belief_from_truth, new_memory
-from agents.geometry import direction, distance, final_position, normalize_angle, rolled_out
+from agents.geometry import (ACOS_ESTIMATE_ERROR, acos_estimate, direction, distance, final_position, normalize_angle,
+                             rolled_out)
 from agents.getopen import (TANH_ESTIMATE_ERROR, grid_point, grid_size, handcoded_target, lane_origin,
                             learned_target, net_estimate_error, net_first_layer, net_output, net_output_estimate,
                             net_value, predicted_ball_pos, tanh_estimate)
@@ -32,7 +33,8 @@ from agents.sarsa import (EMPTY_SLOT, INDEX_INCREMENT, CHECK_INCREMENT, MAX_LONG
                           load_policy_arrays, load_tiles, new_memory as new_sarsa_memory, policy_arrays, quantize,
                           tiling_coordinate, unh_hash)
 from agents.skills import AgentConfig, closest_to_ball, fastest_to_ball, interception_point
-from agents.state_vars import getopen_state, pass_state
+from agents.state_vars import (ESTIMATE_ANGLE_ERROR, ESTIMATE_DISTANCE_ERROR, getopen_point_estimate,
+                               getopen_point_state, getopen_setup, getopen_state, pass_state, vertex_scratch)
 from agents.worldmodel import ModelState, SeeBuffer, localise_row, whole_degree_table
 from protocol.landmarks import FLAG_POSITIONS
 from protocol.params import parameter_set
@@ -641,6 +643,10 @@ def test_state_variables_match_the_reference_on_random_and_boundary_beliefs():
         elif r % 4 == 3:  # two takers at one spot: equal cosines
             bel.pos[r, K + 2] = bel.pos[r, K + 1]
         _check_state_variables(bel, r)
+        # GO:L decides there as scoring every point exactly (its estimates stand back where unsure)
+        theta = np.random.default_rng(r).normal(0.0, 0.3, 91)
+        (tx, ty), cycles = _ref_learned_target(bel, r, theta)
+        assert learned_target(bel, r, theta, cycles, KP, CFG) == (tx, ty), f"row {r}"
 
 
 def test_state_variables_and_learned_targets_of_a_batched_game_match_the_reference():
@@ -684,7 +690,7 @@ def test_the_tanh_estimate_stays_within_its_bound_and_the_net_estimate_within_it
     worst = 0.0
     for _ in range(300):
         theta = rng.normal(0.0, rng.choice([0.3, 1.0, 3.0]), 91)
-        bound = net_estimate_error(theta, 10)
+        bound = net_estimate_error(theta, 10, 0.0, 0.0)
         for x in rng.uniform(-20.0, 20.0, (20, 10)):
             z1 = np.empty(5)
             net_first_layer(theta, x, z1)
@@ -694,6 +700,60 @@ def test_the_tanh_estimate_stays_within_its_bound_and_the_net_estimate_within_it
             assert abs(estimate - exact) <= bound
             worst = max(worst, abs(estimate - exact) / bound)
     assert worst > 0.01  # the estimates do differ: the bound is what keeps the decisions exact
+
+
+def test_the_net_estimate_bound_covers_inputs_off_by_their_error():
+    rng = np.random.default_rng(53)
+    worst = 0.0
+    for _ in range(300):
+        theta = rng.normal(0.0, rng.choice([0.03, 0.3, 1.0, 3.0]), 91)
+        off = rng.choice([1e-6, 1e-3, 0.1])
+        bound = net_estimate_error(theta, 10, off, 21.0)
+        assert bound > net_estimate_error(theta, 10, 0.0, 0.0)
+        for x in rng.uniform(-20.0, 20.0, (20, 10)):
+            z1, z1_off = np.empty(5), np.empty(5)
+            net_first_layer(theta, x, z1)
+            net_first_layer(theta, x + rng.choice([-off, off], 10), z1_off)
+            estimate = net_output_estimate(theta, 10, z1_off, np.empty(5))
+            exact = net_output(theta, 10, z1)
+            assert abs(estimate - exact) <= bound
+            worst = max(worst, abs(estimate - exact) / bound)
+    assert worst > 0.01
+
+
+def test_the_acos_estimate_stays_within_its_bound():
+    c = np.concatenate([np.linspace(-1.0, 1.0, 400_001), [-1.0, 1.0, 0.0, -0.0, 1.0 - 1e-16, -1.0 + 1e-16]])
+    off = np.abs(np.array([acos_estimate(v) for v in c]) - np.arccos(c))
+    assert off.max() <= ACOS_ESTIMATE_ERROR / 2 < off.max() * 2.1  # the bound is twice the worst seen
+
+
+def test_estimated_getopen_variables_stay_within_their_bounds():
+    bel = _random_beliefs(300, seed=47)
+    bel.conf[:] = 1.0
+    bel.me[:] = np.arange(bel.batch) % K + 1
+    n = 3 * K + T - 1
+    exact, ours = np.empty(n), np.empty(n)
+    unsure, worst = 0, 0.0
+    for r in range(bel.batch):
+        if r % 5 == 4:  # two takers at one spot, a keeper on a grid point: estimates must stand back
+            bel.pos[r, K + 2] = bel.pos[r, K + 1]
+            bel.pos[r, 2 if bel.me[r] != 2 else 3] = grid_point(r % grid_size(CFG), KP, CFG)
+        ox, oy = bel.pos[r, bel.me[r] % K + 1]
+        s = vertex_scratch(K, T)
+        getopen_setup(bel, r, ox, oy, s)
+        for k in range(grid_size(CFG)):
+            px, py = grid_point(k, KP, CFG)
+            sure = getopen_point_estimate(bel, r, px, py, ox, oy, s, ours)
+            getopen_point_state(bel, r, px, py, ox, oy, s, exact)
+            if not sure:
+                unsure += 1
+                continue
+            off = np.abs(ours - exact)
+            assert np.all(off <= ESTIMATE_ANGLE_ERROR + ESTIMATE_DISTANCE_ERROR * np.abs(exact)), (r, k)
+            worst = max(worst, off.max())
+    points = bel.batch * grid_size(CFG)
+    assert bel.batch // 5 * grid_size(CFG) <= unsure < bel.batch // 5 * grid_size(CFG) + points // 100
+    assert worst > 0.0  # the estimates do differ from the exact variables
 
 
 def test_tile_slots_match_tile_by_tile_hashing():

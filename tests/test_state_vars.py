@@ -86,7 +86,8 @@ def test_getopen_state_for_a_point_by_hand():
     assert out == pytest.approx(expected)
 
 
-def test_smallest_angle_by_hand():
+@pytest.mark.parametrize("estimate", [False, True])
+def test_smallest_angle_by_hand(estimate):
     # from C = (1, 1), ray u = (2, 0) (length 2); takers 4 and 5 at 30 and 60 degrees from it, 2 m and 3 m
     # from C: 30 degrees; the same two at one spot: the one angle; taker 4 on C: a degenerate ray, 0
     c30, s30 = math.cos(math.radians(30.0)), math.sin(math.radians(30.0))
@@ -94,12 +95,13 @@ def test_smallest_angle_by_hand():
            [1.0 + 1.5, 1.0 + 1.5 * 3 ** 0.5]]
     bel = belief(pos, 1)
     takers, norms = np.array([4, 5]), np.array([0.0, 0.0, 0.0, 0.0, 2.0, 3.0])
-    assert smallest_angle(bel, 0, 2.0, 0.0, 2.0, 1.0, 1.0, takers, 2, norms) == pytest.approx(30.0)
-    assert smallest_angle(bel, 0, 2.0, 0.0, 2.0, 1.0, 1.0, takers[::-1].copy(), 2, norms) == pytest.approx(30.0)
-    assert smallest_angle(bel, 0, 2.0, 0.0, 2.0, 1.0, 1.0, takers, 0, norms) == math.inf  # no takers
+    assert smallest_angle(bel, 0, 2.0, 0.0, 2.0, 1.0, 1.0, takers, 2, norms, estimate) == pytest.approx(30.0)
+    reversed_takers = takers[::-1].copy()
+    assert smallest_angle(bel, 0, 2.0, 0.0, 2.0, 1.0, 1.0, reversed_takers, 2, norms, estimate) == pytest.approx(30.0)
+    assert smallest_angle(bel, 0, 2.0, 0.0, 2.0, 1.0, 1.0, takers, 0, norms, estimate) == math.inf  # no takers
     bel.pos[0, 5] = bel.pos[0, 4]
     norms[5] = 2.0
-    assert smallest_angle(bel, 0, 2.0, 0.0, 2.0, 1.0, 1.0, takers, 2, norms) == pytest.approx(30.0)
+    assert smallest_angle(bel, 0, 2.0, 0.0, 2.0, 1.0, 1.0, takers, 2, norms, estimate) == pytest.approx(30.0)
     bel.pos[0, 4] = (1.0, 1.0)
     norms[4] = 0.0
-    assert smallest_angle(bel, 0, 2.0, 0.0, 2.0, 1.0, 1.0, takers, 2, norms) == 0.0
+    assert smallest_angle(bel, 0, 2.0, 0.0, 2.0, 1.0, 1.0, takers, 2, norms, estimate) == 0.0
