@@ -464,9 +464,10 @@ def step(mem: SarsaMemory, r: int, reward: float, state, sp: SarsaParams) -> int
     update_weights(mem, r, delta, sp)
     mem.q[r, a] = action_value(mem, r, a)
     decay_traces(mem, r, sp.gamma * sp.trace_decay)
-    for other in range(mem.tiles.shape[1]):
-        if other != a:
-            clear_action_traces(mem, r, other)
+    if mem.n_traces[r] > 0:  # else nothing to clear: with the paper's lambda = 0 the decay empties the list
+        for other in range(mem.tiles.shape[1]):
+            if other != a:
+                clear_action_traces(mem, r, other)
     set_action_traces(mem, r, a)
     return a
 

@@ -339,6 +339,29 @@ def children_of(pid: int) -> set[int]:
     return found
 
 
+def test_a_worker_interrupted_inside_a_callback_that_drops_exceptions_is_interrupted_again_after_it():
+    # a frame of the kind numba's cached kernels load through: llvmlite's object-cache hook, a ctypes
+    # callback that prints an exception raised in it and carries on
+    namespace: dict = {}
+    exec(compile("def _raw_object_cache_getbuffer(handler):\n    import sys\n    handler(2, sys._getframe())\n",
+                 "/site-packages/llvmlite/binding/executionengine.py", "exec"), namespace)
+    received = []
+    previous, previous_term = signal.signal(signal.SIGINT, lambda signum, frame: received.append(signum)), \
+        signal.getsignal(signal.SIGTERM)
+    try:
+        namespace["_raw_object_cache_getbuffer"](experiments._interrupt_once)  # not raised in there
+        deadline = time.monotonic() + 5.0
+        while not received and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert received == [signal.SIGINT]  # delivered again, to be raised where it is not dropped
+        with pytest.raises(KeyboardInterrupt):
+            experiments._interrupt_once(signal.SIGINT, sys._getframe())
+        assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN  # later ones are ignored
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        signal.signal(signal.SIGTERM, previous_term)
+
+
 @pytest.mark.slow
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="finds the worker processes through /proc")
 def test_an_interrupted_run_in_worker_processes_stops_them_and_keeps_their_timing(tmp_path):

@@ -513,7 +513,14 @@ def _configuration_worker(send: Connection, exp: ExperimentConfig, config: tuple
                           placement: Placement) -> None:
     """A worker process of :func:`run_in_workers`: one configuration, its run or its exception sent back.
     The first SIGINT or SIGTERM interrupts it (Ctrl-C reaches it from the terminal and from the parent);
-    later ones are ignored, so it still writes its checkpoint and timing."""
+    later ones are ignored, so it still writes its checkpoint and timing.
+
+    tqdm's bars (hidden here) share a lock across processes by default, a semaphore that an interruption
+    can leave to multiprocessing's resource tracker, which then warns after our last line; a worker
+    draws nothing, so a thread lock does."""
+    from tqdm import tqdm
+
+    tqdm.set_lock(threading.RLock())
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, _interrupt_once)
     try:
@@ -525,9 +532,23 @@ def _configuration_worker(send: Connection, exp: ExperimentConfig, config: tuple
 
 
 def _interrupt_once(signum: int, frame: Any) -> None:
+    if _in_foreign_callback(frame):  # raised there, it would be printed and dropped: deliver it again soon
+        threading.Timer(0.05, os.kill, (os.getpid(), signum)).start()
+        return
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
     raise KeyboardInterrupt
+
+
+def _in_foreign_callback(frame: Any) -> bool:
+    """Whether ``frame`` runs inside a callback from C that swallows exceptions: llvmlite's object-cache
+    hooks, through which numba loads its cached kernels (a ctypes callback prints an exception raised
+    in it and goes on)."""
+    while frame is not None:
+        if frame.f_code.co_name.startswith("_raw_object_cache") and "llvmlite" in frame.f_code.co_filename:
+            return True
+        frame = frame.f_back
+    return False
 
 
 def plot_figure3(path: Path, runs: Sequence[ConfigurationRun]) -> None:
