@@ -228,13 +228,19 @@ def see_bearing(dx: float, dy: float, body: float, neck: float, half_cone: float
     """normalize(normalize(atan2(dy, dx) - body) - neck) (rad), exact wherever a see can tell: from
     :func:`atan2_estimate` unless that bearing lies within BEARING_SLACK of a half degree (where
     :func:`round_deg` could round the other way), of +-``half_cone`` or of +-pi; there from libm's atan2."""
-    bearing = normalize_rad(normalize_rad(atan2_estimate(dy, dx) - body) - neck)
+    bearing = _relative(atan2_estimate(dy, dx), body, neck)
     degrees = bearing * RAD2DEG
     size = abs(bearing)
     if (abs(degrees - math.floor(degrees) - 0.5) <= BEARING_SLACK * RAD2DEG or abs(size - half_cone) <= BEARING_SLACK
             or size >= math.pi - BEARING_SLACK or not size < math.inf):
-        bearing = normalize_rad(normalize_rad(math.atan2(dy, dx) - body) - neck)
+        bearing = _relative(math.atan2(dy, dx), body, neck)
     return bearing
+
+
+@njit(cache=True, inline="always")
+def _relative(direction: float, body: float, neck: float) -> float:
+    """A global direction (rad) relative to the observer's head, as rcssserver normalises it twice."""
+    return normalize_rad(normalize_rad(direction - body) - neck)
 
 
 @njit(cache=True, inline="always")
