@@ -451,11 +451,11 @@ def learned_target(bel: Belief, r: int, theta, ball_cycles: int, kp, cfg) -> tup
 
 
 @njit(cache=True)
-def grid_states(bel: Belief, r: int, kp, cfg, out) -> None:
+def grid_states(bel: Belief, r: int, sums, kp, cfg, out) -> None:
     """The GetOpen variables of every grid point into ``out`` (one row per point, ``grid_point`` order,
     3K + T - 1 columns) for the deciding keeper of row ``r``: what GO:L scores (:func:`learned_target`),
     for a GetOpen decided outside (``agents.skills.GETOPEN_EXTERNAL``)."""
-    _, ball_cycles = fastest_to_ball(bel, r, 1, bel.n_keepers, kp, cfg)
+    _, ball_cycles = fastest_to_ball(bel, r, 1, bel.n_keepers, sums, kp, cfg)
     ox, oy = lane_origin(bel, r, ball_cycles, kp, cfg)
     s = vertex_scratch(bel.n_keepers, bel.n_takers)
     getopen_setup(bel, r, ox, oy, s)
@@ -515,7 +515,7 @@ def note_getopen(bel: Belief, r: int, mem: AgentMemory, px: float, py: float) ->
 
 
 @njit(cache=True)
-def grid_values(bel: Belief, r: int, theta, kp, cfg, out) -> int:
+def grid_values(bel: Belief, r: int, theta, sums, kp, cfg, out) -> int:
     """How the keeper's GetOpen policy rates each grid point, higher better, as rows ``(x, y, value)`` of
     ``out`` (at least grid-size rows); returns the number of rows. GO:HC: minus the congestion of each
     admissible point (the others are no candidates and get no row); GO:L: the net's value; GO:R: no rows.
@@ -524,7 +524,7 @@ def grid_values(bel: Belief, r: int, theta, kp, cfg, out) -> int:
     policy = int(cfg.getopen_policy)
     if policy != GETOPEN_LEARNED and policy != GETOPEN_HANDCODED and policy != GETOPEN_HANDCODED_CONE:
         return 0
-    _, ball_cycles = fastest_to_ball(bel, r, 1, bel.n_keepers, kp, cfg)
+    _, ball_cycles = fastest_to_ball(bel, r, 1, bel.n_keepers, sums, kp, cfg)
     bx, by = predicted_ball_pos(bel, r, ball_cycles, kp, cfg)
     cos_limit = safety_cosine(cfg)
     ox, oy = lane_origin(bel, r, ball_cycles, kp, cfg)

@@ -91,10 +91,11 @@ def execute_getopen_action(
 
 @borrowing
 def keeper_decide(
-    bel: Belief, r: int, mem: AgentMemory, theta, kp, cfg, out_main, out_a1, out_a2, out_neck, out_state
+    bel: Belief, r: int, mem: AgentMemory, theta, sums, kp, cfg, out_main, out_a1, out_a2, out_neck, out_state
 ) -> int:
     """One keeper decision for row ``r`` (spec `keepaway-agents.md` 1 steps 2-5). ``theta`` is the row's
-    GetOpen net parameters, ``out_state`` its Pass state row. Returns NO_PASS_DECISION,
+    GetOpen net parameters, ``sums`` the players' ``agents.skills.decay_sums``, ``out_state`` its Pass
+    state row. Returns NO_PASS_DECISION,
     PASS_DECISION_START, PASS_DECISION_STEP or GETOPEN_DECISION (module docstring)."""
     me = bel.me[r]
     if bel.conf[r, 0] < cfg.ball_conf_threshold:
@@ -123,10 +124,10 @@ def keeper_decide(
             action = 0
         execute_pass_action(bel, r, mem, action, kp, cfg, out_main, out_a1, out_a2, out_neck)
         return decision
-    chaser, ball_cycles = fastest_to_ball(bel, r, 1, bel.n_keepers, kp, cfg)
+    chaser, ball_cycles = fastest_to_ball(bel, r, 1, bel.n_keepers, sums, kp, cfg)
     if chaser == me:
         # fastest_to_ball already found my first reachable cycle: ball_cycles
-        code, a1, a2 = intercept(bel, r, mem, kp, cfg, ball_cycles)
+        code, a1, a2 = intercept(bel, r, mem, sums, kp, cfg, ball_cycles)
         write_action(r, code, a1, a2, neck_to_ball(bel, r, code, a1, kp), out_main, out_a1, out_a2, out_neck)
         return NO_PASS_DECISION
     if int(cfg.getopen_policy) == GETOPEN_EXTERNAL:
@@ -136,14 +137,3 @@ def keeper_decide(
     write_action(r, code, a1, a2, neck, out_main, out_a1, out_a2, out_neck)
     return NO_PASS_DECISION
 
-
-@borrowing
-def keepers_decide(
-    bel: Belief, mem: AgentMemory, theta, kp, cfg, out_main, out_a1, out_a2, out_neck, out_state, out_decision
-) -> None:
-    """``keeper_decide`` for every row (the batched mode); ``theta`` is (B, n_params), ``out_state``
-    (B, 4K + 2T - 3), ``out_decision`` (B,) int."""
-    for r in range(bel.pos.shape[0]):
-        out_decision[r] = keeper_decide(
-            bel, r, mem, theta[r], kp, cfg, out_main, out_a1, out_a2, out_neck, out_state[r]
-        )

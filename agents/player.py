@@ -90,6 +90,7 @@ from agents.skills import (
     PASS_EXTERNAL,
     PASS_POLICIES,
     AgentConfig,
+    decay_sums,
     neck_to_ball,
 )
 from agents.state_vars import pass_state_size
@@ -381,6 +382,7 @@ class PlayerAgent:
         self.n_keepers, self.n_takers, self.mode = n_keepers, n_takers, mode
         self.side, self.unum = msg.side, msg.unum
         self.cfg = self.config.kernel()
+        self.decay_sums = decay_sums(self.kp, self.cfg)  # the decisions' travel table, one per game
         self.memory = self._new_memory()
         self.theta = np.zeros(getopen_theta_size(n_keepers, n_takers))
         if self.is_keeper and policy is not None and policy.getopen_theta is not None:
@@ -629,7 +631,8 @@ class PlayerAgent:
             self.awaiting = Awaiting(OUTSIDE_BODY, cycle)
             return None
         if self.is_keeper:
-            decision = keeper_decide(bel, 0, self.memory, self.theta, self.kp, self.cfg, *outs, self.pass_state)
+            decision = keeper_decide(bel, 0, self.memory, self.theta, self.decay_sums, self.kp, self.cfg, *outs,
+                                     self.pass_state)
             if decision == GETOPEN_DECISION:
                 self.awaiting = Awaiting(OUTSIDE_GETOPEN, cycle)
                 return None
@@ -641,7 +644,7 @@ class PlayerAgent:
             if decision != NO_PASS_DECISION and self.learner is not None and self.cfg.pass_policy == PASS_EXTERNAL:
                 self._ask_learner(bel, decision, outs)
         else:
-            taker_decide(bel, 0, self.memory, self.kp, self.cfg, *outs)
+            taker_decide(bel, 0, self.memory, self.decay_sums, self.kp, self.cfg, *outs)
         return self._command(cycle)
 
     def _outs(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -684,7 +687,7 @@ class PlayerAgent:
         self._noted_time = time
         note = tuple(float(v) for v in self.memory.getopen_point[0])
         if self.getopen_notes == "values":
-            n = grid_values(self.wm.belief(), 0, self.theta, self.kp, self.cfg, self._grid_values)
+            n = grid_values(self.wm.belief(), 0, self.theta, self.decay_sums, self.kp, self.cfg, self._grid_values)
             note += tuple(self._grid_values[:n].ravel().tolist())
         return note
 
@@ -740,7 +743,8 @@ def compile_kernels() -> None:
         if agent.is_keeper:
             execute_pass_action(agent.wm.belief(), 0, agent.memory, 0, agent.kp, agent.cfg, agent._out_main,
                                 agent._out_a1, agent._out_a2, agent._out_neck)
-            grid_values(agent.wm.belief(), 0, agent.theta, agent.kp, agent.cfg, agent._grid_values)  # notes
+            grid_values(agent.wm.belief(), 0, agent.theta, agent.decay_sums, agent.kp, agent.cfg,
+                        agent._grid_values)  # notes
     # the Sarsa learner's kernels: a keeper may become a learner at any episode boundary (docs/advice.md)
     learner = SarsaLearner(DEFAULT_KEEPERS, DEFAULT_TAKERS, SarsaConfig(table_size=1 << 16), 0, MODE_LEARN)
     state = np.zeros(pass_state_size(DEFAULT_KEEPERS, DEFAULT_TAKERS))

@@ -487,10 +487,10 @@ def end_episode(mem: SarsaMemory, r: int, reward: float, sp: SarsaParams) -> Non
 
 @borrowing
 def pass_decisions(mem: SarsaMemory, decision, reward, state, out_action, sp: SarsaParams) -> None:
-    """The batched mode's learner call after ``agents.keeper.keepers_decide`` with PASS_EXTERNAL: each
-    row with PASS_DECISION_START starts its episode, each with PASS_DECISION_STEP steps with
-    ``reward[r]`` (cycles since its last decision); ``out_action[r]`` gets the action to hand to
-    ``execute_pass_action``. Other rows are left alone."""
+    """The learner call for a batch of keeper rows after ``agents.keeper.keeper_decide`` with
+    PASS_EXTERNAL: each row with PASS_DECISION_START starts its episode, each with PASS_DECISION_STEP
+    steps with ``reward[r]`` (cycles since its last decision); ``out_action[r]`` gets the action to hand
+    to ``execute_pass_action``. Other rows are left alone."""
     for r in range(decision.shape[0]):
         if decision[r] == PASS_DECISION_START:
             out_action[r] = start_episode(mem, r, state[r], sp)

@@ -438,10 +438,15 @@ def intercept_move(
 
 
 @njit(cache=True)
-def decay_sums(cfg) -> np.ndarray:
-    """A table of geometric_sum(player_decay, k) for k = 0..horizon, filled on first use (NaN: not yet),
-    shared by the travel simulations of one decision: the same numbers without a pow per step."""
-    return np.full(int(cfg.intercept_horizon) + 1, np.nan)
+def decay_sums(kp, cfg) -> np.ndarray:
+    """The table of geometric_sum(player_decay, k) for k = 0..horizon that the travel simulations read
+    instead of a pow per step: made once for a game's players (``runner.batched.Players``,
+    ``agents.player.PlayerAgent``) and handed down their decisions as ``sums``. The numbers are
+    geometric_sum's own."""
+    sums = np.empty(int(cfg.intercept_horizon) + 1)
+    for k in range(sums.shape[0]):
+        sums[k] = geometric_sum(kp.player_decay, float(k))
+    return sums
 
 
 @borrowing
@@ -449,11 +454,7 @@ def _decay_sum(sums, k: int, kp) -> float:
     """geometric_sum(player_decay, float(k)) through the table ``sums`` (``decay_sums``)."""
     if k >= sums.shape[0]:
         return geometric_sum(kp.player_decay, float(k))
-    f = sums[k]
-    if math.isnan(f):
-        f = geometric_sum(kp.player_decay, float(k))
-        sums[k] = f
-    return f
+    return sums[k]
 
 
 # Relative and absolute slack of travel's out-of-reach test: far above the rounding of a few dozen
@@ -554,13 +555,13 @@ def player_travel(bel: Belief, r: int, obj: int, tx: float, ty: float, n: int, n
     )
 
 
-@njit(cache=True)
-def fastest_to_ball(bel: Belief, r: int, first: int, last: int, kp, cfg) -> tuple:
+@borrowing
+def fastest_to_ball(bel: Belief, r: int, first: int, last: int, sums, kp, cfg) -> tuple:
     """(player, cycles): among usable players first..last, the one that reaches the predicted ball first
     (spec 1 step 4): the smallest i <= horizon for which some travel time to the ball after i cycles is
-    <= i; ties go to the shorter travel time, then the lower index. (-1, horizon + 1) if nobody can."""
+    <= i; ties go to the shorter travel time, then the lower index. (-1, horizon + 1) if nobody can.
+    ``sums``: the players' ``decay_sums``."""
     horizon = int(cfg.intercept_horizon)
-    sums = decay_sums(cfg)
     for i in range(horizon + 1):
         bx, by = ball_in(bel, r, i, kp)
         best, best_c = -1, i + 1
@@ -933,8 +934,8 @@ def close_intercept(bel: Belief, r: int, kp, cfg) -> tuple:
     return False, CMD_DASH, 0.0
 
 
-@njit(cache=True)
-def interception_point(bel: Belief, r: int, mem: AgentMemory, kp, cfg, known_first: int = -1) -> tuple:
+@borrowing
+def interception_point(bel: Belief, r: int, mem: AgentMemory, sums, kp, cfg, known_first: int = -1) -> tuple:
     """(i, x, y): the cycle and ball position at which I intercept (spec 2.1 step 2); (-1, the ball's
     position ``no_intercept_cycles`` ahead) if none within the horizon. First reachable i by default; the
     stability rule prefers a reachable i (at most 2 cycles
@@ -950,7 +951,6 @@ def interception_point(bel: Belief, r: int, mem: AgentMemory, kp, cfg, known_fir
     kickable = kickable_distance(kp)
     ball_speed = math.hypot(bel.vel[r, 0, 0], bel.vel[r, 0, 1])
     recent = mem.intercept_time[r] >= 0 and bel.time[r] - mem.intercept_time[r] <= cfg.stability_window
-    sums = decay_sums(cfg)
     first, stable = -1, -1
     for i in range(int(cfg.intercept_horizon) + 1):
         if first >= 0 and i > first + cfg.stability_window:
@@ -992,7 +992,7 @@ def interception_point(bel: Belief, r: int, mem: AgentMemory, kp, cfg, known_fir
 
 
 @borrowing
-def intercept(bel: Belief, r: int, mem: AgentMemory, kp, cfg, known_first: int = -1) -> tuple:
+def intercept(bel: Belief, r: int, mem: AgentMemory, sums, kp, cfg, known_first: int = -1) -> tuple:
     """Intercept / GoToBall (spec 2.1 step 3): the close intercept when the chosen point is < 3 cycles
     away and one exists; no move when my position rolled out min(i, 4) cycles is already within 0.5 m of
     the point (the framework then turns to its global 0 deg, ``forward_angle``, a quirk kept); else move
@@ -1002,7 +1002,7 @@ def intercept(bel: Belief, r: int, mem: AgentMemory, kp, cfg, known_first: int =
     position).
     ``known_first``: as in ``interception_point``."""
     me = bel.me[r]
-    i, x, y = interception_point(bel, r, mem, kp, cfg, known_first)
+    i, x, y = interception_point(bel, r, mem, sums, kp, cfg, known_first)
     if 0 <= i < cfg.close_max_cycle:
         ok, code, a1 = close_intercept(bel, r, kp, cfg)
         if ok:

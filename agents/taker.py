@@ -54,12 +54,12 @@ def takers_closer_to_ball(bel: Belief, r: int, cfg) -> int:
 
 
 @borrowing
-def mark_point(bel: Belief, r: int, kp, cfg) -> tuple:
+def mark_point(bel: Belief, r: int, sums, kp, cfg) -> tuple:
     """Where to mark (spec 3 step 3): for each keeper on the pitch count the takers in the cone (half-width
     0.3) from the keeper fastest to the ball towards it; take the keeper with the fewest (first on ties,
     the ball holder included: a framework quirk) and stand 4 m from it on its line to the ball."""
     k, t = bel.n_keepers, bel.n_takers
-    origin, _ = fastest_to_ball(bel, r, 1, k, kp, cfg)
+    origin, _ = fastest_to_ball(bel, r, 1, k, sums, kp, cfg)
     if origin < 0:
         origin = closest_to_ball(bel, r, 1, k, -1, cfg)
     ox, oy = bel.pos[r, 0, 0], bel.pos[r, 0, 1]
@@ -88,8 +88,9 @@ def mark_point(bel: Belief, r: int, kp, cfg) -> tuple:
 
 
 @borrowing
-def taker_decide(bel: Belief, r: int, mem: AgentMemory, kp, cfg, out_main, out_a1, out_a2, out_neck) -> None:
-    """One taker decision for row ``r`` (spec `keepaway-agents.md` 3 steps 1-5)."""
+def taker_decide(bel: Belief, r: int, mem: AgentMemory, sums, kp, cfg, out_main, out_a1, out_a2, out_neck) -> None:
+    """One taker decision for row ``r`` (spec `keepaway-agents.md` 3 steps 1-5); ``sums``: the players'
+    ``agents.skills.decay_sums``."""
     me = bel.me[r]
     if bel.conf[r, 0] < cfg.ball_conf_threshold:
         code, a1, a2 = search_ball(bel, r, mem, kp, cfg)
@@ -99,7 +100,7 @@ def taker_decide(bel: Belief, r: int, mem: AgentMemory, kp, cfg, out_main, out_a
     if rank == 0 and ball_kickable(bel, r, me, kp):
         code, a1, a2 = hold_ball(bel, r, cfg.hold_ratio_taker, kp, cfg)
     elif bel.n_takers > CHASING_TAKERS and rank >= CHASING_TAKERS:
-        px, py = mark_point(bel, r, kp, cfg)
+        px, py = mark_point(bel, r, sums, kp, cfg)
         code, a1, a2 = move_to_spot(bel, r, px, py, kp, cfg)
     else:
         nearest = closest_to_ball(bel, r, 1, bel.n_keepers + bel.n_takers, -1, cfg)
@@ -112,12 +113,6 @@ def taker_decide(bel: Belief, r: int, mem: AgentMemory, kp, cfg, out_main, out_a
             code, a1, a2 = turn_to_point(bel, r, bel.pos[r, 0, 0], bel.pos[r, 0, 1], 1.0, kp)
             write_action(r, code, a1, a2, neck_with_body(bel, r), out_main, out_a1, out_a2, out_neck)
             return
-        code, a1, a2 = intercept(bel, r, mem, kp, cfg)
+        code, a1, a2 = intercept(bel, r, mem, sums, kp, cfg)
     write_action(r, code, a1, a2, neck_to_ball(bel, r, code, a1, kp), out_main, out_a1, out_a2, out_neck)
 
-
-@borrowing
-def takers_decide(bel: Belief, mem: AgentMemory, kp, cfg, out_main, out_a1, out_a2, out_neck) -> None:
-    """``taker_decide`` for every row (the batched mode)."""
-    for r in range(bel.pos.shape[0]):
-        taker_decide(bel, r, mem, kp, cfg, out_main, out_a1, out_a2, out_neck)

@@ -47,7 +47,7 @@ SATURATED = 0.99  # |tanh| above this: the unit acts as a threshold
 
 
 @njit
-def record_states(bel, n_players, n_keepers, kp, cfg, out, n):
+def record_states(bel, n_players, n_keepers, sums, kp, cfg, out, n):
     """Append to ``out`` (from row ``n``) the GetOpen state of every grid point of every keeper row that
     runs GetOpen on its belief; returns the new row count (stops when ``out`` is full)."""
     points = grid_size(cfg)
@@ -57,7 +57,7 @@ def record_states(bel, n_players, n_keepers, kp, cfg, out, n):
         me = bel.me[r]
         if bel.conf[r, 0] < cfg.ball_conf_threshold or ball_kickable(bel, r, me, kp):
             continue
-        chaser, ball_cycles = fastest_to_ball(bel, r, 1, bel.n_keepers, kp, cfg)
+        chaser, ball_cycles = fastest_to_ball(bel, r, 1, bel.n_keepers, sums, kp, cfg)
         if chaser == me:
             continue
         ox, oy = lane_origin(bel, r, ball_cycles, kp, cfg)
@@ -88,7 +88,7 @@ def record(keepers: int, takers: int, field_size: float, episodes: int, every: i
     n = played = samples = 0
     while played < episodes and n < max_states:
         played += len(play.run(max_cycles=every))
-        n = record_states(play.players.belief, keepers + takers, keepers, kp, cfg, out, n)
+        n = record_states(play.players.belief, keepers + takers, keepers, play.players.decay_sums, kp, cfg, out, n)
         samples += 1
     return out[:n], played, samples
 

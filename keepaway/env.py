@@ -233,7 +233,7 @@ class KeepawayParallelEnv(ParallelEnv):
         if self.getopen_action:
             obs["getopen"] = np.zeros((self.n_points, self.n_getopen))
             if waiting == OUTSIDE_GETOPEN:
-                grid_states(keeper.wm.belief(), 0, keeper.kp, keeper.cfg, obs["getopen"])
+                grid_states(keeper.wm.belief(), 0, keeper.decay_sums, keeper.kp, keeper.cfg, obs["getopen"])
         return obs
 
     def _infos(self) -> dict[str, dict]:

@@ -77,6 +77,7 @@ from agents.skills import (
     PASS_POLICIES,
     PASS_EXTERNAL,
     AgentConfig,
+    decay_sums,
 )
 from agents.state_vars import getopen_state_size, pass_state_size
 from agents.taker import taker_decide
@@ -168,6 +169,7 @@ class Players(NamedTuple):
     memory: AgentMemory
     out: Decisions
     talk: Talk  # say and hear (agents/say.py)
+    decay_sums: np.ndarray  # the travel simulations' table (agents.skills.decay_sums), one for all rows
 
 
 class Bookkeeping(NamedTuple):
@@ -301,12 +303,12 @@ def decide(b: int, obs: int, row: int, w: World, c: Commands, theta: np.ndarray,
     hear_row(row, pl.model, w.n_keepers, cfg, pl.talk)
     write_belief_row(row, pl.model, pl.belief, row)
     if obs <= w.n_keepers:
-        out.decision[row] = keeper_decide(pl.belief, row, pl.memory, theta, kp, cfg, out.main, out.arg1,
-                                          out.arg2, out.neck, out.pass_state[row])
+        out.decision[row] = keeper_decide(pl.belief, row, pl.memory, theta, pl.decay_sums, kp, cfg, out.main,
+                                          out.arg1, out.arg2, out.neck, out.pass_state[row])
         if out.decision[row] != NO_PASS_DECISION and int(cfg.pass_policy) == PASS_EXTERNAL:
             learn_pass(b, obs, row, w.n_keepers, kp, cfg, pl, sarsa, sp)
     else:
-        taker_decide(pl.belief, row, pl.memory, kp, cfg, out.main, out.arg1, out.arg2, out.neck)
+        taker_decide(pl.belief, row, pl.memory, pl.decay_sums, kp, cfg, out.main, out.arg1, out.arg2, out.neck)
     code = out.main[row]
     if code == CMD_KICK and kp.failed_kick_uses_slot == 0.0 and not kick_possible(b, w, obs, kp):
         c.main[b, obs] = CMD_NONE
@@ -517,6 +519,7 @@ class BatchedArenas:
                 neck=np.zeros(rows),
             ),
             talk=new_talk(rows),
+            decay_sums=decay_sums(self.kp, self.cfg),
         )
         self.book = Bookkeeping(
             episode_message=np.zeros(batch, dtype=np.bool_),

@@ -18,7 +18,7 @@ from agents.keeper import (
     handcoded_pass,
     keeper_decide,
 )
-from agents.skills import PASS_EXTERNAL, AgentConfig, fastest_to_ball
+from agents.skills import PASS_EXTERNAL, AgentConfig, decay_sums, fastest_to_ball
 from agents.taker import mark_point, taker_decide
 from protocol.params import parameter_set
 from core.rng import seed_streams
@@ -27,6 +27,7 @@ from beliefs import belief
 
 KP = parameter_set("classic").kernel()
 CFG = AgentConfig().kernel()
+SUMS = decay_sums(KP, CFG)
 
 
 def outputs():
@@ -37,7 +38,7 @@ def decide(bel, cfg=CFG, mem=None):
     mem = new_memory(1, seed_streams(0, 1)) if mem is None else mem
     out = outputs()
     state = np.zeros(13)
-    code = keeper_decide(bel, 0, mem, np.zeros(91), KP, cfg, *out, state)
+    code = keeper_decide(bel, 0, mem, np.zeros(91), SUMS, KP, cfg, *out, state)
     return code, out, mem, state
 
 
@@ -160,7 +161,7 @@ def test_handcoded_getopen_picks_the_least_congested_admissible_point():
     # (7, 3.5): 0.2484, (3.5, 7): 0.2759. Lanes from (-6.5, 0) to the right are far from the takers
     # (bearing ~158 deg), so (7, 7) is admissible.
     bel = belief(GETOPEN_POSITION, 2)
-    assert fastest_to_ball(bel, 0, 1, 3, KP, CFG) == (1, 0)  # K1 has the ball: predictedBallPos = ball
+    assert fastest_to_ball(bel, 0, 1, 3, SUMS, KP, CFG) == (1, 0)  # K1 has the ball: predictedBallPos = ball
     assert handcoded_target(bel, 0, 0, False, KP, CFG) == pytest.approx((7.0, 7.0))
 
 
@@ -196,7 +197,7 @@ def test_taker_chases_a_free_ball():
     pos = [[0.0, 0.0], [-7.0, -7.0], [7.0, -7.0], [-7.0, 7.0], [5.0, 0.0], [6.0, 6.0]]
     mem = new_memory(1, seed_streams(0, 1))
     out = outputs()
-    taker_decide(belief(pos, 4, body=[0, 0, 0, 0, 180, 0]), 0, mem, KP, CFG, *out)
+    taker_decide(belief(pos, 4, body=[0, 0, 0, 0, 180, 0]), 0, mem, SUMS, KP, CFG, *out)
     assert out[0][0] == CMD_DASH and out[1][0] == pytest.approx(100.0)
 
 
@@ -205,7 +206,7 @@ def test_taker_holds_the_ball_it_controls():
     # rate = 0.027 (1 - 0 - 0.25 * (0.9 - 0.385)/0.7) = 0.022034; power = 0.305 / 0.022034 = 13.842, dir 180
     pos = [[0.9, 0.0], [-7.0, -7.0], [7.0, -7.0], [-7.0, 7.0], [0.0, 0.0], [6.0, 6.0]]
     out = outputs()
-    taker_decide(belief(pos, 4), 0, new_memory(1, seed_streams(0, 1)), KP, CFG, *out)
+    taker_decide(belief(pos, 4), 0, new_memory(1, seed_streams(0, 1)), SUMS, KP, CFG, *out)
     assert out[0][0] == CMD_KICK
     assert out[1][0] == pytest.approx(0.305 / (0.027 * (1.0 - 0.25 * 0.515 / 0.7)))
     assert abs(out[2][0]) == pytest.approx(180.0)
@@ -216,7 +217,7 @@ def test_taker_hold_turns_when_the_ball_is_already_in_place():
     # 0.85 x 1.085 m: turn towards the keepers' goal (-52.5, 0), i.e. by 180 deg
     pos = [[0.5, 0.0], [-7.0, -7.0], [7.0, -7.0], [-7.0, 7.0], [0.0, 0.0], [6.0, 6.0]]
     out = outputs()
-    taker_decide(belief(pos, 4), 0, new_memory(1, seed_streams(0, 1)), KP, CFG, *out)
+    taker_decide(belief(pos, 4), 0, new_memory(1, seed_streams(0, 1)), SUMS, KP, CFG, *out)
     assert out[0][0] == CMD_TURN
     assert abs(out[1][0]) == pytest.approx(180.0)
 
@@ -228,7 +229,7 @@ def test_taker_does_not_interfere_with_a_teammate_on_the_ball():
     bel = belief(pos, 5)
     bel.neck[0, 5] = 20.0
     out = outputs()
-    taker_decide(bel, 0, new_memory(1, seed_streams(0, 1)), KP, CFG, *out)
+    taker_decide(bel, 0, new_memory(1, seed_streams(0, 1)), SUMS, KP, CFG, *out)
     assert out[0][0] == CMD_TURN
     assert out[1][0] == pytest.approx(direction(0.5, -3.0))
     assert out[3][0] == pytest.approx(-20.0)
@@ -245,10 +246,10 @@ def test_third_taker_marks_the_least_covered_keeper():
     # towards keeper 3 itself: empty (zero length). Fewest = 0, first found = keeper 2.
     # Mark point: (8, 8) + 4 (-7.5, -8)/10.966 = (5.2643, 5.0819)
     bel = belief(MARKING, 6, n_takers=3)
-    assert mark_point(bel, 0, KP, CFG) == pytest.approx((5.2643, 5.0819), abs=1e-4)
+    assert mark_point(bel, 0, SUMS, KP, CFG) == pytest.approx((5.2643, 5.0819), abs=1e-4)
     out = outputs()
     bel.body[0, 6] = direction(5.2643, 13.0819)  # facing the mark point -> dash
-    taker_decide(bel, 0, new_memory(1, seed_streams(0, 1)), KP, CFG, *out)
+    taker_decide(bel, 0, new_memory(1, seed_streams(0, 1)), SUMS, KP, CFG, *out)
     assert out[0][0] == CMD_DASH and out[1][0] == pytest.approx(100.0)
 
 
@@ -256,7 +257,7 @@ def test_two_closest_takers_never_mark():
     # taker 4 is the second closest of three: it chases (turns to the ball) instead of marking
     bel = belief(MARKING, 4, n_takers=3, body=[0, 0, 0, 0, 0, 0, 0])
     out = outputs()
-    taker_decide(bel, 0, new_memory(1, seed_streams(0, 1)), KP, CFG, *out)
+    taker_decide(bel, 0, new_memory(1, seed_streams(0, 1)), SUMS, KP, CFG, *out)
     assert out[0][0] == CMD_TURN
     assert out[1][0] == pytest.approx(direction(3.5, -3.0), abs=1.0)
 
@@ -271,5 +272,5 @@ def test_taker_plans_with_the_ball_it_believes(ball_speed, expected):
     bel = belief(pos, 4, body=[0, 0, 0, 0, -90, 0])
     bel.vel[0, 0] = [ball_speed, 0.0]
     out = outputs()
-    taker_decide(bel, 0, new_memory(1, seed_streams(0, 1)), KP, CFG, *out)
+    taker_decide(bel, 0, new_memory(1, seed_streams(0, 1)), SUMS, KP, CFG, *out)
     assert out[0][0] == expected

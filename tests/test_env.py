@@ -121,7 +121,7 @@ def test_the_hand_coded_getopen_fed_through_the_env_plays_the_embedded_arenas_ep
             return pass_choice(obs, agent)
         keeper = env._game.keepers[env.possible_agents.index(agent)]
         bel = keeper.wm.belief()
-        _, ball_cycles = fastest_to_ball(bel, 0, 1, bel.n_keepers, keeper.kp, cfg)
+        _, ball_cycles = fastest_to_ball(bel, 0, 1, bel.n_keepers, keeper.decay_sums, keeper.kp, cfg)
         target = handcoded_target(bel, 0, ball_cycles, False, keeper.kp, cfg)
         return env.n_keepers + points[target]
 

@@ -32,7 +32,7 @@ from agents.getopen import (TANH_ESTIMATE_ERROR, grid_point, grid_size, handcode
 from agents.sarsa import (EMPTY_SLOT, INDEX_INCREMENT, CHECK_INCREMENT, MAX_LONG_INT, SarsaConfig,
                           load_policy_arrays, load_tiles, new_memory as new_sarsa_memory, policy_arrays, quantize,
                           tiling_coordinate, unh_hash)
-from agents.skills import AgentConfig, closest_to_ball, fastest_to_ball, interception_point
+from agents.skills import AgentConfig, closest_to_ball, decay_sums, fastest_to_ball, interception_point
 from agents.state_vars import (ESTIMATE_ANGLE_ERROR, ESTIMATE_DISTANCE_ERROR, getopen_point_estimate,
                                getopen_point_state, getopen_setup, getopen_state, pass_state, vertex_scratch)
 from agents.worldmodel import ModelState, SeeBuffer, localise_row, whole_degree_table
@@ -45,6 +45,7 @@ from runner.batched import BatchedArenas
 PARAMS = parameter_set("classic")
 KP = PARAMS.kernel()
 CFG = AgentConfig().kernel()
+SUMS = decay_sums(KP, CFG)
 K, T = 3, 2
 N = 1 + K + T
 
@@ -372,7 +373,7 @@ def _check_state_variables(bel, r, kp=KP) -> None:
     """Every grid point's GetOpen variables and the Pass variables of row ``r`` as the reference's."""
     pos, me = bel.pos[r], int(bel.me[r])
     if me <= K:
-        _, cycles = fastest_to_ball(bel, r, 1, K, kp, CFG)
+        _, cycles = fastest_to_ball(bel, r, 1, K, decay_sums(kp, CFG), kp, CFG)
         ox, oy = lane_origin(bel, r, cycles, kp, CFG)
         out = np.empty(3 * K + T - 1)
         for k in range(grid_size(CFG)):
@@ -442,7 +443,7 @@ def _check_interception(bel, r: int, last_point, last_time: int, kp=KP) -> None:
                                   last_time if last_point is not None else -1, kp, CFG)
     one = belief_from_truth(bel.pos[r], bel.vel[r], bel.body[r], bel.neck[r], me, time, K, T, bel.effort[r])
     one.conf[0] = bel.conf[r]
-    got = interception_point(one, 0, _memory(last_point, last_time), kp, CFG)
+    got = interception_point(one, 0, _memory(last_point, last_time), decay_sums(kp, CFG), kp, CFG)
     assert got == ref
 
 
@@ -471,7 +472,7 @@ def _ref_net_value(theta, x):
 
 def _ref_learned_target(bel, r, theta, kp=KP):
     """GO:L scoring every grid point exactly, in scan order, exact ties to the point nearest to me."""
-    _, cycles = fastest_to_ball(bel, r, 1, K, kp, CFG)
+    _, cycles = fastest_to_ball(bel, r, 1, K, decay_sums(kp, CFG), kp, CFG)
     ox, oy = lane_origin(bel, r, cycles, kp, CFG)
     me = int(bel.me[r])
     x = np.empty(3 * K + T - 1)
@@ -532,7 +533,7 @@ def test_fastest_to_ball_matches_the_reference_on_random_beliefs():
     for r in range(bel.batch):
         ref = _ref_fastest_to_ball(bel.pos[r], bel.vel[r], bel.body[r], bel.effort[r], bel.conf[r],
                                    int(bel.me[r]), 1, K, KP, CFG)
-        assert fastest_to_ball(bel, r, 1, K, KP, CFG) == ref
+        assert fastest_to_ball(bel, r, 1, K, SUMS, KP, CFG) == ref
 
 
 def test_every_belief_of_a_batched_game_decides_as_the_reference():
@@ -548,7 +549,7 @@ def test_every_belief_of_a_batched_game_decides_as_the_reference():
                 continue
             me, last = int(bel.me[r]), (float(mem.intercept_point[r, 0]), float(mem.intercept_point[r, 1]))
             _check_interception(bel, r, last, int(mem.intercept_time[r]))
-            fastest = fastest_to_ball(bel, r, 1, K, KP, CFG)
+            fastest = fastest_to_ball(bel, r, 1, K, SUMS, KP, CFG)
             assert fastest == _ref_fastest_to_ball(bel.pos[r], bel.vel[r], bel.body[r], bel.effort[r],
                                                    bel.conf[r], me, 1, K, KP, CFG)
             checked += 1
@@ -557,8 +558,8 @@ def test_every_belief_of_a_batched_game_decides_as_the_reference():
                     plain, hint = _memory(last, last_time), _memory(last, last_time)
                     one = belief_from_truth(bel.pos[r], bel.vel[r], bel.body[r], bel.neck[r], me, bel.time[r],
                                             K, T, bel.effort[r])
-                    assert (interception_point(one, 0, hint, KP, CFG, fastest[1])
-                            == interception_point(one, 0, plain, KP, CFG))
+                    assert (interception_point(one, 0, hint, SUMS, KP, CFG, fastest[1])
+                            == interception_point(one, 0, plain, SUMS, KP, CFG))
                     assert np.array_equal(hint.intercept_point, plain.intercept_point)
                 hinted += 1
     assert checked > 300 and hinted > 40  # the game gave the kernels something to decide (400 and 80)
@@ -583,7 +584,7 @@ def test_localisation_matches_the_reference_on_real_sees():
 
 
 def _check_handcoded_target(bel, r: int, kp=KP) -> None:
-    _, cycles = fastest_to_ball(bel, r, 1, K, kp, CFG)
+    _, cycles = fastest_to_ball(bel, r, 1, K, decay_sums(kp, CFG), kp, CFG)
     bx, by = predicted_ball_pos(bel, r, cycles, kp, CFG)
     ref = _ref_handcoded_target(bel.pos[r], bel.conf[r], int(bel.me[r]), bx, by, kp, CFG)
     assert handcoded_target(bel, r, cycles, False, kp, CFG) == ref

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -10,6 +11,7 @@ import pytest
 from agents.belief import belief_from_truth, new_memory
 from agents.geometry import (
     ball_after_kick,
+    geometric_sum,
     kick_rate,
     normalize_angle,
     player_step,
@@ -20,6 +22,7 @@ from agents.geometry import (
 from agents.skills import (
     AgentConfig,
     close_intercept,
+    decay_sums,
     fastest_to_ball,
     forward_angle,
     go_to_point,
@@ -40,6 +43,7 @@ from runner.embedded import ArenaSpec, EmbeddedGame
 
 KP = parameter_set("classic").kernel()
 CFG = AgentConfig().kernel()
+SUMS = decay_sums(KP, CFG)
 
 
 FAR_TAKERS = [[9.0, 9.0], [9.0, -9.0]]
@@ -166,6 +170,17 @@ def test_go_to_point_brakes_when_three_turns_are_needed():
     assert power == pytest.approx(-0.4 / 0.006)
 
 
+def test_decay_sums_are_the_geometric_sums_to_the_horizon():
+    # classic player_decay 0.4: 1 + 0.4 + ... + 0.4^(k-1) = (1 - 0.4^k) / 0.6: 0, 1, 1.4, 1.56, ...; the
+    # table holds geometric_sum's own numbers (the travel simulations read it instead), k = 0..30
+    sums = decay_sums(KP, CFG)
+    assert sums.shape == (31,)
+    assert sums[:4] == pytest.approx([0.0, 1.0, 1.4, 1.56], abs=1e-15)
+    assert list(sums) == [geometric_sum(KP.player_decay, float(k)) for k in range(31)]
+    slower = dataclasses.replace(parameter_set("classic"), player_decay=0.5).kernel()  # another decay
+    assert list(decay_sums(slower, CFG)[:4]) == [0.0, 1.0, 1.5, 1.75]
+
+
 def test_interception_point_of_a_ball_rolling_towards_me():
     # ball from (-10, 0) at 1.5 m/cycle towards a keeper at (0, 0) facing it (body 180).
     # ball after i cycles: x_i = -10 + 25 (1 - 0.94^i): x_4 = -4.519, x_5 = -3.348.
@@ -174,11 +189,11 @@ def test_interception_point_of_a_ball_rolling_towards_me():
     bel = belief([[-10.0, 0.0], [0.0, 0.0], [9.0, 0.0], [0.0, 9.0]] + FAR_TAKERS, 1,
                  vel=[[1.5, 0.0], [0, 0], [0, 0], [0, 0], [0, 0], [0, 0]], body=[0, 180, 0, 0, 0, 0])
     mem = new_memory(1, seed_streams(0, 1))
-    i, x, y = interception_point(bel, 0, mem, KP, CFG)
+    i, x, y = interception_point(bel, 0, mem, SUMS, KP, CFG)
     assert i == 5
     assert (x, y) == pytest.approx((-10.0 + 25.0 * (1.0 - 0.94**5), 0.0))
     # far from it (i >= 3): move there, a full dash since 3.35 m in 5 cycles needs more than 1.2 m/cycle
-    assert intercept(bel, 0, new_memory(1, seed_streams(0, 1)), KP, CFG) == (CMD_DASH, 100.0, 0.0)
+    assert intercept(bel, 0, new_memory(1, seed_streams(0, 1)), SUMS, KP, CFG) == (CMD_DASH, 100.0, 0.0)
 
 
 def test_fastest_keeper_to_a_rolling_ball():
@@ -186,7 +201,7 @@ def test_fastest_keeper_to_a_rolling_ball():
     # first cover 4.9 m sideways (>= 6 cycles) and keeper 3 at (9, 0) is behind keeper 1
     bel = belief([[-10.0, 0.0], [0.0, 0.0], [0.0, -6.0], [9.0, 0.0]] + FAR_TAKERS, 2,
                  vel=[[1.5, 0.0], [0, 0], [0, 0], [0, 0], [0, 0], [0, 0]], body=[0, 180, 90, 180, 0, 0])
-    assert fastest_to_ball(bel, 0, 1, 3, KP, CFG) == (1, 5)
+    assert fastest_to_ball(bel, 0, 1, 3, SUMS, KP, CFG) == (1, 5)
 
 
 def test_close_intercept_dashes_when_an_opponent_is_near():
@@ -239,18 +254,19 @@ def test_a_player_stuck_dashing_backwards_turns_round():
     # the next intercept turns to the ball instead (moment 180), and the count starts again
     current = parameter_set("current").kernel()
     pos = np.array([[-1.5, 0.0], [0.0, 0.0], [9.0, 0.0], [0.0, 9.0]] + FAR_TAKERS, dtype=float)
+    sums = decay_sums(current, CFG)
     mem = new_memory(1, seed_streams(0, 1))
     commands = []
     for t in range(32):
         bel = belief_from_truth(pos, np.zeros_like(pos), np.zeros(6), np.zeros(6), 1, t, 3, 2)
-        commands.append(intercept(bel, 0, mem, current, CFG))
+        commands.append(intercept(bel, 0, mem, sums, current, CFG))
     assert commands[:30] == [(CMD_DASH, -100.0, 0.0)] * 30
     assert commands[30] == (CMD_TURN, 180.0, 0.0)
     assert commands[31] == (CMD_DASH, -100.0, 0.0) and mem.stuck_dashes[0] == 1
     # moving resets the count
     vel = np.zeros_like(pos)
     vel[1] = (0.05, 0.0)
-    intercept(belief_from_truth(pos, vel, np.zeros(6), np.zeros(6), 1, 32, 3, 2), 0, mem, current, CFG)
+    intercept(belief_from_truth(pos, vel, np.zeros(6), np.zeros(6), 1, 32, 3, 2), 0, mem, sums, current, CFG)
     assert mem.stuck_dashes[0] == 0
 
 
@@ -279,7 +295,7 @@ def _run_intercept(ball_pos, ball_vel, me_pos, me_body, cycles):
         if math.dist(pos[0], pos[1]) < KP.player_size + KP.kickable_margin + KP.ball_size:
             return t
         bel = belief_from_truth(pos, vel, body, np.zeros(6), 1, t, 3, 2)
-        code, a1, _ = intercept(bel, 0, mem, KP, CFG)
+        code, a1, _ = intercept(bel, 0, mem, SUMS, KP, CFG)
         x, y, vx, vy, b = player_step(pos[1, 0], pos[1, 1], vel[1, 0], vel[1, 1], body[1], 1.0, code, a1, KP)
         pos[1], vel[1], body[1] = (x, y), (vx, vy), b
         pos[0] += vel[0]
