@@ -95,8 +95,8 @@ def keeper_decide(
 ) -> int:
     """One keeper decision for row ``r`` (spec `keepaway-agents.md` 1 steps 2-5). ``theta`` is the row's
     GetOpen net parameters, ``sums`` the players' ``agents.skills.decay_sums``, ``out_state`` its Pass
-    state row. Returns NO_PASS_DECISION,
-    PASS_DECISION_START, PASS_DECISION_STEP or GETOPEN_DECISION (module docstring)."""
+    state row. Returns NO_PASS_DECISION, PASS_DECISION_START, PASS_DECISION_STEP or GETOPEN_DECISION
+    (module docstring)."""
     me = bel.me[r]
     if bel.conf[r, 0] < cfg.ball_conf_threshold:
         code, a1, a2 = search_ball(bel, r, mem, kp, cfg)
