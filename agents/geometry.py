@@ -27,6 +27,18 @@ def near(value: float, threshold: float) -> bool:
 
 
 @borrowing
+def compared_hypot(dx: float, dy: float, threshold: float) -> float:
+    """|(dx, dy)| for comparing with ``threshold`` alone: the sqrt estimate, or libm's exact hypot when
+    the estimate is within a hair of the threshold (``near``) or not finite, so any comparison of the
+    result with ``threshold`` (<, <=, >) comes out as the exact one would. Cheaper than hypot, which
+    took a tenth of a game's time spread over a dozen such tests."""
+    d = math.sqrt(dx * dx + dy * dy)
+    if d < math.inf and not near(d, threshold):
+        return d
+    return math.hypot(dx, dy)
+
+
+@borrowing
 def normalize_angle(a: float) -> float:
     """Angle in (-180, 180]."""
     a -= 360.0 * math.floor((a + 180.0) / 360.0)

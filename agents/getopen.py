@@ -19,7 +19,7 @@ import numpy as np
 from core.jit import borrowing, njit
 
 from agents.belief import AgentMemory, Belief
-from agents.geometry import DECIDE_SLACK, distance, in_cone, vertex_angle_below
+from agents.geometry import DECIDE_SLACK, compared_hypot, distance, in_cone, vertex_angle_below
 from agents.skills import (
     GETOPEN_HANDCODED,
     GETOPEN_HANDCODED_CONE,
@@ -469,8 +469,8 @@ def random_target(bel: Belief, r: int, mem: AgentMemory, kp, cfg) -> tuple:
     """GO:R: a uniformly drawn grid point, kept until I am within the arrival radius of it
     (spec `keepaway-agents.md` 2.6)."""
     me = bel.me[r]
-    if (not mem.has_target[r]) or distance(
-        bel.pos[r, me, 0], bel.pos[r, me, 1], mem.target[r, 0], mem.target[r, 1]
+    if (not mem.has_target[r]) or compared_hypot(
+        mem.target[r, 0] - bel.pos[r, me, 0], mem.target[r, 1] - bel.pos[r, me, 1], cfg.arrival_radius
     ) < cfg.arrival_radius:
         px, py = grid_point(randint(mem.rng, r, grid_size(cfg)), kp, cfg)
         mem.target[r, 0] = px
@@ -484,7 +484,7 @@ def move_to_spot(bel: Belief, r: int, px: float, py: float, kp, cfg) -> tuple:
     """Within the arrival radius turn the body to the ball and stand; else GoToPoint(P, 7 deg)
     (spec `keepaway-agents.md` 2.5 step 6)."""
     me = bel.me[r]
-    if distance(bel.pos[r, me, 0], bel.pos[r, me, 1], px, py) < cfg.arrival_radius:
+    if compared_hypot(px - bel.pos[r, me, 0], py - bel.pos[r, me, 1], cfg.arrival_radius) < cfg.arrival_radius:
         return turn_to_point(bel, r, bel.pos[r, 0, 0], bel.pos[r, 0, 1], 1.0, kp)
     return go_to_point(bel, r, px, py, kp, cfg)
 

@@ -48,7 +48,7 @@ from typing import NamedTuple
 import numpy as np
 from core.jit import borrowing
 
-from agents.geometry import ball_after_kick, kick_rate, player_step
+from agents.geometry import ball_after_kick, compared_hypot, kick_rate, player_step
 from agents.skills import frame_sign, kickable_distance, opponent_range
 from agents.worldmodel import NEVER, ModelState, confidence
 from core.objects import BALL, CMD_DASH, CMD_KICK, CMD_NONE
@@ -203,14 +203,15 @@ def say_row(r: int, s: ModelState, main: int, a1: float, a2: float, n_keepers: i
     at = 0
     if ((s.ball_chg[r] == now and ball_dist < cfg.say_ball_range and ball_now)
             or (ball_dist < kp.visible_distance and ball_now)
-            or (ball_dist < kickable and math.hypot(pbx - mx, pby - my) > kickable)):
+            or (ball_dist < kickable and compared_hypot(pbx - mx, pby - my, kickable) > kickable)):
         bx, by, vx, vy = s.pos[r, BALL, 0], s.pos[r, BALL, 1], s.vel[r, BALL, 0], s.vel[r, BALL, 1]
         passed = False
         if ball_dist < kickable:
             if main == CMD_KICK:
                 bx, by, vx, vy = pbx, pby, pvx, pvy
                 rx, ry = _me_after(r, s, CMD_KICK, 0.0, kp)  # predictAgentPos(1, 0): coasting
-                passed = math.hypot(bx - rx, by - ry) > kickable + cfg.say_pass_margin
+                gone = kickable + cfg.say_pass_margin
+                passed = compared_hypot(bx - rx, by - ry, gone) > gone
             if not passed:
                 bx, by = s.pos[r, BALL, 0], s.pos[r, BALL, 1]
                 vx = vy = 0.0
@@ -281,8 +282,10 @@ def _hear_ball(r: int, s: ModelState, codes: np.ndarray, at: int, sign: float, c
         vx *= HEARD_BALL_DECAY
         vy *= HEARD_BALL_DECAY
     me, now = s.me[r], s.time[r]
-    far = math.hypot(s.pos[r, BALL, 0] - s.pos[r, me, 0], s.pos[r, BALL, 1] - s.pos[r, me, 1]) > cfg.hear_ball_near
-    differs = math.hypot(vx - s.vel[r, BALL, 0], vy - s.vel[r, BALL, 1]) > cfg.hear_velocity_gap
+    dx, dy = s.pos[r, BALL, 0] - s.pos[r, me, 0], s.pos[r, BALL, 1] - s.pos[r, me, 1]
+    far = compared_hypot(dx, dy, cfg.hear_ball_near) > cfg.hear_ball_near
+    gap = cfg.hear_velocity_gap
+    differs = compared_hypot(vx - s.vel[r, BALL, 0], vy - s.vel[r, BALL, 1], gap) > gap
     if not (s.seen[r, BALL] == NEVER
             or (s.ball_chg[r] < now - cfg.hear_ball_stale_cycles and far)
             or (s.ball_chg[r] < now - cycles and differs and far)):

@@ -21,6 +21,7 @@ from agents.belief import AgentMemory, Belief
 from agents.geometry import (
     DECIDE_SLACK,
     ball_after_kick,
+    compared_hypot,
     dash_power_along,
     dash_power_for,
     dash_velocity,
@@ -463,16 +464,32 @@ _REACH_SLACK = 1.0e-9
 
 
 @borrowing
-def _out_of_reach(dx: float, dy: float, vx: float, vy: float, radius: float, n: int, kp) -> bool:
-    """hypot(dx, dy) - radius > n max(player_speed_max, hypot(vx, vy)): the target beyond the longest
-    n steps (``travel``'s first test, made for every player at every cycle of an interception search),
-    decided by sqrt estimates unless the two sides lie within DECIDE_SLACK of each other."""
-    far = math.sqrt(dx * dx + dy * dy) - radius
-    step = math.sqrt(vx * vx + vy * vy)
-    reach = n * max(kp.player_speed_max, step)
-    if near(far, reach) or not (far < math.inf and reach < math.inf):
-        return math.hypot(dx, dy) - radius > n * max(kp.player_speed_max, math.hypot(vx, vy))
-    return far > reach
+def _longest_run(speed: float, left: int, effort: float, sums, kp) -> float:
+    """An upper bound on the distance a player moving at ``speed`` covers in its next ``left`` moves, each a
+    dash or a turn (``travel``'s out-of-reach test). A move's step is the velocity after the command:
+    a dash adds at most a = effort x the largest believed power x dash_power_rate (capped at
+    player_accel_max) and caps the speed at player_speed_max, a turn adds nothing; then the velocity
+    decays by d = player_decay. So the first step is at most u1 = max(speed, min(player_speed_max,
+    speed + a)) and each next one at most d x the last + a, which sums to left A + (u1 - A)(1 - d^left)
+    / (1 - d), A = a / (1 - d), A the speed that dashing at full power settles to (1.0 of the 1.2 m the
+    cap allows, with the classic parameters). The smaller of that and left x max(player_speed_max, speed)
+    (each step within the cap, or the speed there is) is the bound: both hold for any commands."""
+    cap = kp.player_speed_max
+    flat = left * max(cap, speed)
+    acc = min(kp.player_accel_max, effort * max(abs(kp.min_power), abs(kp.max_dash_power)) * kp.dash_power_rate)
+    settled = acc / (1.0 - kp.player_decay)
+    first = max(speed, min(cap, speed + acc))
+    return min(flat, left * settled + (first - settled) * _decay_sum(sums, left, kp))
+
+
+@borrowing
+def _out_of_reach(far: float, speed: float, radius: float, left: int, effort: float, sums, kp) -> bool:
+    """far - radius > the longest run in ``left`` moves at ``speed`` (``_longest_run``): the target is
+    out of reach for good (``travel``'s test, made for every player at every cycle of an interception
+    search). ``far`` and ``speed`` may be sqrt estimates: the bound carries a relative and an absolute
+    slack far above their rounding, so an estimate stops only a simulation that the exact distance and
+    speed would stop as well."""
+    return far - radius > _longest_run(speed, left, effort, sums, kp) * (1.0 + _REACH_SLACK) + _REACH_SLACK
 
 
 @borrowing
@@ -487,11 +504,12 @@ def travel(
     The moves are ``intercept_move`` then ``player_step``, fused: the decay sums come from ``sums``
     (``decay_sums``), the body's cosine and sine are kept between turns; the arithmetic is the same, so
     are the numbers. The simulation stops with (n + 1, inf) as soon as the target is out of reach:
-    farther than the cycles left times the longest possible step, max(player_speed_max, current speed)
-    (a dash caps the speed, a turn lets it decay). Without ``need_end`` it also stops at the first cycle
-    within ``radius`` (distance NaN)."""
+    farther than the longest run the cycles left allow from the current speed (``_longest_run``), which
+    is what a full simulation would return too (its distance is read only when the target is reached).
+    Without ``need_end`` it also stops at the first cycle within ``radius`` (distance NaN)."""
     reached = n + 1
-    if _out_of_reach(tx - px, ty - py, vx, vy, radius, n, kp):
+    dx, dy = tx - px, ty - py
+    if _out_of_reach(math.sqrt(dx * dx + dy * dy), math.sqrt(vx * vx + vy * vy), radius, n, effort, sums, kp):
         return reached, math.inf
     roll_limit = cfg.intercept_roll_cycles
     roll_far = 0.0
@@ -500,7 +518,6 @@ def travel(
         roll_far = _decay_sum(sums, whole, kp) if whole == roll_limit else geometric_sum(kp.player_decay, roll_limit)
     rad = math.radians(body)
     cs, sn = math.cos(rad), math.sin(rad)
-    reach_slack = 1.0 + _REACH_SLACK
     for c in range(n + 1):
         # far and speed only meet thresholds (and speed a turn's arithmetic): a sqrt estimate stands for
         # the exact hypot unless it lies within a hair of a threshold (geometry.near), so the comparisons
@@ -515,15 +532,10 @@ def travel(
                 return reached, math.nan
         if c == n:
             break
-        speed = math.sqrt(vx * vx + vy * vy)
-        if not speed < kp.player_speed_max - DECIDE_SLACK:
-            speed = math.hypot(vx, vy)
         left = n - c
-        step = max(kp.player_speed_max, speed) * reach_slack
-        if reached > n:
-            if near(far - radius, left * step + _REACH_SLACK):
-                far = math.hypot(dx, dy)
-            if far - radius > left * step + _REACH_SLACK:
+        if reached > n and c > 0:  # c = 0 was tested above
+            speed = math.sqrt(vx * vx + vy * vy)
+            if _out_of_reach(far, speed, radius, left, effort, sums, kp):
                 return n + 1, math.inf
         roll = _decay_sum(sums, left, kp) if left < roll_limit else roll_far
         turn, angle = False, 0.0
@@ -960,7 +972,8 @@ def interception_point(bel: Belief, r: int, mem: AgentMemory, sums, kp, cfg, kno
             break
         if i < known_first:
             continue
-        if distance(fx, fy, bx, by) / kp.player_speed_max > i + kickable:
+        reach = (i + kickable) * kp.player_speed_max
+        if compared_hypot(bx - fx, by - fy, reach) / kp.player_speed_max > i + kickable:
             continue
         if i == known_first and not recent:
             reached, end = i, math.nan

@@ -17,7 +17,7 @@ import math
 from core.jit import borrowing
 
 from agents.belief import AgentMemory, Belief
-from agents.geometry import distance, in_cone
+from agents.geometry import compared_hypot, distance, in_cone
 from agents.getopen import move_to_spot
 from agents.skills import (
     ball_kickable,
@@ -104,11 +104,12 @@ def taker_decide(bel: Belief, r: int, mem: AgentMemory, sums, kp, cfg, out_main,
         code, a1, a2 = move_to_spot(bel, r, px, py, kp, cfg)
     else:
         nearest = closest_to_ball(bel, r, 1, bel.n_keepers + bel.n_takers, -1, cfg)
+        kickable = kickable_distance(kp)
         if (
             nearest != me
             and nearest > bel.n_keepers
-            and distance(bel.pos[r, nearest, 0], bel.pos[r, nearest, 1], bel.pos[r, 0, 0], bel.pos[r, 0, 1])
-            < kickable_distance(kp)
+            and compared_hypot(bel.pos[r, 0, 0] - bel.pos[r, nearest, 0], bel.pos[r, 0, 1] - bel.pos[r, nearest, 1],
+                               kickable) < kickable
         ):
             code, a1, a2 = turn_to_point(bel, r, bel.pos[r, 0, 0], bel.pos[r, 0, 1], 1.0, kp)
             write_action(r, code, a1, a2, neck_with_body(bel, r), out_main, out_a1, out_a2, out_neck)

@@ -48,7 +48,7 @@ import numpy as np
 from core.jit import borrowing, njit
 
 from agents.belief import Belief, empty_belief
-from agents.geometry import believed_dash_power, kick_rate, normalize_angle, turn_effect
+from agents.geometry import believed_dash_power, compared_hypot, kick_rate, normalize_angle, turn_effect
 from agents.skills import AgentConfig, kickable_distance, opponent_range
 from protocol.params import ServerParams
 from core.objects import BALL, CMD_DASH, CMD_KICK, CMD_NONE, CMD_TURN, COLLISION_VEL_FACTOR
@@ -255,8 +255,9 @@ def _closest_player(r, s, x, y, lo, hi, skip, cfg):
 def _ball_kickable_by_me(r, s, kp):
     """Whether the estimated ball is within my kickable distance."""
     me = s.me[r]
-    d = math.hypot(s.pos[r, BALL, 0] - s.pos[r, me, 0], s.pos[r, BALL, 1] - s.pos[r, me, 1])
-    return d <= kickable_distance(kp)
+    kickable = kickable_distance(kp)
+    dx, dy = s.pos[r, BALL, 0] - s.pos[r, me, 0], s.pos[r, BALL, 1] - s.pos[r, me, 1]
+    return compared_hypot(dx, dy, kickable) <= kickable
 
 
 @borrowing
@@ -291,14 +292,14 @@ def _dash_acceleration(r, s, power, kp):
 def _move(r, s, obj, ax, ay, accel_max, speed_max, decay):
     """One step of an object (spec 2 step 1a and 1e, no noise)."""
     if ax != 0.0 or ay != 0.0:
-        a = math.hypot(ax, ay)
-        if a > accel_max:
+        if compared_hypot(ax, ay, accel_max) > accel_max:  # the cap's own arithmetic takes the exact length
+            a = math.hypot(ax, ay)
             ax *= accel_max / a
             ay *= accel_max / a
         vx = s.vel[r, obj, 0] + ax
         vy = s.vel[r, obj, 1] + ay
-        v = math.hypot(vx, vy)
-        if v > speed_max:
+        if compared_hypot(vx, vy, speed_max) > speed_max:
+            v = math.hypot(vx, vy)
             vx *= speed_max / v
             vy *= speed_max / v
         s.vel[r, obj, 0] = vx
@@ -316,8 +317,9 @@ def _stop_ball_at_opponent(r, s, x0, y0, n_keepers, kp, cfg):
     control it."""
     first, last = opponent_range(s.me[r], n_keepers, s.pos.shape[1] - 1)
     opp, _ = _closest_player(r, s, x0, y0, first, last + 1, -1, cfg)
-    if opp >= 0 and math.hypot(s.pos[r, BALL, 0] - s.pos[r, opp, 0],
-                               s.pos[r, BALL, 1] - s.pos[r, opp, 1]) < kickable_distance(kp):
+    kickable = kickable_distance(kp)
+    if opp >= 0 and compared_hypot(s.pos[r, BALL, 0] - s.pos[r, opp, 0],
+                                   s.pos[r, BALL, 1] - s.pos[r, opp, 1], kickable) < kickable:
         s.vel[r, BALL, 0] = 0.0
         s.vel[r, BALL, 1] = 0.0
 

@@ -24,7 +24,7 @@ import pytest
 from numba import njit
 
 from agents.belief import AgentMemory, belief_from_truth, new_memory
-from agents.geometry import (ACOS_ESTIMATE_ERROR, acos_estimate, direction, distance, final_position, normalize_angle,
+from agents.geometry import (ACOS_ESTIMATE_ERROR, acos_estimate, compared_hypot, direction, distance, final_position, normalize_angle,
                              rolled_out)
 from agents.getopen import (TANH_ESTIMATE_ERROR, grid_point, grid_size, handcoded_target, lane_origin,
                             learned_target, net_estimate_error, net_first_layer, net_output, net_output_estimate,
@@ -32,7 +32,7 @@ from agents.getopen import (TANH_ESTIMATE_ERROR, grid_point, grid_size, handcode
 from agents.sarsa import (EMPTY_SLOT, INDEX_INCREMENT, CHECK_INCREMENT, MAX_LONG_INT, SarsaConfig,
                           load_policy_arrays, load_tiles, new_memory as new_sarsa_memory, policy_arrays, quantize,
                           tiling_coordinate, unh_hash)
-from agents.skills import AgentConfig, closest_to_ball, decay_sums, fastest_to_ball, interception_point
+from agents.skills import AgentConfig, _longest_run, closest_to_ball, decay_sums, fastest_to_ball, interception_point, travel
 from agents.state_vars import (ESTIMATE_ANGLE_ERROR, ESTIMATE_DISTANCE_ERROR, getopen_point_estimate,
                                getopen_point_state, getopen_setup, getopen_state, pass_state, vertex_scratch)
 from agents.worldmodel import ModelState, SeeBuffer, localise_row, whole_degree_table
@@ -534,6 +534,51 @@ def test_fastest_to_ball_matches_the_reference_on_random_beliefs():
         ref = _ref_fastest_to_ball(bel.pos[r], bel.vel[r], bel.body[r], bel.effort[r], bel.conf[r],
                                    int(bel.me[r]), 1, K, KP, CFG)
         assert fastest_to_ball(bel, r, 1, K, SUMS, KP, CFG) == ref
+
+
+def test_travel_stops_early_only_where_the_full_simulation_misses_the_target():
+    """Targets placed within a few centimetres either side of the longest run (``_longest_run``), where the
+    early stop decides: every answer is the full simulation's, for every player speed and heading."""
+    rng = np.random.default_rng(61)
+    kickable = KP.player_size + KP.kickable_margin + KP.ball_size
+    stopped = 0
+    for _ in range(3000):
+        n = int(rng.integers(0, 16))
+        speed, heading, body = rng.uniform(0.0, 1.3), rng.uniform(-180.0, 180.0), rng.uniform(-180.0, 180.0)
+        vx, vy = speed * math.cos(math.radians(heading)), speed * math.sin(math.radians(heading))
+        effort = rng.choice([1.0, rng.uniform(0.6, 1.0)])
+        aim = math.radians(rng.choice([heading, body, rng.uniform(-180.0, 180.0)]))
+        far = kickable + _longest_run(speed, n, effort, SUMS, KP) + rng.uniform(-0.05, 0.05)
+        tx, ty = 1.0 + far * math.cos(aim), -2.0 + far * math.sin(aim)
+        for need_end in (False, True):
+            got = travel(1.0, -2.0, vx, vy, body, effort, tx, ty, kickable, n, need_end, SUMS, KP, CFG)
+            ref = _ref_travel(1.0, -2.0, vx, vy, body, effort, tx, ty, kickable, n, KP, CFG)
+            assert got[0] == ref[0]
+            if need_end and got[0] <= n:
+                assert got[1] == ref[1]
+            stopped += got[1] == math.inf
+    assert stopped > 1000  # the early stop was exercised, not only the simulation
+
+
+@njit
+def _libm_hypot(dx, dy):
+    return math.hypot(dx, dy)
+
+
+def test_compared_hypot_compares_as_the_exact_hypot():
+    """On thresholds at the exact length, a float either side of it, at the sqrt estimate and anywhere,
+    and on lengths that are not finite: <, <= and > come out as with libm's hypot (the kernels')."""
+    rng = np.random.default_rng(67)
+    cases = [(math.inf, 1.0), (math.nan, 1.0), (math.inf, math.nan), (1e200, 1e200), (1e-200, 0.0), (0.0, 0.0)]
+    cases += [tuple(rng.uniform(-30.0, 30.0, 2) * rng.choice([1e-3, 1.0, 1e3])) for _ in range(2000)]
+    differ = 0
+    for dx, dy in cases:
+        exact, rough = _libm_hypot(dx, dy), math.sqrt(dx * dx + dy * dy)
+        differ += exact != rough
+        for t in (exact, np.nextafter(exact, 0.0), np.nextafter(exact, math.inf), rough, 0.0, 1.0, 25.0):
+            got = compared_hypot(dx, dy, t)
+            assert (got < t, got <= t, got > t) == (exact < t, exact <= t, exact > t)
+    assert differ > 100  # the estimate does differ from hypot in the last bit, often
 
 
 def test_every_belief_of_a_batched_game_decides_as_the_reference():

@@ -21,6 +21,7 @@ from agents.geometry import (
 )
 from agents.skills import (
     AgentConfig,
+    _longest_run,
     close_intercept,
     decay_sums,
     fastest_to_ball,
@@ -179,6 +180,38 @@ def test_decay_sums_are_the_geometric_sums_to_the_horizon():
     assert list(sums) == [geometric_sum(KP.player_decay, float(k)) for k in range(31)]
     slower = dataclasses.replace(parameter_set("classic"), player_decay=0.5).kernel()  # another decay
     assert list(decay_sums(slower, CFG)[:4]) == [0.0, 1.0, 1.5, 1.75]
+
+
+def test_longest_run_is_full_dashes_from_the_current_speed():
+    # classic: a full dash adds a = 100 x 0.006 = 0.6, the speed decays by 0.4; from rest the steps are
+    # 0.6, 0.84, 0.936 (sum 2.376 = 3 x 1.0 + (0.6 - 1.0)(1 + 0.4 + 0.16)), where the cap alone allows 3.6
+    assert _longest_run(0.0, 3, 1.0, SUMS, KP) == pytest.approx(2.376, abs=1e-12)
+    assert _longest_run(0.0, 0, 1.0, SUMS, KP) == 0.0
+    # at 0.5 m/cycle: steps 1.1, 1.04, 1.016 (sum 3.156); at effort 0.5 (a = 0.3): 0.8, 0.62, 0.548
+    assert _longest_run(0.5, 3, 1.0, SUMS, KP) == pytest.approx(3.156, abs=1e-12)
+    assert _longest_run(0.5, 3, 0.5, SUMS, KP) == pytest.approx(1.968, abs=1e-12)
+    # at 2 m/cycle (beyond the 1.2 cap): a turn keeps the step at 2, then 0.8 + 0.6 = 1.4, 0.56 + 0.6 = 1.16
+    # (a sum of 4.56); the cap alone allows 3 x 2 = 6
+    assert _longest_run(2.0, 3, 1.0, SUMS, KP) == pytest.approx(4.56, abs=1e-12)
+
+
+def test_no_commands_outrun_the_longest_run():
+    # random turns and dashes (any power, any body) never cover more ground than the bound; full dashes
+    # along the velocity reach it
+    rng = np.random.default_rng(3)
+    for _ in range(500):
+        speed, n = rng.uniform(0.0, 1.5), int(rng.integers(1, 12))
+        x, y, vx, vy, body = 0.0, 0.0, speed, 0.0, rng.uniform(-180.0, 180.0)
+        for _ in range(n):
+            if rng.random() < 0.3:
+                x, y, vx, vy, body = player_step(x, y, vx, vy, body, 1.0, CMD_TURN, rng.uniform(-180, 180), KP)
+            else:
+                x, y, vx, vy, body = player_step(x, y, vx, vy, body, 1.0, CMD_DASH, rng.uniform(-100, 100), KP)
+        assert math.hypot(x, y) <= _longest_run(speed, n, 1.0, SUMS, KP) + 1e-12
+        x, y, vx, vy, body = 0.0, 0.0, speed, 0.0, 0.0
+        for _ in range(n):
+            x, y, vx, vy, body = player_step(x, y, vx, vy, body, 1.0, CMD_DASH, 100.0, KP)
+        assert x == pytest.approx(_longest_run(speed, n, 1.0, SUMS, KP), abs=1e-12) or speed + 0.6 > 1.2
 
 
 def test_interception_point_of_a_ball_rolling_towards_me():
