@@ -1,0 +1,49 @@
+"""``benchmarks/profile.py``'s reading of gdb's symbols and perf's samples (the tool itself needs perf and
+gdb, which CI does not have; these are its pure parts, on text in the two tools' formats)."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+spec = importlib.util.spec_from_file_location("benchmarks_profile",
+                                              Path(__file__).resolve().parent.parent / "benchmarks" / "profile.py")
+profile = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(profile)
+
+MSYMBOLS = """\
+[ 0] T 0x7f0000001000 _ZN6agents6skills6travelB4v253B36c8tJTIeFIjxB2IKSgI4CrvQCltYEAA_3d_3dEdddd section .text
+[ 1] T 0x7f0000002000 _ZN6server10perception9see_arenaB4v106B40c8tJTIeFIjxB2IKSgI4CrvSCKg1MMf section .text
+[ 2] T 0x7f0000000800 NRT_decref section .text
+"""
+
+
+def test_numba_symbols_read_back_as_module_and_function():
+    assert profile.readable("_ZN6agents6skills6travelB4v253B36c8tJTIeFIjxB2IKSgI4CrvQC") == "agents.skills.travel"
+    assert profile.readable("_ZN6runner7batched11arena_cycleB3v54B36c8tJTI") == "runner.batched.arena_cycle"
+    assert profile.readable("NRT_decref") == "NRT_decref"
+
+
+def test_an_address_takes_the_symbol_at_or_below_it():
+    symbols = profile.SymbolMap(MSYMBOLS)
+    assert symbols.name(0x7F0000001000) == "agents.skills.travel"
+    assert symbols.name(0x7F0000001FFF) == "agents.skills.travel"
+    assert symbols.name(0x7F0000002010) == "server.perception.see_arena"
+    assert symbols.name(0x7F0000000900) == "NRT_decref"
+    assert symbols.name(0x10) == "?"
+
+
+def test_flat_samples_are_lines_and_unknown_frames_are_named_from_gdb():
+    script = "7f0000001010 [unknown]\n7f0000002020 [unknown]\n7f55 hypot@@GLIBC_2.35+0x1c\n7f0000001020 [unknown]\n"
+    counts = profile.flat_profile(profile.samples_of(script, stacks=False), profile.SymbolMap(MSYMBOLS))
+    assert counts == {"agents.skills.travel": 2, "server.perception.see_arena": 1, "hypot@@GLIBC_2.35": 1}
+
+
+def test_callers_are_the_first_frames_outside_the_function():
+    script = ("7f10 __ieee754_hypot_fma\n7f20 hypot@@GLIBC_2.35\n7f0000001010 [unknown]\n7f0000002010 [unknown]\n\n"
+              "7f20 hypot@@GLIBC_2.35\n7f0000002010 [unknown]\n\n"
+              "7f0000001010 [unknown]\n7f0000002010 [unknown]\n\n")
+    samples = profile.samples_of(script, stacks=True)
+    assert len(samples) == 3
+    callers = profile.callers_of("hypot", samples, profile.SymbolMap(MSYMBOLS))
+    assert callers == {"agents.skills.travel": 1, "server.perception.see_arena": 1}
