@@ -24,15 +24,16 @@ import pytest
 from numba import njit
 
 from agents.belief import AgentMemory, belief_from_truth, new_memory
-from agents.geometry import (ACOS_ESTIMATE_ERROR, acos_estimate, compared_hypot, direction, distance, final_position, normalize_angle,
-                             rolled_out)
+from agents.geometry import (ACOS_ESTIMATE_ERROR, acos_estimate, compared_hypot, direction, distance, final_position,
+                             normalize_angle, rolled_out)
 from agents.getopen import (TANH_ESTIMATE_ERROR, grid_point, grid_size, handcoded_target, lane_origin,
                             learned_target, net_estimate_error, net_first_layer, net_output, net_output_estimate,
                             net_value, predicted_ball_pos, tanh_estimate)
 from agents.sarsa import (EMPTY_SLOT, INDEX_INCREMENT, CHECK_INCREMENT, MAX_LONG_INT, SarsaConfig,
                           load_policy_arrays, load_tiles, new_memory as new_sarsa_memory, policy_arrays, quantize,
                           tiling_coordinate, unh_hash)
-from agents.skills import AgentConfig, _longest_run, closest_to_ball, decay_sums, fastest_to_ball, interception_point, travel
+from agents.skills import (AgentConfig, _longest_run, closest_to_ball, decay_sums, fastest_to_ball, interception_point,
+                           travel)
 from agents.state_vars import (ESTIMATE_ANGLE_ERROR, ESTIMATE_DISTANCE_ERROR, getopen_point_estimate,
                                getopen_point_state, getopen_setup, getopen_state, pass_state, vertex_scratch)
 from agents.worldmodel import ModelState, SeeBuffer, localise_row, whole_degree_table
