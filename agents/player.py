@@ -110,6 +110,7 @@ from protocol.advice import (
     advice_kind,
 )
 from protocol.params import ServerParams
+from core.jit import SteadyCall
 from core.objects import CMD_DASH, CMD_KICK, CMD_TURN
 
 log = logging.getLogger("keepaway.player")
@@ -324,6 +325,11 @@ class PlayerAgent:
         self._reported = 0  # sequence number of the next transition to report
         self._started = False
         self._fields = _Fields()
+        # the decision kernels of every cycle, called without numba's typing of their arguments at each call
+        self._hear_row = SteadyCall(hear_row)
+        self._keeper_decide = SteadyCall(keeper_decide)
+        self._taker_decide = SteadyCall(taker_decide)
+        self._say_row = SteadyCall(say_row)
         # What the world model was fed in the cycle of the last percept (percepts and own commands), to
         # feed a fresh world model again at a seed advice.
         self._cycle = -1
@@ -624,15 +630,15 @@ class PlayerAgent:
         """Run the decision kernel for this cycle and turn its output into atomic commands; None when the
         decision is left outside (:attr:`awaiting`)."""
         if not self.fullstate:  # the C++ ignores what it hears while it has the full state
-            hear_row(0, self.wm.state, self.n_keepers, self.cfg, self.talk)
+            self._hear_row(0, self.wm.state, self.n_keepers, self.cfg, self.talk)
         bel = self.wm.belief()
         outs = self._outs()
         if OUTSIDE_BODY in self.outside:
             self.awaiting = Awaiting(OUTSIDE_BODY, cycle)
             return None
         if self.is_keeper:
-            decision = keeper_decide(bel, 0, self.memory, self.theta, self.decay_sums, self.kp, self.cfg, *outs,
-                                     self.pass_state)
+            decision = self._keeper_decide(bel, 0, self.memory, self.theta, self.decay_sums, self.kp, self.cfg,
+                                           *outs, self.pass_state)
             if decision == GETOPEN_DECISION:
                 self.awaiting = Awaiting(OUTSIDE_GETOPEN, cycle)
                 return None
@@ -644,7 +650,7 @@ class PlayerAgent:
             if decision != NO_PASS_DECISION and self.learner is not None and self.cfg.pass_policy == PASS_EXTERNAL:
                 self._ask_learner(bel, decision, outs)
         else:
-            taker_decide(bel, 0, self.memory, self.decay_sums, self.kp, self.cfg, *outs)
+            self._taker_decide(bel, 0, self.memory, self.decay_sums, self.kp, self.cfg, *outs)
         return self._command(cycle)
 
     def _outs(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -703,7 +709,7 @@ class PlayerAgent:
         if spec is not None:
             name, n_args = spec
             commands.insert(0, m.AtomicCommand(name, (a1, a2)[:n_args]))
-        say_row(0, self.wm.state, main, a1, a2, self.n_keepers, self.kp, self.cfg, self.talk)
+        self._say_row(0, self.wm.state, main, a1, a2, self.n_keepers, self.kp, self.cfg, self.talk)
         if self.talk.said_len[0]:
             commands.append(m.AtomicCommand("say", (to_text(self.talk, 0),)))
         return m.Command(cycle=cycle, commands=tuple(commands), getopen=note)

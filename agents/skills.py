@@ -16,6 +16,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 from core.jit import borrowing, njit
+from core.records import kernel_record
 
 from agents.belief import AgentMemory, Belief
 from agents.geometry import (
@@ -141,9 +142,10 @@ class AgentConfig:
     hear_ball_stale_cycles: float = 3.0  # same: a ball whose change pair is older than this is replaced
     hear_velocity_gap: float = 0.3  # same, and processPerfectHearInfoBall: a velocity this different
 
-    def kernel(self) -> tuple:
-        """The fields as a NamedTuple of floats, the form numba kernels take."""
-        return AgentKernel(*(float(getattr(self, n)) for n in AgentKernel._fields))
+    def kernel(self) -> np.record:
+        """The fields (:data:`AgentKernel`) as a record of floats, the form numba kernels take
+        (``core.records``)."""
+        return kernel_record(AgentKernel(*(float(getattr(self, n)) for n in AgentKernel._fields)))
 
 
 AgentKernel = namedtuple("AgentKernel", [f.name for f in fields(AgentConfig)])

@@ -45,7 +45,7 @@ from collections.abc import Mapping, Sequence
 from typing import Any, NamedTuple
 
 import numpy as np
-from core.jit import borrowing, njit
+from core.jit import SteadyCall, borrowing, njit
 
 from agents.belief import Belief, empty_belief
 from agents.geometry import believed_dash_power, compared_hypot, kick_rate, normalize_angle, turn_effect
@@ -828,6 +828,11 @@ class WorldModel:
         self.see_buffer = new_see_buffer(1, len(self.flag_pos), 1 + n_keepers + n_takers)
         self._belief = empty_belief(1, n_keepers, n_takers)
         self._exact_cycle = -1
+        # the kernels of every percept, called without numba's typing of their arguments at each call
+        self._sense_body_row = SteadyCall(sense_body_row)
+        self._see_row = SteadyCall(see_row)
+        self._hold_exact_ball_row = SteadyCall(hold_exact_ball_row)
+        self._write_belief_row = SteadyCall(write_belief_row)
 
     def _is_exact(self, msg: Mapping[str, Any]) -> bool:
         """Whether a fullstate already gave the exact state of the message's cycle."""
@@ -838,9 +843,9 @@ class WorldModel:
         if self._is_exact(msg):
             return
         speed, stamina = msg["speed"], msg["stamina"]
-        sense_body_row(0, self.state, int(msg["cycle"]), float(speed[0]), float(speed[1]),
-                       int(msg["head_angle"]), float(stamina[0]), float(stamina[1]), self.n_keepers, self.kp,
-                       self.cfg)
+        self._sense_body_row(0, self.state, int(msg["cycle"]), float(speed[0]), float(speed[1]),
+                             int(msg["head_angle"]), float(stamina[0]), float(stamina[1]), self.n_keepers,
+                             self.kp, self.cfg)
 
     def on_see(self, msg: Mapping[str, Any]) -> None:
         """A see payload (spec 4): anonymous flags are skipped, omitted fields become NaN."""
@@ -866,7 +871,7 @@ class WorldModel:
             buf.player_unum[0, :n] = [_NO_UNUM if p[1] is None else p[1] for p in players]
             buf.player_obs[0, :n] = [[np.nan if v is None else v for v in p[2:]] for p in players]
         buf.cycle[0] = int(msg["cycle"])
-        see_row(0, self.state, buf, self.flag_pos, self.n_keepers, self.kp, self.cfg)
+        self._see_row(0, self.state, buf, self.flag_pos, self.n_keepers, self.kp, self.cfg)
 
     def on_fullstate(self, msg: Mapping[str, Any]) -> None:
         """Exact state (spec 4 fullstate): every object known exactly at the message's cycle; percepts
@@ -891,7 +896,7 @@ class WorldModel:
         s.obs_time[0, :] = cycle
         s.ball_chg[0] = cycle
         s.err[0, :] = 0.0
-        hold_exact_ball_row(0, s, self.n_keepers, self.kp, self.cfg)
+        self._hold_exact_ball_row(0, s, self.n_keepers, self.kp, self.cfg)
 
     def on_own_commands(self, main: int, a1: float, a2: float, neck: float = 0.0) -> None:
         """The commands I sent this cycle (CMD_* code of `core/objects.py`, its two arguments, the
@@ -905,7 +910,7 @@ class WorldModel:
 
     def belief(self) -> Belief:
         """The current belief (B = 1). The arrays are reused: copy them to keep a snapshot."""
-        write_belief_row(0, self.state, self._belief, 0)
+        self._write_belief_row(0, self.state, self._belief, 0)
         return self._belief
 
 

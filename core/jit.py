@@ -28,10 +28,11 @@ from pathlib import Path
 
 import llvmlite
 import numba
-import numpy as np
 import numba.core.config
+import numpy as np
 from llvmlite import binding as llvm_binding
 from numba import njit as numba_njit
+from numba.core.typing.typeof import Purpose, typeof
 
 ROOT = Path(__file__).resolve().parent.parent
 # Every file a kernel is defined in or calls into (kernels are compiled from these sources).
@@ -153,19 +154,56 @@ def borrowing(function=None, **options):
     return numba_njit(**options) if function is None else numba_njit(**options)(function)
 
 
-def kernel_record(values: tuple) -> np.record:
-    """A NamedTuple of floats (``ServerParams.kernel()``, ``AgentConfig.kernel()``) as a numpy record with
-    the same fields, which kernels read the same way (``kp.ball_decay``) and which holds the same numbers.
+# Argument types that a SteadyCall checks by type (numba types every value of one of these alike); any
+# other argument (an array, a record, a tuple of arrays) it checks by identity.
+_SCALARS = (bool, int, float, np.bool_, np.number)
 
-    numba passes a NamedTuple by value, each of its fields a separate argument: every call of a kernel
-    that takes the server's 78 parameters and the players' 68 copies 146 numbers, and the players' call
-    chains make thousands of such calls per cycle. A record is passed as one pointer (docs/design.md,
-    "Compiled kernels")."""
-    dtype = np.dtype([(name, np.float64) for name in values._fields])
-    return np.rec.array([tuple(values)], dtype=dtype)[0]
+
+class SteadyCall:
+    """``kernel(*args)`` for a call site that passes the same arrays, records and tuples every time,
+    without numba's typing of each argument at each call.
+
+    numba's dispatcher types every argument of a call from Python before it picks the compiled code: for
+    a NamedTuple of 21 arrays (a player's ``ModelState``) that alone takes about 5 us, and the players
+    and the server of the embedded and distributed modes make a few dozen such calls per cycle, a
+    quarter of the embedded mode's time (a ``py-spy`` profile). Here the first call goes through the
+    dispatcher (types checked, the kernel compiled or loaded) and binds the compiled entry point of
+    exactly those argument types; a later call whose arguments are the same objects (scalars: of the
+    same Python type) calls that entry point directly, which unboxes them as the dispatcher's call does,
+    so the kernel runs the same code on the same values. Any other call goes through the dispatcher and
+    binds afresh. Binding keeps the arguments alive; an array must not change its dtype or number of
+    dimensions in place (nothing here does)."""
+
+    __slots__ = ("kernel", "_key", "_entry")
+
+    def __init__(self, kernel) -> None:
+        self.kernel = kernel
+        self._key: tuple = ()
+        self._entry = None
+
+    def __call__(self, *args):
+        key = self._key
+        if len(args) == len(key):
+            for arg, bound in zip(args, key):
+                if arg is not bound and type(arg) is not bound:
+                    break
+            else:
+                return self._entry(*args)
+        result = self.kernel(*args)
+        self._bind(args)
+        return result
+
+    def _bind(self, args: tuple) -> None:
+        signature = tuple(typeof(arg, Purpose.argument) for arg in args)
+        compiled = self.kernel.overloads.get(signature)
+        if compiled is None:  # the dispatcher converted an argument: leave such calls to it
+            self._key, self._entry = (), None
+            return
+        self._key = tuple(type(arg) if isinstance(arg, _SCALARS) else arg for arg in args)
+        self._entry = compiled.entry_point
 
 
 configure_cache()
 
-__all__ = ["borrowing", "cache_dir", "cache_key", "configure_cache", "is_warm", "kernel_record", "mark_warm",
+__all__ = ["SteadyCall", "borrowing", "cache_dir", "cache_key", "configure_cache", "is_warm", "mark_warm",
            "njit", "source_digest"]

@@ -7,7 +7,7 @@ One frozen dataclass holds every physical, perceptual and referee constant by na
 * ``current``: rcssserver 19.0.0 defaults (polar noise, kick noise, bipedal-era dash rates, capacity).
 
 The set actually used by a server is sent to every client in ``init_ok`` so both sides agree. Kernels
-receive ``params.kernel()``, a flat NamedTuple of floats that numba can take as an argument.
+receive ``params.kernel()``, a flat record of floats that numba takes as one pointer (``core.records``).
 """
 
 from __future__ import annotations
@@ -17,6 +17,10 @@ import math
 from collections import namedtuple
 from dataclasses import dataclass, fields
 from typing import Any
+
+import numpy as np
+
+from core.records import kernel_record
 
 # Enumerations stored as floats in the kernel record (numba wants one field type).
 NOISE_AXIS = 0.0  # CLASSIC: per-axis U(-r, r)
@@ -211,9 +215,10 @@ class ServerParams:
         base = cls()
         return base.replace(**data)
 
-    def kernel(self) -> tuple:
-        """The numeric fields as a NamedTuple of floats, the form numba kernels take."""
-        return KernelParams(*(float(getattr(self, n)) for n in KernelParams._fields))
+    def kernel(self) -> np.record:
+        """The numeric fields (:data:`KernelParams`) as a record of floats, the form numba kernels take
+        (``core.records``)."""
+        return kernel_record(KernelParams(*(float(getattr(self, n)) for n in KernelParams._fields)))
 
 
 NOISE_MODELS = OneOf((NOISE_AXIS, NOISE_POLAR))

@@ -53,7 +53,7 @@ from typing import NamedTuple
 
 import numpy as np
 import numba
-from core.jit import borrowing, kernel_record, njit
+from core.jit import borrowing, njit
 
 from agents.belief import AgentMemory, Belief, empty_belief, forget_episode, new_memory
 from agents.getopen import net_size
@@ -473,12 +473,12 @@ class BatchedArenas:
             raise ValueError("a Sarsa configuration needs pass_policy='learned'")
         self.threads = max(1, min(batch, numba.config.NUMBA_NUM_THREADS if threads is None else threads))
         self.params = params
-        self.kp = kernel_record(params.kernel())
-        self.cfg = kernel_record(dataclasses.replace(
+        self.kp = params.kernel()
+        self.cfg = dataclasses.replace(
             agent_config,
             pass_policy=_policy_code(PASS_POLICIES, pass_policy, "Pass policy"),
             getopen_policy=_policy_code(GETOPEN_POLICIES, getopen_policy, "GetOpen policy"),
-        ).kernel())
+        ).kernel()
         self.theta = self._thetas(getopen_theta, getopen_policy, batch, keepers, takers)
         seeds = [arena_seed(seed, b) for b in range(batch)] if isinstance(seed, (int, np.integer)) else list(seed)
         if len(seeds) != batch:

@@ -32,9 +32,10 @@ KERNEL_SETS = (SERVER, PLAYERS, BATCHED)
 # Sets compiled side by side first, then the rest (the batched loop calls into the other two sets'
 # kernels, which it then loads instead of compiling them again).
 STAGES = ((SERVER, PLAYERS), (BATCHED,))
-# CPU-seconds each set takes to compile on the project's 2-core machine (measured idle, numba 0.6x):
-# only for telling the user roughly how long the first run waits.
-COMPILE_S = {SERVER: 20.0, PLAYERS: 50.0, BATCHED: 40.0}
+# CPU-seconds each set takes to compile on the project's 2-core machine (measured 2026-11-27, numba 0.68,
+# the batched set loading the other two sets' kernels): only for telling the user roughly how long the
+# first run waits.
+COMPILE_S = {SERVER: 36.0, PLAYERS: 87.0, BATCHED: 60.0}
 
 
 class CompileError(RuntimeError):

@@ -24,6 +24,7 @@ from server import perception
 from server.physics import kick_possible
 from server.referee import END_CAUSES, new_referee_state, reset_field, start_game
 from server.simulation import new_causes, simulate_cycle
+from core.jit import SteadyCall
 from core.objects import CMD_CATCH, CMD_DASH, CMD_KICK, CMD_MOVE, CMD_TACKLE, CMD_TURN
 from server.world import COUNT_CHANGE_VIEW, COUNT_SAY, PARKED_Y, Commands, World, new_world
 from server.episode_log import EpisodeRecord
@@ -90,6 +91,13 @@ class Arena:
         self.see_buf = np.empty(perception.see_frame_bytes(self.world.n_objects), dtype=np.uint8)
         self.body_buf = np.empty(perception.SENSE_BODY_FRAME_BYTES, dtype=np.uint8)
         self.view_modes = {width: perception.packed_view_mode("high", width) for width in VIEW_WIDTHS}
+        # the kernels of every cycle, called without numba's typing of their arguments at each call
+        self._simulate_cycle = SteadyCall(simulate_cycle)
+        self._kick_possible = SteadyCall(kick_possible)
+        self._see_arena = SteadyCall(perception.see_arena)
+        self._write_see = SteadyCall(perception.write_see)
+        self._sense_body_arena = SteadyCall(perception.sense_body_arena)
+        self._write_sense_body = SteadyCall(perception.write_sense_body)
         # what the referee said since the owner last took it (``take_referee_log``); None: not kept
         self.referee_log: list[str] | None = None
         self._noted: dict[int, tuple[float, ...]] = {}  # this cycle's GetOpen notes, by keeper unum
@@ -190,7 +198,7 @@ class Arena:
                 if s.main_taken:
                     continue
                 if code == CMD_KICK and not self.params.failed_kick_uses_slot \
-                        and not kick_possible(0, self.world, obj, self.kp):
+                        and not self._kick_possible(0, self.world, obj, self.kp):
                     continue
                 s.main_taken = True
                 c.main[0, obj] = code
@@ -225,7 +233,7 @@ class Arena:
 
     def step(self) -> EpisodeRecord | None:
         """Simulate one cycle; return the record of an episode that ended in it, if any."""
-        simulate_cycle(self.world, self.commands, self.referee, self.kp, self.causes)
+        self._simulate_cycle(self.world, self.commands, self.referee, self.kp, self.causes)
         self.commands.clear()
         self.step_notes = tuple(sorted(self._noted.items()))
         self._noted.clear()
@@ -374,15 +382,15 @@ class Arena:
     def see_frame(self, s: PlayerSlot) -> bytes:
         """``s``'s see of this cycle, encoded (``perception.write_see``: the bytes of ``encode(m.See(...))``)."""
         factor = perception.cone_factor(s.view_width, s.synch_see)
-        perception.see_arena(0, self.world, s.obj, factor, self.kp, self.see_out)
-        n = perception.write_see(self.see_out, 0, s.obj, self.world.n_keepers, self.cycle, self.see_buf)
+        self._see_arena(0, self.world, s.obj, factor, self.kp, self.see_out)
+        n = self._write_see(self.see_out, 0, s.obj, self.world.n_keepers, self.cycle, self.see_buf)
         return self.see_buf[:n].tobytes()
 
     def sense_body_frame(self, s: PlayerSlot) -> bytes:
         """``s``'s sense_body of this cycle, encoded (``perception.write_sense_body``)."""
-        perception.sense_body_arena(0, self.world, s.obj, self.body_out)
-        n = perception.write_sense_body(self.body_out, 0, s.obj, self.cycle, self.view_modes[s.view_width],
-                                        self.body_buf)
+        self._sense_body_arena(0, self.world, s.obj, self.body_out)
+        n = self._write_sense_body(self.body_out, 0, s.obj, self.cycle, self.view_modes[s.view_width],
+                                   self.body_buf)
         return self.body_buf[:n].tobytes()
 
     def fullstate_payload(self) -> dict:
