@@ -217,10 +217,8 @@ def dash_velocity(vx: float, vy: float, cs: float, sn: float, effort: float, pow
     acc = min(acc, kp.player_accel_max) if acc > 0.0 else max(acc, -kp.player_accel_max)
     vx += acc * cs
     vy += acc * sn
-    if math.sqrt(vx * vx + vy * vy) < kp.player_speed_max - DECIDE_SLACK:
-        return vx, vy  # clearly below the cap: the exact speed would not cap it either
-    speed = math.hypot(vx, vy)
-    if speed > kp.player_speed_max:
+    if compared_hypot(vx, vy, kp.player_speed_max) > kp.player_speed_max:
+        speed = math.hypot(vx, vy)
         vx *= kp.player_speed_max / speed
         vy *= kp.player_speed_max / speed
     return vx, vy
