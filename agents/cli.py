@@ -148,6 +148,8 @@ def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop
             except zmq.Again:  # nothing within POLL_MS
                 continue
             last_heard = time.monotonic()
+            if agent.take_see_frame(data):  # a see, taken without a message (it needs no answer)
+                continue
             try:
                 msg = decode_for_player(data)
             except ProtocolError as exc:

@@ -141,6 +141,13 @@ class Awaiting(NamedTuple):
     cycle: int
 
 
+class SeeFrame(NamedTuple):
+    """A see taken straight from its frame (:meth:`PlayerAgent.take_see_frame`), as the cycle's log keeps
+    it."""
+
+    data: bytes
+
+
 class PassLearner(Protocol):
     """A keeper's Pass decision maker (spec `keepaway-agents.md` 5). ``state`` is the Pass state vector
     (4K + 2T - 3 floats); it is the agent's reused array, so copy it to keep it. Actions: 0 HoldBall,
@@ -451,6 +458,19 @@ class PlayerAgent:
         self.wm.on_see(self._view(msg))
         self._record(msg.cycle, msg)
 
+    def take_see_frame(self, data: bytes) -> bool:
+        """A frame from the server that may be a see: taken as :meth:`on_message` takes the decoded see,
+        straight from its bytes (``WorldModel.on_see_frame``), if it is one in the form every see the
+        server sends has. False, with nothing done, for any other frame: the caller decodes it
+        (``protocol.messages.decode_for_player``) and hands it to :meth:`on_message`."""
+        if not self.ready:
+            return False
+        cycle = self.wm.on_see_frame(data)
+        if cycle < 0:
+            return False
+        self._record(cycle, SeeFrame(data))
+        return True
+
     def _on_fullstate(self, msg: m.Fullstate) -> m.Command | None:
         if not self.fullstate:
             return None
@@ -482,6 +502,8 @@ class PlayerAgent:
         for item in self._cycle_log:
             if type(item) is tuple:
                 self.wm.on_own_commands(*item)
+            elif type(item) is SeeFrame:
+                self.wm.on_see_frame(item.data)
             else:
                 feed[type(item)](self._view(item))
 
@@ -729,6 +751,7 @@ class PlayerAgent:
 def compile_kernels() -> None:
     """Run every kernel a player uses once, on a synthetic arena, so numba compiles them (or loads them
     from its cache) before a server waits for this player's answers."""
+    from protocol.codec import encode
     from protocol.landmarks import to_wire
     from protocol.params import parameter_set
 
@@ -746,6 +769,7 @@ def compile_kernels() -> None:
         heard = m.Hear(cycle=0, sender="our", direction=0, unum=2, message="1aaaa18aa1")
         for msg in (body, see, heard, m.Think(cycle=0), m.Hear(cycle=0, sender="referee", message=EPISODE_MESSAGE)):
             agent.on_message(msg)
+        agent.take_see_frame(encode(see))
         if agent.is_keeper:
             execute_pass_action(agent.wm.belief(), 0, agent.memory, 0, agent.kp, agent.cfg, agent._out_main,
                                 agent._out_a1, agent._out_a2, agent._out_neck)
@@ -772,6 +796,7 @@ __all__ = [
     "PassLearner",
     "PassLearnerFactory",
     "PlayerAgent",
+    "SeeFrame",
     "agent_seed_sequence",
     "compile_kernels",
     "greedy_pass_factory",

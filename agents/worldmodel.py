@@ -51,6 +51,9 @@ from agents.belief import Belief, empty_belief
 from agents.geometry import believed_dash_power, compared_hypot, kick_rate, normalize_angle, turn_effect
 from agents.skills import AgentConfig, kickable_distance, opponent_range
 from protocol.params import ServerParams
+from agents.see_frame import NO_SIDE as _NO_SIDE
+from agents.see_frame import NO_UNUM as _NO_UNUM
+from agents.see_frame import SIDE_CODES, decode_see_frame
 from core.objects import BALL, CMD_DASH, CMD_KICK, CMD_NONE, CMD_TURN, COLLISION_VEL_FACTOR
 
 # Confidence falls to 0 after this many unseen cycles (spec `keepaway-agents.md` 1).
@@ -73,6 +76,9 @@ COLLISION_SMALL_COMPONENT = 0.08  # ... each velocity component flipped or below
 COLLISION_SPEED_DROP = 0.25  # ... and the speed below this fraction of the predicted one
 # WorldModel::updateBallForCollision: the ball is put this far from my centre (m), towards where it was.
 COLLISION_BALL_DISTANCE = 0.2
+# The largest see frame a player copies for on_see_frame (bytes); the server's are at most 3,444 bytes in
+# 3v2, 4,991 in 11v11 (server.perception.see_frame_bytes). A larger one is decoded in full.
+SEE_FRAME_BYTES = 8192
 # seen/obs time of an object never seen since the last forget.
 NEVER = -(1 << 40)
 # Association tiers (spec: nearest compatible predicted player): a player within its reach beats a never
@@ -89,9 +95,6 @@ def whole_degree_table() -> np.ndarray:
 
 _WHOLE_DEGREES = whole_degree_table()
 
-SIDE_CODES = {"l": 0, "r": 1}
-_NO_SIDE = -1
-_NO_UNUM = 0
 
 
 class ModelState(NamedTuple):
@@ -833,6 +836,8 @@ class WorldModel:
         self._see_row = SteadyCall(see_row)
         self._hold_exact_ball_row = SteadyCall(hold_exact_ball_row)
         self._write_belief_row = SteadyCall(write_belief_row)
+        self._decode_see_frame = SteadyCall(decode_see_frame)
+        self._frame = np.empty(SEE_FRAME_BYTES, dtype=np.uint8)  # on_see_frame's copy of a frame
 
     def _is_exact(self, msg: Mapping[str, Any]) -> bool:
         """Whether a fullstate already gave the exact state of the message's cycle."""
@@ -848,11 +853,14 @@ class WorldModel:
                              self.kp, self.cfg)
 
     def on_see(self, msg: Mapping[str, Any]) -> None:
-        """A see payload (spec 4): anonymous flags are skipped, omitted fields become NaN."""
+        """A see payload (spec 4): anonymous flags are skipped, and so are flags whose id lies beyond
+        init_ok's landmark table (the protocol allows ids up to 255: a server that sends one has no
+        position for it); omitted fields become NaN."""
         if self._is_exact(msg):
             return
         buf = self.see_buffer
-        flags = [f for f in msg["flags"] if f[0] is not None]
+        landmarks = len(self.flag_pos)
+        flags = [f for f in msg["flags"] if f[0] is not None and f[0] < landmarks]
         n = len(flags)
         buf.n_flags[0] = n
         if n:
@@ -872,6 +880,20 @@ class WorldModel:
             buf.player_obs[0, :n] = [[np.nan if v is None else v for v in p[2:]] for p in players]
         buf.cycle[0] = int(msg["cycle"])
         self._see_row(0, self.state, buf, self.flag_pos, self.n_keepers, self.kp, self.cfg)
+
+    def on_see_frame(self, data: bytes) -> int:
+        """A see frame's msgpack bytes, taken as :meth:`on_see` takes the decoded message, if the frame
+        is in the form ``agents.see_frame.decode_see_frame`` reads (every see the server sends is):
+        returns its cycle. Returns -1 for any other frame, which is then the caller's to decode in full,
+        and this model is as it was but for the see buffer's scratch."""
+        size = len(data)
+        if size > self._frame.shape[0]:
+            return -1
+        self._frame[:size] = np.frombuffer(data, dtype=np.uint8)
+        cycle = self._decode_see_frame(self._frame, size, 0, self.see_buffer, len(self.flag_pos))
+        if cycle >= 0 and cycle != self._exact_cycle:
+            self._see_row(0, self.state, self.see_buffer, self.flag_pos, self.n_keepers, self.kp, self.cfg)
+        return cycle
 
     def on_fullstate(self, msg: Mapping[str, Any]) -> None:
         """Exact state (spec 4 fullstate): every object known exactly at the message's cycle; percepts

@@ -92,7 +92,8 @@ class EmbeddedGame:
         arena = self.arena
         for slot, player in self.players:
             for frame in arena.cycle_frames(slot, arena.see_due(slot, arena.cycle)):
-                player.on_message(decode_for_player(frame))
+                if not player.take_see_frame(frame):  # a player process takes its frames alike
+                    player.on_message(decode_for_player(frame))
 
     def think(self) -> None:
         """Every player's think and command for this cycle (none from a keeper left waiting)."""

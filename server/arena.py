@@ -98,6 +98,8 @@ class Arena:
         self._write_see = SteadyCall(perception.write_see)
         self._sense_body_arena = SteadyCall(perception.sense_body_arena)
         self._write_sense_body = SteadyCall(perception.write_sense_body)
+        self._hear_picks_each = SteadyCall(perception.hear_picks_each)
+        self._hear_buffers(len(self.slots))
         # what the referee said since the owner last took it (``take_referee_log``); None: not kept
         self.referee_log: list[str] | None = None
         self._noted: dict[int, tuple[float, ...]] = {}  # this cycle's GetOpen notes, by keeper unum
@@ -344,31 +346,47 @@ class Arena:
             if s.connected:
                 s.hears.append(m.advice_hear(payload, self.cycle))
 
+    def _hear_buffers(self, says: int) -> None:
+        """The buffers of ``_deliver_says``' kernel call, for up to ``says`` says a cycle: the speakers,
+        the listeners, and each listener's picks."""
+        self._speakers = np.empty(says, dtype=np.int64)
+        self._listeners = np.empty(len(self.slots), dtype=np.int64)
+        self._picks = np.empty((len(self.slots), says), dtype=np.int64)
+        self._n_picks = np.empty(len(self.slots), dtype=np.int64)
+
     def _deliver_says(self) -> None:
         """Says of cycle t are heard in t+1 (spec 4 Hearing): self always, others as
-        ``perception.hear_picks`` draws them."""
-        if not self.pending_says:
+        ``perception.hear_picks`` draws them (for every connected listener in one kernel call,
+        ``perception.hear_picks_each``)."""
+        says = self.pending_says
+        if not says:
             return
         w, p = self.world, self.params
-        self.pending_says.sort(key=lambda said: said[0])  # arrival order must not matter (determinism)
-        speakers = np.array([speaker for speaker, _ in self.pending_says], dtype=np.int64)
-        picks = np.empty(len(speakers), dtype=np.int64)
-        for listener in self.connected_slots():
-            for speaker, text in self.pending_says:
+        says.sort(key=lambda said: said[0])  # arrival order must not matter (determinism)
+        if len(says) > self._speakers.shape[0]:
+            self._hear_buffers(len(says))
+        listeners = self.connected_slots()
+        for i, (speaker, _) in enumerate(says):
+            self._speakers[i] = speaker
+        for k, listener in enumerate(listeners):
+            self._listeners[k] = listener.obj
+        self._hear_picks_each(0, w, self._speakers, len(says), self._listeners, len(listeners), p.hear_max,
+                              p.audio_cut_dist, self._picks, self._n_picks)
+        for k, listener in enumerate(listeners):
+            for speaker, text in says:
                 if speaker == listener.obj:
                     listener.hears.append(m.Hear(cycle=self.cycle, sender="self", direction=None,
                                                  unum=None, message=text))
-            n = perception.hear_picks(0, w, speakers, listener.obj, p.hear_max, p.audio_cut_dist, picks)
             lp = w.pos[0, listener.obj]
-            for k in picks[:n]:
-                speaker, text = self.pending_says[k]
+            for pick in self._picks[k, :self._n_picks[k]]:
+                speaker, text = says[pick]
                 sp = w.pos[0, speaker]
                 team = "our" if w.side(speaker) == listener.side else "opp"
                 direction = _normalize_deg(math.degrees(math.atan2(sp[1] - lp[1], sp[0] - lp[0]))
                                            - w.body[0, listener.obj])
                 listener.hears.append(m.Hear(cycle=self.cycle, sender=team, direction=int(round(direction)),
                                              unum=w.unum(speaker) if team == "our" else None, message=text))
-        self.pending_says.clear()
+        says.clear()
 
     # -- percepts -----------------------------------------------------------------------------------
     def see_due(self, s: PlayerSlot, cycle: int) -> bool:
@@ -450,7 +468,7 @@ def compile_kernels(params: ServerParams, keepers: int, takers: int) -> None:
     scratch.start()
     for s in scratch.slots:
         scratch.cycle_frames(s, True)
-        scratch.submit(s.obj, [])
+        scratch.submit(s.obj, [m.AtomicCommand("say", ("a",))])  # the hears' kernel too
     scratch.step()
 
 

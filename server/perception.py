@@ -750,6 +750,16 @@ def hear_picks(b: int, w: World, speakers: np.ndarray, listener: int, hear_max: 
     return n_picked
 
 
+@njit(cache=True)
+def hear_picks_each(b: int, w: World, speakers: np.ndarray, n_speakers: int, listeners: np.ndarray,
+                    n_listeners: int, hear_max: float, cut: float, picks: np.ndarray, n_picks: np.ndarray) -> None:
+    """:func:`hear_picks` of ``speakers[:n_speakers]`` for each of ``listeners[:n_listeners]`` in turn (the
+    draws in that order), into row l of ``picks`` and ``n_picks[l]``: the server's one kernel call a
+    cycle, on buffers it keeps (``server.arena.Arena``), instead of one typed call per listener."""
+    for k in range(n_listeners):
+        n_picks[k] = hear_picks(b, w, speakers[:n_speakers], listeners[k], hear_max, cut, picks[k])
+
+
 def sense_body_payload(out: SenseBodyBuffers, b: int, obs: int, view_quality: str, view_width: str) -> dict:
     """One player's sense_body as the map the wire carries (:func:`write_sense_body`), without type and
     cycle."""
@@ -800,6 +810,7 @@ __all__ = [
     "distance_table",
     "fullstate",
     "hear_picks",
+    "hear_picks_each",
     "normalize_rad",
     "quantize",
     "quantize_distance",
