@@ -106,22 +106,33 @@ def _row(buf, n, end, width) -> int:
 
 
 @borrowing
+def _landmark(buf, n, end, width, nameless) -> tuple:
+    """(id, dist, direction, next): the header of a flag or line row of ``width`` values and the three
+    they start with; a ``nameless`` (flag) row's id may be nil (-1)."""
+    n = _row(buf, n, end, width)
+    if n == BAD:
+        return 0, 0.0, 0.0, BAD
+    if nameless:
+        landmark, n = _optional_int_in(buf, n, end, 0, MAX_LANDMARKS - 1, -1)
+    else:
+        landmark, n = _int_in(buf, n, end, 0, MAX_LANDMARKS - 1)
+    if n == BAD:
+        return 0, 0.0, 0.0, BAD
+    dist, n = _distance(buf, n, end)
+    if n == BAD:
+        return 0, 0.0, 0.0, BAD
+    direction, n = _direction(buf, n, end)
+    return landmark, dist, direction, n
+
+
+@borrowing
 def _flags(buf, n, end, row, see, landmarks) -> int:
     """The flags: those with an id below ``landmarks`` into the flag rows (the id-less close flags and
     ids beyond the landmark table are skipped, as ``WorldModel.on_see`` skips them)."""
     rows, n = _rows(buf, n, end, MAX_LANDMARKS)
     kept = 0
     for _ in range(rows):
-        n = _row(buf, n, end, _FLAG_ROW)
-        if n == BAD:
-            return BAD
-        flag, n = _optional_int_in(buf, n, end, 0, MAX_LANDMARKS - 1, -1)
-        if n == BAD:
-            return BAD
-        dist, n = _distance(buf, n, end)
-        if n == BAD:
-            return BAD
-        direction, n = _direction(buf, n, end)
+        flag, dist, direction, n = _landmark(buf, n, end, _FLAG_ROW, True)
         if n == BAD:
             return BAD
         for _change_field in range(2):
@@ -144,19 +155,26 @@ def _lines(buf, n, end) -> int:
     """The lines: checked, not kept (the players localise by the flags)."""
     rows, n = _rows(buf, n, end, MAX_LANDMARKS)
     for _ in range(rows):
-        n = _row(buf, n, end, _LINE_ROW)
-        if n == BAD:
-            return BAD
-        _line, n = _int_in(buf, n, end, 0, MAX_LANDMARKS - 1)
-        if n == BAD:
-            return BAD
-        _dist, n = _distance(buf, n, end)
-        if n == BAD:
-            return BAD
-        _direction_value, n = _direction(buf, n, end)
+        _line, _dist, _direction_value, n = _landmark(buf, n, end, _LINE_ROW, False)
         if n == BAD:
             return BAD
     return n
+
+
+@borrowing
+def _sighting(buf, n, end) -> tuple:
+    """(dist, direction, dist_chg, dir_chg, next): the four values a ball or player row starts with."""
+    dist, n = _distance(buf, n, end)
+    if n == BAD:
+        return 0.0, 0.0, 0.0, 0.0, BAD
+    direction, n = _direction(buf, n, end)
+    if n == BAD:
+        return 0.0, 0.0, 0.0, 0.0, BAD
+    dist_chg, n = _change(buf, n, end)
+    if n == BAD:
+        return 0.0, 0.0, 0.0, 0.0, BAD
+    dir_chg, n = _change(buf, n, end)
+    return dist, direction, dist_chg, dir_chg, n
 
 
 @borrowing
@@ -167,16 +185,7 @@ def _ball(buf, n, end, row, see) -> int:
     n = _row(buf, n, end, _BALL_ROW)
     if n == BAD:
         return BAD
-    dist, n = _distance(buf, n, end)
-    if n == BAD:
-        return BAD
-    direction, n = _direction(buf, n, end)
-    if n == BAD:
-        return BAD
-    dist_chg, n = _change(buf, n, end)
-    if n == BAD:
-        return BAD
-    dir_chg, n = _change(buf, n, end)
+    dist, direction, dist_chg, dir_chg, n = _sighting(buf, n, end)
     if n == BAD:
         return BAD
     see.ball_seen[row] = True
@@ -217,16 +226,7 @@ def _players(buf, n, end, row, see) -> int:
         unum, n = _optional_int_in(buf, n, end, 1, MAX_UNUM, NO_UNUM)
         if n == BAD:
             return BAD
-        dist, n = _distance(buf, n, end)
-        if n == BAD:
-            return BAD
-        direction, n = _direction(buf, n, end)
-        if n == BAD:
-            return BAD
-        dist_chg, n = _change(buf, n, end)
-        if n == BAD:
-            return BAD
-        dir_chg, n = _change(buf, n, end)
+        dist, direction, dist_chg, dir_chg, n = _sighting(buf, n, end)
         if n == BAD:
             return BAD
         body, n = _optional_direction(buf, n, end)
