@@ -14,7 +14,8 @@ exploration stream, mode and a ring buffer of its SMDP transitions, and a weight
 collision table) of its own, or, with the hive mind (``SarsaConfig.hive_mind``, tjpalmer's
 LinearSarsaAgent option: `keepaway-agents.md` 5), one table shared by the keepers of a team, each
 updating it through its own traces. Kernels take the row index ``r`` so a batched loop can drive many
-learners inside one njit loop (``pass_decisions``); ``SarsaLearner`` wraps one row for a keeper process.
+learners inside one njit loop (``runner.batched.learn_pass``); ``SarsaLearner`` wraps one row for a keeper
+process.
 
 Memory per row at the default sizes: weights 8 MB, collision table 4 MB (int32: the check values are
 below 2^31), trace slots 4 MB, trace list 1.6 MB.
@@ -29,7 +30,6 @@ from typing import NamedTuple
 import numpy as np
 from core.jit import borrowing
 
-from agents.keeper import PASS_DECISION_START, PASS_DECISION_STEP
 from core.rng import randint, seed_streams, uniform
 from protocol.advice import PASS_MODES
 
@@ -485,18 +485,6 @@ def end_episode(mem: SarsaMemory, r: int, reward: float, sp: SarsaParams) -> Non
     mem.last_action[r] = NO_ACTION
 
 
-@borrowing
-def pass_decisions(mem: SarsaMemory, decision, reward, state, out_action, sp: SarsaParams) -> None:
-    """The learner call for a batch of keeper rows after ``agents.keeper.keeper_decide`` with
-    PASS_EXTERNAL: each row with PASS_DECISION_START starts its episode, each with PASS_DECISION_STEP
-    steps with ``reward[r]`` (cycles since its last decision); ``out_action[r]`` gets the action to hand
-    to ``execute_pass_action``. Other rows are left alone."""
-    for r in range(decision.shape[0]):
-        if decision[r] == PASS_DECISION_START:
-            out_action[r] = start_episode(mem, r, state[r], sp)
-        elif decision[r] == PASS_DECISION_STEP:
-            out_action[r] = step(mem, r, reward[r], state[r], sp)
-
 
 def new_memory(
     config: SarsaConfig, n_keepers: int, n_takers: int, rows: int, seed: int, mode: int = MODE_LEARN
@@ -696,7 +684,6 @@ __all__ = [
     "load_policy_arrays",
     "load_tiles",
     "new_memory",
-    "pass_decisions",
     "policy_arrays",
     "quantize",
     "restart_learners",

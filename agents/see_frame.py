@@ -21,7 +21,17 @@ from __future__ import annotations
 import numpy as np
 
 from core.jit import borrowing
-from core.msgpack_in import BAD, ascii, is_nil, read_array, read_double, read_int, read_map, read_str, str_equals
+from core.msgpack_in import (
+    BAD,
+    ascii,
+    is_nil,
+    read_array,
+    read_double,
+    read_int,
+    read_map,
+    read_str,
+    str_equals,
+)
 from protocol.messages import MAX_CYCLE, MAX_LANDMARKS, MAX_PLAYERS, MAX_UNUM, SIDES
 
 SIDE_CODES = {side: code for code, side in enumerate(SIDES)}  # the see buffer's side codes: l 0, r 1

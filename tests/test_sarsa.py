@@ -18,7 +18,6 @@ from agents.sarsa import (
     glibc_rand,
     load_policy_arrays,
     new_memory,
-    pass_decisions,
     policy_arrays,
     quantize,
     restart_learners,
@@ -349,6 +348,17 @@ def test_restarted_learners_are_fresh_ones_with_their_own_policies_loaded(hive_m
         # (tests/test_kernel_equivalence.py), kept by a restart and not carried by a policy
         if name != "rng" and not name.startswith("memo_"):
             np.testing.assert_array_equal(getattr(used, name), value, err_msg=name)
+
+
+def pass_decisions(mem, decision, reward, state, out_action, sp) -> None:
+    """Each row's learner call after keeper_decide, as ``runner.batched.learn_pass`` makes it: a row with
+    PASS_DECISION_START starts its episode, one with PASS_DECISION_STEP steps with ``reward[r]``;
+    ``out_action[r]`` gets the action; other rows are left alone."""
+    for r in range(len(decision)):
+        if decision[r] == PASS_DECISION_START:
+            out_action[r] = start_episode(mem, r, state[r], sp)
+        elif decision[r] == PASS_DECISION_STEP:
+            out_action[r] = step(mem, r, reward[r], state[r], sp)
 
 
 def test_pass_decisions_drives_independent_rows():

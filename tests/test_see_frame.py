@@ -14,7 +14,7 @@ from agents.worldmodel import WorldModel
 from core.msgpack_in import BAD, read_double, read_int, read_str
 from protocol import ProtocolError
 from protocol.landmarks import to_wire as landmarks
-from protocol.messages import SenseBody, See, decode_for_player
+from protocol.messages import See, SenseBody, decode_for_player
 from protocol.params import parameter_set
 from runner.embedded import ArenaSpec, EmbeddedGame
 
