@@ -1,6 +1,8 @@
 """Arena benchmarks (issue: keepers, takers and the coach as processes): episodes per second of
 P:HC-GO:HC in the distributed mode (server, coach and five player processes over ZeroMQ), the embedded
-mode (one process, no sockets; the baseline) and the batched mode (many arenas in one process).
+mode (one process, no sockets; the baseline) and the batched mode (many arenas in one process), and the
+cycles per second of a bare ZeroMQ loop that exchanges a cycle's messages with five minimal client
+processes and simulates nothing (``benchmarks/server.py``'s transport ceiling), all in one invocation.
 
 Run: ``python benchmarks/arena.py [--episodes N] [--batch B] [--batched-episodes M]``. Rates exclude
 start-up and compilation where the mode allows (distributed: between the first and last episode end).
@@ -19,6 +21,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from protocol.params import parameter_set  # noqa: E402
 from runner.embedded import ArenaSpec  # noqa: E402
 from runner.run import RunOptions, run  # noqa: E402
+from sibling import load  # noqa: E402
 
 
 def measure(mode: str, episodes: int, batch: int, seed: int) -> dict:
@@ -33,6 +36,7 @@ def main() -> None:
     parser.add_argument("--batch", type=int, default=1024)
     parser.add_argument("--batched-episodes", type=int, default=4096)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--bare-cycles", type=int, default=3000, help="cycles of the bare ZeroMQ loop")
     opts = parser.parse_args()
     measure("batched", opts.batch, opts.batch, opts.seed)  # compile / load every kernel once
     print(f"P:HC-GO:HC, 3v2 on 20 m, classic parameters, seed {opts.seed}")
@@ -46,7 +50,12 @@ def main() -> None:
         print(f"  {name:<26} {s['episodes_per_s']:9.2f} episodes/s {s['cycles_per_s']:11,.0f} cycles/s "
               f"({s['episodes_per_s'] / base:6.1f}x)  mean hold {s['mean_hold_time_s']:.2f} s over "
               f"{len(s['episodes'])} episodes")
-    print("  targets: batched >= 300 episodes/s; distributed >= 5 episodes/s (>= 750 cycles/s)")
+    server = load("server")
+    bare = server.sync_cycles_per_second([sys.executable, "-c", server.NULL_SERVER, "5", str(opts.bare_cycles)])
+    distributed = rows[1][1]["cycles_per_s"]
+    print(f"  bare ZeroMQ loop, no simulation {bare:21,.0f} cycles/s  (distributed: {distributed / bare:.2f}x of it)")
+    print("  targets: batched >= 300 episodes/s and >= 150x embedded; distributed >= 0.9x embedded and >= 5 "
+          "episodes/s (>= 750 cycles/s)")
 
 
 if __name__ == "__main__":

@@ -17,22 +17,14 @@ Run: ``python benchmarks/players.py [--repeat N] [--seconds S] [--cycles-1 C] [-
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import os
 import statistics
 import sys
 from pathlib import Path
 
 os.environ.setdefault("NUMBA_NUM_THREADS", "1")
-HERE = Path(__file__).resolve().parent
 
-
-def _load(name: str):
-    """A sibling benchmark module by path (``benchmarks/server.py`` would shadow the ``server`` package)."""
-    spec = importlib.util.spec_from_file_location(f"benchmarks_{name}", HERE / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+from sibling import load  # noqa: E402
 
 
 def main() -> None:
@@ -43,8 +35,8 @@ def main() -> None:
     parser.add_argument("--cycles-1024", type=int, default=100, help="full-game cycles per arena at batch 1024")
     parser.add_argument("--seed", type=int, default=0)
     opts = parser.parse_args()
-    server = _load("server")
-    game = _load("arena_batched")
+    server = load("server")
+    game = load("arena_batched")
     cycles = {1: opts.cycles_1, 1024: opts.cycles_1024}
     rates: dict[tuple[str, int], list[float]] = {}
     for _ in range(opts.repeat):
