@@ -49,11 +49,11 @@ from core.jit import SteadyCall, borrowing, njit
 
 from agents.belief import Belief, empty_belief
 from agents.geometry import believed_dash_power, compared_hypot, kick_rate, normalize_angle, turn_effect
-from agents.skills import AgentConfig, kickable_distance, opponent_range
-from protocol.params import ServerParams
 from agents.see_frame import NO_SIDE as _NO_SIDE
 from agents.see_frame import NO_UNUM as _NO_UNUM
 from agents.see_frame import SIDE_CODES, decode_see_frame
+from agents.skills import AgentConfig, kickable_distance, opponent_range
+from protocol.params import ServerParams
 from core.objects import BALL, CMD_DASH, CMD_KICK, CMD_NONE, CMD_TURN, COLLISION_VEL_FACTOR
 
 # Confidence falls to 0 after this many unseen cycles (spec `keepaway-agents.md` 1).
@@ -94,7 +94,6 @@ def whole_degree_table() -> np.ndarray:
 
 
 _WHOLE_DEGREES = whole_degree_table()
-
 
 
 class ModelState(NamedTuple):
