@@ -29,7 +29,7 @@ from runner.batched_backend import BatchedBackend
 from runner.job import Behaviours
 from runner.report import dump_json
 from trainer.cem import CEMConfig
-from trainer.curves import CurvePoint, read_curve_csv, write_curve_csv
+from trainer.curves import CurvePoint, read_curve_csv, write_atomic, write_curve_csv
 from trainer.experiments import (
     Cell,
     ConfigurationRun,
@@ -246,6 +246,25 @@ def test_running_again_skips_finished_work(copy, monkeypatch):
     sittings = {c["name"]: c["timing"]["sittings"] for c in figure["configurations"]}
     assert sittings == {name: 2 if name == "P:L-GO:L" else 1 for name in NAMES}
     assert json.loads((copy / "table2.json").read_text())["tests_timing"]["sittings"] == 1
+
+
+def test_a_sitting_interrupted_right_after_its_first_record_still_ends_it(tmp_path, monkeypatch):
+    # Ctrl-C (or a worker's SIGINT) landing just after the "running" record is written, before the work
+    # starts: the record must still end (an interrupted worker of `experiment --workers` hit this window).
+    written = []
+
+    def write_then_interrupt(path, data):
+        write_atomic(path, data)
+        written.append(path)
+        if len(written) == 1:
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(experiments, "write_atomic", write_then_interrupt)
+    with pytest.raises(KeyboardInterrupt):
+        with experiments.timed_sitting(tmp_path):
+            pytest.fail("the work must not start")
+    (sitting,) = json.loads((tmp_path / "timing.json").read_text())["sittings"]
+    assert "running" not in sitting and len(written) == 2
 
 
 def test_a_sitting_is_timed_even_when_it_is_interrupted(tmp_path):

@@ -260,14 +260,15 @@ def timed_sitting(where: Path, refresh_s: float = TIMING_REFRESH_S) -> Iterator[
         while not done.wait(refresh_s):
             write(running=True)
 
-    write(running=True)
     refresher = threading.Thread(target=refresh, name="timing", daemon=True)
-    refresher.start()
-    try:
+    try:  # from the first write on: an interruption right after it still ends the sitting's record
+        write(running=True)
+        refresher.start()
         yield
     finally:
         done.set()
-        refresher.join()
+        if refresher.ident is not None:  # started
+            refresher.join()
         write(running=False)
 
 
