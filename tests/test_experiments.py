@@ -11,6 +11,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import os
 import shutil
 import signal
 import subprocess
@@ -421,6 +422,44 @@ def test_an_interrupted_run_in_worker_processes_stops_them_and_keeps_their_timin
     # the interrupted sitting ended in its worker's finally, not at a refresh
     (sitting,) = json.loads(started.read_text())["sittings"]
     assert "running" not in sitting and sitting["wall_s"] > 0
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="finds the worker processes through /proc")
+def test_the_workers_of_a_killed_run_stop_too(tmp_path):
+    longer = [*TINY, "--episodes", "60000", "--eval-every", "10000"]  # far more than the test waits for
+    proc = subprocess.Popen([sys.executable, "-m", "keepaway", "experiment", "figure3", *longer, "--workers", "2",
+                             "--out", str(tmp_path)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    workers: set[int] = set()
+    try:
+        deadline = time.monotonic() + 120
+        started = tmp_path / "P_L-GO_HC" / "timing.json"
+        while time.monotonic() < deadline and not (len(workers) == 2 and started.is_file()):
+            workers = {pid for pid in children_of(proc.pid)
+                       if b"spawn_main" in Path(f"/proc/{pid}/cmdline").read_bytes()}
+            time.sleep(0.1)
+        assert len(workers) == 2 and started.is_file(), "the workers did not start"
+        proc.kill()  # no chance to interrupt them: Linux's parent-death signal must
+        proc.wait()
+
+        def alive(pid: int) -> bool:
+            try:
+                return "zombie" not in Path(f"/proc/{pid}/status").read_text()
+            except OSError:
+                return False
+
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and any(alive(pid) for pid in workers):
+            time.sleep(0.1)
+        assert not [pid for pid in workers if alive(pid)], "a worker went on after its run was killed"
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        for pid in workers:
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except OSError:
+                pass
 
 
 def test_worker_processes_do_not_attach_to_running_arenas(tmp_path):

@@ -518,13 +518,22 @@ def _configuration_worker(send: Connection, exp: ExperimentConfig, config: tuple
 
     tqdm's bars (hidden here) share a lock across processes by default, a semaphore that an interruption
     can leave to multiprocessing's resource tracker, which then warns after our last line; a worker
-    draws nothing, so a thread lock does."""
+    draws nothing, so a thread lock does.
+
+    A parent that dies without interrupting it (killed, out of memory) sends it SIGTERM through Linux's
+    parent-death signal, so no worker goes on training alone (a CI run left two doing so for minutes)."""
     from tqdm import tqdm
+
+    from runner.launch import die_with_parent
 
     tqdm.set_lock(threading.RLock())
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, _interrupt_once)
+    die_with_parent()
+    parent = multiprocessing.parent_process()
     try:
+        if parent is not None and os.getppid() != parent.pid:  # the parent died before the request
+            raise KeyboardInterrupt
         outcome: Any = run_configuration(exp, *config, out, placement, progress=False)
     except BaseException as exc:  # noqa: BLE001 - every ending, Ctrl-C included, is reported to the parent
         outcome = exc
