@@ -382,22 +382,44 @@ def test_a_worker_interrupted_inside_a_callback_that_drops_exceptions_is_interru
         signal.signal(signal.SIGTERM, previous_term)
 
 
+def _until_two_workers_train(proc: subprocess.Popen, out: Path) -> tuple[set[int], set[int]]:
+    """(children, workers) of a running ``experiment figure3 --workers 2`` once both workers run and the
+    longest configuration's is training."""
+    children: set[int] = set()
+    workers: set[int] = set()
+    deadline = time.monotonic() + 120
+    started = out / "P_L-GO_HC" / "timing.json"
+    while time.monotonic() < deadline and not (len(workers) == 2 and started.is_file()):
+        children = children_of(proc.pid)  # the two workers and multiprocessing's resource tracker
+        workers = {pid for pid in children if b"spawn_main" in Path(f"/proc/{pid}/cmdline").read_bytes()}
+        time.sleep(0.1)
+    assert len(workers) == 2 and started.is_file(), "the workers did not start"
+    return children, workers
+
+
+def _figure3_in_two_workers(out: Path, pipe: int) -> subprocess.Popen:
+    """``experiment figure3 --workers 2``, far longer than the tests wait for, its output to ``pipe``."""
+    longer = [*TINY, "--episodes", "60000", "--eval-every", "10000"]
+    return subprocess.Popen([sys.executable, "-m", "keepaway", "experiment", "figure3", *longer, "--workers", "2",
+                             "--out", str(out)], stdout=pipe, stderr=pipe)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        return "zombie" not in Path(f"/proc/{pid}/status").read_text()
+    except OSError:
+        return False
+
+
 @pytest.mark.slow
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="finds the worker processes through /proc")
 def test_an_interrupted_run_in_worker_processes_stops_them_and_keeps_their_timing(tmp_path):
-    longer = [*TINY, "--episodes", "60000", "--eval-every", "10000"]  # far more than the test waits for
-    proc = subprocess.Popen([sys.executable, "-m", "keepaway", "experiment", "figure3", *longer, "--workers", "2",
-                             "--out", str(tmp_path)], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc = _figure3_in_two_workers(tmp_path, subprocess.PIPE)
     children: set[int] = set()
     workers: set[int] = set()
+    started = tmp_path / "P_L-GO_HC" / "timing.json"
     try:
-        deadline = time.monotonic() + 120
-        started = tmp_path / "P_L-GO_HC" / "timing.json"  # the longest configuration's worker is training
-        while time.monotonic() < deadline and not (len(workers) == 2 and started.is_file()):
-            children = children_of(proc.pid)  # the two workers and multiprocessing's resource tracker
-            workers = {pid for pid in children if b"spawn_main" in Path(f"/proc/{pid}/cmdline").read_bytes()}
-            time.sleep(0.1)
-        assert len(workers) == 2 and started.is_file(), "the workers did not start"
+        children, workers = _until_two_workers_train(proc, tmp_path)
         proc.send_signal(signal.SIGINT)  # to the parent alone: it interrupts its workers
         out, err = proc.communicate(timeout=120)
     finally:
@@ -406,19 +428,13 @@ def test_an_interrupted_run_in_worker_processes_stops_them_and_keeps_their_timin
             proc.communicate()
     assert proc.returncode == 130, err.decode()
     assert err.decode().strip().splitlines()[-1].startswith("keepaway experiment: interrupted; run the same command")
-    def alive(pid: int) -> bool:
-        try:
-            return "zombie" not in Path(f"/proc/{pid}/status").read_text()
-        except OSError:
-            return False
-
-    assert not [pid for pid in workers if alive(pid)], "a worker outlived the run that joins it"
+    assert not [pid for pid in workers if _alive(pid)], "a worker outlived the run that joins it"
     # multiprocessing's resource tracker exits by itself once the run's end closes its pipe: on a busy
     # machine that may take a moment after the run has returned
     deadline = time.monotonic() + 30
-    while time.monotonic() < deadline and any(alive(pid) for pid in children):
+    while time.monotonic() < deadline and any(_alive(pid) for pid in children):
         time.sleep(0.1)
-    assert not [pid for pid in children if alive(pid)], "a child process outlived the run"
+    assert not [pid for pid in children if _alive(pid)], "a child process outlived the run"
     # the interrupted sitting ended in its worker's finally, not at a refresh
     (sitting,) = json.loads(started.read_text())["sittings"]
     assert "running" not in sitting and sitting["wall_s"] > 0
@@ -427,31 +443,16 @@ def test_an_interrupted_run_in_worker_processes_stops_them_and_keeps_their_timin
 @pytest.mark.slow
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="finds the worker processes through /proc")
 def test_the_workers_of_a_killed_run_stop_too(tmp_path):
-    longer = [*TINY, "--episodes", "60000", "--eval-every", "10000"]  # far more than the test waits for
-    proc = subprocess.Popen([sys.executable, "-m", "keepaway", "experiment", "figure3", *longer, "--workers", "2",
-                             "--out", str(tmp_path)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    proc = _figure3_in_two_workers(tmp_path, subprocess.DEVNULL)
     workers: set[int] = set()
     try:
-        deadline = time.monotonic() + 120
-        started = tmp_path / "P_L-GO_HC" / "timing.json"
-        while time.monotonic() < deadline and not (len(workers) == 2 and started.is_file()):
-            workers = {pid for pid in children_of(proc.pid)
-                       if b"spawn_main" in Path(f"/proc/{pid}/cmdline").read_bytes()}
-            time.sleep(0.1)
-        assert len(workers) == 2 and started.is_file(), "the workers did not start"
+        _, workers = _until_two_workers_train(proc, tmp_path)
         proc.kill()  # no chance to interrupt them: Linux's parent-death signal must
         proc.wait()
-
-        def alive(pid: int) -> bool:
-            try:
-                return "zombie" not in Path(f"/proc/{pid}/status").read_text()
-            except OSError:
-                return False
-
         deadline = time.monotonic() + 60
-        while time.monotonic() < deadline and any(alive(pid) for pid in workers):
+        while time.monotonic() < deadline and any(_alive(pid) for pid in workers):
             time.sleep(0.1)
-        assert not [pid for pid in workers if alive(pid)], "a worker went on after its run was killed"
+        assert not [pid for pid in workers if _alive(pid)], "a worker went on after its run was killed"
     finally:
         if proc.poll() is None:
             proc.kill()
