@@ -398,10 +398,13 @@ def _until_two_workers_train(proc: subprocess.Popen, out: Path) -> tuple[set[int
 
 
 def _figure3_in_two_workers(out: Path, pipe: int) -> subprocess.Popen:
-    """``experiment figure3 --workers 2``, far longer than the tests wait for, its output to ``pipe``."""
+    """``experiment figure3 --workers 2``, far longer than the tests wait for, its output to ``pipe``; started
+    with SIGINT's default disposition, as from a terminal (a test run started in the background by a
+    non-interactive shell ignores SIGINT, and its children would inherit that)."""
     longer = [*TINY, "--episodes", "60000", "--eval-every", "10000"]
     return subprocess.Popen([sys.executable, "-m", "keepaway", "experiment", "figure3", *longer, "--workers", "2",
-                             "--out", str(out)], stdout=pipe, stderr=pipe)
+                             "--out", str(out)], stdout=pipe, stderr=pipe,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
 
 
 def _alive(pid: int) -> bool:
@@ -421,7 +424,14 @@ def test_an_interrupted_run_in_worker_processes_stops_them_and_keeps_their_timin
     try:
         children, workers = _until_two_workers_train(proc, tmp_path)
         proc.send_signal(signal.SIGINT)  # to the parent alone: it interrupts its workers
-        out, err = proc.communicate(timeout=120)
+        try:
+            out, err = proc.communicate(timeout=120)
+        except subprocess.TimeoutExpired:  # show where it stands (the command prints its stacks on SIGUSR1)
+            proc.send_signal(signal.SIGUSR1)
+            time.sleep(2)
+            proc.kill()
+            _, err = proc.communicate()
+            pytest.fail("the run did not stop within 120 s of its SIGINT; its stderr ends:\n" + err.decode()[-6000:])
     finally:
         if proc.poll() is None:
             proc.kill()
