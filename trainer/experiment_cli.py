@@ -3,9 +3,7 @@
 
 from __future__ import annotations
 
-import faulthandler
 import functools
-import signal
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -103,7 +101,6 @@ def _run(what: Callable[..., Any], exp: Any, where: Placement, out: Path, no_pro
     from trainer.train_cli import prepare_kernels
 
     interrupt_on_sigterm()
-    faulthandler.register(signal.SIGUSR1, all_threads=True)  # `kill -USR1 PID`: where a long study stands
     prepare_kernels(where.kernel_sets(exp.mode))
     try:
         return what(exp, out, placement=where, progress=not no_progress, on_configuration=_report)
