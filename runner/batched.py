@@ -81,6 +81,7 @@ from agents.skills import (
 )
 from agents.state_vars import getopen_state_size, pass_state_size
 from agents.taker import taker_decide
+from agents.see_frame import NO_SIDE
 from agents.worldmodel import (
     SIDE_CODES,
     ModelState,
@@ -124,7 +125,6 @@ VIEW_WIDTH = "normal"
 _UNLIMITED = -1
 _SIDE_KEEPERS = SIDE_CODES["l"]
 _SIDE_TAKERS = SIDE_CODES["r"]
-_UNKNOWN_SIDE = -1  # the world model's side code of a player seen without its team
 
 
 def arena_seed(seed: int, b: int) -> int:
@@ -223,7 +223,7 @@ def see_to_model_row(out: SeeBuffers, b: int, obs: int, cycle: int, n_keepers: i
             continue
         i = slot - N_FLAGS
         keeper = i <= n_keepers
-        see.player_side[row, n_players] = _UNKNOWN_SIDE
+        see.player_side[row, n_players] = NO_SIDE
         if level == PARTIAL or level == FULL:
             see.player_side[row, n_players] = _SIDE_KEEPERS if keeper else _SIDE_TAKERS
         see.player_unum[row, n_players] = 0

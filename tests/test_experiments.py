@@ -359,17 +359,22 @@ def children_of(pid: int) -> set[int]:
     return found
 
 
-def test_a_worker_interrupted_inside_a_callback_that_drops_exceptions_is_interrupted_again_after_it():
-    # a frame of the kind numba's cached kernels load through: llvmlite's object-cache hook, a ctypes
-    # callback that prints an exception raised in it and carries on
+@pytest.mark.parametrize("name, filename", [
+    # llvmlite's object-cache hook, which numba's cached kernels load through: a ctypes callback that
+    # prints an exception raised in it and carries on
+    ("_raw_object_cache_getbuffer", "/site-packages/llvmlite/binding/executionengine.py"),
+    # a finalizer (a CI run's worker lost its interrupt in llvmlite's ObjectRef.__del__)
+    ("__del__", "/site-packages/llvmlite/binding/common.py"),
+])
+def test_a_worker_interrupted_inside_a_callback_that_drops_exceptions_is_interrupted_again_after_it(name, filename):
     namespace: dict = {}
-    exec(compile("def _raw_object_cache_getbuffer(handler):\n    import sys\n    handler(2, sys._getframe())\n",
-                 "/site-packages/llvmlite/binding/executionengine.py", "exec"), namespace)
+    exec(compile(f"def {name}(handler):\n    import sys\n    handler(2, sys._getframe())\n", filename, "exec"),
+         namespace)
     received = []
     previous, previous_term = signal.signal(signal.SIGINT, lambda signum, frame: received.append(signum)), \
         signal.getsignal(signal.SIGTERM)
     try:
-        namespace["_raw_object_cache_getbuffer"](experiments._interrupt_once)  # not raised in there
+        namespace[name](experiments._interrupt_once)  # not raised in there
         deadline = time.monotonic() + 5.0
         while not received and time.monotonic() < deadline:
             time.sleep(0.01)

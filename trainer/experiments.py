@@ -551,11 +551,14 @@ def _interrupt_once(signum: int, frame: Any) -> None:
 
 
 def _in_foreign_callback(frame: Any) -> bool:
-    """Whether ``frame`` runs inside a callback from C that swallows exceptions: llvmlite's object-cache
-    hooks, through which numba loads its cached kernels (a ctypes callback prints an exception raised
-    in it and goes on)."""
+    """Whether ``frame`` runs inside code that swallows exceptions: llvmlite's object-cache hooks,
+    through which numba loads its cached kernels (a ctypes callback prints an exception raised in it
+    and goes on), and any finalizer (``__del__``; Python prints "Exception ignored in" and goes on: a
+    CI run lost a worker's interrupt in llvmlite's ``ObjectRef.__del__``, and the worker trained on)."""
     while frame is not None:
-        if frame.f_code.co_name.startswith("_raw_object_cache") and "llvmlite" in frame.f_code.co_filename:
+        code = frame.f_code
+        if code.co_name == "__del__" or (code.co_name.startswith("_raw_object_cache")
+                                         and "llvmlite" in code.co_filename):
             return True
         frame = frame.f_back
     return False
