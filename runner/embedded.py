@@ -84,8 +84,8 @@ class EmbeddedGame:
     def hear(self) -> None:
         """Every queued hear, delivered at once and bare, as a paused server sends them (``server/app.py``)."""
         for slot, player in self.players:
-            for msg in self.arena.take_hears(slot):
-                player.on_message(_wire(msg, decode_for_player))
+            for frame in self.arena.take_hears(slot):
+                player.on_message(decode_for_player(frame))
 
     def perceive(self) -> None:
         """This cycle's percepts to every player: sense_body, hears, and the see when one is due."""

@@ -391,8 +391,8 @@ class Server:
 
     def _send_queued_hears(self) -> None:
         for conn in sorted(self.conns.values(), key=lambda c: c.slot.obj):
-            for msg in self.arena.take_hears(conn.slot):
-                self._send(conn, msg)
+            for frame in self.arena.take_hears(conn.slot):
+                self._send_raw(self.players, conn.identity, frame)
 
     def _send_cycle_percepts(self, think: bool, see: bool = True) -> None:
         """Each player's percepts of this cycle (and ``think``), encoded first and then sent together,

@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -42,6 +42,13 @@ REFEREE_EPISODE_MESSAGE = "training Keepaway 1"
 KEPT_ON_RESEED = ("time", "enabled", "counts")
 
 
+class QueuedHear(NamedTuple):
+    """A hear waiting for its player's next percepts, encoded when queued (``Arena.take_hears``)."""
+
+    sender: str
+    frame: bytes
+
+
 class ArenaError(Exception):
     """A request the arena refuses; ``code`` and a one-line ``message`` go back to the client."""
 
@@ -65,7 +72,7 @@ class PlayerSlot:
     see_phase_ms: float = 0.0  # virtual time of this player's first see (connect time, as rcssserver)
     main_taken: bool = False
     neck_taken: bool = False
-    hears: list = field(default_factory=list)
+    hears: list[QueuedHear] = field(default_factory=list)
 
     def see_period_ms(self, send_step_ms: float) -> float:
         """Asynchronous see period: send_step x width factor (spec 4; high quality only)."""
@@ -315,17 +322,17 @@ class Arena:
         """Referee messages are heard at once, in this cycle's percepts (spec 4 Hearing)."""
         if self.referee_log is not None:
             self.referee_log.extend(messages)
+        frames = [encode(m.Hear(cycle=self.cycle, sender="referee", direction=None, unum=None, message=text))
+                  for text in messages]
         for s in self.connected_slots():
-            for text in messages:
-                s.hears.append(m.Hear(cycle=self.cycle, sender="referee", direction=None, unum=None,
-                                      message=text))
+            s.hears.extend(QueuedHear("referee", frame) for frame in frames)
 
     # -- hearing ------------------------------------------------------------------------------------
-    def take_hears(self, s: PlayerSlot) -> list:
-        """The hears queued for ``s``, now delivered: in its next percepts, or at once while the server
-        is paused (docs/protocol.md 12 "Coach")."""
+    def take_hears(self, s: PlayerSlot) -> list[bytes]:
+        """The frames of the hears queued for ``s``, in order, now delivered: in its next percepts, or at
+        once while the server is paused (docs/protocol.md 12 "Coach")."""
         out, s.hears = s.hears, []
-        return out
+        return [h.frame for h in out]
 
     def advice_targets(self, target: Any) -> list[int]:
         """The player objects a coach's advice ``target`` names: "keepers", "takers", "all", or one player
@@ -341,10 +348,11 @@ class Arena:
 
     def advise(self, objs: list[int], payload: Any) -> None:
         """Coach advice, heard by ``objs`` in their next percepts."""
+        frame = encode(m.advice_hear(payload, self.cycle))
         for obj in objs:
             s = self.slot(obj)
             if s.connected:
-                s.hears.append(m.advice_hear(payload, self.cycle))
+                s.hears.append(QueuedHear("coach", frame))
 
     def _hear_buffers(self, says: int) -> None:
         """The buffers of ``_deliver_says``' kernel call, for up to ``says`` says a cycle: the speakers,
@@ -357,11 +365,12 @@ class Arena:
     def _deliver_says(self) -> None:
         """Says of cycle t are heard in t+1 (spec 4 Hearing): self always, others as
         ``perception.hear_picks`` draws them (for every connected listener in one kernel call,
-        ``perception.hear_picks_each``)."""
+        ``perception.hear_picks_each``). A say's text was checked when it was taken (:meth:`submit`), so
+        its hears are written without building messages (``protocol.messages.say_hear_frame``)."""
         says = self.pending_says
         if not says:
             return
-        w, p = self.world, self.params
+        w, p, cycle = self.world, self.params, self.cycle
         says.sort(key=lambda said: said[0])  # arrival order must not matter (determinism)
         if len(says) > self._speakers.shape[0]:
             self._hear_buffers(len(says))
@@ -375,8 +384,8 @@ class Arena:
         for k, listener in enumerate(listeners):
             for speaker, text in says:
                 if speaker == listener.obj:
-                    listener.hears.append(m.Hear(cycle=self.cycle, sender="self", direction=None,
-                                                 unum=None, message=text))
+                    frame = m.say_hear_frame(cycle, "self", None, None, text)
+                    listener.hears.append(QueuedHear("self", frame))
             lp = w.pos[0, listener.obj]
             for pick in self._picks[k, :self._n_picks[k]]:
                 speaker, text = says[pick]
@@ -384,8 +393,9 @@ class Arena:
                 team = "our" if w.side(speaker) == listener.side else "opp"
                 direction = _normalize_deg(math.degrees(math.atan2(sp[1] - lp[1], sp[0] - lp[0]))
                                            - w.body[0, listener.obj])
-                listener.hears.append(m.Hear(cycle=self.cycle, sender=team, direction=int(round(direction)),
-                                             unum=w.unum(speaker) if team == "our" else None, message=text))
+                frame = m.say_hear_frame(cycle, team, int(round(direction)),
+                                         w.unum(speaker) if team == "our" else None, text)
+                listener.hears.append(QueuedHear(team, frame))
         says.clear()
 
     # -- percepts -----------------------------------------------------------------------------------
@@ -424,7 +434,7 @@ class Arena:
         out = [self.sense_body_frame(s)]
         if s.fullstate:
             out.append(encode(m.Fullstate(cycle=self.cycle, **self.fullstate_payload())))
-        out.extend(encode(msg) for msg in self.take_hears(s))
+        out.extend(self.take_hears(s))
         if with_see:
             out.append(self.see_frame(s))
         return out

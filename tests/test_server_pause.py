@@ -16,7 +16,7 @@ import pytest
 
 from protocol import encode
 from protocol import messages as m
-from protocol.messages import decode_from_coach
+from protocol.messages import decode_for_player, decode_from_coach
 from protocol.errors import ProtocolError
 from protocol.params import parameter_set
 from scripted import ScriptedCoach, ScriptedPlayer, chase_and_kick_out
@@ -110,7 +110,7 @@ def test_a_reset_with_a_seed_restores_what_a_fresh_arena_has_at_its_kick_off():
         # the see timer restarted: normal width 150 ms against 100 ms cycles sees at offsets 0, 2, 3, 5
         assert [played.see_due(s, cycle + k) for k in range(7)] == [fresh.see_due(t, k) for k in range(7)] \
             == [True, False, True, True, False, True, True]
-    heard = [(h.sender, h.message) for h in played.take_hears(played.slot(1))]
+    heard = [(h.sender, h.message) for h in map(decode_for_player, played.take_hears(played.slot(1)))]
     assert heard[-2:] == [("coach", {"kind": "policy"}), ("referee", EPISODE_MESSAGE)]
     # and it goes on identically: the same commands give the same world
     for arena in (played, fresh):
