@@ -101,10 +101,8 @@ class Arena:
         # the kernels of every cycle, called without numba's typing of their arguments at each call
         self._simulate_cycle = SteadyCall(simulate_cycle)
         self._kick_possible = SteadyCall(kick_possible)
-        self._see_arena = SteadyCall(perception.see_arena)
-        self._write_see = SteadyCall(perception.write_see)
-        self._sense_body_arena = SteadyCall(perception.sense_body_arena)
-        self._write_sense_body = SteadyCall(perception.write_sense_body)
+        self._see_frame = SteadyCall(perception.see_frame)
+        self._sense_body_frame = SteadyCall(perception.sense_body_frame)
         self._hear_picks_each = SteadyCall(perception.hear_picks_each)
         self._hear_buffers(len(self.slots))
         # what the referee said since the owner last took it (``take_referee_log``); None: not kept
@@ -381,18 +379,18 @@ class Arena:
             self._listeners[k] = listener.obj
         self._hear_picks_each(0, w, self._speakers, len(says), self._listeners, len(listeners), p.hear_max,
                               p.audio_cut_dist, self._picks, self._n_picks)
+        pos, body = w.pos[0].tolist(), w.body[0].tolist()  # Python floats: the same numbers, cheaper to use
         for k, listener in enumerate(listeners):
             for speaker, text in says:
                 if speaker == listener.obj:
                     frame = m.say_hear_frame(cycle, "self", None, None, text)
                     listener.hears.append(QueuedHear("self", frame))
-            lp = w.pos[0, listener.obj]
-            for pick in self._picks[k, :self._n_picks[k]]:
+            lx, ly = pos[listener.obj]
+            for pick in self._picks[k, :self._n_picks[k]].tolist():
                 speaker, text = says[pick]
-                sp = w.pos[0, speaker]
+                sx, sy = pos[speaker]
                 team = "our" if w.side(speaker) == listener.side else "opp"
-                direction = _normalize_deg(math.degrees(math.atan2(sp[1] - lp[1], sp[0] - lp[0]))
-                                           - w.body[0, listener.obj])
+                direction = _normalize_deg(math.degrees(math.atan2(sy - ly, sx - lx)) - body[listener.obj])
                 frame = m.say_hear_frame(cycle, team, int(round(direction)),
                                          w.unum(speaker) if team == "our" else None, text)
                 listener.hears.append(QueuedHear(team, frame))
@@ -408,16 +406,14 @@ class Arena:
                                   s.see_period_ms(self.params.send_step_ms), s.see_phase_ms)
 
     def see_frame(self, s: PlayerSlot) -> bytes:
-        """``s``'s see of this cycle, encoded (``perception.write_see``: the bytes of ``encode(m.See(...))``)."""
+        """``s``'s see of this cycle, encoded (``perception.see_frame``: the bytes of ``encode(m.See(...))``)."""
         factor = perception.cone_factor(s.view_width, s.synch_see)
-        self._see_arena(0, self.world, s.obj, factor, self.kp, self.see_out)
-        n = self._write_see(self.see_out, 0, s.obj, self.world.n_keepers, self.cycle, self.see_buf)
+        n = self._see_frame(0, self.world, s.obj, factor, self.kp, self.see_out, self.cycle, self.see_buf)
         return self.see_buf[:n].tobytes()
 
     def sense_body_frame(self, s: PlayerSlot) -> bytes:
-        """``s``'s sense_body of this cycle, encoded (``perception.write_sense_body``)."""
-        self._sense_body_arena(0, self.world, s.obj, self.body_out)
-        n = self._write_sense_body(self.body_out, 0, s.obj, self.cycle, self.view_modes[s.view_width],
+        """``s``'s sense_body of this cycle, encoded (``perception.sense_body_frame``)."""
+        n = self._sense_body_frame(0, self.world, s.obj, self.body_out, self.cycle, self.view_modes[s.view_width],
                                    self.body_buf)
         return self.body_buf[:n].tobytes()
 

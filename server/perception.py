@@ -698,6 +698,25 @@ def write_sense_body(out: SenseBodyBuffers, b: int, obs: int, cycle: int, view_m
     return n
 
 
+
+@njit(cache=True)
+def see_frame(b: int, w: World, obs: int, width_factor: float, kp: KernelParams, out: SeeBuffers, cycle: int,
+              buf: np.ndarray) -> int:
+    """Player object ``obs``'s see of this cycle (:func:`see_arena`) written into ``buf``
+    (:func:`write_see`); returns its length. One call from the server's loop where two were: each call
+    from Python unboxes the world's arrays again."""
+    see_arena(b, w, obs, width_factor, kp, out)
+    return write_see(out, b, obs, w.n_keepers, cycle, buf)
+
+
+@njit(cache=True)
+def sense_body_frame(b: int, w: World, obs: int, out: SenseBodyBuffers, cycle: int, view_mode: np.ndarray,
+                     buf: np.ndarray) -> int:
+    """Player object ``obs``'s sense_body of this cycle (:func:`sense_body_arena`) written into ``buf``
+    (:func:`write_sense_body`), in one call as :func:`see_frame`; returns its length."""
+    sense_body_arena(b, w, obs, out)
+    return write_sense_body(out, b, obs, cycle, view_mode, buf)
+
 def packed_view_mode(view_quality: str, view_width: str) -> np.ndarray:
     """A sense_body's ``view_mode`` value, packed for :func:`write_sense_body`."""
     return packed([view_quality, view_width])
@@ -817,10 +836,12 @@ __all__ = [
     "round_deg",
     "see_arena",
     "see_batch",
+    "see_frame",
     "see_frame_bytes",
     "see_payload",
     "sense_body_arena",
     "sense_body_batch",
+    "sense_body_frame",
     "sense_body_payload",
     "packed_view_mode",
     "table_distance",
