@@ -148,7 +148,10 @@ def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop
             except zmq.Again:  # nothing within POLL_MS
                 continue
             last_heard = time.monotonic()
-            if agent.take_see_frame(data):  # a see, taken without a message (it needs no answer)
+            taken, command = agent.take_frame(data)  # a percept or think of every cycle, without a message
+            if taken:
+                if command is not None:
+                    send(command)
                 continue
             try:
                 msg = decode_for_player(data)

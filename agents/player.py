@@ -65,6 +65,7 @@ from typing import Any, NamedTuple, Protocol
 import numpy as np
 
 from agents.belief import forget_episode, new_memory
+from agents.frames import NOT_TAKEN, SENDER, TEXT_LENGTH, TEXT_START
 from agents.getopen import grid_size, grid_values
 from agents.keeper import (
     GETOPEN_DECISION,
@@ -141,11 +142,22 @@ class Awaiting(NamedTuple):
     cycle: int
 
 
-class SeeFrame(NamedTuple):
-    """A see taken straight from its frame (:meth:`PlayerAgent.take_see_frame`), as the cycle's log keeps
-    it."""
+class Frame(NamedTuple):
+    """A percept taken straight from its frame (:meth:`PlayerAgent.take_frame`: a see or sense_body), as
+    the cycle's log keeps it."""
 
     data: bytes
+
+
+class Taken(NamedTuple):
+    """What :meth:`PlayerAgent.take_frame` did with a frame: whether it took it, and if it did, the command
+    to send (None if the frame calls for none)."""
+
+    taken: bool
+    command: m.Command | None
+
+
+_NOT_TAKEN = Taken(False, None)
 
 
 class PassLearner(Protocol):
@@ -346,6 +358,14 @@ class PlayerAgent:
             m.InitOk: self._on_init_ok, m.SenseBody: self._on_sense_body, m.See: self._on_see,
             m.Fullstate: self._on_fullstate, m.Hear: self._on_hear, m.Think: self._on_think,
         }
+        # take_frame's handlers of (cycle, frame), by the kind agents.frames.decode_frame read
+        # (agents.frames.FRAME_TYPES: see, sense_body, hear, think); the world model took the percepts
+        self._frame_handlers: tuple[Callable[[int, bytes], m.Command | None], ...] = (
+            lambda cycle, data: self._record(cycle, Frame(data)),
+            lambda cycle, data: self._sensed_body(cycle, Frame(data)),
+            self._heard_frame,
+            lambda cycle, data: self._thought(cycle),
+        )
         self._advice_handlers: dict[type, Callable[[Any, int], None]] = {
             SeedAdvice: self._on_seed_advice, PassModeAdvice: self._on_pass_mode_advice,
             ReportRequest: self._on_report_request, PolicyAdvice: self._on_policy_advice,
@@ -451,25 +471,30 @@ class PlayerAgent:
 
     def _on_sense_body(self, msg: m.SenseBody) -> m.Command | None:
         self.wm.on_sense_body(self._view(msg))
-        self._record(msg.cycle, msg)
-        return self._decide(msg.cycle) if self._decide_on is m.SenseBody else None
+        return self._sensed_body(msg.cycle, msg)
+
+    def _sensed_body(self, cycle: int, item: Any) -> m.Command | None:
+        """A sense_body the world model took, logged as ``item``; the decision, if it runs on sense_body."""
+        self._record(cycle, item)
+        return self._decide(cycle) if self._decide_on is m.SenseBody else None
 
     def _on_see(self, msg: m.See) -> None:
         self.wm.on_see(self._view(msg))
         self._record(msg.cycle, msg)
 
-    def take_see_frame(self, data: bytes) -> bool:
-        """A frame from the server that may be a see: taken as :meth:`on_message` takes the decoded see,
-        straight from its bytes (``WorldModel.on_see_frame``), if it is one in the form every see the
-        server sends has. False, with nothing done, for any other frame: the caller decodes it
-        (``protocol.messages.decode_for_player``) and hands it to :meth:`on_message`."""
+    def take_frame(self, data: bytes) -> Taken:
+        """A frame from the server, taken as :meth:`on_message` takes the decoded message, straight from
+        its bytes (``WorldModel.on_frame``, ``agents.frames``), if it is a see, sense_body, player's hear
+        or think in the form the server sends them: returns ``Taken(True, command)``, with the command to
+        send if the frame calls for one. ``Taken(False, None)``, with nothing done, for any other frame and
+        before ``init_ok``: the caller decodes it (``protocol.messages.decode_for_player``) and hands it to
+        :meth:`on_message`."""
         if not self.ready:
-            return False
-        cycle = self.wm.on_see_frame(data)
-        if cycle < 0:
-            return False
-        self._record(cycle, SeeFrame(data))
-        return True
+            return _NOT_TAKEN
+        kind, cycle = self.wm.on_frame(data)
+        if kind == NOT_TAKEN:
+            return _NOT_TAKEN
+        return Taken(True, self._frame_handlers[kind](cycle, data))
 
     def _on_fullstate(self, msg: m.Fullstate) -> m.Command | None:
         if not self.fullstate:
@@ -479,9 +504,16 @@ class PlayerAgent:
         return self._decide(msg.cycle) if self._decide_on is m.Fullstate else None
 
     def _on_think(self, msg: m.Think) -> m.Command | None:
-        return self._decide(msg.cycle) if self._decide_on is m.Think else None
+        return self._thought(msg.cycle)
+
+    def _thought(self, cycle: int) -> m.Command | None:
+        """The decision, if it runs on think."""
+        return self._decide(cycle) if self._decide_on is m.Think else None
 
     def _on_hear(self, msg: m.Hear) -> None:
+        if msg.sender in m.PLAYER_HEAR_SENDERS:
+            self._heard_player(msg.cycle, msg.sender, msg.message)
+            return
         self._record(msg.cycle)  # a paused server's bare hears belong to a cycle without percepts yet
         if msg.sender == "referee":
             if msg.message == EPISODE_MESSAGE:
@@ -489,10 +521,22 @@ class PlayerAgent:
             elif msg.message == KICK_OFF_MESSAGE and not self._started:
                 self._started = True
                 self._apply_advice()
-        elif msg.sender == "coach":
+        else:
             self._on_advice(msg.message, msg.cycle)
-        elif msg.sender == "our" and isinstance(msg.message, str):
-            hear_text(self.talk, 0, msg.message)  # taken in at the decision, after this cycle's see
+
+    def _heard_player(self, cycle: int, sender: str, text: str) -> None:
+        """A player's say (``self``, ``our`` or ``opp``): only a teammate's is taken in, at the decision,
+        after this cycle's see."""
+        self._record(cycle)
+        if sender == "our":
+            hear_text(self.talk, 0, text)
+
+    def _heard_frame(self, cycle: int, data: bytes) -> None:
+        """A player's hear read from its frame (``agents.frames``: an ASCII text at its place in the frame)."""
+        values = self.wm.frame_values
+        start = int(values[TEXT_START])
+        text = data[start:start + int(values[TEXT_LENGTH])].decode("ascii")
+        self._heard_player(cycle, m.PLAYER_HEAR_SENDERS[int(values[SENDER])], text)
 
     def _fresh_world_model(self) -> None:
         """A world model that knows nothing, fed again with this cycle's percepts and own commands (those
@@ -502,8 +546,8 @@ class PlayerAgent:
         for item in self._cycle_log:
             if type(item) is tuple:
                 self.wm.on_own_commands(*item)
-            elif type(item) is SeeFrame:
-                self.wm.on_see_frame(item.data)
+            elif type(item) is Frame:
+                self.wm.on_frame(item.data)
             else:
                 feed[type(item)](self._view(item))
 
@@ -769,7 +813,8 @@ def compile_kernels() -> None:
         heard = m.Hear(cycle=0, sender="our", direction=0, unum=2, message="1aaaa18aa1")
         for msg in (body, see, heard, m.Think(cycle=0), m.Hear(cycle=0, sender="referee", message=EPISODE_MESSAGE)):
             agent.on_message(msg)
-        agent.take_see_frame(encode(see))
+        for msg in (see, body, heard, m.Think(cycle=0)):
+            agent.take_frame(encode(msg))
         if agent.is_keeper:
             execute_pass_action(agent.wm.belief(), 0, agent.memory, 0, agent.kp, agent.cfg, agent._out_main,
                                 agent._out_a1, agent._out_a2, agent._out_neck)
@@ -786,6 +831,7 @@ def compile_kernels() -> None:
 __all__ = [
     "Awaiting",
     "EPISODE_MESSAGE",
+    "Frame",
     "GETOPEN_POLICIES",
     "OUTSIDE_BODY",
     "OUTSIDE_DECISIONS",
@@ -796,7 +842,7 @@ __all__ = [
     "PassLearner",
     "PassLearnerFactory",
     "PlayerAgent",
-    "SeeFrame",
+    "Taken",
     "agent_seed_sequence",
     "compile_kernels",
     "greedy_pass_factory",

@@ -49,9 +49,21 @@ from core.jit import SteadyCall, borrowing, njit
 
 from agents.belief import Belief, empty_belief
 from agents.geometry import believed_dash_power, compared_hypot, kick_rate, normalize_angle, turn_effect
-from agents.see_frame import NO_SIDE as _NO_SIDE
-from agents.see_frame import NO_UNUM as _NO_UNUM
-from agents.see_frame import SIDE_CODES, decode_see_frame
+from agents.frames import (
+    EFFORT,
+    FRAME_VALUES,
+    HEAD_ANGLE,
+    NOT_TAKEN,
+    SEE,
+    SENSE_BODY,
+    SIDE_CODES,
+    SPEED_AMOUNT,
+    SPEED_DIRECTION,
+    STAMINA,
+    decode_frame,
+)
+from agents.frames import NO_SIDE as _NO_SIDE
+from agents.frames import NO_UNUM as _NO_UNUM
 from agents.skills import AgentConfig, kickable_distance, opponent_range
 from protocol.params import ServerParams
 from core.objects import BALL, CMD_DASH, CMD_KICK, CMD_NONE, CMD_TURN, COLLISION_VEL_FACTOR
@@ -76,8 +88,9 @@ COLLISION_SMALL_COMPONENT = 0.08  # ... each velocity component flipped or below
 COLLISION_SPEED_DROP = 0.25  # ... and the speed below this fraction of the predicted one
 # WorldModel::updateBallForCollision: the ball is put this far from my centre (m), towards where it was.
 COLLISION_BALL_DISTANCE = 0.2
-# The largest see frame a player copies for on_see_frame (bytes); the server's are at most 3,444 bytes in
-# 3v2, 4,991 in 11v11 (server.perception.see_frame_bytes). A larger one is decoded in full.
+# The largest frame a player copies for on_frame (bytes): the server's sees are at most 3,444 bytes in
+# 3v2, 4,991 in 11v11 (server.perception.see_frame_bytes), its other per-cycle frames far smaller. A
+# larger one is decoded in full.
 SEE_FRAME_BYTES = 8192
 # seen/obs time of an object never seen since the last forget.
 NEVER = -(1 << 40)
@@ -835,8 +848,9 @@ class WorldModel:
         self._see_row = SteadyCall(see_row)
         self._hold_exact_ball_row = SteadyCall(hold_exact_ball_row)
         self._write_belief_row = SteadyCall(write_belief_row)
-        self._decode_see_frame = SteadyCall(decode_see_frame)
-        self._frame = np.empty(SEE_FRAME_BYTES, dtype=np.uint8)  # on_see_frame's copy of a frame
+        self._decode_frame = SteadyCall(decode_frame)
+        self._frame = np.empty(SEE_FRAME_BYTES, dtype=np.uint8)  # on_frame's copy of a frame
+        self.frame_values = np.zeros(FRAME_VALUES)  # the values of the last frame on_frame read
 
     def _is_exact(self, msg: Mapping[str, Any]) -> bool:
         """Whether a fullstate already gave the exact state of the message's cycle."""
@@ -844,12 +858,17 @@ class WorldModel:
 
     def on_sense_body(self, msg: Mapping[str, Any]) -> None:
         """A sense_body payload (spec 4): my neck, velocity, stamina and effort of its cycle."""
-        if self._is_exact(msg):
-            return
         speed, stamina = msg["speed"], msg["stamina"]
-        self._sense_body_row(0, self.state, int(msg["cycle"]), float(speed[0]), float(speed[1]),
-                             int(msg["head_angle"]), float(stamina[0]), float(stamina[1]), self.n_keepers,
-                             self.kp, self.cfg)
+        self._sense_body(int(msg["cycle"]), float(speed[0]), float(speed[1]), int(msg["head_angle"]),
+                         float(stamina[0]), float(stamina[1]))
+
+    def _sense_body(self, cycle: int, speed_amount: float, speed_dir: float, head_angle: int, stamina: float,
+                    effort: float) -> None:
+        """What :meth:`on_sense_body` and :meth:`on_frame` take from a sense_body, taken."""
+        if cycle == self._exact_cycle:
+            return
+        self._sense_body_row(0, self.state, cycle, speed_amount, speed_dir, head_angle, stamina, effort,
+                             self.n_keepers, self.kp, self.cfg)
 
     def on_see(self, msg: Mapping[str, Any]) -> None:
         """A see payload (spec 4): anonymous flags are skipped, and so are flags whose id lies beyond
@@ -880,19 +899,25 @@ class WorldModel:
         buf.cycle[0] = int(msg["cycle"])
         self._see_row(0, self.state, buf, self.flag_pos, self.n_keepers, self.kp, self.cfg)
 
-    def on_see_frame(self, data: bytes) -> int:
-        """A see frame's msgpack bytes, taken as :meth:`on_see` takes the decoded message, if the frame
-        is in the form ``agents.see_frame.decode_see_frame`` reads (every see the server sends is):
-        returns its cycle. Returns -1 for any other frame, which is then the caller's to decode in full,
-        and this model is as it was but for the see buffer's scratch."""
+    def on_frame(self, data: bytes) -> tuple[int, int]:
+        """A frame's msgpack bytes, read by ``agents.frames.decode_frame`` if it is in the form that kernel
+        takes (every see, sense_body, player's hear and think the server sends is): returns (kind, cycle),
+        the kind an index of ``agents.frames.FRAME_TYPES``. A see or sense_body is taken as :meth:`on_see`
+        or :meth:`on_sense_body` takes the decoded message; a hear's or think's values are left in
+        :attr:`frame_values` for the agent. Returns (``NOT_TAKEN``, -1) for any other frame, which is then
+        the caller's to decode in full, and this model is as it was but for the see buffer's scratch."""
         size = len(data)
         if size > self._frame.shape[0]:
-            return -1
+            return NOT_TAKEN, -1
         self._frame[:size] = np.frombuffer(data, dtype=np.uint8)
-        cycle = self._decode_see_frame(self._frame, size, 0, self.see_buffer, len(self.flag_pos))
-        if cycle >= 0 and cycle != self._exact_cycle:
+        values = self.frame_values
+        kind, cycle = self._decode_frame(self._frame, size, 0, self.see_buffer, len(self.flag_pos), values)
+        if kind == SEE and cycle != self._exact_cycle:
             self._see_row(0, self.state, self.see_buffer, self.flag_pos, self.n_keepers, self.kp, self.cfg)
-        return cycle
+        elif kind == SENSE_BODY:
+            self._sense_body(cycle, float(values[SPEED_AMOUNT]), float(values[SPEED_DIRECTION]),
+                             int(values[HEAD_ANGLE]), float(values[STAMINA]), float(values[EFFORT]))
+        return kind, cycle
 
     def on_fullstate(self, msg: Mapping[str, Any]) -> None:
         """Exact state (spec 4 fullstate): every object known exactly at the message's cycle; percepts

@@ -1,6 +1,6 @@
 """msgpack read by compiled kernels: the counterpart of ``core.msgpack_out`` for the values a percept
 holds (nil, ints, doubles, strings, array and map headers), so a client can take a percept it receives
-every cycle straight into its buffers (``agents.see_frame``) instead of through the unpacker, a dict,
+every cycle straight into its buffers (``agents.frames``) instead of through the unpacker, a dict,
 lists and a message object.
 
 Each reader looks at ``buf[n:end]`` and returns the position after the value it read, or :data:`BAD`

@@ -81,7 +81,7 @@ from agents.skills import (
 )
 from agents.state_vars import getopen_state_size, pass_state_size
 from agents.taker import taker_decide
-from agents.see_frame import NO_SIDE
+from agents.frames import NO_SIDE
 from agents.worldmodel import (
     SIDE_CODES,
     ModelState,

@@ -51,6 +51,13 @@ def _wire(msg: m.Message, decode: Callable[[bytes], m.Message]) -> m.Message:
     return decode(encode(msg))
 
 
+def _take(player: PlayerAgent, frame: bytes) -> m.Command | None:
+    """A server frame as a player process takes it (``agents.cli.run_player``): straight from its bytes
+    if the player can (:meth:`PlayerAgent.take_frame`), else decoded in full; the command it calls for."""
+    taken, command = player.take_frame(frame)
+    return command if taken else player.on_message(decode_for_player(frame))
+
+
 class EmbeddedGame:
     """One arena of ``spec`` and its players in synchronous mode, kicked off: every player plays
     ``spec``'s policies with ``spec``'s seed and the constants ``agent`` (default: the player processes');
@@ -85,21 +92,20 @@ class EmbeddedGame:
         """Every queued hear, delivered at once and bare, as a paused server sends them (``server/app.py``)."""
         for slot, player in self.players:
             for frame in self.arena.take_hears(slot):
-                player.on_message(decode_for_player(frame))
+                _take(player, frame)
 
     def perceive(self) -> None:
         """This cycle's percepts to every player: sense_body, hears, and the see when one is due."""
         arena = self.arena
         for slot, player in self.players:
             for frame in arena.cycle_frames(slot, arena.see_due(slot, arena.cycle)):
-                if not player.take_see_frame(frame):  # a player process takes its frames alike
-                    player.on_message(decode_for_player(frame))
+                _take(player, frame)
 
     def think(self) -> None:
         """Every player's think and command for this cycle (none from a keeper left waiting)."""
-        think = m.Think(cycle=self.arena.cycle)
+        think = encode(m.Think(cycle=self.arena.cycle))
         for slot, player in self.players:
-            self.submit(slot, player.on_message(_wire(think, decode_for_player)))
+            self.submit(slot, _take(player, think))
 
     def submit(self, slot: PlayerSlot, command: m.Command | None) -> None:
         """A player's command for this cycle, as the server would receive it."""

@@ -1,4 +1,4 @@
-"""A see taken straight from its frame (agents.see_frame, WorldModel.on_see_frame) is taken exactly as the
+"""A see taken straight from its frame (agents.frames, WorldModel.on_frame) is taken exactly as the
 decoded message (WorldModel.on_see): the same world model after every see of a real game, and every frame
 the kernel does not take left to the full decoder with the model untouched."""
 
@@ -10,6 +10,7 @@ import msgpack
 import numpy as np
 import pytest
 
+from agents.frames import NOT_TAKEN, SEE
 from agents.worldmodel import WorldModel
 from core.msgpack_in import BAD, read_double, read_int, read_str
 from protocol import ProtocolError
@@ -71,7 +72,7 @@ def test_every_see_of_a_game_gives_the_model_the_decoded_see_gives(game_frames):
         for frame in frames:
             _feed(full, frame)
             if decode_for_player(frame).TYPE == "see":
-                assert fast.on_see_frame(frame) == decode_for_player(frame).cycle
+                assert fast.on_frame(frame) == (SEE, decode_for_player(frame).cycle)
                 sees += 1
             else:
                 _feed(fast, frame)
@@ -107,17 +108,17 @@ def _rich(see_frames) -> bytes:
 
 
 def _taken_alike(frame: bytes, before: bytes) -> bool:
-    """on_see_frame on a model that has seen the see ``before``: True if it takes ``frame`` (then the model
+    """on_frame on a model that has seen the see ``before``: True if it takes ``frame`` (then the model
     equals one fed the decoded frame); False if it leaves it (then the model is untouched)."""
     fast, full = _model("l", 1), _model("l", 1)
     for model in (fast, full):
         _feed(model, before)
-    cycle = fast.on_see_frame(frame)
-    if cycle < 0:
+    kind, cycle = fast.on_frame(frame)
+    if kind == NOT_TAKEN:
         assert _states_equal(fast, full)
         return False
     _feed(full, frame)  # the full decoder must take what the kernel took
-    assert cycle == decode_for_player(frame).cycle
+    assert (kind, cycle) == (SEE, decode_for_player(frame).cycle)
     assert _states_equal(fast, full)
     return True
 
@@ -149,8 +150,8 @@ def test_a_flag_beyond_the_landmark_table_is_skipped(rich, see_frames):
     fast, plain = _model("l", 1), _model("l", 1)
     for model in (fast, plain):
         _feed(model, see_frames[0])
-    fast.on_see_frame(extra)
-    plain.on_see_frame(rich)
+    fast.on_frame(extra)
+    plain.on_frame(rich)
     assert _states_equal(fast, plain)
 
 
