@@ -25,7 +25,10 @@ draw them. Our keepers send them with their commands when the server asks for no
 show after that step.
 
 The core is sans-IO: :class:`RcgFormatter` turns shows and events into text lines, :func:`parse_rcg`
-turns text back into :class:`Show` frames; :class:`RcgLog` is the thin file sink the server and
+turns text back into :class:`Show` frames. Writing a show line is most of a game log's cost, paid every
+cycle by the server's one thread: writers take a :class:`ShowTable` (the world's arrays, read once) and
+:func:`show_line` formats all of its numbers in one ``%`` format (tests/test_show_line.py pins it to the
+format's definition, number by number); :class:`RcgLog` is the thin file sink the server and
 ``keepaway run`` use, :func:`read_rcg` the reader the viewer's replay and ``keepaway render`` share.
 """
 
@@ -199,7 +202,7 @@ class WorldShows:
         self._sides = [world.side(i) for i in range(1, world.n_objects)]
         self._unums = [world.unum(i) for i in range(1, world.n_objects)]
         self._view_angles = np.full((world.n_objects - 1, 1), float(visible_angle))
-        self._no_counts = np.zeros((world.n_objects - 1, N_RCG_COUNTS - N_COUNTS))  # rcssserver's we do not count
+        self._no_counts = np.zeros((world.n_objects - 1, N_RCG_COUNTS - N_COUNTS))  # tackle pointto attentionto: never
 
     def table(self, b: int = 0, view_factors: Sequence[float] | None = None) -> ShowTable:
         """Arena ``b`` now; ``view_factors`` per player object (1 normal, 0.5 narrow, 2 wide; default 1)."""
