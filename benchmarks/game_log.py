@@ -30,7 +30,7 @@ def formatting_us(cycles: int = 2000) -> tuple[float, float]:
     shows = WorldShows(game.arena.world, game.arena.params.visible_angle)
     start = time.perf_counter()
     for _ in range(cycles):
-        show = shows.show(0)
+        show = shows.table(0)
     built = time.perf_counter()
     for _ in range(cycles):
         show_line(show)

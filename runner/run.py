@@ -183,14 +183,14 @@ class BatchedGameLogs:
         self.shows = WorldShows(world, params.visible_angle)
         self.logs = {b: RcgLog(out / f"keepaway-arena{b}{RCG_SUFFIX}", params) for b in arenas}
         for b, log in self.logs.items():
-            log.start_game(self.shows.show(b), (PLAY_ON,))
+            log.start_game(self.shows.table(b), (PLAY_ON,))
 
     def step(self, chunk: EpisodeTable) -> None:
         """After a chunk of one cycle: the show of every logged arena that played it."""
         ended = set(chunk.arena.tolist())
         for b, log in self.logs.items():
             if self.world.time[b] > log.last_cycle:
-                log.cycle(self.shows.show(b), (REFEREE_EPISODE_MESSAGE,) if b in ended else ())
+                log.cycle(self.shows.table(b), (REFEREE_EPISODE_MESSAGE,) if b in ended else ())
 
     def close(self) -> None:
         for log in self.logs.values():

@@ -25,7 +25,10 @@ draw them. Our keepers send them with their commands when the server asks for no
 show after that step.
 
 The core is sans-IO: :class:`RcgFormatter` turns shows and events into text lines, :func:`parse_rcg`
-turns text back into :class:`Show` frames; :class:`RcgLog` is the thin file sink the server and
+turns text back into :class:`Show` frames. Writing a show line is most of a game log's cost, paid every
+cycle by the server's one thread: writers take a :class:`ShowTable` (the world's arrays, read once) and
+:func:`show_line` formats all of its numbers in one ``%`` format (tests/test_show_line.py pins it to the
+format's definition, number by number); :class:`RcgLog` is the thin file sink the server and
 ``keepaway run`` use, :func:`read_rcg` the reader the viewer's replay and ``keepaway render`` share.
 """
 
@@ -35,6 +38,7 @@ import re
 import time
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
+from functools import cache, lru_cache
 from pathlib import Path
 from typing import NamedTuple
 
@@ -52,6 +56,12 @@ MAX_UNUM = 11  # players per side in every show (rcssserver's MAX_PLAYER)
 N_RCG_COUNTS = 11  # kick dash turn catch move turn_neck change_view say tackle pointto attentionto
 POS_PREC = 0.0001  # rcssserver's SerializerMonitorStdv3::PREC (positions, velocities)
 ANGLE_PREC = 0.001  # ... DPREC (body, neck, view angle)
+# A player's numbers in a show, in PlayerShow's order, each with the precision rcssserver quantizes it to
+# (SerializerMonitorStdv3) or None
+PLAYER_NUMBERS = {"x": POS_PREC, "y": POS_PREC, "vx": POS_PREC, "vy": POS_PREC, "body": ANGLE_PREC,
+                  "neck": ANGLE_PREC, "view_angle": ANGLE_PREC, "stamina": None, "effort": None, "recovery": None,
+                  "capacity": None}
+N_ROW = len(PLAYER_NUMBERS) + N_RCG_COUNTS  # a player's numbers in a ShowTable
 MSG_BOARD = 1  # rcssserver's BoardType
 LOG_BOARD = 2
 REFEREE_NAME = "referee"
@@ -114,6 +124,9 @@ class Show(NamedTuple):
     players: tuple[PlayerShow, ...]
 
 
+_SLOTS = tuple((side, unum) for side in "lr" for unum in range(1, MAX_UNUM + 1))  # a show's players, in order
+
+
 class GetOpenNote(NamedTuple):
     """A keeper's GetOpen decision of one cycle: its target point and, if it sent them, the grid points
     with their values, flat: x1, y1, v1, x2, y2, v2, ..."""
@@ -128,11 +141,6 @@ class GetOpenNote(NamedTuple):
         """A note from its flat numbers, the target first: as a keeper's command carries it
         (``protocol.messages.getopen_note``) and as the log line writes it (:func:`getopen_text`)."""
         return cls(cycle, unum, tuple(numbers[:2]), tuple(numbers[2:]))
-
-
-def quantized(value: float, prec: float) -> str:
-    """``Quantize(value, prec)`` printed as rcssserver's ostream prints it (6 significant digits)."""
-    return cpp_number(round(value / prec, 0) * prec)  # rint: -0.1 gives -0, printed "-0" as in C++
 
 
 def parked(side: str, unum: int) -> PlayerShow:
@@ -151,69 +159,132 @@ def show_from_frame(frame: m.Frame) -> Show:
     return Show(frame.cycle, tuple(frame.ball), players)
 
 
+class ShowTable(NamedTuple):
+    """A show as its line is written (:func:`show_line`): all of its players' numbers in one array, so that
+    a line costs a few array operations and one ``%`` format however many players it has. The players
+    are those on the pitch, in rcssserver's order (``l 1`` to ``l 11``, then ``r 1`` to ``r 11``), each
+    once. :class:`WorldShows` makes tables from a world's arrays, :meth:`of` from a :class:`Show`."""
+
+    cycle: int
+    ball: np.ndarray  # (4,): x y vx vy
+    players: tuple[tuple[str, int, int], ...]  # (side, unum, state) of each player
+    rows: np.ndarray  # (P, N_ROW): a player's PLAYER_NUMBERS, then its N_RCG_COUNTS counts (floats, exact below 2**53)
+
+    @classmethod
+    def of(cls, show: Show) -> ShowTable:
+        """The table of ``show``: of two entries of one player the last counts, and a player none of
+        rcssserver's 22 places has is left out."""
+        by_id = {(p.side, p.unum): p for p in show.players}
+        players = [by_id[slot] for slot in _SLOTS if slot in by_id]
+        rows = np.array([(*p[3:3 + len(PLAYER_NUMBERS)], *p.counts) for p in players], dtype=float).reshape(-1, N_ROW)
+        return cls(show.cycle, np.asarray(show.ball, dtype=float), tuple((p.side, p.unum, p.state) for p in players),
+                   rows)
+
+    def show(self) -> Show:
+        """This show with its players as :class:`PlayerShow`."""
+        n = len(PLAYER_NUMBERS)
+        players = tuple(PlayerShow(side, unum, state, *row[:n], tuple(int(c) for c in row[n:]))
+                        for (side, unum, state), row in zip(self.players, self.rows.tolist()))
+        return Show(self.cycle, tuple(self.ball.tolist()), players)
+
+
 class WorldShows:
     """Shows of the arenas of a :class:`server.world.World` (any batch), one cycle after another.
 
     A kick that did not reach the ball is ``KICK | KICK_FAULT``, as in rcssserver: the world marks every
     kick command (``world.kicked``) and counts only those that reached the ball, so the kick count of the
-    previous show tells them apart; :meth:`show` therefore remembers each arena's counts."""
+    previous show tells them apart; :meth:`table` therefore remembers each arena's counts."""
 
     def __init__(self, world: World, visible_angle: float) -> None:
         self.world = world
         self.visible_angle = visible_angle
         self._kicks = world.counts[:, :, COUNT_KICK].copy()
+        self._sides = [world.side(i) for i in range(1, world.n_objects)]
+        self._unums = [world.unum(i) for i in range(1, world.n_objects)]
+        self._view_angles = np.full((world.n_objects - 1, 1), float(visible_angle))
+        self._no_counts = np.zeros((world.n_objects - 1, N_RCG_COUNTS - N_COUNTS))  # tackle pointto attentionto: never
 
-    def show(self, b: int = 0, view_factors: Sequence[float] | None = None) -> Show:
+    def table(self, b: int = 0, view_factors: Sequence[float] | None = None) -> ShowTable:
         """Arena ``b`` now; ``view_factors`` per player object (1 normal, 0.5 narrow, 2 wide; default 1)."""
         w = self.world
         kicks = w.counts[b, :, COUNT_KICK]
-        faulted = w.kicked[b] & (kicks == self._kicks[b])
+        faulted = (kicks == self._kicks[b]).tolist()
         self._kicks[b] = kicks
-        ball = tuple(np.concatenate((w.pos[b, 0], w.vel[b, 0])).tolist())
-        pos, vel = w.pos[b].tolist(), w.vel[b].tolist()
-        body, neck = w.body[b].tolist(), w.neck[b].tolist()
-        stamina, effort, recovery, capacity = (a[b].tolist() for a in (w.stamina, w.effort, w.recovery, w.capacity))
-        enabled, kicked, collision = w.enabled[b].tolist(), w.kicked[b].tolist(), w.collision[b].tolist()
-        counts = w.counts[b].tolist()
-        players = []
-        for i in range(1, w.n_objects):
-            state = STATE_STAND if enabled[i] else STATE_DISABLE
-            if kicked[i]:
-                state |= STATE_KICK | (STATE_KICK_FAULT if faulted[i] else 0)
-            if collision[i] & COLLIDED_BALL:
-                state |= STATE_BALL_COLLIDE
-            if collision[i] & COLLIDED_PLAYER:
-                state |= STATE_PLAYER_COLLIDE
-            factor = 1.0 if view_factors is None else view_factors[i]
-            players.append(PlayerShow(w.side(i), w.unum(i), state, *pos[i], *vel[i], body[i], neck[i],
-                                      self.visible_angle * factor, stamina[i], effort[i], recovery[i], capacity[i],
-                                      tuple(counts[i]) + (0,) * (N_RCG_COUNTS - N_COUNTS)))
-        return Show(int(w.time[b]), ball, tuple(players))
+        states = [(STATE_STAND if enabled else STATE_DISABLE)
+                  | ((STATE_KICK | (STATE_KICK_FAULT if fault else 0)) if kicked else 0)
+                  | (STATE_BALL_COLLIDE if collision & COLLIDED_BALL else 0)
+                  | (STATE_PLAYER_COLLIDE if collision & COLLIDED_PLAYER else 0)
+                  for enabled, kicked, fault, collision
+                  in zip(w.enabled[b, 1:].tolist(), w.kicked[b, 1:].tolist(), faulted[1:], w.collision[b, 1:].tolist())]
+        view = (self._view_angles if view_factors is None
+                else self.visible_angle * np.asarray(view_factors, dtype=float)[1:, None])
+        rows = np.concatenate((w.pos[b, 1:], w.vel[b, 1:], w.body[b, 1:, None], w.neck[b, 1:, None], view,
+                               w.stamina[b, 1:, None], w.effort[b, 1:, None], w.recovery[b, 1:, None],
+                               w.capacity[b, 1:, None], w.counts[b, 1:], self._no_counts), axis=1)
+        return ShowTable(int(w.time[b]), np.concatenate((w.pos[b, 0], w.vel[b, 0])),
+                         tuple(zip(self._sides, self._unums, states)), rows)
+
+    def show(self, b: int = 0, view_factors: Sequence[float] | None = None) -> Show:
+        """:meth:`table` as a :class:`Show`."""
+        return self.table(b, view_factors).show()
 
 
 # -- writing ---------------------------------------------------------------------------------------------
-def _player_text(p: PlayerShow) -> str:
-    state = f"{p.state:#x}" if p.state else "0"  # C++'s showbase prints 0 bare
-    return (f" (({p.side} {p.unum}) 0 {state} {quantized(p.x, POS_PREC)} {quantized(p.y, POS_PREC)} "
-            f"{quantized(p.vx, POS_PREC)} {quantized(p.vy, POS_PREC)} {quantized(p.body, ANGLE_PREC)} "
-            f"{quantized(p.neck, ANGLE_PREC)} (v h {quantized(p.view_angle, ANGLE_PREC)}) "
-            f"(s {cpp_number(p.stamina)} {cpp_number(p.effort)} {cpp_number(p.recovery)} {cpp_number(p.capacity)}) "
-            f"(c {' '.join(map(str, p.counts))}))")
+@cache
+def _quanta(n_players: int) -> tuple[np.ndarray, np.ndarray]:
+    """What each number of a line with ``n_players`` players (:func:`_line_numbers`) is quantized to, and
+    whether it is: the ball's numbers and each player's positions, velocities and angles are."""
+    row = [*PLAYER_NUMBERS.values(), *[None] * N_RCG_COUNTS]
+    precs = [POS_PREC] * 4 + row * n_players
+    quantized = np.array([prec is not None for prec in precs])
+    return np.array([prec or 1.0 for prec in precs]), quantized
 
 
-_PARKED_TEXT = {(side, unum): _player_text(parked(side, unum)) for side in "lr" for unum in range(1, MAX_UNUM + 1)}
+def _line_numbers(table: ShowTable) -> list[float]:
+    """The numbers of ``table``'s line in order, the ball's then each player's, those that rcssserver
+    quantizes quantized by its ``Quantize(value, prec)``, ``rint(value / prec) * prec`` (half to even;
+    -0.1 gives -0, printed "-0" as in C++)."""
+    numbers = np.concatenate((table.ball, table.rows.ravel()))
+    quantum, quantized = _quanta(len(table.players))
+    return np.where(quantized, np.rint(numbers / quantum) * quantum, numbers).tolist()
 
 
-def show_line(show: Show) -> str:
+def _entry_template(side: str, unum: int, state: int) -> str:
+    """A player's entry of a v5 show (``serializePlayer*``) as a ``%`` template of its numbers: 6
+    significant digits as a default C++ ostream prints them (``%.6g`` formats as ``cpp_number``), the
+    counts as integers, the state in hex with C++'s ``showbase``, which prints 0 bare."""
+    state_text = f"{state:#x}" if state else "0"
+    counts = " ".join(["%d"] * N_RCG_COUNTS)
+    return (f" (({side} {unum}) 0 {state_text} %.6g %.6g %.6g %.6g %.6g %.6g (v h %.6g) "
+            f"(s %.6g %.6g %.6g %.6g) (c {counts}))")
+
+
+def _parked_entry(side: str, unum: int) -> str:
+    player = parked(side, unum)
+    table = ShowTable.of(Show(0, (0.0,) * 4, (player,)))
+    return _entry_template(side, unum, player.state) % tuple(_line_numbers(table)[4:])
+
+
+_PARKED_ENTRIES = {slot: _parked_entry(*slot) for slot in _SLOTS}
+
+
+@lru_cache(maxsize=4096)
+def _show_template(players: tuple[tuple[str, int, int], ...]) -> str:
+    """The ``%`` template of a show line with ``players`` (side, unum, state) on the pitch and the others
+    parked; its arguments are the cycle and :func:`_line_numbers`. The states are written in: a game has
+    few sets of them, so few templates."""
+    states = {(side, unum): state for side, unum, state in players}
+    if [slot for slot in _SLOTS if slot in states] != [(side, unum) for side, unum, _ in players]:
+        raise ValueError("a show table's players go in rcssserver's order, each once")
+    entries = (_entry_template(*slot, states[slot]) if slot in states else _PARKED_ENTRIES[slot] for slot in _SLOTS)
+    return "(show %d ((b) %.6g %.6g %.6g %.6g)" + "".join(entries) + ")"
+
+
+def show_line(show: Show | ShowTable) -> str:
     """``(show T ((b) x y vx vy) ((l 1) ...) ... ((r 11) ...))``: all 22 players, those not in the show
-    parked (module docstring)."""
-    by_id = {(p.side, p.unum): p for p in show.players}
-    parts = [f"(show {show.cycle} ((b) " + " ".join(quantized(v, POS_PREC) for v in show.ball) + ")"]
-    for key, parked_text in _PARKED_TEXT.items():
-        p = by_id.get(key)
-        parts.append(parked_text if p is None else _player_text(p))
-    parts.append(")")
-    return "".join(parts)
+    parked (module docstring); one ``%`` format of all the show's numbers."""
+    table = show if isinstance(show, ShowTable) else ShowTable.of(show)
+    return _show_template(table.players) % (table.cycle, *_line_numbers(table))
 
 
 def msg_line(cycle: int, board: int, text: str) -> str:
@@ -247,13 +318,13 @@ class RcgFormatter:
                 _param_line("player_param", {"player_types": 1, "pt_max": 1, "subs_max": 0}),
                 _param_line("player_type", player_type)]
 
-    def start_game(self, show: Show, referee: Iterable[str] = (), mode: str = PLAY_ON) -> list[str]:
+    def start_game(self, show: Show | ShowTable, referee: Iterable[str] = (), mode: str = PLAY_ON) -> list[str]:
         """The kick-off: play mode, teams, the referee's words, the first show."""
         self.play_mode = mode
         return [f"(playmode {show.cycle} {mode})", self._team_line(show.cycle),
                 *self._referee_lines(show.cycle, referee), show_line(show)]
 
-    def cycle(self, show: Show, referee: Iterable[str] = (), notes: Iterable[GetOpenNote] = (),
+    def cycle(self, show: Show | ShowTable, referee: Iterable[str] = (), notes: Iterable[GetOpenNote] = (),
               mode: str = PLAY_ON) -> list[str]:
         """One cycle: a play-mode change, the referee's words (``record_messages``) and the GetOpen notes
         of the keepers' commands that acted in the step to this cycle, then the show."""
@@ -297,11 +368,11 @@ class RcgLog(LineLog):
         self.last_cycle = 0
         self._write_lines(self.formatter.header())
 
-    def start_game(self, show: Show, referee: Iterable[str] = ()) -> None:
+    def start_game(self, show: Show | ShowTable, referee: Iterable[str] = ()) -> None:
         self.last_cycle = show.cycle
         self._write_lines(self.formatter.start_game(show, referee))
 
-    def cycle(self, show: Show, referee: Iterable[str] = (), notes: Iterable[GetOpenNote] = ()) -> None:
+    def cycle(self, show: Show | ShowTable, referee: Iterable[str] = (), notes: Iterable[GetOpenNote] = ()) -> None:
         self.last_cycle = show.cycle
         self._write_lines(self.formatter.cycle(show, referee, notes))
 
@@ -325,18 +396,18 @@ class ArenaGameLog:
     def path(self) -> Path:
         return self.log.path
 
-    def show(self) -> Show:
+    def table(self) -> ShowTable:
         """The show of the arena now, with each player's view width."""
         factors = [1.0] + [VIEW_WIDTHS[s.view_width] for s in self.arena.slots]
-        return self.shows.show(0, factors)
+        return self.shows.table(0, factors)
 
     def start_game(self) -> None:
-        self.log.start_game(self.show(), self.arena.take_referee_log())
+        self.log.start_game(self.table(), self.arena.take_referee_log())
 
     def step(self) -> None:
         """The show after the arena's step, with the referee's words and the keepers' GetOpen notes
         sent with the commands of that step (``Arena.step_notes``)."""
-        show = self.show()
+        show = self.table()
         notes = [GetOpenNote.from_numbers(show.cycle, unum, note) for unum, note in self.arena.step_notes]
         self.log.cycle(show, self.arena.take_referee_log(), notes)
 
@@ -499,6 +570,7 @@ __all__ = [
     "RcgFormatter",
     "RcgLog",
     "Show",
+    "ShowTable",
     "WorldShows",
     "parse_rcg",
     "parse_show",
