@@ -9,7 +9,7 @@ number); clamping command arguments is the simulator's job, done exactly as rcss
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Any, ClassVar
@@ -143,6 +143,11 @@ class AtomicCommand:
 
     def to_wire(self) -> list:
         return [self.name, *self.args]
+
+    def __iter__(self) -> Iterator:
+        """``name, args = command``: it unpacks as the (name, args) pairs the server's command reader
+        gives (``server.command_frame``), so one ``Arena.submit`` takes both."""
+        return iter((self.name, self.args))
 
 
 COMMAND_ARGUMENTS: Mapping[str, tuple[tuple[Loader, ...], tuple[Loader, ...]]] = MappingProxyType({

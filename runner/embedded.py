@@ -30,6 +30,7 @@ from protocol.params import ServerParams
 from runner.coached import Chunk, CoachedBackend
 from runner.job import CHUNK_EPISODES, Game, Progress
 from server.arena import Arena, PlayerSlot
+from server.command_frame import CommandReader
 from server.episode_log import EpisodeRecord
 from server.game_log import ArenaGameLog
 
@@ -69,6 +70,7 @@ class EmbeddedGame:
                  agent: AgentConfig | None = None, outside: Collection[str] = (),
                  game_log: Path | None = None, getopen_notes: str = "none") -> None:
         self.arena = Arena(spec.params, spec.keepers, spec.takers, spec.seed)
+        self.command_reader = CommandReader()
         # the .rcg of every cycle, as the server writes it (server.game_log), with the keepers'
         # GetOpen notes if ``getopen_notes`` asks for them (as ``keepaway server --getopen-notes``)
         self.game_log = ArenaGameLog(game_log, self.arena) if game_log is not None else None
@@ -108,9 +110,10 @@ class EmbeddedGame:
             self.submit(slot, _take(player, think))
 
     def submit(self, slot: PlayerSlot, command: m.Command | None) -> None:
-        """A player's command for this cycle, as the server would receive it."""
+        """A player's command for this cycle, as the server receives it: encoded, and decoded as the
+        server decodes it (``server.command_frame``)."""
         if command is not None:
-            command = _wire(command, decode_from_player)
+            command = self.command_reader.decode(encode(command))
             self.arena.submit(slot.obj, command.commands)
             self.arena.note_getopen(slot.obj, command.getopen)
 

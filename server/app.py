@@ -34,12 +34,13 @@ import zmq
 
 from protocol import messages as m
 from protocol.codec import encode
-from protocol.messages import advice_hear, decode_from_coach, decode_from_player
+from protocol.messages import advice_hear, decode_from_coach
 from protocol.endpoints import MONITOR_EPISODE_TOPIC, MONITOR_FRAME_TOPIC, configure
 from protocol.errors import ProtocolError
 from protocol import PROTOCOL_VERSION
 from protocol.security import PortGuard, open_keys
 from server.arena import TEAMS, Arena, ArenaError, PlayerSlot, compile_kernels, player_name, truth_state
+from server.command_frame import CommandFrame, CommandReader
 from server.config import ServerConfig
 from server.episode_log import EpisodeRecord, JsonlLog, KwyLog
 from server.game_log import RCG_SUFFIX, ArenaGameLog
@@ -100,6 +101,7 @@ class Server:
     def __post_init__(self) -> None:
         cfg = self.config
         self.arena = Arena(cfg.params, cfg.keepers, cfg.takers, cfg.seed)
+        self.player_frames = CommandReader(cfg.max_message_bytes)  # decodes the players' frames
         self.ctx = zmq.Context()
         self.players = self.ctx.socket(zmq.ROUTER)
         self.coach = self.ctx.socket(zmq.ROUTER)
@@ -522,7 +524,7 @@ class Server:
     # -- players port --------------------------------------------------------------------------------
     def _on_player(self, ident: bytes, data: bytes) -> None:
         try:
-            msg = decode_from_player(data, self.config.max_message_bytes)
+            msg = self.player_frames.decode(data)
         except ProtocolError as exc:
             self._error_raw(self.players, ident, exc.code, exc.message)
             return
@@ -531,7 +533,7 @@ class Server:
             self._on_init(ident, conn, msg)
         elif conn is None:
             self._error_raw(self.players, ident, "not_initialised", "send init (or reconnect) first")
-        elif isinstance(msg, m.Command):
+        elif isinstance(msg, (m.Command, CommandFrame)):
             self._on_command(conn, msg)
         elif isinstance(msg, m.Report):
             player_report = encode(m.PlayerReport(cycle=self.arena.cycle, side=conn.slot.side,
@@ -583,7 +585,7 @@ class Server:
             del self.conns[holder.identity]
             self.next_see.pop(holder.identity, None)
 
-    def _on_command(self, conn: Connection, msg: m.Command) -> None:
+    def _on_command(self, conn: Connection, msg: m.Command | CommandFrame) -> None:
         cycle = self.arena.cycle
         if msg.cycle > cycle:
             self._send(conn, m.Error(cycle=cycle, code="bad_cycle",

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
@@ -21,6 +22,7 @@ from protocol.codec import encode
 from protocol.landmarks import to_wire as landmarks_to_wire
 from protocol.params import ServerParams
 from server import perception
+from server.command_frame import CommandReader
 from server.physics import kick_possible
 from server.referee import END_CAUSES, new_referee_state, reset_field, start_game
 from server.simulation import new_causes, simulate_cycle
@@ -187,8 +189,10 @@ class Arena:
             start_game(0, self.world, self.referee, self.kp)
             self._referee_says("play_on")
 
-    def submit(self, obj: int, commands: list) -> list[str]:
+    def submit(self, obj: int, commands: Iterable[m.AtomicCommand | tuple[str, tuple]]) -> list[str]:
         """Queue one client's atomic commands for this cycle; return one-line warnings for the client.
+        The commands are (name, args) pairs: a decoded ``Command``'s, or those the server's kernel read
+        straight from the frame (``server.command_frame``); one set of rules for both.
 
         Slot rule (spec 1 Commands): the first accepted dash/turn/kick/tackle/move/catch wins, later
         ones are ignored; CLASSIC: a kick that cannot reach the ball does not use the slot. turn_neck
@@ -198,8 +202,7 @@ class Arena:
         s = self.slot(obj)
         c = self.commands
         warnings: list[str] = []
-        for cmd in commands:
-            name, args = cmd.name, cmd.args
+        for name, args in commands:
             code = MAIN_SLOT.get(name)
             if code is not None:
                 if s.main_taken:
@@ -472,9 +475,11 @@ def compile_kernels(params: ServerParams, keepers: int, takers: int) -> None:
     for s in scratch.slots:
         scratch.connect("keepers" if s.side == "l" else "takers")
     scratch.start()
+    reader = CommandReader()
+    say = reader.read(encode(m.Command(cycle=scratch.cycle, commands=(m.AtomicCommand("say", ("a",)),))))
     for s in scratch.slots:
         scratch.cycle_frames(s, True)
-        scratch.submit(s.obj, [m.AtomicCommand("say", ("a",))])  # the hears' kernel too
+        scratch.submit(s.obj, say.commands)  # the hears' kernel and the command reader's too
     scratch.step()
 
 
