@@ -5,11 +5,11 @@ reports it as before."""
 
 from __future__ import annotations
 
-import random
 
 import msgpack
 import numpy as np
 import pytest
+from mutations import mutated_frames
 
 from protocol import ProtocolError, encode
 from protocol import messages as m
@@ -224,14 +224,8 @@ def test_no_prefix_of_a_command_frame_is_taken(game_frames):
 def test_mutated_frames_are_taken_only_as_the_full_decoder_takes_them(game_frames):
     """Random bytes changed in real frames: whatever the kernel takes, the full decoder takes alike; what
     the full decoder refuses, the kernel leaves."""
-    rng = random.Random(11)
-    frames = [f for _, f in game_frames] + [BASE]
     taken = refused = 0
-    for _ in range(3000):
-        frame = bytearray(rng.choice(frames))
-        for _ in range(rng.randint(1, 3)):
-            frame[rng.randrange(len(frame))] = rng.randrange(256)
-        frame = bytes(frame)
+    for frame in mutated_frames([f for _, f in game_frames] + [BASE], 3000, 3, seed=11):
         valid = _full(frame) is not None
         took = _taken_alike(frame)
         assert valid or not took

@@ -5,12 +5,12 @@ full decoder with the agent untouched."""
 
 from __future__ import annotations
 
-import random
 from dataclasses import replace
 
 import msgpack
 import numpy as np
 import pytest
+from mutations import mutated_frames
 
 from agents.player import PlayerAgent
 from protocol import ProtocolError, encode
@@ -275,13 +275,8 @@ def test_no_prefix_of_a_frame_is_taken(samples, game, kind):
 def test_mutated_frames_are_taken_only_as_the_full_decoder_takes_them(samples, game, kind):
     """Random bytes changed in real frames: whatever the kernel takes, the full decoder takes alike; what
     the full decoder refuses, the kernel leaves."""
-    rng = random.Random(11)
     taken = refused = 0
-    for _ in range(600):
-        frame = bytearray(samples[kind])
-        for _ in range(rng.randint(1, 2)):
-            frame[rng.randrange(len(frame))] = rng.randrange(256)
-        frame = bytes(frame)
+    for frame in mutated_frames([samples[kind]], 600, 2, seed=11):
         try:
             decode_for_player(frame)
             valid = True

@@ -4,11 +4,11 @@ the kernel does not take left to the full decoder with the model untouched."""
 
 from __future__ import annotations
 
-import random
 
 import msgpack
 import numpy as np
 import pytest
+from mutations import mutated_frames
 
 from agents.frames import NOT_TAKEN, SEE
 from agents.worldmodel import WorldModel
@@ -197,13 +197,8 @@ def test_no_prefix_of_a_see_is_taken(rich, see_frames):
 def test_mutated_frames_are_taken_only_as_the_full_decoder_takes_them(see_frames):
     """Random bytes changed in real sees: whatever the kernel takes, the full decoder takes alike; what the
     full decoder refuses, the kernel leaves."""
-    rng = random.Random(7)
     taken = refused = 0
-    for _ in range(1500):
-        frame = bytearray(rng.choice(see_frames))
-        for _ in range(rng.randint(1, 3)):
-            frame[rng.randrange(len(frame))] = rng.randrange(256)
-        frame = bytes(frame)
+    for frame in mutated_frames(see_frames, 1500, 3, seed=7):
         try:
             decode_for_player(frame)
             valid = True
