@@ -5,7 +5,7 @@ frame. Through the full decoder a frame goes msgpack -> dicts and lists -> the l
 ``protocol.messages.Command`` and ``_atomic_command``, Python all the way: about 18 us a frame, nearly
 a hundred of every cycle's microseconds with five players. :class:`CommandReader` reads the same bytes
 once, in a kernel (:func:`read_command_frame`, on ``core.msgpack_in``'s readers, as the players read
-their sees: ``agents.see_frame``), into a :class:`CommandFrame`: the decoded ``Command``'s cycle, note
+their sees: ``agents.frames``), into a :class:`CommandFrame`: the decoded ``Command``'s cycle, note
 and commands, these as the (name, args) pairs an ``AtomicCommand`` unpacks to. The server and the
 embedded mode then take either alike: one ``bad_cycle`` check, one ``Arena.submit`` and its slot rules,
 whichever path decoded the frame.
