@@ -565,8 +565,8 @@ def policy_arrays(mem: SarsaMemory, r: int) -> dict[str, np.ndarray]:
     }
 
 
-def restart_learners(mem: SarsaMemory, config: SarsaConfig, mode: int) -> None:
-    """Every row of ``mem`` as fresh learners (``config``, ``mode``) into which its own
+def restart_learners(mem: SarsaMemory, config: SarsaConfig, mode: int | np.ndarray) -> None:
+    """Every row of ``mem`` as fresh learners (``config``, ``mode``: one for all or one per row) into which its own
     :func:`policy_arrays` were loaded, in place: the weights, collision tables and their counts are kept;
     traces, open decisions, transition logs and the minimum trace start afresh (:func:`new_memory` sets
     them here too). The exploration streams are the caller's to seed. For learners that go on in fresh
@@ -580,7 +580,7 @@ def restart_learners(mem: SarsaMemory, config: SarsaConfig, mode: int) -> None:
     mem.q.fill(0.0)
     mem.last_action.fill(NO_ACTION)
     mem.last_state.fill(0.0)
-    mem.mode.fill(mode)
+    mem.mode[:] = mode
     for log in (mem.log_state, mem.log_action, mem.log_reward, mem.log_next_action, mem.log_terminal,
                 mem.log_count):
         log.fill(0)

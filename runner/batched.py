@@ -21,9 +21,12 @@ derived from it, its side and uniform number as a player process derives it (:fu
 an arena's episodes depend neither on the batch size nor on the thread that steps it, and equal those
 of the embedded game (``tests/test_batched.py``).
 
-Pass learning (``pass_policy="learned"``, spec `keepaway-agents.md` 5, `keepaway-task.md` 5): every keeper
-of every arena owns one row of an ``agents.sarsa.SarsaMemory`` (row ``b * K + k`` for keeper object
-``k + 1`` of arena ``b``: its own weights, as in the original, where each keeper process learns alone).
+Every arena plays its own policies (:class:`ArenaPolicies`: its players' agent-config record, with its
+Pass and GetOpen policy codes, and its learners' step size and rows), so arenas of different
+configurations share a batch. Pass learning (``pass_policy="learned"``, spec `keepaway-agents.md` 5,
+`keepaway-task.md` 5): every keeper of every such arena owns one row of an ``agents.sarsa.SarsaMemory``
+(rows ``l * K .. l * K + K - 1`` for the keepers of the l-th learning arena: its own weights, as in the
+original, where each keeper process learns alone).
 At ``keeper_decide``'s external decision points (``PASS_EXTERNAL``, :class:`Decisions`
 ``decision``/``pass_state``) the row starts its episode or steps with reward = cycles since the keeper's
 last kicking cycle (``time - t_last``; spec agents 1 step 3b), and the keeper executes the action; when an
@@ -62,6 +65,7 @@ from agents.sarsa import (
     MODE_NAMES,
     SarsaConfig,
     SarsaMemory,
+    SarsaParams,
     end_episode,
     load_policy_arrays,
     new_memory as new_sarsa_memory,
@@ -172,6 +176,15 @@ class Players(NamedTuple):
     decay_sums: np.ndarray  # the travel simulations' table (agents.skills.decay_sums), one for all rows
 
 
+class ArenaPolicies(NamedTuple):
+    """What each arena's keepers play, one entry per arena, so arenas of different configurations share
+    a batch (and its threads)."""
+
+    cfg: np.ndarray  # (B,) agents.skills.AgentConfig.kernel() records, each with its arena's policy codes
+    alpha: np.ndarray  # (B,) float64 the Sarsa step size of its Pass learners
+    learner: np.ndarray  # (B,) int64 the Sarsa row of its keeper 1 (keeper k: + k - 1); -1: no Pass learners
+
+
 class Bookkeeping(NamedTuple):
     """Per-arena run state and the episodes that ended in the last chunk (at most one per cycle)."""
 
@@ -264,13 +277,13 @@ def perceive(b: int, obs: int, row: int, w: World, with_see: bool, episode_messa
 
 
 @borrowing
-def learn_pass(b: int, obs: int, row: int, n_keepers: int, kp, cfg, pl: Players, sarsa: SarsaMemory,
-               sp) -> None:
+def learn_pass(learner: int, obs: int, row: int, kp, cfg, pl: Players, sarsa: SarsaMemory, sp) -> None:
     """Keeper ``obs``'s Pass decision point (``keeper_decide`` returned PASS_DECISION_*): its learner row
-    starts its episode or steps with reward = now - t_last (cycles since its last kicking cycle, spec
-    `keepaway-agents.md` 1 step 3b), and the keeper executes the chosen action."""
+    (``learner``: its arena's keeper 1's row, :class:`ArenaPolicies`) starts its episode or steps with
+    reward = now - t_last (cycles since its last kicking cycle, spec `keepaway-agents.md` 1 step 3b), and
+    the keeper executes the chosen action."""
     out = pl.out
-    r = b * n_keepers + obs - 1
+    r = learner + obs - 1
     if out.decision[row] == PASS_DECISION_START:
         action = start_episode(sarsa, r, out.pass_state[row], sp)
     else:
@@ -280,25 +293,25 @@ def learn_pass(b: int, obs: int, row: int, n_keepers: int, kp, cfg, pl: Players,
 
 
 @borrowing
-def end_pass_episodes(b: int, w: World, pl: Players, sarsa: SarsaMemory, sp) -> None:
-    """The episode of arena ``b`` ended: each keeper that decided in it gets its terminal update with
-    reward = the new episode's first cycle (``w.time`` after the step, when a player process hears the
-    referee) - its last kicking cycle (spec `keepaway-agents.md` 1 step 1, 5); ``end_episode`` skips
-    keepers that never had the ball."""
-    k = w.n_keepers
-    for p in range(k):
+def end_pass_episodes(b: int, learner: int, w: World, pl: Players, sarsa: SarsaMemory, sp) -> None:
+    """The episode of arena ``b`` (its keepers' learner rows from ``learner`` on) ended: each keeper that
+    decided in it gets its terminal update with reward = the new episode's first cycle (``w.time`` after
+    the step, when a player process hears the referee) - its last kicking cycle (spec
+    `keepaway-agents.md` 1 step 1, 5); ``end_episode`` skips keepers that never had the ball."""
+    for p in range(w.n_keepers):
         row = b * (w.pos.shape[1] - 1) + p
-        end_episode(sarsa, b * k + p, w.time[b] - pl.memory.t_last[row], sp)
+        end_episode(sarsa, learner + p, w.time[b] - pl.memory.t_last[row], sp)
 
 
 @borrowing
-def decide(b: int, obs: int, row: int, w: World, c: Commands, theta: np.ndarray, kp, cfg, pl: Players,
-           sarsa: SarsaMemory, sp) -> None:
+def decide(b: int, obs: int, row: int, w: World, c: Commands, theta: np.ndarray, kp, cfg, learner: int,
+           pl: Players, sarsa: SarsaMemory, sp) -> None:
     """Player ``obs``'s decision on its belief, sent as the player process sends it (``agents/player.py``:
     the main command and always a turn_neck) into the server's slots (``server.arena.Arena.submit``: a
     kick that cannot reach the ball does not take the main slot unless ``failed_kick_uses_slot``) and
     remembered by its world model as sent (``WorldModel.on_own_commands``). With PASS_EXTERNAL the
-    keeper's Pass decisions come from its Sarsa row (:func:`learn_pass`)."""
+    keeper's Pass decisions come from its Sarsa row (:func:`learn_pass`; ``learner``: the arena's
+    keeper 1's)."""
     out = pl.out
     hear_row(row, pl.model, w.n_keepers, cfg, pl.talk)
     write_belief_row(row, pl.model, pl.belief, row)
@@ -306,7 +319,7 @@ def decide(b: int, obs: int, row: int, w: World, c: Commands, theta: np.ndarray,
         out.decision[row] = keeper_decide(pl.belief, row, pl.memory, theta, pl.decay_sums, kp, cfg, out.main,
                                           out.arg1, out.arg2, out.neck, out.pass_state[row])
         if out.decision[row] != NO_PASS_DECISION and int(cfg.pass_policy) == PASS_EXTERNAL:
-            learn_pass(b, obs, row, w.n_keepers, kp, cfg, pl, sarsa, sp)
+            learn_pass(learner, obs, row, kp, cfg, pl, sarsa, sp)
     else:
         taker_decide(pl.belief, row, pl.memory, pl.decay_sums, kp, cfg, out.main, out.arg1, out.arg2, out.neck)
     code = out.main[row]
@@ -360,18 +373,19 @@ def deliver_says(b: int, w: World, talk: Talk, kp) -> None:
 
 
 @borrowing
-def arena_cycle(b: int, w: World, c: Commands, ref: RefereeState, theta: np.ndarray, kp, cfg, pl: Players,
-                sarsa: SarsaMemory, sp, see_out: SeeBuffers, body_out: SenseBodyBuffers, episode_message: bool,
-                see_period_ms: float, cone: float) -> int:
-    """One synchronous cycle of arena ``b``: every player perceives, decides and sends its commands,
-    then the step; returns the referee's end code (module docstring)."""
+def arena_cycle(b: int, w: World, c: Commands, ref: RefereeState, theta: np.ndarray, kp, cfg, learner: int,
+                pl: Players, sarsa: SarsaMemory, sp, see_out: SeeBuffers, body_out: SenseBodyBuffers,
+                episode_message: bool, see_period_ms: float, cone: float) -> int:
+    """One synchronous cycle of arena ``b`` (its players' configuration ``cfg``, its keepers' learner rows
+    from ``learner`` on): every player perceives, decides and sends its commands, then the step; returns
+    the referee's end code (module docstring)."""
     n_players = w.pos.shape[1] - 1
     with_see = see_due(w.time[b], kp.simulator_step_ms, see_period_ms, 0.0)
     for p in range(n_players):
         obs = p + 1
         row = b * n_players + p
         perceive(b, obs, row, w, with_see, episode_message, cone, kp, cfg, pl, see_out, body_out)
-        decide(b, obs, row, w, c, theta, kp, cfg, pl, sarsa, sp)
+        decide(b, obs, row, w, c, theta, kp, cfg, learner, pl, sarsa, sp)
     cause = step_arena(b, w, c, ref, kp)
     deliver_says(b, w, pl.talk, kp)
     return cause
@@ -379,30 +393,34 @@ def arena_cycle(b: int, w: World, c: Commands, ref: RefereeState, theta: np.ndar
 
 @borrowing(nogil=True)
 def run_chunk(first: int, stride: int, n_cycles: int, w: World, c: Commands, ref: RefereeState,
-              theta: np.ndarray, kp, cfg, pl: Players, sarsa: SarsaMemory, sp, see_out: SeeBuffers,
-              body_out: SenseBodyBuffers, book: Bookkeeping, see_period_ms: float, cone: float) -> None:
-    """Up to ``n_cycles`` cycles of every active arena ``first, first + stride, ...``, recording ended
-    episodes in ``book``. An arena stops after its last episode or at its stop cycle. With Pass learning
-    the arena's learners take up ``book.pass_mode`` at each episode start and get their terminal updates
-    at each end (module docstring). Arenas share no state, so disjoint sets of them run on parallel
-    threads (the GIL is released)."""
-    learning = int(cfg.pass_policy) == PASS_EXTERNAL
+              theta: np.ndarray, kp, policies: ArenaPolicies, pl: Players, sarsa: SarsaMemory, sp,
+              see_out: SeeBuffers, body_out: SenseBodyBuffers, book: Bookkeeping, see_period_ms: float,
+              cone: float) -> None:
+    """Up to ``n_cycles`` cycles of every active arena ``first, first + stride, ...``, each playing its
+    own ``policies`` entry, recording ended episodes in ``book``. An arena stops after its last episode or
+    at its stop cycle. An arena's Pass learners (if any) learn with its own step size (the rest of ``sp``
+    is the batch's), take up ``book.pass_mode`` at each episode start and get their terminal updates at
+    each end (module docstring). Arenas share no state, so disjoint sets of them run on parallel threads
+    (the GIL is released)."""
     n_keepers = w.n_keepers
     for b in range(first, w.pos.shape[0], stride):
         book.stepped[b] = 0
         book.n_ended[b] = 0
+        cfg = policies.cfg[b]
+        learner = policies.learner[b]
+        arena_sp = SarsaParams(policies.alpha[b], sp.epsilon, sp.gamma, sp.trace_decay)
         for _ in range(n_cycles):
             if not book.active[b]:
                 break
-            if learning and book.episode_message[b]:
-                sarsa.mode[b * n_keepers:(b + 1) * n_keepers] = book.pass_mode[b]
-            cause = arena_cycle(b, w, c, ref, theta[b], kp, cfg, pl, sarsa, sp, see_out, body_out,
+            if learner >= 0 and book.episode_message[b]:
+                sarsa.mode[learner:learner + n_keepers] = book.pass_mode[b]
+            cause = arena_cycle(b, w, c, ref, theta[b], kp, cfg, learner, pl, sarsa, arena_sp, see_out, body_out,
                                 book.episode_message[b], see_period_ms, cone)
             book.stepped[b] += 1
             book.episode_message[b] = cause != END_NONE
             if cause != END_NONE:
-                if learning:
-                    end_pass_episodes(b, w, pl, sarsa, sp)
+                if learner >= 0:
+                    end_pass_episodes(b, learner, w, pl, sarsa, arena_sp)
                 k = book.n_ended[b]
                 book.episode[b, k] = ref.episode[b] - 1
                 book.start_cycle[b, k] = ref.last_start_cycle[b]
@@ -434,6 +452,16 @@ def _policy_code(table: dict[str, int], name: str, what: str) -> int:
         raise ValueError(f"unknown {what} {name!r}; choose one of {', '.join(table)}") from None
 
 
+def _per_arena(value, batch: int, what: str) -> list:
+    """``value`` for every arena: one for all (a str or a number) or a sequence of ``batch``."""
+    if isinstance(value, (str, int, float, np.number)):
+        return [value] * batch
+    values = list(value)
+    if len(values) != batch:
+        raise ValueError(f"give one {what} or {batch} (one per arena), not {len(values)}")
+    return values
+
+
 def episode_shares(episodes: int, arenas: int) -> np.ndarray:
     """``episodes`` shared out among ``arenas``: ``episodes // arenas`` each plus one in the first
     ``episodes % arenas`` (fixed quotas, :meth:`BatchedArenas.run`)."""
@@ -444,55 +472,73 @@ class BatchedArenas:
     """``batch`` Keepaway arenas (``keepers`` vs ``takers``, every player connected before the start),
     stepped together by compiled kernels. ``seed``: arena b plays the game of one arena seeded
     ``seed + b`` (:func:`arena_seed`), or a sequence gives every arena its own seed, so that arenas of
-    unrelated jobs (other trials, other candidates) can share one batch. ``getopen_theta`` is the GO:L net
-    per arena ((batch, n) or (n,) for all; n = 91 in 3v2), required with ``getopen_policy="learned"`` only. ``threads`` (default
-    numba's thread count, ``NUMBA_NUM_THREADS``) step disjoint sets of arenas side by side; the
-    results do not depend on it. The games continue across :meth:`run` calls.
+    unrelated jobs (other trials, other candidates, other configurations) can share one batch.
+    ``pass_policy`` and ``getopen_policy`` are one name for every arena or one per arena: an arena plays
+    as it would in a batch of its own policies. ``getopen_theta`` is the GO:L net per arena ((batch, n) or
+    (n,) for all; n = 91 in 3v2; the rows of other arenas are not read), required with a learned GetOpen
+    only. ``threads`` (default numba's thread count, ``NUMBA_NUM_THREADS``) step disjoint sets of arenas
+    side by side; the results do not depend on it. The games continue across :meth:`run` calls.
 
-    ``pass_policy="learned"``: each keeper of each arena learns its own Pass policy by SMDP Sarsa
-    (module docstring) with the constants and sizes of ``sarsa`` (default ``runner.job.BATCHED_SARSA``), from
-    zero weights, in ``pass_mode`` (a name of :data:`agents.sarsa.MODE_NAMES`) until :meth:`set_pass_mode`
-    says otherwise; or, with ``learners`` (another batch's ``sarsa``, the same shape and Sarsa
-    configuration), each keeper goes on from the weights of the learner in its place there, as if they had
-    been copied out and loaded (:meth:`pass_policy_arrays`, :meth:`load_pass_arrays`) without the copies:
-    the arenas of a learning job's next chunk take over the last chunk's tables.
+    An arena of ``pass_policy="learned"``: each of its keepers learns its own Pass policy by SMDP Sarsa
+    (module docstring) with the constants and sizes of ``sarsa`` (default ``runner.job.BATCHED_SARSA``) and
+    the arena's step size ``alpha`` (one for all or one per arena; default ``sarsa``'s), from zero weights,
+    in the arena's ``pass_mode`` (a name of :data:`agents.sarsa.MODE_NAMES`, one or one per arena) until
+    :meth:`set_pass_mode` says otherwise; or, with ``learners`` (another batch's ``sarsa``, the same shape and
+    Sarsa configuration: as many learning arenas), each keeper goes on from the weights of the learner in its
+    place there, as if they had been copied out and loaded (:meth:`pass_policy_arrays`,
+    :meth:`load_pass_arrays`) without the copies: the arenas of a learning job's next chunk take over the
+    last chunk's tables. The learner rows are the learning arenas' keepers, in arena order
+    (:attr:`learner_arenas`).
     Arenas learn independently: a trainer that wants more experience per policy picks the best row
     (:meth:`pass_policy_arrays`) and shares it with :meth:`load_pass_arrays`. Averaging weights is only
     meaningful between rows whose collision tables agree (the tile -> slot map depends on the order in
     which tiles were first met), e.g. rows that all started from one loaded policy."""
 
     def __init__(self, params: ServerParams, batch: int, seed: int | Sequence[int], keepers: int = 3, takers: int = 2,
-                 pass_policy: str = "handcoded", getopen_policy: str = "handcoded",
+                 pass_policy: str | Sequence[str] = "handcoded", getopen_policy: str | Sequence[str] = "handcoded",
                  getopen_theta: np.ndarray | None = None, agent_config: AgentConfig = AgentConfig(),
                  threads: int | None = None, sarsa: SarsaConfig | None = None,
-                 pass_mode: str = "learn", learners: SarsaMemory | None = None) -> None:
+                 pass_mode: str | Sequence[str] = "learn", learners: SarsaMemory | None = None,
+                 alpha: float | Sequence[float] | None = None) -> None:
         if batch < 1:
             raise ValueError("batch must be at least 1")
-        mode = _policy_code(MODE_NAMES, pass_mode, "Sarsa mode")
-        if sarsa is not None and pass_policy != "learned":
+        passes = [_policy_code(PASS_POLICIES, name, "Pass policy")
+                  for name in _per_arena(pass_policy, batch, "Pass policy")]
+        getopens = [_policy_code(GETOPEN_POLICIES, name, "GetOpen policy")
+                    for name in _per_arena(getopen_policy, batch, "GetOpen policy")]
+        modes = [_policy_code(MODE_NAMES, name, "Sarsa mode") for name in _per_arena(pass_mode, batch, "Sarsa mode")]
+        learning = np.array(passes) == PASS_POLICIES["learned"]
+        self.learning = bool(learning.any())
+        if sarsa is not None and not self.learning:
             raise ValueError("a Sarsa configuration needs pass_policy='learned'")
         self.threads = max(1, min(batch, numba.config.NUMBA_NUM_THREADS if threads is None else threads))
         self.params = params
         self.kp = params.kernel()
-        self.cfg = dataclasses.replace(
-            agent_config,
-            pass_policy=_policy_code(PASS_POLICIES, pass_policy, "Pass policy"),
-            getopen_policy=_policy_code(GETOPEN_POLICIES, getopen_policy, "GetOpen policy"),
-        ).kernel()
-        self.theta = self._thetas(getopen_theta, getopen_policy, batch, keepers, takers)
+        # arena 0's record; the arenas differ in their policy codes only (self.policies.cfg)
+        self.cfg = dataclasses.replace(agent_config, pass_policy=passes[0], getopen_policy=getopens[0]).kernel()
+        self.theta = self._thetas(getopen_theta, GETOPEN_POLICIES["learned"] in getopens, batch, keepers, takers)
         seeds = [arena_seed(seed, b) for b in range(batch)] if isinstance(seed, (int, np.integer)) else list(seed)
         if len(seeds) != batch:
             raise ValueError(f"give one seed or {batch} (one per arena), not {len(seeds)}")
-        self.learning = pass_policy == "learned"
         self.sarsa_config = (sarsa or BATCHED_SARSA) if self.learning else _NO_LEARNERS
         self.sarsa_params = self.sarsa_config.kernel()
-        learner_rows = batch * keepers if self.learning else 0
+        self.learner_arenas = np.flatnonzero(learning)
+        self.policies = ArenaPolicies(
+            cfg=np.array([dataclasses.replace(agent_config, pass_policy=p, getopen_policy=g).kernel()
+                          for p, g in zip(passes, getopens)], dtype=self.cfg.dtype),
+            alpha=np.array(_per_arena(self.sarsa_config.alpha if alpha is None else alpha, batch, "step size"),
+                           dtype=np.float64),
+            learner=np.full(batch, -1, dtype=np.int64),
+        )
+        self.policies.learner[self.learner_arenas] = np.arange(len(self.learner_arenas)) * keepers
+        learner_modes = np.repeat(np.array(modes, dtype=np.int64)[self.learner_arenas], keepers)
         if learners is None:
-            self.sarsa = new_sarsa_memory(self.sarsa_config, keepers, takers, learner_rows, seeds[0], mode)
+            self.sarsa = new_sarsa_memory(self.sarsa_config, keepers, takers, len(learner_modes), seeds[0])
+            self.sarsa.mode[:] = learner_modes
         else:
-            self.sarsa = self._go_on_with(learners, learner_rows, mode)
-        if self.learning:
-            self.sarsa.rng[:] = [seed_streams(learner_seed(s, k), 1)[0] for s in seeds for k in range(1, keepers + 1)]
+            self.sarsa = self._go_on_with(learners, learner_modes)
+        self.sarsa.rng[:] = [seed_streams(learner_seed(seeds[b], k), 1)[0] for b in self.learner_arenas
+                             for k in range(1, keepers + 1)]
         self.world = new_world(params, keepers, takers, batch=batch)
         self.world.rng[:] = [seed_streams(s, 1)[0] for s in seeds]
         self.world.enabled[:] = True
@@ -523,7 +569,7 @@ class BatchedArenas:
         )
         self.book = Bookkeeping(
             episode_message=np.zeros(batch, dtype=np.bool_),
-            pass_mode=np.full(batch, mode, dtype=np.int64),
+            pass_mode=np.array(modes, dtype=np.int64),
             active=np.zeros(batch, dtype=np.bool_),
             episodes_left=np.zeros(batch, dtype=np.int64),
             stop_cycle=np.zeros(batch, dtype=np.int64),
@@ -540,11 +586,10 @@ class BatchedArenas:
         _start_games(self.world, self.referee, self.kp)
 
     @staticmethod
-    def _thetas(theta: np.ndarray | None, getopen_policy: str, batch: int, keepers: int,
-                takers: int) -> np.ndarray:
+    def _thetas(theta: np.ndarray | None, needed: bool, batch: int, keepers: int, takers: int) -> np.ndarray:
         n = net_size(getopen_state_size(keepers, takers))
         if theta is None:
-            if getopen_policy == "learned":
+            if needed:
                 raise ValueError("the learned GetOpen policy needs getopen_theta")
             return np.zeros((batch, n))
         theta = np.asarray(theta, dtype=np.float64)
@@ -572,40 +617,50 @@ class BatchedArenas:
         self._need_learning()
         code = _policy_code(MODE_NAMES, mode, "Sarsa mode")
         self.book.pass_mode[:] = code
-        self.sarsa.mode.reshape(self.batch, self.keepers)[self.world.time == 0] = code
+        self.sarsa.mode.reshape(-1, self.keepers)[self.world.time[self.learner_arenas] == 0] = code
 
-    def _go_on_with(self, learners: SarsaMemory, rows: int, mode: int) -> SarsaMemory:
-        """``learners`` restarted for these arenas (``learners`` in :meth:`__init__`)."""
+    def _go_on_with(self, learners: SarsaMemory, modes: np.ndarray) -> SarsaMemory:
+        """``learners`` restarted for these arenas' learner rows, in Sarsa ``modes`` (one per row;
+        ``learners`` in :meth:`__init__`)."""
         if not self.learning:
             raise ValueError("learners to go on with need pass_policy='learned'")
-        c = self.sarsa_config
+        c, rows = self.sarsa_config, len(modes)
         shape = (len(learners.mode), learners.weights.shape[1], learners.trace_feature.shape[1],
                  learners.log_action.shape[1])
         if shape != (rows, c.table_size, c.max_traces, c.transition_log_size):
             raise ValueError(f"the learners to go on with must be {rows} of this Sarsa configuration "
                              f"(rows, table, traces, log: {shape})")
-        restart_learners(learners, self.sarsa_config, mode)
+        restart_learners(learners, self.sarsa_config, modes)
         return learners
 
-    def pass_policy_arrays(self) -> list[list[dict[str, np.ndarray]]]:
+    def pass_policy_arrays(self) -> list[list[dict[str, np.ndarray]] | None]:
         """Every keeper's learned Pass policy, ``[arena][keeper]``, as policy-file arrays
         (``agents.sarsa.policy_arrays``; save one with ``agents.policy_file.save_policy(path,
         pass_arrays=..., config={"sarsa": dataclasses.asdict(self.sarsa_config), ...})`` for a player
-        process). Episodes that have ended have had their terminal updates."""
-        return [self.arena_pass_arrays(b) for b in range(self.batch)]
+        process); None for an arena without Pass learners. Episodes that have ended have had their terminal
+        updates."""
+        self._need_learning()
+        return [self.arena_pass_arrays(b) if self.policies.learner[b] >= 0 else None for b in range(self.batch)]
 
     def arena_pass_arrays(self, arena: int) -> list[dict[str, np.ndarray]]:
         """The learned Pass policy of every keeper of ``arena`` (a row of :meth:`pass_policy_arrays`)."""
+        return [policy_arrays(self.sarsa, r) for r in self._learner_rows(arena)]
+
+    def _learner_rows(self, arena: int) -> range:
+        """The Sarsa rows of ``arena``'s keepers; ValueError if it has no Pass learners."""
         self._need_learning()
-        k = self.keepers
-        return [policy_arrays(self.sarsa, arena * k + i) for i in range(k)]
+        first = int(self.policies.learner[arena])
+        if first < 0:
+            raise ValueError(f"arena {arena} has no Pass learners (its pass_policy is not 'learned')")
+        return range(first, first + self.keepers)
 
     def load_pass_arrays(
-        self, arrays: dict[str, np.ndarray] | list[dict[str, np.ndarray]] | list[list[dict[str, np.ndarray]]]
+        self, arrays: dict[str, np.ndarray] | list[dict[str, np.ndarray]] | list[list[dict[str, np.ndarray]] | None]
     ) -> None:
         """Load Pass policies (``pass_policy_arrays`` entries or a policy file's ``pass_arrays``, of this
-        batch's table size): one for every keeper of every arena, a list with one per keeper (the same
-        team in every arena), or ``[arena][keeper]``. Traces and open decisions are cleared (as
+        batch's table size) into the arenas with Pass learners: one for every keeper of every such arena, a
+        list with one per keeper (the same team in every arena), or ``[arena][keeper]`` (None, or anything,
+        for an arena without learners). Traces and open decisions are cleared (as
         ``agents.sarsa.load_policy_arrays``); a keeper in mid-episode starts a fresh SMDP episode at its
         next decision."""
         self._need_learning()
@@ -614,13 +669,14 @@ class BatchedArenas:
             grid = [[arrays] * k for _ in range(self.batch)]
         elif len(arrays) == k and all(isinstance(a, dict) for a in arrays):
             grid = [list(arrays)] * self.batch
-        elif len(arrays) == self.batch and all(not isinstance(row, dict) and len(row) == k for row in arrays):
+        elif len(arrays) == self.batch and all(self.policies.learner[b] < 0 or (
+                row is not None and not isinstance(row, dict) and len(row) == k) for b, row in enumerate(arrays)):
             grid = arrays
         else:
             raise ValueError(f"give one policy, {k} (one per keeper) or [{self.batch}][{k}]")
-        for b, row in enumerate(grid):
-            for i, policy in enumerate(row):
-                load_policy_arrays(self.sarsa, b * k + i, policy)
+        for b in self.learner_arenas:
+            for r, policy in zip(self._learner_rows(b), grid[b]):
+                load_policy_arrays(self.sarsa, r, policy)
 
     def run(self, episodes_per_arena: int | np.ndarray | None = None, total_episodes: int | None = None,
             max_cycles: int | None = None, progress: Callable[[int], None] | None = None) -> EpisodeTable:
@@ -675,7 +731,7 @@ class BatchedArenas:
     def _run_chunk(self, n_cycles: int = CHUNK_CYCLES) -> None:
         """One chunk of ``n_cycles`` cycles of every arena; thread k steps arenas k, k + threads, ...
         (finished arenas are spread evenly)."""
-        args = (n_cycles, self.world, self.commands, self.referee, self.theta, self.kp, self.cfg,
+        args = (n_cycles, self.world, self.commands, self.referee, self.theta, self.kp, self.policies,
                 self.players, self.sarsa, self.sarsa_params, self.see_out, self.body_out, self.book,
                 self.see_period_ms, self.cone)
         if self.threads == 1:
@@ -700,6 +756,7 @@ class BatchedArenas:
 __all__ = [
     "BATCHED_SARSA",
     "CHUNK_CYCLES",
+    "ArenaPolicies",
     "BatchedArenas",
     "Decisions",
     "EpisodeTable",

@@ -9,13 +9,14 @@ coached arena go on learning, and the last chunk's weights are the job's result.
 the same episodes and learns the same weights from one seed (``tests/test_backends.py``); the arenas
 report no transitions.
 
-Independent jobs (:meth:`BatchedBackend.play_all`) share batches: the arenas of every job that the same
-kernels can play (same policy names, Sarsa mode and step size) go into one batch, each arena with its own
-seed, quota, GetOpen net and Pass policies, so a CEM generation's candidates, or the same step of every
-trial of a training, use every thread at once; the learning jobs of a batch play their k-th chunks side
-by side. An arena's game depends neither on its neighbours in the batch nor on the thread that steps it,
-so each job plays exactly as it would alone. A batch holds at most :data:`MAX_ARENAS` arenas and, with
-Pass learners, :data:`MAX_SARSA_BYTES` of their tables; more jobs make more batches.
+Independent jobs (:meth:`BatchedBackend.play_all`) share batches: the learning jobs in one, the frozen
+ones in another, whatever their policies, Sarsa modes and step sizes, each arena with its own seed, quota,
+policy names, GetOpen net, Pass policies, mode and step size (``runner.batched.ArenaPolicies``). So a CEM
+generation's candidates, the same step of every trial of a training, and the steps of several trainings
+(the configurations of an experiment) use every thread at once; the learning jobs of a batch play their
+k-th chunks side by side. An arena's game depends neither on its neighbours in the batch nor on the thread
+that steps it, so each job plays exactly as it would alone. A batch holds at most :data:`MAX_ARENAS`
+arenas and :data:`MAX_SARSA_BYTES` of Pass learners' tables; more jobs make more batches.
 """
 
 from __future__ import annotations
@@ -77,48 +78,55 @@ class BatchedBackend:
         return chunk_seeds(job.seed, job.episodes, self.chunk_episodes)
 
     def _batches(self, jobs: Sequence[Job]) -> list[list[int]]:
-        """Indices of ``jobs`` grouped into batches the same kernels play, in order, within the limits
-        (a learning job takes one arena at a time, a frozen one an arena per chunk)."""
-        arena_bytes = self.game.keepers * self.game.sarsa.table_size * 16
-        open_batches: dict[tuple, tuple[list[int], int]] = {}
+        """Indices of ``jobs`` grouped into batches, in order, within the limits: the learning jobs (one
+        arena at a time each) apart from the frozen ones (an arena per chunk)."""
+        max_learners = max(1, MAX_SARSA_BYTES // (self.game.keepers * self.game.sarsa.table_size * 16))
+        open_batches: dict[bool, tuple[list[int], int, int]] = {}  # learns -> (members, arenas, learner arenas)
         batches: list[list[int]] = []
         for i, job in enumerate(jobs):
-            b = job.behaviours
-            learned = b.pass_policy == LEARNED
-            key = (b.pass_policy, b.getopen_policy, job.pass_mode if learned else None, job.alpha if learned else None)
             n = 1 if job.learns else len(self._plan(job))
-            limit = min(MAX_ARENAS, max(1, MAX_SARSA_BYTES // arena_bytes)) if learned else MAX_ARENAS
-            members, size = open_batches.get(key, ([], 0))
-            if members and size + n > limit:
-                members, size = [], 0
+            learners = n if job.behaviours.pass_policy == LEARNED else 0
+            members, arenas, learning = open_batches.get(job.learns, ([], 0, 0))
+            if members and (arenas + n > MAX_ARENAS or learning + learners > max_learners):
+                members, arenas, learning = [], 0, 0
             if not members:
                 batches.append(members)
             members.append(i)
-            open_batches[key] = (members, size + n)
+            open_batches[job.learns] = (members, arenas + n, learning + learners)
         return batches
 
-    def _arenas(self, first: Job, seeds: list[int], nets: list[np.ndarray | None],
-                learners: SarsaMemory | None = None) -> BatchedArenas:
-        """Fresh arenas, one per seed, playing ``first``'s kernel configuration (the batch's), arena a with
-        GetOpen net ``nets[a]`` (and, if given, going on with ``learners``: ``BatchedArenas``)."""
-        game = self.game.learning_at(first.alpha)
-        behaviours = first.behaviours
-        learning = ({"sarsa": game.sarsa, "pass_mode": first.pass_mode, "learners": learners}
-                    if behaviours.pass_policy == LEARNED else {})
-        thetas = None if behaviours.getopen_policy != LEARNED else np.stack(nets)
+    def _arenas(self, owners: list[Job], seeds: list[int], learners: SarsaMemory | None = None) -> BatchedArenas:
+        """Fresh arenas, one per seed, arena a playing the policies, GetOpen net, Sarsa mode and step size of
+        job ``owners[a]`` (and, if given, going on with ``learners``: ``BatchedArenas``)."""
+        game = self.game
+        behaviours = [job.behaviours for job in owners]
+        learning = ({"sarsa": game.sarsa, "learners": learners}
+                    if any(b.pass_policy == LEARNED for b in behaviours) else {})
+        thetas = None
+        if any(b.getopen_policy == LEARNED for b in behaviours):
+            nets = [b.getopen_net for b in behaviours]
+            unused = np.zeros_like(next(net for net in nets if net is not None))
+            thetas = np.stack([unused if net is None else net for net in nets])
         return BatchedArenas(game.params, len(seeds), seeds, keepers=game.keepers, takers=game.takers,
-                             pass_policy=behaviours.pass_policy, getopen_policy=behaviours.getopen_policy,
-                             getopen_theta=thetas, agent_config=game.agent, threads=self.threads, **learning)
+                             pass_policy=[b.pass_policy for b in behaviours],
+                             getopen_policy=[b.getopen_policy for b in behaviours], getopen_theta=thetas,
+                             agent_config=game.agent, threads=self.threads, pass_mode=[job.pass_mode for job in owners],
+                             alpha=[game.sarsa.alpha if job.alpha is None else job.alpha for job in owners], **learning)
+
+    @staticmethod
+    def _load_pass_arrays(batch: BatchedArenas, weights: list[list[PassArrays] | None]) -> None:
+        """Load ``weights[a]`` into arena a where given, fresh learners' (zero) weights into the other
+        arenas with Pass learners, as a job of fresh learners beside jobs of loaded ones needs."""
+        if any(w is not None for w in weights):
+            fresh = batch.arena_pass_arrays(int(batch.learner_arenas[0]))
+            batch.load_pass_arrays([w or fresh for w in weights])
 
     def _play_batch(self, jobs: list[Job], progress: Progress | None) -> list[Played]:
         """Frozen jobs side by side in one batch of fresh arenas, an arena per chunk."""
         plans = [self._plan(job) for job in jobs]
         owner = [j for j, plan in enumerate(plans) for _ in plan]
-        batch = self._arenas(jobs[0], [s for plan in plans for _, s in plan],
-                             [jobs[j].behaviours.getopen_net for j in owner])
-        if any(job.behaviours.pass_arrays is not None for job in jobs):
-            fresh = batch.arena_pass_arrays(0)  # for jobs of fresh learners beside jobs of loaded ones
-            batch.load_pass_arrays([jobs[j].behaviours.pass_arrays or fresh for j in owner])
+        batch = self._arenas([jobs[j] for j in owner], [s for plan in plans for _, s in plan])
+        self._load_pass_arrays(batch, [jobs[j].behaviours.pass_arrays for j in owner])
         start = time.perf_counter()
         table = batch.run(episodes_per_arena=np.array([n for plan in plans for n, _ in plan]),
                           progress=_reporter(progress))
@@ -150,11 +158,10 @@ class BatchedBackend:
             go_on = last is not None and playing == last_playing
             if last is not None and not go_on:
                 copy_out()
-            batch = self._arenas(jobs[0], [plans[j][k][1] for j in playing],
-                                 [jobs[j].behaviours.getopen_net for j in playing], last.sarsa if go_on else None)
-            if not go_on and any(weights[j] is not None for j in playing):
-                fresh = batch.arena_pass_arrays(0)
-                batch.load_pass_arrays([weights[j] or fresh for j in playing])
+            batch = self._arenas([jobs[j] for j in playing], [plans[j][k][1] for j in playing],
+                                 last.sarsa if go_on else None)
+            if not go_on:
+                self._load_pass_arrays(batch, [weights[j] for j in playing])
             table = batch.run(episodes_per_arena=np.array([plans[j][k][0] for j in playing]),
                               progress=_reporter(progress))
             for j, rows in zip(playing, _arena_rows(table, range(len(playing)))):

@@ -77,10 +77,17 @@ def test_every_backend_plays_independent_jobs_together_as_each_alone(backends, m
     # Jobs of the same step of several trials: two learning jobs (fresh and trained learners), frozen
     # jobs of the same and of other policies, more arenas than episodes; together (the batched backend:
     # in shared batches) each plays as it does alone.
+    # The batched backend plays the learning jobs in one batch and the frozen ones in another, whatever
+    # their policies, modes and step sizes (runner/batched_backend.py).
     backend = backends[mode]
     trained = replace(LEARNING, pass_arrays=backend.play(LEARNING, 21, 2, LEARN).pass_arrays)
+    net = np.random.default_rng(3).uniform(-0.5, 0.5, getopen_theta_size())
     jobs = [Job(LEARNING, 22, 3, LEARN), Job(trained, 23, 2, LEARN), Job(trained, 24, 3, GREEDY),
-            Job(FROZEN, 25, 2, GREEDY), Job(trained, 26, 3, GREEDY, alpha=0.5), Job(LEARNING, 27, 2, GREEDY)]
+            Job(FROZEN, 25, 2, GREEDY), Job(trained, 26, 3, GREEDY, alpha=0.5), Job(LEARNING, 27, 2, GREEDY),
+            Job(replace(trained, getopen_policy="learned", getopen_theta=net), 28, 3, LEARN, alpha=0.03),
+            Job(Behaviours("random", "learned", net), 29, 2, GREEDY), Job(FROZEN_HC, 30, 3, GREEDY)]
+    if mode == "batched":
+        assert backend._batches(jobs) == [[0, 1, 6], [2, 3, 4, 5, 7, 8]]
     for together, job in zip(backend.play_all(jobs), jobs, strict=True):
         assert_same_played(together, backend.play_all([job])[0])
 

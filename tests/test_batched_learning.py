@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from agents.player import sarsa_pass_factory
+from agents.policy_file import getopen_theta_size
 from agents.sarsa import MODE_EXPLORE, MODE_GREEDY, MODE_LEARN, NO_ACTION, SarsaConfig
 from protocol.params import parameter_set
 from runner.batched import BatchedArenas
@@ -149,6 +150,42 @@ def test_policies_export_and_import_per_keeper_or_shared():
                                 "pass_hash_counts": np.zeros(3, np.int64)})
     with pytest.raises(ValueError, match="no Pass learners"):
         BatchedArenas(PARAMS, 1, 0).set_pass_mode("greedy")
+
+
+# (pass policy, GetOpen policy, Sarsa mode, step size) of the arenas of one mixed batch: learners of two
+# step sizes and two modes, a learned GetOpen with and without Pass learners, hand-coded and random Pass
+MIXED = (("handcoded", "handcoded", "learn", SMALL.alpha), ("learned", "learned", "learn", 0.5),
+         ("random", "learned", "learn", SMALL.alpha), ("learned", "handcoded", "explore", SMALL.alpha),
+         ("handcoded", "random", "greedy", SMALL.alpha), ("learned", "handcoded", "learn", 0.03))
+
+
+def test_arenas_of_different_configurations_share_a_batch_and_each_plays_and_learns_as_alone():
+    theta = np.random.default_rng(4).uniform(-0.5, 0.5, getopen_theta_size(K, T))
+    seeds = [40 + a for a in range(len(MIXED))]
+    passes, getopens, modes, alphas = (list(column) for column in zip(*MIXED))
+    mixed = BatchedArenas(PARAMS, len(MIXED), seeds, pass_policy=passes, getopen_policy=getopens,
+                          getopen_theta=theta, pass_mode=modes, alpha=alphas, sarsa=SMALL, threads=2)
+    assert mixed.learner_arenas.tolist() == [1, 3, 5] and len(mixed.sarsa.mode) == 3 * K
+    table = mixed.run(episodes_per_arena=4)
+    grid = mixed.pass_policy_arrays()
+    assert [row is None for row in grid] == [p != "learned" for p in passes]
+    for a, (pass_policy, getopen_policy, mode, alpha) in enumerate(MIXED):
+        learns = pass_policy == "learned"
+        alone = BatchedArenas(PARAMS, 1, [seeds[a]], pass_policy=pass_policy, getopen_policy=getopen_policy,
+                              getopen_theta=theta if getopen_policy == "learned" else None, pass_mode=mode,
+                              alpha=alpha, sarsa=SMALL if learns else None, threads=1)
+        np.testing.assert_array_equal(table_rows(table, a), table_rows(alone.run(episodes_per_arena=4)))
+        if learns:
+            for mine, theirs in zip(grid[a], alone.arena_pass_arrays(0), strict=True):
+                for name in mine:
+                    np.testing.assert_array_equal(mine[name], theirs[name], err_msg=f"arena {a} {name}")
+    weights = [np.abs(row[0]["pass_weights"]).sum() for row in grid if row is not None]
+    assert weights[0] > 0.0 and weights[1] == 0.0 and weights[2] > 0.0  # explore does not update
+    with pytest.raises(ValueError, match="arena 0 has no Pass learners"):
+        mixed.arena_pass_arrays(0)
+    mixed.load_pass_arrays(grid)  # None where an arena has no learners
+    with pytest.raises(ValueError, match="one per arena"):
+        BatchedArenas(PARAMS, 2, 0, pass_policy=["learned"])
 
 
 def test_the_batched_default_table_is_small_and_holds_a_keepers_tiles():

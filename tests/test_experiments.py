@@ -347,6 +347,31 @@ def test_configurations_trained_in_worker_processes_give_the_same_results(finish
     assert reported.index("P:L-GO:HC") < reported.index("P:R-GO:R")
 
 
+def test_configurations_trained_together_give_the_same_results_and_table2_too(finished, tmp_path):
+    # The five learning configurations side by side in one process (trainer.experiments.train_together:
+    # their jobs in shared batches of arenas of different policies), then the four fixed ones; then
+    # Table 2, whose 18 cross-tests per trial share one batch.
+    result = invoke("figure3", tmp_path, "--together", "--threads", "2")
+    assert result.exit_code == 0, result.output + repr(result.exception)
+    ours, theirs = (json.loads((where / "figure3.json").read_text())["configurations"]
+                    for where in (tmp_path, finished))
+    assert [(c["name"], c["curve"]) for c in ours] == [(c["name"], c["curve"]) for c in theirs]
+    for name in NAMES:
+        where = tmp_path / name.replace(":", "_")
+        assert [read_curve_csv(where / f"trial_{t:03d}" / "curve.csv") for t in range(2)] == \
+            [read_curve_csv(finished / name.replace(":", "_") / f"trial_{t:03d}" / "curve.csv") for t in range(2)]
+    assert experiments.Timing.read(tmp_path / "together").sittings == 1
+    reported = [line.split(": ")[0] for line in result.output.splitlines() if line.startswith("P:")]
+    assert sorted(reported) == sorted(NAMES)
+    assert "P:L-GO:HC: done; final evaluation" in result.output and "timed with the others" in result.output
+    result = invoke("table2", tmp_path, "--together")
+    assert result.exit_code == 0, result.output + repr(result.exception)
+    assert "finished before, skipped" in result.output
+    assert (tmp_path / "table2.md").read_text() == (finished / "table2.md").read_text()
+    both = invoke("figure3", tmp_path / "both", "--together", "--workers", "2")
+    assert both.exit_code == 2 and "not both" in both.output
+
+
 def children_of(pid: int) -> set[int]:
     """The direct children of ``pid`` (from /proc)."""
     found = set()

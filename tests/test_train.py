@@ -40,6 +40,7 @@ from runner.job import LEARN
 from trainer.train import (
     TrainConfig,
     TrialState,
+    advance_trainings,
     initial_behaviours,
     load_checkpoint,
     read_config,
@@ -340,6 +341,33 @@ def test_trials_trained_together_end_as_each_trained_alone(tmp_path):
     for mine, alone in zip(together.behaviours.pass_arrays, state.behaviours.pass_arrays, strict=True):
         for name in mine:
             np.testing.assert_array_equal(mine[name], alone[name], err_msg=name)
+
+
+def test_trainings_of_different_configurations_advanced_together_end_as_each_alone():
+    # An experiment's configurations side by side (trainer.train.advance_trainings): Algorithm 3, GO:L
+    # beside random Pass, and P:L-GO:HC with an annealed step size; their jobs share batches of arenas of
+    # different policies (runner.batched.ArenaPolicies), and each trial ends as it does alone.
+    configs = [algorithm_3_config(), tiny_config(trials=1),
+               replace(algorithm_3_config(), getopen_policy="handcoded", schedule=(Phase(PASS, 8),),
+                       pass_alpha_halflife=4, seed=7)]
+    backend = BatchedBackend(configs[0].game(), threads=2)
+    pairs = [(config, TrialState(0, initial_behaviours(config, 0))) for config in configs]
+    while running := [(c, s) for c, s in pairs if not s.finished(c)]:
+        advance_trainings(running, backend)
+    for config, together in pairs:
+        alone = TrialState(0, initial_behaviours(config, 0))
+        while not alone.finished(config):
+            step(config, alone, BatchedBackend(config.game(), threads=1))
+        assert together.curve == alone.curve and together.trace == alone.trace
+        assert (together.behaviours.getopen_theta is None) == (alone.behaviours.getopen_theta is None)
+        if alone.behaviours.getopen_theta is not None:
+            np.testing.assert_array_equal(together.behaviours.getopen_theta, alone.behaviours.getopen_theta)
+        for mine, theirs in zip(together.behaviours.pass_arrays or [], alone.behaviours.pass_arrays or [], strict=True):
+            for name in mine:
+                np.testing.assert_array_equal(mine[name], theirs[name], err_msg=name)
+    with pytest.raises(ValueError, match="the backend's game"):
+        advance_trainings([(replace(configs[0], sarsa=replace(configs[0].sarsa, hive_mind=True)), pairs[0][1])],
+                          backend)
 
 
 def test_algorithm_3_alternates_cem_and_sarsa_and_resumes_inside_a_pass_phase(tmp_path, monkeypatch):

@@ -58,6 +58,10 @@ def experiment_options(command: Command) -> Command:
                      help="Configurations trained at once, each in its own process on one thread (unless "
                           "--threads says otherwise), the longest first: one per core is the fastest way "
                           "through a study. The results are the same."),
+        click.option("--together", is_flag=True,
+                     help="Train the learning configurations side by side in this process instead: each round "
+                          "is one step of every configuration's trials, their arenas in shared batches of "
+                          "--threads threads (the batched backend). The results are the same."),
         click.option("--no-progress", is_flag=True, help="No progress bars."),
     ]
     return with_options(options, command)
@@ -88,12 +92,14 @@ def _experiment(trials: int, episodes: int, eval_every: int | None, eval_episode
 
 def _report(run: Any) -> None:
     from runner.report import format_hold
+    from trainer.experiments import TIMING, TOGETHER
 
     final = run.final()
     state = "finished before, skipped" if run.skipped else "done"
+    # a configuration trained together with others has no sittings of its own
+    timing = run.timing.text() if run.timing.sittings else f"timed with the others in {TOGETHER}/{TIMING}"
     click.echo(f"{run.name}: {state}; final evaluation "
-               f"{format_hold(final.mean_hold_time_s, final.stderr_hold_time_s, run.stderr_basis())}; "
-               f"{run.timing.text()}")
+               f"{format_hold(final.mean_hold_time_s, final.stderr_hold_time_s, run.stderr_basis())}; {timing}")
 
 
 def _run(what: Callable[..., Any], exp: Any, where: Placement, out: Path, no_progress: bool) -> Any:
@@ -125,7 +131,8 @@ def experiment_group() -> None:
 @click.option("--only", "only", multiple=True, metavar="P:X-GO:Y",
               help="Run just this configuration (repeat for more) and draw nothing: split the nine across "
                    "processes sharing --out, then run once without --only to draw the figure.")
-def figure3_command(out: Path, no_progress: bool, only: tuple[str, ...], workers: int, **settings: Any) -> None:
+def figure3_command(out: Path, no_progress: bool, only: tuple[str, ...], workers: int, together: bool,
+                    **settings: Any) -> None:
     """Train the nine Pass x GetOpen configurations and plot them grouped by Pass and by GetOpen."""
     from trainer.experiments import figure3, parse_configurations
 
@@ -134,7 +141,7 @@ def figure3_command(out: Path, no_progress: bool, only: tuple[str, ...], workers
         chosen = parse_configurations(only) if only else None
     except ValueError as exc:
         raise click.BadParameter(str(exc), param_hint="--only") from None
-    _run(functools.partial(figure3, only=chosen, workers=workers), exp, where, out, no_progress)
+    _run(functools.partial(figure3, only=chosen, workers=workers, together=together), exp, where, out, no_progress)
     if chosen is None:
         click.echo(f"figure: {out / 'figure3.png'}; final evaluations: {out / 'figure3.csv'}, {out / 'figure3.json'}")
     else:
@@ -143,12 +150,12 @@ def figure3_command(out: Path, no_progress: bool, only: tuple[str, ...], workers
 
 @experiment_group.command("table2")
 @experiment_options
-def table2_command(out: Path, no_progress: bool, workers: int, **settings: Any) -> None:
+def table2_command(out: Path, no_progress: bool, workers: int, together: bool, **settings: Any) -> None:
     """Test each learned Pass policy with every GetOpen and each learned GetOpen with every Pass."""
     from trainer.experiments import table2
 
     exp, where = _experiment(**settings)
-    tables = _run(functools.partial(table2, workers=workers), exp, where, out, no_progress)
+    tables = _run(functools.partial(table2, workers=workers, together=together), exp, where, out, no_progress)
     click.echo("")
     for table in tables:
         click.echo(table.markdown())

@@ -86,12 +86,21 @@ from trainer.schedule import (
 )
 from trainer.train import (
     TrainConfig,
+    TrialState,
+    advance_trainings,
     evaluation_job,
     hive_mind_sarsa,
     load_checkpoint,
+    load_trials,
+    planned_episodes,
+    played_episodes,
     read_config,
+    record_step,
     train,
     trial_dir,
+    write_config,
+    write_summary,
+    write_trial_outputs,
 )
 
 POLICIES = ("random", "handcoded", LEARNED)  # the paper's R, HC, L, in its order
@@ -325,17 +334,25 @@ def run_configuration(exp: ExperimentConfig, pass_policy: str, getopen_policy: s
     if LEARNED not in (pass_policy, getopen_policy):
         run = _run_fixed(exp, pass_policy, getopen_policy, where, placement, progress)
         return replace(run, timing=Timing.read(where))
-    config = exp.train_config(pass_policy, getopen_policy)
-    started = (where / "config.json").is_file()
-    if started and read_config(where) != config:
-        raise ValueError(f"{where} holds a different training of {name}; use another --out or the same settings")
-    summary = _read_json(where / "summary.json") if started else None
+    config, started, summary = _training(exp, pass_policy, getopen_policy, where)
     skipped = _finished(summary, config.trials)
     if not skipped:
         with timed_sitting(where):
             summary = train(config, where, resume=started, progress=progress, placement=placement)
     return ConfigurationRun(name, pass_policy, getopen_policy, _trial_curves(summary), skipped,
                             config.eval_episodes, Timing.read(where))
+
+
+def _training(exp: ExperimentConfig, pass_policy: str, getopen_policy: str,
+              where: Path) -> tuple[TrainConfig, bool, dict[str, Any] | None]:
+    """A learning configuration's training, whether ``where`` holds it begun, and its summary if any;
+    ValueError if ``where`` holds a different one."""
+    config = exp.train_config(pass_policy, getopen_policy)
+    started = (where / "config.json").is_file()
+    if started and read_config(where) != config:
+        raise ValueError(f"{where} holds a different training of {configuration_name(pass_policy, getopen_policy)}; "
+                         f"use another --out or the same settings")
+    return config, started, _read_json(where / "summary.json") if started else None
 
 
 def _run_fixed(exp: ExperimentConfig, pass_policy: str, getopen_policy: str, where: Path, placement: Placement,
@@ -415,18 +432,20 @@ def parse_configurations(names: Sequence[str]) -> list[tuple[str, str]]:
 
 def figure3(exp: ExperimentConfig, out: Path, placement: Placement = Placement(), progress: bool = True,
             on_configuration: Callable[[ConfigurationRun], None] | None = None,
-            only: Sequence[tuple[str, str]] | None = None, workers: int = 1) -> list[ConfigurationRun]:
+            only: Sequence[tuple[str, str]] | None = None, workers: int = 1,
+            together: bool = False) -> list[ConfigurationRun]:
     """Run the nine configurations in ``out`` (each skipped when finished), then write ``figure3.png``
     (:func:`plot_figure3`), ``figure3.csv`` and ``figure3.json`` (final evaluations); returns the runs
     in the order P:R-GO:R, P:R-GO:HC, ..., P:L-GO:L. With ``only`` (pairs from :func:`parse_configurations`)
     just those configurations run and nothing experiment-wide is written: processes or machines sharing
     ``out`` can each take some, and a last run without ``only`` finds them all finished and draws the figure.
     With ``workers`` > 1 the configurations run in that many worker processes at once
-    (:func:`run_in_workers`); the results are the same."""
+    (:func:`run_in_workers`), with ``together`` the learning ones side by side in this process
+    (:func:`train_together`); the results are the same."""
     exp.check()
     out.mkdir(parents=True, exist_ok=True)
     runs = run_configurations(exp, CONFIGURATIONS if only is None else only, out, placement, progress,
-                              on_configuration, workers)
+                              on_configuration, workers, together)
     if only is None:
         plot_figure3(out / "figure3.png", runs)
         write_final_evaluations(out, exp, runs)
@@ -436,18 +455,93 @@ def figure3(exp: ExperimentConfig, out: Path, placement: Placement = Placement()
 def run_configurations(exp: ExperimentConfig, configurations: Sequence[tuple[str, str]], out: Path,
                        placement: Placement, progress: bool,
                        on_configuration: Callable[[ConfigurationRun], None] | None,
-                       workers: int) -> list[ConfigurationRun]:
-    """:func:`run_configuration` of each of ``configurations``, one after another or in ``workers``
-    processes at once (:func:`run_in_workers`; no progress bars there), each reported to
+                       workers: int, together: bool = False) -> list[ConfigurationRun]:
+    """:func:`run_configuration` of each of ``configurations``, one after another, in ``workers``
+    processes at once (:func:`run_in_workers`; no progress bars there) or, ``together``, the learning
+    ones side by side in this process (:func:`train_together`) and then the others; each reported to
     ``on_configuration`` as it ends; the runs in the order of ``configurations``."""
     report = on_configuration or (lambda run: None)
+    if workers > 1 and together:
+        raise ValueError("choose worker processes or configurations trained together, not both")
     if workers > 1:
         done = run_in_workers(exp, configurations, out, placement, workers, report)
         return [done[config] for config in configurations]
-    runs = []
+    done = train_together(exp, [c for c in configurations if LEARNED in c], out, placement, progress,
+                          report) if together else {}
     for pass_policy, getopen_policy in configurations:
-        runs.append(run_configuration(exp, pass_policy, getopen_policy, out, placement, progress))
-        report(runs[-1])
+        if (pass_policy, getopen_policy) not in done:
+            done[pass_policy, getopen_policy] = run_configuration(exp, pass_policy, getopen_policy, out, placement,
+                                                                  progress)
+            report(done[pass_policy, getopen_policy])
+    return [done[config] for config in configurations]
+
+
+TOGETHER = "together"  # the directory of the sittings of configurations trained together (its timing.json)
+
+
+def train_together(exp: ExperimentConfig, configurations: Sequence[tuple[str, str]], out: Path,
+                   placement: Placement, progress: bool,
+                   on_configuration: Callable[[ConfigurationRun], None]) -> dict[tuple[str, str], ConfigurationRun]:
+    """Train the learning ``configurations`` side by side on one backend: a round is one step of every
+    unfinished trial of every configuration (``trainer.train.advance_trainings``), so the batched
+    backend plays their jobs in shared batches of arenas of different policies. Each configuration's
+    directory, checkpoints and outputs are those of :func:`run_configuration`, and so are its results
+    (its trials play as they would alone); each is reported as its last trial ends. The sittings' wall
+    and CPU time are recorded for the configurations together, in ``out/together/timing.json``;
+    configurations of different games (``--pass-hive-mind`` gives the Pass learners theirs) train in
+    groups, one group after another."""
+    from tqdm import tqdm
+
+    runs: dict[tuple[str, str], ConfigurationRun] = {}
+    training: dict[tuple[str, str], tuple[TrainConfig, Path, list[TrialState]]] = {}
+    for pass_policy, getopen_policy in configurations:
+        where = configuration_dir(out, pass_policy, getopen_policy)
+        config, started, summary = _training(exp, pass_policy, getopen_policy, where)
+        if _finished(summary, config.trials):
+            runs[pass_policy, getopen_policy] = ConfigurationRun(
+                configuration_name(pass_policy, getopen_policy), pass_policy, getopen_policy,
+                _trial_curves(summary), True, config.eval_episodes, Timing.read(where))
+            on_configuration(runs[pass_policy, getopen_policy])
+            continue
+        if not started:
+            write_config(config, where)
+        training[pass_policy, getopen_policy] = (config, where, load_trials(config, where))
+    if not training:
+        return runs
+
+    def finish(pair: tuple[str, str]) -> None:
+        config, where, states = training.pop(pair)
+        for state in states:
+            write_trial_outputs(config, where, state)
+        summary = write_summary(config, where, states)
+        runs[pair] = ConfigurationRun(configuration_name(*pair), *pair, _trial_curves(summary), False,
+                                      config.eval_episodes, Timing.read(where))
+        on_configuration(runs[pair])
+
+    groups: dict[Any, list[tuple[str, str]]] = {}
+    for pair, (config, _, _) in training.items():
+        groups.setdefault(config.game(), []).append(pair)
+    with timed_sitting(out / TOGETHER), tqdm(
+            total=sum(planned_episodes(c) * c.trials for c, _, _ in training.values()), unit="ep",
+            dynamic_ncols=True, desc=f"{len(training)} configurations together", disable=not progress,
+            initial=sum(played_episodes(c, s) for c, _, states in training.values() for s in states)) as bar:
+        for game, pairs in groups.items():
+            backend = open_backend(exp.mode, game, TrainConfig().parameter_set, exp.arenas, out / TOGETHER / "arenas",
+                                   placement, exp.chunk_episodes)
+            try:
+                while running := [(pair, state) for pair in pairs if pair in training
+                                  for state in training[pair][2] if not state.finished(training[pair][0])]:
+                    start = time.perf_counter()
+                    advance_trainings([(training[pair][0], state) for pair, state in running], backend, bar.update)
+                    share = (time.perf_counter() - start) / len(running)
+                    for pair, state in running:
+                        record_step(training[pair][0], training[pair][1], state, share)
+                    for pair in dict.fromkeys(pair for pair, _ in running):
+                        config, _, states = training[pair]
+                        if all(state.finished(config) for state in states):
+                            finish(pair)
+            finally:
+                backend.close()
     return runs
 
 
@@ -840,9 +934,10 @@ class CrossTable:
 
 
 def table2(exp: ExperimentConfig, out: Path, placement: Placement = Placement(), progress: bool = True,
-           on_configuration: Callable[[ConfigurationRun], None] | None = None, workers: int = 1) -> list[CrossTable]:
+           on_configuration: Callable[[ConfigurationRun], None] | None = None, workers: int = 1,
+           together: bool = False) -> list[CrossTable]:
     """Train the five configurations Table 2 needs (as :func:`figure3` would, in the same directories, in
-    ``workers`` processes), cross-test every trial's learned policies (cached per trial in
+    ``workers`` processes or ``together``), cross-test every trial's learned policies (cached per trial in
     ``table2_tests/``, so a re-run only plays what is missing), and write ``table2.json`` and
     ``table2.md``; returns the Pass and GetOpen tables."""
     from tqdm import tqdm
@@ -851,7 +946,7 @@ def table2(exp: ExperimentConfig, out: Path, placement: Placement = Placement(),
     out.mkdir(parents=True, exist_ok=True)
     needed = {trained_configuration(s, p) for s in STUDIES for p in POLICIES}
     run_configurations(exp, [c for c in CONFIGURATIONS if c in needed], out, placement, progress, on_configuration,
-                       workers)
+                       workers, together)
     tests = out / "table2_tests"
     tests.mkdir(exist_ok=True)
     settings = asdict(exp)

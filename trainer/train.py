@@ -48,7 +48,7 @@ import io
 import json
 import os
 import time
-from collections.abc import Callable, Generator
+from collections.abc import Callable, Generator, Sequence
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -291,7 +291,17 @@ def advance(config: TrainConfig, states: list[TrialState], backend: Backend,
     (``Backend.play_all``): a step is one round of jobs (an evaluation, a Pass block, a generation's
     candidates) or, in a ``both`` phase, one round per candidate. Trials are independent and every job
     plays as it would alone, so each trial ends exactly as if it had been trained by itself."""
-    steps = [_step_jobs(config, state) for state in states]
+    return advance_trainings([(config, state) for state in states], backend, progress)
+
+
+def advance_trainings(trials: Sequence[tuple[TrainConfig, TrialState]], backend: Backend,
+                      progress: Progress | None = None) -> list[str]:
+    """:func:`advance` of trials of several trainings of the backend's game (an experiment's
+    configurations): one step of each, all their jobs played together round by round; the batched
+    backend plays arenas of different policies in one batch, so each round fills its threads."""
+    if any(config.game() != backend.game for config in {id(config): config for config, _ in trials}.values()):
+        raise ValueError("trainings advanced together must play the backend's game")
+    steps = [_step_jobs(config, state) for config, state in trials]
     asked: dict[int, list[Job]] = {i: next(jobs) for i, jobs in enumerate(steps)}
     what: dict[int, str] = {}
     while asked:
@@ -580,15 +590,21 @@ def run_trials(config: TrainConfig, out: Path, states: list[TrialState], backend
         steps = advance(config, running, backend, progress)
         share = (time.perf_counter() - start) / len(running)
         for state, what in zip(running, steps):
-            state.wall_s += share
-            write_transitions(out, state)
-            save_checkpoint(out, state)
-            write_trial_outputs(config, out, state)
+            record_step(config, out, state, share)
             if on_step is not None:
                 on_step(state, what)
     for state in states:
         write_trial_outputs(config, out, state)
     return states
+
+
+def record_step(config: TrainConfig, out: Path, state: TrialState, wall_s: float) -> None:
+    """After a step of ``state`` (of the training in ``out``) that took ``wall_s`` of its share of the wall
+    time: its transitions, checkpoint and outputs written."""
+    state.wall_s += wall_s
+    write_transitions(out, state)
+    save_checkpoint(out, state)
+    write_trial_outputs(config, out, state)
 
 
 def played_episodes(config: TrainConfig, state: TrialState) -> int:
@@ -638,6 +654,7 @@ __all__ = [
     "TrainConfig",
     "TrialState",
     "advance",
+    "advance_trainings",
     "evaluate",
     "evaluation_job",
     "initial_behaviours",
@@ -646,6 +663,7 @@ __all__ = [
     "open_training_backend",
     "phase_at",
     "read_config",
+    "record_step",
     "run_trials",
     "save_checkpoint",
     "step",
