@@ -124,6 +124,7 @@ class Server:
         self.window_opened = time.monotonic()  # of the wall-time budget window (server/intake.py)
         self.percepts_cycle = -1  # the last cycle whose percepts went out
         self.absent: dict[int, int] = {}  # object -> cycles of this episode stepped without its command
+        self.show_due = False  # the game log's show of the last step is still to be written (_write_show)
         self._t0 = time.monotonic()
 
     # -- lifecycle -----------------------------------------------------------------------------------
@@ -184,6 +185,7 @@ class Server:
 
     def close(self) -> None:
         reason = self.stop_reason or "server stopped"
+        self._write_show()
         self._close_budget_windows(seated=True)
         self._close_budget_windows(seated=False)
         shutdown = encode(m.Shutdown(cycle=self.arena.cycle, reason=reason))
@@ -213,6 +215,7 @@ class Server:
                 break
             cycle = self.arena.cycle
             self._send_cycle_percepts(think=True)
+            self._write_show()
             deadline = time.monotonic() + cfg.cycle_timeout_s
             while self.stop_reason is None and not self._all_answered(cycle):
                 remaining = deadline - time.monotonic()
@@ -242,6 +245,7 @@ class Server:
             if sent_cycle < self.arena.cycle:
                 sent_cycle = self.arena.cycle
                 self._send_cycle_percepts(think=False, see=False)
+                self._write_show()
                 to_think = set(self.conns)  # who got this cycle's sense_body and has no think yet
             now = time.monotonic()
             for ident, conn in list(self.conns.items()):
@@ -279,6 +283,7 @@ class Server:
         Hears queued just before the resume still go out bare, so none waits for the next percepts."""
         if not self.paused:
             return 0.0
+        self._write_show()  # before the coach may reset the field
         start = time.monotonic()
         self.standing_still = True
         try:
@@ -346,8 +351,7 @@ class Server:
         self._count_absent()
         record = self.arena.step()
         self._close_budget_windows(seated=True)
-        if self.rcg is not None:
-            self.rcg.step()
+        self.show_due = self.rcg is not None
         if self._subscribed(MONITOR_FRAME_TOPIC):
             self._publish(MONITOR_FRAME_TOPIC, m.Frame(cycle=self.arena.cycle, **truth_state(self.arena),
                                                        getopen=self.arena.step_notes))
@@ -356,6 +360,16 @@ class Server:
         cfg = self.config
         if cfg.max_cycles is not None and self.arena.cycle >= cfg.max_cycles:
             self.request_stop(f"reached {cfg.max_cycles} cycles")
+
+    def _write_show(self) -> None:
+        """The game log's show of the last step, if not yet written. The loops call this once the next
+        cycle's percepts are out, while the players think, rather than between the step and those
+        percepts, where the server works alone (docs/design.md, "Processes and sockets"): sending percepts
+        changes nothing a show holds, and nothing else happens in between but a pause, which writes it
+        first. It is the same show, and the last one is written when the server closes."""
+        if self.show_due:
+            self.show_due = False
+            self.rcg.step()
 
     def _count_absent(self) -> None:
         """Before a step: count, per player, the step played without its command for this cycle (an
