@@ -29,7 +29,6 @@ episode's hold time. An episode is one Keepaway episode (terminated, never trunc
 
 from __future__ import annotations
 
-import functools
 from pathlib import Path
 from typing import Any
 
@@ -109,11 +108,9 @@ class KeepawayParallelEnv(ParallelEnv):
         high = np.array([p.max_dash_power, p.max_moment, p.max_power, p.max_moment])
         return spaces.Tuple((spaces.Discrete(len(LOW_LEVEL_COMMANDS)), spaces.Box(low, high, dtype=np.float64)))
 
-    @functools.lru_cache(maxsize=None)
     def observation_space(self, agent: str) -> spaces.Space:
         return self._observation_space
 
-    @functools.lru_cache(maxsize=None)
     def action_space(self, agent: str) -> spaces.Space:
         return self._action_space
 

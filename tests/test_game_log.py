@@ -15,9 +15,8 @@ import pytest
 
 from protocol import messages as m
 from protocol.params import parameter_set
-from runner.embedded import ArenaSpec, EmbeddedGame, embedded_episodes
+from runner.embedded import ArenaSpec, EmbeddedGame
 from server.game_log import (
-    POS_PREC,
     STATE_BALL_COLLIDE,
     STATE_KICK,
     STATE_KICK_FAULT,
@@ -114,10 +113,16 @@ def test_a_game_log_read_back_gives_the_game_as_played_and_the_reference_script_
     positions of the arena's world at every cycle (to the log's precision), and the episodes it played."""
     spec = ArenaSpec(parameter_set("classic"), seed=5)
     path = tmp_path / "keepaway.rcg"
-    truth = []
-    stream = embedded_episodes(spec, path)
-    records = [next(stream)[0] for _ in range(3)]
-    stream.close()
+    game = EmbeddedGame(spec, game_log=path)
+    w, truth, records = game.arena.world, {}, []
+    while True:  # cycle -> the ball's position, keeper 2's position and body direction, from the kick-off on
+        truth[game.arena.cycle] = (*w.pos[0, 0], *w.pos[0, 2], float(w.body[0, 2]))
+        if len(records) == 3:
+            break
+        ended = game.cycle()
+        if ended is not None:
+            records.append(ended)
+    game.game_log.close()
     record = read_rcg(path)
     assert record.episode_starts == [0] + [r.end_cycle for r in records]
     last = record.shows[-1]
@@ -134,11 +139,15 @@ def test_a_game_log_read_back_gives_the_game_as_played_and_the_reference_script_
         rows = list(csv.DictReader(fh))
     assert len(rows) == records[-1].end_cycle
     by_cycle = {s.cycle: s for s in record.shows}
+    assert set(truth) <= set(by_cycle)  # a show of every cycle played
     for row in rows:
-        show = by_cycle[int(row["cycle"])]
-        assert (float(row["bx"]), float(row["by"])) == show.ball[:2]
+        cycle = int(row["cycle"])
+        show = by_cycle[cycle]
         keeper2 = show.players[1]
-        assert (float(row["l2_x"]), float(row["l2_y"]), float(row["l2_body"])) == (keeper2.x, keeper2.y, keeper2.body)
+        read = (float(row["bx"]), float(row["by"]), float(row["l2_x"]), float(row["l2_y"]), float(row["l2_body"]))
+        assert read == (*show.ball[:2], keeper2.x, keeper2.y, keeper2.body)
+        # the log's precision: positions quantized to 0.0001 m, directions to 0.001 deg
+        assert (np.abs(np.subtract(read, truth[cycle])) <= [6e-5] * 4 + [6e-4]).all(), (cycle, read, truth[cycle])
 
 
 def test_getopen_notes_are_written_on_the_log_board_and_read_back():
