@@ -27,6 +27,7 @@ FLOAT64 = 0xCB
 MAX_INT_BYTES = 9
 FLOAT_BYTES = 9
 MAX_ARRAY_HEADER_BYTES = 5
+MAX_STR_HEADER_BYTES = 5
 
 
 def packed(value: Any) -> np.ndarray:
@@ -90,6 +91,23 @@ def put_float(buf: np.ndarray, n: int, value: float) -> int:
 
 
 @njit(cache=True)
+def put_str(buf: np.ndarray, n: int, text: np.ndarray) -> int:
+    """A str of the UTF-8 bytes ``text`` (fixstr, str 8, str 16 or str 32, as the packer chooses with
+    ``use_bin_type``)."""
+    size = text.shape[0]
+    if size < 32:
+        buf[n] = 0xA0 | size
+        n += 1
+    elif size < 0x100:
+        n = _put_tagged(buf, n, 0xD9, size, 1)
+    elif size < 0x10000:
+        n = _put_tagged(buf, n, 0xDA, size, 2)
+    else:
+        n = _put_tagged(buf, n, 0xDB, size, 4)
+    return put_raw(buf, n, text)
+
+
+@njit(cache=True)
 def put_array(buf: np.ndarray, n: int, size: int) -> int:
     """The header of an array of ``size`` elements (fixarray, array 16 or array 32)."""
     if size < 16:
@@ -100,5 +118,5 @@ def put_array(buf: np.ndarray, n: int, size: int) -> int:
     return _put_tagged(buf, n, 0xDD, size, 4)
 
 
-__all__ = ["FLOAT_BYTES", "MAX_ARRAY_HEADER_BYTES", "MAX_INT_BYTES", "packed", "put_array", "put_float",
-           "put_int", "put_nil", "put_raw"]
+__all__ = ["FLOAT_BYTES", "MAX_ARRAY_HEADER_BYTES", "MAX_INT_BYTES", "MAX_STR_HEADER_BYTES", "packed", "put_array",
+           "put_float", "put_int", "put_nil", "put_raw", "put_str"]

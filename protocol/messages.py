@@ -14,7 +14,6 @@ from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Any, ClassVar
 
-import msgpack
 
 from protocol.codec import (
     PROTOCOL_VERSION,
@@ -395,15 +394,6 @@ class Hear(Message):
                 TEXT(self.message)
             except Invalid as exc:
                 raise exc.at("message") from None
-
-
-def say_hear_frame(cycle: int, sender: str, direction: int | None, unum: int | None, message: str) -> bytes:
-    """``encode(Hear(...))`` of a hear the server makes of a player's say, the same bytes
-    (``tests/test_protocol.py``) without building and validating the message: the server writes about
-    three such frames per player and cycle, from values it has checked already (the say's text when it
-    took the say, the sender and the direction it computed)."""
-    return msgpack.packb({Message.TAG: Hear.TYPE, "cycle": cycle, "sender": sender, "direction": direction,
-                          "unum": unum, "message": message}, use_bin_type=True)
 
 
 @message

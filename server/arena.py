@@ -8,7 +8,6 @@ seed and the commands that follow, whatever was played before (docs/protocol.md 
 
 from __future__ import annotations
 
-import math
 import re
 from collections.abc import Iterable
 from dataclasses import dataclass, field
@@ -105,7 +104,7 @@ class Arena:
         self._kick_possible = SteadyCall(kick_possible)
         self._see_frame = SteadyCall(perception.see_frame)
         self._sense_body_frame = SteadyCall(perception.sense_body_frame)
-        self._hear_picks_each = SteadyCall(perception.hear_picks_each)
+        self._hear_frames = SteadyCall(perception.hear_frames)
         self._hear_buffers(len(self.slots))
         # what the referee said since the owner last took it (``take_referee_log``); None: not kept
         self.referee_log: list[str] | None = None
@@ -357,46 +356,50 @@ class Arena:
 
     def _hear_buffers(self, says: int) -> None:
         """The buffers of ``_deliver_says``' kernel call, for up to ``says`` says a cycle: the speakers,
-        the listeners, and each listener's picks."""
+        their texts, the listeners, each listener's picks, and the hear frames (each listener hears at
+        most every say as its own and every other one)."""
+        listeners, text = len(self.slots), int(self.params.say_msg_size)
         self._speakers = np.empty(says, dtype=np.int64)
-        self._listeners = np.empty(len(self.slots), dtype=np.int64)
-        self._picks = np.empty((len(self.slots), says), dtype=np.int64)
-        self._n_picks = np.empty(len(self.slots), dtype=np.int64)
+        self._texts = np.empty(says * text, dtype=np.uint8)
+        self._text_ends = np.empty(says, dtype=np.int64)
+        self._listeners = np.empty(listeners, dtype=np.int64)
+        self._picks = np.empty((listeners, says), dtype=np.int64)
+        frames = listeners * 2 * says
+        self._hear_out = np.empty(frames * (perception.HEAR_FRAME_BYTES + text), dtype=np.uint8)
+        self._frame_listener = np.empty(frames, dtype=np.int64)
+        self._frame_sender = np.empty(frames, dtype=np.int64)
+        self._frame_end = np.empty(frames, dtype=np.int64)
 
     def _deliver_says(self) -> None:
         """Says of cycle t are heard in t+1 (spec 4 Hearing): self always, others as
-        ``perception.hear_picks`` draws them (for every connected listener in one kernel call,
-        ``perception.hear_picks_each``). A say's text was checked when it was taken (:meth:`submit`), so
-        its hears are written without building messages (``protocol.messages.say_hear_frame``)."""
+        ``perception.hear_picks`` draws them. One kernel call draws them for every connected listener and
+        writes their frames (``perception.hear_frames``; a say's text was checked when it was taken,
+        :meth:`submit`); here they are only cut apart and queued."""
         says = self.pending_says
         if not says:
             return
-        w, p, cycle = self.world, self.params, self.cycle
         says.sort(key=lambda said: said[0])  # arrival order must not matter (determinism)
         if len(says) > self._speakers.shape[0]:
             self._hear_buffers(len(says))
         listeners = self.connected_slots()
-        for i, (speaker, _) in enumerate(says):
-            self._speakers[i] = speaker
+        texts = "".join(text for _, text in says).encode("ascii")
+        self._texts[:len(texts)] = np.frombuffer(texts, dtype=np.uint8)
+        end = 0
+        for i, (speaker, text) in enumerate(says):
+            end += len(text)
+            self._speakers[i], self._text_ends[i] = speaker, end
         for k, listener in enumerate(listeners):
             self._listeners[k] = listener.obj
-        self._hear_picks_each(0, w, self._speakers, len(says), self._listeners, len(listeners), p.hear_max,
-                              p.audio_cut_dist, self._picks, self._n_picks)
-        pos, body = w.pos[0].tolist(), w.body[0].tolist()  # Python floats: the same numbers, cheaper to use
-        for k, listener in enumerate(listeners):
-            for speaker, text in says:
-                if speaker == listener.obj:
-                    frame = m.say_hear_frame(cycle, "self", None, None, text)
-                    listener.hears.append(QueuedHear("self", frame))
-            lx, ly = pos[listener.obj]
-            for pick in self._picks[k, :self._n_picks[k]].tolist():
-                speaker, text = says[pick]
-                sx, sy = pos[speaker]
-                team = "our" if w.side(speaker) == listener.side else "opp"
-                direction = _normalize_deg(math.degrees(math.atan2(sy - ly, sx - lx)) - body[listener.obj])
-                frame = m.say_hear_frame(cycle, team, int(round(direction)),
-                                         w.unum(speaker) if team == "our" else None, text)
-                listener.hears.append(QueuedHear(team, frame))
+        p, w = self.params, self.world
+        n = self._hear_frames(0, w, w.n_keepers, self._speakers, len(says), self._texts, self._text_ends,
+                              self._listeners, len(listeners), p.hear_max, p.audio_cut_dist, self._picks,
+                              self.cycle, self._hear_out, self._frame_listener, self._frame_sender, self._frame_end)
+        ends = self._frame_end[:n].tolist()
+        frames = self._hear_out[:ends[-1] if n else 0].tobytes()
+        start = 0
+        for k, sender, end in zip(self._frame_listener[:n].tolist(), self._frame_sender[:n].tolist(), ends):
+            listeners[k].hears.append(QueuedHear(perception.HEAR_SENDERS[sender], frames[start:end]))
+            start = end
         says.clear()
 
     # -- percepts -----------------------------------------------------------------------------------
@@ -451,13 +454,6 @@ class Arena:
 def player_name(s: PlayerSlot) -> str:
     """How logs name a player: ``keeper 1``, ``taker 2``."""
     return f"{'keeper' if s.side == 'l' else 'taker'} {s.unum}"
-
-
-def _normalize_deg(a: float) -> float:
-    a = math.fmod(a + 180.0, 360.0)
-    if a < 0:
-        a += 360.0
-    return a - 180.0
 
 
 def truth_state(arena: Arena) -> dict:

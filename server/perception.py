@@ -21,7 +21,8 @@ from typing import Any, NamedTuple
 import msgpack
 import numpy as np
 from core.jit import njit
-from core.msgpack_out import FLOAT_BYTES, MAX_INT_BYTES, packed, put_array, put_float, put_int, put_nil, put_raw
+from core.msgpack_out import (FLOAT_BYTES, MAX_INT_BYTES, MAX_STR_HEADER_BYTES, packed, put_array, put_float, put_int,
+                              put_nil, put_raw, put_str)
 
 from protocol.landmarks import FLAG_POSITIONS, LINE_LEFT, LINE_RIGHT, LINE_TOP, N_FLAGS, N_LINES
 from protocol.params import KernelParams
@@ -566,6 +567,17 @@ _PLAYER_ROW_BYTES = 1 + 6 * MAX_INT_BYTES + 4 * FLOAT_BYTES
 _FRAME_HEAD_BYTES = 256
 SENSE_BODY_FRAME_BYTES = 512
 """Room for any sense_body frame (its map is fixed but for the counts' ints, at most 9 bytes each)."""
+# The hear of a player's say (protocol.messages.Hear's fields in order): "self" to the speaker itself,
+# "our" with direction and uniform number to a teammate, "opp" with direction alone to an opponent.
+HEAR_SELF, HEAR_OUR, HEAR_OPP = 0, 1, 2
+HEAR_SENDERS = ("self", "our", "opp")  # by those codes
+_HEAR_HEAD = _fragment(_PACKER.pack_map_header(6), "type", "hear", "cycle")
+_HEAR_SENDER_SELF, _HEAR_SENDER_OUR, _HEAR_SENDER_OPP = (_fragment("sender", name) for name in HEAR_SENDERS)
+_HEAR_DIRECTION, _HEAR_UNUM, _HEAR_MESSAGE = (packed(key) for key in ("direction", "unum", "message"))
+HEAR_FRAME_BYTES = (_HEAR_HEAD.shape[0] + _HEAR_SENDER_SELF.shape[0] + _HEAR_DIRECTION.shape[0] + _HEAR_UNUM.shape[0]
+                    + _HEAR_MESSAGE.shape[0] + 3 * MAX_INT_BYTES + max(len(name) for name in HEAR_SENDERS)
+                    + MAX_STR_HEADER_BYTES)
+"""Room for a hear frame but its text."""
 
 
 def see_frame_bytes(n_objects: int) -> int:
@@ -770,13 +782,72 @@ def hear_picks(b: int, w: World, speakers: np.ndarray, listener: int, hear_max: 
 
 
 @njit(cache=True)
-def hear_picks_each(b: int, w: World, speakers: np.ndarray, n_speakers: int, listeners: np.ndarray,
-                    n_listeners: int, hear_max: float, cut: float, picks: np.ndarray, n_picks: np.ndarray) -> None:
-    """:func:`hear_picks` of ``speakers[:n_speakers]`` for each of ``listeners[:n_listeners]`` in turn (the
-    draws in that order), into row l of ``picks`` and ``n_picks[l]``: the server's one kernel call a
-    cycle, on buffers it keeps (``server.arena.Arena``), instead of one typed call per listener."""
+def write_hear(buf: np.ndarray, n: int, cycle: int, sender: int, direction: int, unum: int,
+               text: np.ndarray) -> int:
+    """A hear of a player's say as msgpack at ``buf[n:]``, byte for byte ``encode(Hear(...))``: ``sender``
+    one of HEAR_SELF, HEAR_OUR, HEAR_OPP; ``direction`` (HEAR_OUR, HEAR_OPP) and ``unum`` (HEAR_OUR) nil
+    where the sender has none; ``text`` the say's ASCII bytes. Returns the position after it."""
+    n = put_raw(buf, n, _HEAR_HEAD)
+    n = put_int(buf, n, cycle)
+    if sender == HEAR_SELF:
+        n = put_raw(buf, n, _HEAR_SENDER_SELF)
+    elif sender == HEAR_OUR:
+        n = put_raw(buf, n, _HEAR_SENDER_OUR)
+    else:
+        n = put_raw(buf, n, _HEAR_SENDER_OPP)
+    n = put_raw(buf, n, _HEAR_DIRECTION)
+    n = put_nil(buf, n) if sender == HEAR_SELF else put_int(buf, n, direction)
+    n = put_raw(buf, n, _HEAR_UNUM)
+    n = put_int(buf, n, unum) if sender == HEAR_OUR else put_nil(buf, n)
+    n = put_raw(buf, n, _HEAR_MESSAGE)
+    return put_str(buf, n, text)
+
+
+@njit(cache=True)
+def hear_direction(b: int, w: World, listener: int, speaker: int) -> int:
+    """Where ``listener`` hears ``speaker`` from: the direction to it relative to the listener's body,
+    in whole degrees (-180..180, rounded half to even)."""
+    dx = w.pos[b, speaker, 0] - w.pos[b, listener, 0]
+    dy = w.pos[b, speaker, 1] - w.pos[b, listener, 1]
+    a = np.fmod(math.degrees(math.atan2(dy, dx)) - w.body[b, listener] + 180.0, 360.0)  # C fmod, as math.fmod
+    if a < 0:
+        a += 360.0
+    return round(a - 180.0)
+
+
+@njit(cache=True)
+def hear_frames(b: int, w: World, n_keepers: int, speakers: np.ndarray, n_speakers: int, texts: np.ndarray,
+                text_ends: np.ndarray, listeners: np.ndarray, n_listeners: int, hear_max: float, cut: float,
+                picks: np.ndarray, cycle: int, buf: np.ndarray, frame_listener: np.ndarray, frame_sender: np.ndarray,
+                frame_end: np.ndarray) -> int:
+    """The hears of this cycle's says (``speakers[:n_speakers]``, each say's text ``texts`` up to its
+    ``text_ends``), for each of ``listeners[:n_listeners]`` in turn: its own says (``self``), then the
+    says :func:`hear_picks` draws for it (the draws in that order, into row k of ``picks``), with the
+    direction and, from a teammate, the number. Written one after another into ``buf`` (:func:`write_hear`);
+    frame f is for listener index ``frame_listener[f]``, from a sender ``frame_sender[f]`` and ends at
+    ``frame_end[f]``. Returns the number of frames. The server's one kernel call a cycle
+    (``server.arena.Arena``), on buffers it keeps."""
+    n = 0
+    f = 0
     for k in range(n_listeners):
-        n_picks[k] = hear_picks(b, w, speakers[:n_speakers], listeners[k], hear_max, cut, picks[k])
+        listener = listeners[k]
+        for i in range(n_speakers):
+            if speakers[i] == listener:
+                start = text_ends[i - 1] if i > 0 else 0
+                n = write_hear(buf, n, cycle, HEAR_SELF, 0, 0, texts[start:text_ends[i]])
+                frame_listener[f], frame_sender[f], frame_end[f] = k, HEAR_SELF, n
+                f += 1
+        for j in range(hear_picks(b, w, speakers[:n_speakers], listener, hear_max, cut, picks[k])):
+            i = picks[k, j]
+            speaker = speakers[i]
+            sender = HEAR_OUR if (speaker <= n_keepers) == (listener <= n_keepers) else HEAR_OPP
+            unum = speaker if speaker <= n_keepers else speaker - n_keepers
+            start = text_ends[i - 1] if i > 0 else 0
+            n = write_hear(buf, n, cycle, sender, hear_direction(b, w, listener, speaker), unum,
+                           texts[start:text_ends[i]])
+            frame_listener[f], frame_sender[f], frame_end[f] = k, sender, n
+            f += 1
+    return f
 
 
 def sense_body_payload(out: SenseBodyBuffers, b: int, obs: int, view_quality: str, view_width: str) -> dict:
@@ -816,6 +887,11 @@ __all__ = [
     "DEG2RAD",
     "DistanceTable",
     "FULL",
+    "HEAR_FRAME_BYTES",
+    "HEAR_OPP",
+    "HEAR_OUR",
+    "HEAR_SELF",
+    "HEAR_SENDERS",
     "NAMELESS",
     "PARTIAL",
     "RAD2DEG",
@@ -828,8 +904,9 @@ __all__ = [
     "cone_factor",
     "distance_table",
     "fullstate",
+    "hear_direction",
+    "hear_frames",
     "hear_picks",
-    "hear_picks_each",
     "normalize_rad",
     "quantize",
     "quantize_distance",
@@ -846,6 +923,7 @@ __all__ = [
     "packed_view_mode",
     "table_distance",
     "trunc_deg",
+    "write_hear",
     "write_see",
     "write_sense_body",
 ]

@@ -66,7 +66,7 @@ from protocol.codec import MAX_PAYLOAD_DEPTH, Invalid
 from protocol.endpoints import bind, configure, connect_endpoint, parse_endpoint
 from protocol.errors import CODEC_ERROR_CODES
 from protocol import messages as m
-from protocol.messages import MAX_COMMANDS, MONITOR_TOPICS, say_hear_frame
+from protocol.messages import MAX_COMMANDS, MONITOR_TOPICS
 
 # ------------------------------------------------------------------------------- one sample per message
 
@@ -240,19 +240,6 @@ def test_every_message_the_server_sends_carries_the_cycle():
 def test_bye_encodes_to_the_hand_written_bytes():
     # fixmap of 1 entry (0x81), fixstr "type" (0xa4 + 4 bytes), fixstr "bye" (0xa3 + 3 bytes)
     assert encode(Bye()) == b"\x81\xa4type\xa3bye"
-
-
-def test_a_say_hear_frame_is_the_encoded_hear():
-    """The server's hears of players' says, written without building a ``Hear``, are its bytes exactly:
-    every sender of a say, with and without direction and number, short and long texts, and cycles of
-    every msgpack int width."""
-    texts = ("", "0uq", "1EsAA10vy", "(b 1.2 -3.4)+*/?<>_", "x" * 255)
-    for cycle in (0, 1, 127, 128, 255, 65_536, 2**31 - 1):
-        for sender, direction, unum in (("self", None, None), ("our", -180, 2), ("our", 37, 11), ("opp", 180, None),
-                                        ("opp", 0, None)):
-            for text in texts:
-                assert say_hear_frame(cycle, sender, direction, unum, text) == encode(
-                    Hear(cycle=cycle, sender=sender, direction=direction, unum=unum, message=text))
 
 
 def test_command_wire_form_of_the_docs_decodes_to_atomic_commands():

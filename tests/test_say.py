@@ -1,5 +1,6 @@
 """Say and hear as the keepaway-0.6 C++ players (agents/say.py): the saymsglib code against hand-computed
-values, what a player says, what a listener takes in, and who hears whom (server.perception.hear_picks)."""
+values, what a player says, what a listener takes in, who hears whom (server.perception.hear_picks) and the
+hear frames the server writes (server.perception.hear_frames)."""
 
 from __future__ import annotations
 
@@ -26,7 +27,9 @@ from agents.say import (
 from agents.skills import AgentConfig
 from agents.worldmodel import new_model_state
 from protocol.params import parameter_set
-from server.perception import hear_picks
+from protocol.codec import encode
+from protocol.messages import Hear
+from server.perception import HEAR_FRAME_BYTES, HEAR_SENDERS, hear_frames, hear_picks, write_hear
 from core.objects import BALL, CMD_DASH, CMD_KICK, CMD_TURN
 from server.world import new_world
 
@@ -221,6 +224,81 @@ def test_each_listener_hears_one_teammate_and_one_opponent_at_random():
     assert chosen == {2, 3}
     # beyond audio_cut_dist nobody is heard
     assert hear_picks(0, w, speakers, 1, KP.hear_max, 4.0, picks) == 0
+
+
+def test_a_hear_frame_is_the_encoded_hear():
+    """The server's hears of players' says, written by a kernel, are ``encode(Hear(...))`` exactly: every
+    sender of a say, with and without direction and number, texts of every msgpack str width, and
+    cycles of every msgpack int width."""
+    buf = np.empty(HEAR_FRAME_BYTES + 300, dtype=np.uint8)
+    texts = ("", "0uq", "1EsAA10vy", "(b 1.2 -3.4)+*/?<>_", "x" * 31, "x" * 32, "x" * 255, "y" * 256)
+    for cycle in (0, 1, 127, 128, 255, 65_536, 2**31 - 1):
+        for sender, direction, unum in (("self", None, None), ("our", -180, 2), ("our", -33, 1), ("our", 37, 11),
+                                        ("opp", 180, None), ("opp", -32, None), ("opp", 0, None)):
+            for text in texts:
+                n = write_hear(buf, 0, cycle, HEAR_SENDERS.index(sender), direction or 0, unum or 0,
+                               np.frombuffer(text.encode("ascii"), dtype=np.uint8))
+                assert buf[:n].tobytes() == encode(Hear(cycle=cycle, sender=sender, direction=direction, unum=unum,
+                                                        message=text))
+
+
+def _hears_by_hand(w, says, listeners, cycle):
+    """What each listener hears of ``says`` ((speaker, text) in object order), as the server's rule says:
+    its own says, then ``hear_picks``' draws with the direction from its body (whole degrees, half to
+    even) and, from a teammate, the number; encoded as ``Hear`` messages."""
+    speakers = np.array([speaker for speaker, _ in says], dtype=np.int64)
+    picks = np.empty(len(says), dtype=np.int64)
+    heard = []
+    for listener in listeners:
+        heard += [(listener, "self", encode(Hear(cycle=cycle, sender="self", direction=None, unum=None, message=text)))
+                  for speaker, text in says if speaker == listener]
+        for pick in picks[:hear_picks(0, w, speakers, listener, KP.hear_max, KP.audio_cut_dist, picks)]:
+            speaker, text = says[pick]
+            (lx, ly), (sx, sy) = w.pos[0, listener].tolist(), w.pos[0, speaker].tolist()
+            a = math.fmod(math.degrees(math.atan2(sy - ly, sx - lx)) - float(w.body[0, listener]) + 180.0, 360.0)
+            direction = int(round((a + 360.0 if a < 0 else a) - 180.0))
+            ours = (speaker <= K) == (listener <= K)
+            heard.append((listener, "our" if ours else "opp",
+                          encode(Hear(cycle=cycle, sender="our" if ours else "opp", direction=direction,
+                                      unum=(speaker if speaker <= K else speaker - K) if ours else None, message=text))))
+    return heard
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_the_hear_frames_of_a_cycle_are_the_draws_directions_and_texts_of_the_rule(seed):
+    """``hear_frames``, the server's one call a cycle, against the rule written out in Python: random
+    places and bodies (some players beyond the audio cut, some silent, one saying twice), the same
+    frames for the same listeners in the same order, and the same draws from the arena's stream."""
+    rng = np.random.default_rng(seed)
+    w = new_world(PARAMS, K, T, batch=1, seed=seed)
+    w.pos[0, 1:] = rng.uniform(-30, 30, size=(K + T, 2))
+    w.body[0, 1:] = rng.uniform(-180, 180, size=K + T)
+    w.pos[0, 2] = w.pos[0, 1] + [3.0, 3.0]  # a direction of exactly 45 degrees from keeper 1 before its body
+    w.body[0, 1] = 0.5 * rng.integers(-360, 360)  # a half-degree body: directions that end in .5
+    speakers = sorted(rng.choice(np.arange(1, K + T + 1), size=rng.integers(1, K + T + 1), replace=False).tolist())
+    says = [(speaker, "".join(rng.choice(list("0123456789abcXYZ (.)"), size=rng.integers(0, 11))))
+            for speaker in speakers]
+    says.insert(1, (says[0][0], "again"))
+    listeners = sorted(rng.choice(np.arange(1, K + T + 1), size=rng.integers(1, K + T + 1), replace=False).tolist())
+    cycle = int(rng.integers(0, 100_000))
+    before = w.rng.copy()
+    expected = _hears_by_hand(w, says, listeners, cycle)
+    drawn = w.rng.copy()
+    w.rng[:] = before
+    texts = np.frombuffer("".join(text for _, text in says).encode("ascii"), dtype=np.uint8)
+    ends = np.cumsum([len(text) for _, text in says]).astype(np.int64)
+    frames = 2 * len(says) * len(listeners)
+    buf = np.empty(frames * (HEAR_FRAME_BYTES + 10), dtype=np.uint8)
+    frame_listener, frame_sender, frame_end = (np.empty(frames, dtype=np.int64) for _ in range(3))
+    n = hear_frames(0, w, K, np.array([speaker for speaker, _ in says], dtype=np.int64), len(says), texts, ends,
+                    np.array(listeners, dtype=np.int64), len(listeners), KP.hear_max, KP.audio_cut_dist,
+                    np.empty((len(listeners), len(says)), dtype=np.int64), cycle, buf, frame_listener, frame_sender,
+                    frame_end)
+    starts = [0, *frame_end[:n - 1].tolist()]
+    got = [(listeners[frame_listener[f]], HEAR_SENDERS[frame_sender[f]], buf[starts[f]:frame_end[f]].tobytes())
+           for f in range(n)]
+    assert got == expected
+    np.testing.assert_array_equal(w.rng, drawn)
 
 
 def test_says_reach_teammates_in_a_game_and_keepers_hear_passes():

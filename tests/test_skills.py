@@ -125,6 +125,7 @@ def test_taker_hold_ratio_keeps_ball_0595_m_from_body():
     # 0.3 + 0.085 + 0.7 * 0.3 = 0.595 m straight ahead of a still taker
     bel = belief([[0.5, 0.0], [-9.0, 0.0], [-9.0, 9.0], [-9.0, -9.0], [0.0, 0.0], [9.0, -9.0]], 4)
     code, power, kick_dir = kick_close_to_body(bel, 0, 0.0, CFG.hold_ratio_taker, KP, CFG)
+    assert code == CMD_KICK
     rate = kick_rate(0.0, 0.0, 0.0, 0.5, 0.0, KP)
     bx, by, _, _ = ball_after_kick(0.5, 0.0, 0.0, 0.0, rate, power, kick_dir, 0.0, KP)
     assert (bx, by) == pytest.approx((0.595, 0.0), abs=1e-9)
