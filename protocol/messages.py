@@ -14,7 +14,6 @@ from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Any, ClassVar
 
-
 from protocol.codec import (
     PROTOCOL_VERSION,
     Invalid,
