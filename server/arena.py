@@ -390,8 +390,8 @@ class Arena:
             self._speakers[i], self._text_ends[i] = speaker, end
         for k, listener in enumerate(listeners):
             self._listeners[k] = listener.obj
-        p, w = self.params, self.world
-        n = self._hear_frames(0, w, w.n_keepers, self._speakers, len(says), self._texts, self._text_ends,
+        p = self.params
+        n = self._hear_frames(0, self.world, self._speakers, len(says), self._texts, self._text_ends,
                               self._listeners, len(listeners), p.hear_max, p.audio_cut_dist, self._picks,
                               self.cycle, self._hear_out, self._frame_listener, self._frame_sender, self._frame_end)
         ends = self._frame_end[:n].tolist()

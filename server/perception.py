@@ -816,7 +816,13 @@ def hear_direction(b: int, w: World, listener: int, speaker: int) -> int:
 
 
 @njit(cache=True)
-def hear_frames(b: int, w: World, n_keepers: int, speakers: np.ndarray, n_speakers: int, texts: np.ndarray,
+def _say_text(texts: np.ndarray, text_ends: np.ndarray, i: int) -> np.ndarray:
+    """The i-th say's text in ``texts`` (the says' texts one after another, each ending at ``text_ends``)."""
+    return texts[text_ends[i - 1] if i > 0 else 0:text_ends[i]]
+
+
+@njit(cache=True)
+def hear_frames(b: int, w: World, speakers: np.ndarray, n_speakers: int, texts: np.ndarray,
                 text_ends: np.ndarray, listeners: np.ndarray, n_listeners: int, hear_max: float, cut: float,
                 picks: np.ndarray, cycle: int, buf: np.ndarray, frame_listener: np.ndarray, frame_sender: np.ndarray,
                 frame_end: np.ndarray) -> int:
@@ -833,18 +839,17 @@ def hear_frames(b: int, w: World, n_keepers: int, speakers: np.ndarray, n_speake
         listener = listeners[k]
         for i in range(n_speakers):
             if speakers[i] == listener:
-                start = text_ends[i - 1] if i > 0 else 0
-                n = write_hear(buf, n, cycle, HEAR_SELF, 0, 0, texts[start:text_ends[i]])
+                n = write_hear(buf, n, cycle, HEAR_SELF, 0, 0, _say_text(texts, text_ends, i))
                 frame_listener[f], frame_sender[f], frame_end[f] = k, HEAR_SELF, n
                 f += 1
         for j in range(hear_picks(b, w, speakers[:n_speakers], listener, hear_max, cut, picks[k])):
             i = picks[k, j]
             speaker = speakers[i]
-            sender = HEAR_OUR if (speaker <= n_keepers) == (listener <= n_keepers) else HEAR_OPP
-            unum = speaker if speaker <= n_keepers else speaker - n_keepers
-            start = text_ends[i - 1] if i > 0 else 0
+            keepers = w.n_keepers
+            sender = HEAR_OUR if (speaker <= keepers) == (listener <= keepers) else HEAR_OPP
+            unum = speaker if speaker <= keepers else speaker - keepers
             n = write_hear(buf, n, cycle, sender, hear_direction(b, w, listener, speaker), unum,
-                           texts[start:text_ends[i]])
+                           _say_text(texts, text_ends, i))
             frame_listener[f], frame_sender[f], frame_end[f] = k, sender, n
             f += 1
     return f

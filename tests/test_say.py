@@ -290,7 +290,7 @@ def test_the_hear_frames_of_a_cycle_are_the_draws_directions_and_texts_of_the_ru
     frames = 2 * len(says) * len(listeners)
     buf = np.empty(frames * (HEAR_FRAME_BYTES + 10), dtype=np.uint8)
     frame_listener, frame_sender, frame_end = (np.empty(frames, dtype=np.int64) for _ in range(3))
-    n = hear_frames(0, w, K, np.array([speaker for speaker, _ in says], dtype=np.int64), len(says), texts, ends,
+    n = hear_frames(0, w, np.array([speaker for speaker, _ in says], dtype=np.int64), len(says), texts, ends,
                     np.array(listeners, dtype=np.int64), len(listeners), KP.hear_max, KP.audio_cut_dist,
                     np.empty((len(listeners), len(says)), dtype=np.int64), cycle, buf, frame_listener, frame_sender,
                     frame_end)
