@@ -840,6 +840,9 @@ class WorldModel:
         self.n_takers = n_takers
         self.me = unum if side == "l" else n_keepers + unum
         self.flag_pos = np.array([[f[1], f[2]] for f in flags], dtype=np.float64).reshape(-1, 2)
+        # read-only like protocol.landmarks.FLAG_POSITIONS, which the batched mode passes: numba types
+        # the two alike, so both modes load one compiled see_row
+        self.flag_pos.setflags(write=False)
         self.state = new_model_state(1, n_keepers, n_takers, self.me, params)
         self.see_buffer = new_see_buffer(1, len(self.flag_pos), 1 + n_keepers + n_takers)
         self._belief = empty_belief(1, n_keepers, n_takers)

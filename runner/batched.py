@@ -595,7 +595,9 @@ class BatchedArenas:
         theta = np.asarray(theta, dtype=np.float64)
         if theta.shape not in ((n,), (batch, n)):
             raise ValueError(f"getopen_theta must have shape ({n},) or ({batch}, {n}), not {theta.shape}")
-        return np.ascontiguousarray(np.broadcast_to(theta, (batch, n)))
+        # a fresh writable array whatever was given: a read-only one (a policy file's, or the view
+        # broadcast_to makes) is another numba type, for which the kernels would compile again
+        return np.array(np.broadcast_to(theta, (batch, n)), order="C")
 
     @property
     def batch(self) -> int:

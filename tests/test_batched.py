@@ -8,6 +8,7 @@ exchanging encoded messages in the synchronous order.
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 import pytest
 
@@ -199,6 +200,23 @@ def test_learned_getopen_uses_each_arenas_own_theta():
         np.testing.assert_array_equal(table_rows(single.run(episodes_per_arena=2)), table_rows(table, b))
     swapped = BatchedArenas(PARAMS, 1, 40, getopen_policy="learned", getopen_theta=thetas[1], threads=1)
     assert not np.array_equal(table_rows(swapped.run(episodes_per_arena=2)), table_rows(table, 0))
+
+
+@pytest.mark.parametrize("shape", [(THETA_SIZE,), (2, THETA_SIZE)])
+def test_every_getopen_theta_reaches_the_kernels_as_one_numba_type(shape):
+    # a policy file's arrays are read-only, and numba types a read-only array apart from a writable one:
+    # passed as given, a CEM generation's (batch, n) thetas compiled the whole batched loop again at
+    # run time, minutes after `keepaway compile` had said it was done
+    theta = np.zeros(shape)
+    theta.setflags(write=False)
+    arenas = BatchedArenas(PARAMS, 2, 0, getopen_policy="learned", getopen_theta=theta, threads=1)
+    assert numba.typeof(arenas.theta) == numba.typeof(np.zeros((2, THETA_SIZE)))
+    assert arenas.theta.flags.writeable and not np.shares_memory(arenas.theta, theta)
+
+
+def test_the_players_and_the_batched_mode_pass_see_row_one_type_of_flag_positions():
+    model = WorldModel(PARAMS, "l", 1, K, T, to_wire()["flags"])
+    assert numba.typeof(model.flag_pos) == numba.typeof(FLAG_POSITIONS)
 
 
 def test_run_limits():

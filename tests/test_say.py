@@ -237,7 +237,7 @@ def test_a_hear_frame_is_the_encoded_hear():
                                         ("opp", 180, None), ("opp", -32, None), ("opp", 0, None)):
             for text in texts:
                 n = write_hear(buf, 0, cycle, HEAR_SENDERS.index(sender), direction or 0, unum or 0,
-                               np.frombuffer(text.encode("ascii"), dtype=np.uint8))
+                               np.frombuffer(bytearray(text, "ascii"), dtype=np.uint8))
                 assert buf[:n].tobytes() == encode(Hear(cycle=cycle, sender=sender, direction=direction, unum=unum,
                                                         message=text))
 
@@ -285,7 +285,8 @@ def test_the_hear_frames_of_a_cycle_are_the_draws_directions_and_texts_of_the_ru
     expected = _hears_by_hand(w, says, listeners, cycle)
     drawn = w.rng.copy()
     w.rng[:] = before
-    texts = np.frombuffer("".join(text for _, text in says).encode("ascii"), dtype=np.uint8)
+    # writable, as the server's buffer is: a read-only array would compile the kernels again
+    texts = np.frombuffer(bytearray("".join(text for _, text in says), "ascii"), dtype=np.uint8)
     ends = np.cumsum([len(text) for _, text in says]).astype(np.int64)
     frames = 2 * len(says) * len(listeners)
     buf = np.empty(frames * (HEAR_FRAME_BYTES + 10), dtype=np.uint8)

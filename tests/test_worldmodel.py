@@ -713,6 +713,7 @@ def test_rows_of_a_batch_are_independent():
     s = new_model_state(2, K, T, np.array([1, 2]), PARAMS)
     see = new_see_buffer(2, 2, N)
     flag_pos = np.array([f[1:] for f in HAND_FLAGS])
+    flag_pos.setflags(write=False)  # as the modes pass it: the compiled see_row is loaded, not compiled again
     see.n_flags[:] = 2
     see.flag_id[:, :2] = [0, 1]
     see.flag_obs[0, :2] = [[10.0, 0.0], [10.0, 90.0]]  # row 0 at (0, 0), head 0
