@@ -197,7 +197,8 @@ def test_the_pass_training_examples_print_their_blocks_of_hold_times(example):
 @pytest.mark.slow
 def test_the_scikit_learn_example_learns_to_pass():
     """Linear Sarsa on scikit-learn's random Fourier features, through the environment: from random Pass
-    (about 5.3 s) to a clearly longer hold within 300 episodes (seeded: the same run every time)."""
-    blocks = example_blocks("train_pass_sklearn.py", "--episodes", "300", "--trials", "1", "--block", "100")
+    (about 5.3 s) to a clearly longer hold within 200 episodes (seeded: the same run every time; 5.95 s in
+    the first 100, 7.63 s in the next 100, 9.28 s in a third)."""
+    blocks = example_blocks("train_pass_sklearn.py", "--episodes", "200", "--trials", "1", "--block", "100")
     first, *_, last = [mean for _, _, mean in blocks]
     assert first < 6.0 and last > first + 1.0, blocks
