@@ -32,10 +32,11 @@ KERNEL_SETS = (SERVER, PLAYERS, BATCHED)
 # Sets compiled side by side first, then the rest (the batched loop calls into the other two sets'
 # kernels, which it then loads instead of compiling them again).
 STAGES = ((SERVER, PLAYERS), (BATCHED,))
-# CPU-seconds each set takes to compile on the project's 2-core machine (measured 2026-11-27, numba 0.68,
-# the batched set loading the other two sets' kernels): only for telling the user roughly how long the
-# first run waits.
-COMPILE_S = {SERVER: 36.0, PLAYERS: 87.0, BATCHED: 60.0}
+# CPU-seconds each set takes to compile on the project's 2-core machine (measured 2026-11-27 in the
+# evening, numba 0.68, each set alone on a fresh cache and the batched set as the second stage of a
+# fresh clone's compile, loading the other two sets' kernels; the same morning the machine compiled the
+# same code in two thirds of that): only for telling the user roughly how long the first run waits.
+COMPILE_S = {SERVER: 59.0, PLAYERS: 133.0, BATCHED: 79.0}
 
 
 class CompileError(RuntimeError):
