@@ -66,7 +66,7 @@ import numpy as np
 
 from agents.belief import forget_episode, new_memory
 from agents.frames import NOT_TAKEN, SENDER, TEXT_LENGTH, TEXT_START
-from agents.getopen import grid_size, grid_values
+from agents.getopen import grid_size, grid_states, grid_values
 from agents.keeper import (
     GETOPEN_DECISION,
     NO_PASS_DECISION,
@@ -94,7 +94,7 @@ from agents.skills import (
     decay_sums,
     neck_to_ball,
 )
-from agents.state_vars import pass_state_size
+from agents.state_vars import getopen_state_size, pass_state_size
 from agents.taker import taker_decide
 from agents.worldmodel import SIDE_CODES, WorldModel
 from protocol import PROTOCOL_VERSION, ProtocolError
@@ -816,10 +816,15 @@ def compile_kernels() -> None:
         for msg in (see, body, heard, m.Think(cycle=0)):
             agent.take_frame(encode(msg))
         if agent.is_keeper:
-            execute_pass_action(agent.wm.belief(), 0, agent.memory, 0, agent.kp, agent.cfg, agent._out_main,
-                                agent._out_a1, agent._out_a2, agent._out_neck)
+            execute_pass_action(agent.wm.belief(), 0, agent.memory, 0, agent.kp, agent.cfg, *agent._outs())
             grid_values(agent.wm.belief(), 0, agent.theta, agent.decay_sums, agent.kp, agent.cfg,
                         agent._grid_values)  # notes
+            # the decisions left outside (act, keepaway.env): GetOpen's grid observation and action, and
+            # the neck of a low-level command
+            grid_states(agent.wm.belief(), 0, agent.decay_sums, agent.kp, agent.cfg,
+                        np.zeros((grid_size(agent.cfg), getopen_state_size(DEFAULT_KEEPERS, DEFAULT_TAKERS))))
+            execute_getopen_action(agent.wm.belief(), 0, agent.memory, 0, agent.kp, agent.cfg, *agent._outs())
+            neck_to_ball(agent.wm.belief(), 0, CMD_DASH, 0.0, agent.kp)
     # the Sarsa learner's kernels: a keeper may become a learner at any episode boundary (docs/advice.md)
     learner = SarsaLearner(DEFAULT_KEEPERS, DEFAULT_TAKERS, SarsaConfig(table_size=1 << 16), 0, MODE_LEARN)
     state = np.zeros(pass_state_size(DEFAULT_KEEPERS, DEFAULT_TAKERS))

@@ -472,10 +472,12 @@ def compile_kernels(params: ServerParams, keepers: int, takers: int) -> None:
         scratch.connect("keepers" if s.side == "l" else "takers")
     scratch.start()
     reader = CommandReader()
-    say = reader.read(encode(m.Command(cycle=scratch.cycle, commands=(m.AtomicCommand("say", ("a",)),))))
+    kick_say = reader.read(encode(m.Command(cycle=scratch.cycle, commands=(m.AtomicCommand("kick", (10.0, 0.0)),
+                                                                            m.AtomicCommand("say", ("a",))))))
     for s in scratch.slots:
+        scratch.see_due(s, scratch.cycle)
         scratch.cycle_frames(s, True)
-        scratch.submit(s.obj, say.commands)  # the hears' kernel and the command reader's too
+        scratch.submit(s.obj, kick_say.commands)  # the kick's reach, the hears' kernel and the reader's
     scratch.step()
 
 

@@ -178,6 +178,49 @@ def test_attached_to_a_running_server_the_env_passes_the_api_test_and_plays_the_
     assert server.proc.poll() is None, server.stderr_text()
 
 
+# In a fresh process (a test's own process may have loaded any kernel already): the kernels a server and
+# a player load before a game, then three environments played with random actions; prints every kernel
+# the environments called from Python with argument types the warm-ups did not load.
+_UNWARMED_KERNELS = """
+import sys
+import numpy as np
+from numba.core.registry import CPUDispatcher
+from agents.player import compile_kernels
+from keepaway.env import parallel_env, random_action
+from protocol.params import parameter_set
+from server.arena import compile_kernels as compile_server_kernels
+
+def loaded():
+    return {f"{d.py_func.__module__}.{d.py_func.__name__}": set(d.overloads)
+            for name, module in list(sys.modules.items()) if name.split(".")[0] in ("agents", "server", "core")
+            for d in vars(module).values() if isinstance(d, CPUDispatcher)}
+
+compile_server_kernels(parameter_set("classic"), 3, 2)
+compile_kernels()
+before = loaded()
+rng = np.random.default_rng(0)
+for kw in ({}, {"getopen_action": True}, {"low_level": True}):
+    env = parallel_env(**kw)
+    obs, _ = env.reset(seed=1)
+    for _ in range(400):
+        obs, *_ = env.step({a: random_action(env.action_space(a), obs[a], rng) for a in env.agents})
+        if not env.agents:
+            obs, _ = env.reset()
+print(sorted(name for name, sigs in loaded().items() if sigs - before.get(name, set())))
+"""
+
+
+def test_the_environment_calls_only_kernels_the_warm_ups_loaded():
+    # a kernel called from Python with types that `keepaway compile` never used is compiled in the user's
+    # process at its first call, seconds after the compile said it was done (grid_states and
+    # execute_getopen_action for GetOpen actions, neck_to_ball for low-level ones, the server's see_due
+    # and kick reach test were)
+    done = subprocess.run([sys.executable, "-c", _UNWARMED_KERNELS], capture_output=True, text=True, cwd=REPO,
+                          timeout=600)
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert done.stdout.strip() == "[]"
+
+
 def example_blocks(example: str, *args: str) -> list[tuple[int, int, float]]:
     """Run ``examples/<example>`` with ``args``; the (first, last episode, mean hold time) of its blocks."""
     done = subprocess.run([sys.executable, str(REPO / "examples" / example), *args], capture_output=True,
