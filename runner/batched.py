@@ -117,7 +117,7 @@ from server.referee import END_NONE, RefereeState, new_referee_state, start_game
 from core.rng import seed_streams
 from server.simulation import step_arena
 from core.objects import BALL, CMD_KICK, CMD_NONE
-from server.world import COUNT_SAY, Commands, World, new_world
+from server.world import COUNT_SAY, Commands, World, new_world, player_unum
 from runner.job import BATCHED_SARSA, EpisodeTable
 
 # The learner memory of arenas without Pass learning: no rows (kernels never touch it).
@@ -248,7 +248,7 @@ def see_to_model_row(out: SeeBuffers, b: int, obs: int, cycle: int, n_keepers: i
         obs_row[4] = np.nan
         obs_row[5] = np.nan
         if level == FULL:
-            see.player_unum[row, n_players] = i if keeper else i - n_keepers
+            see.player_unum[row, n_players] = player_unum(i, n_keepers)
             obs_row[4] = out.body_dir[b, p, slot]
             obs_row[5] = out.head_dir[b, p, slot]
         n_players += 1

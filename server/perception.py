@@ -28,7 +28,7 @@ from protocol.landmarks import FLAG_POSITIONS, LINE_LEFT, LINE_RIGHT, LINE_TOP, 
 from protocol.params import KernelParams
 from core.rng import randint, uniform
 from core.objects import BALL
-from server.world import COLLIDED_BALL, COLLIDED_PLAYER, N_COUNTS, World
+from server.world import COLLIDED_BALL, COLLIDED_PLAYER, N_COUNTS, World, player_unum
 
 # rcssserver's angle conversions (utility.h): multiply by these constants, not by math.degrees.
 DEG2RAD = math.pi / 180.0
@@ -650,7 +650,7 @@ def write_see(out: SeeBuffers, b: int, obs: int, n_keepers: int, cycle: int, buf
         else:
             n = put_nil(buf, n)
         if level == FULL:
-            n = put_int(buf, n, i if i <= n_keepers else i - n_keepers)
+            n = put_int(buf, n, player_unum(i, n_keepers))
         else:
             n = put_nil(buf, n)
         n = put_float(buf, n, out.dist[b, p, slot])
@@ -833,6 +833,7 @@ def hear_frames(b: int, w: World, speakers: np.ndarray, n_speakers: int, texts: 
     frame f is for listener index ``frame_listener[f]``, from a sender ``frame_sender[f]`` and ends at
     ``frame_end[f]``. Returns the number of frames. The server's one kernel call a cycle
     (``server.arena.Arena``), on buffers it keeps."""
+    keepers = w.n_keepers
     n = 0
     f = 0
     for k in range(n_listeners):
@@ -845,11 +846,9 @@ def hear_frames(b: int, w: World, speakers: np.ndarray, n_speakers: int, texts: 
         for j in range(hear_picks(b, w, speakers[:n_speakers], listener, hear_max, cut, picks[k])):
             i = picks[k, j]
             speaker = speakers[i]
-            keepers = w.n_keepers
             sender = HEAR_OUR if (speaker <= keepers) == (listener <= keepers) else HEAR_OPP
-            unum = speaker if speaker <= keepers else speaker - keepers
-            n = write_hear(buf, n, cycle, sender, hear_direction(b, w, listener, speaker), unum,
-                           _say_text(texts, text_ends, i))
+            n = write_hear(buf, n, cycle, sender, hear_direction(b, w, listener, speaker),
+                           player_unum(speaker, keepers), _say_text(texts, text_ends, i))
             frame_listener[f], frame_sender[f], frame_end[f] = k, sender, n
             f += 1
     return f

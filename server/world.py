@@ -11,6 +11,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from core.jit import njit
 from core.objects import BALL, CMD_NONE
 from core.rng import seed_streams
 from protocol.params import ServerParams
@@ -25,6 +26,13 @@ COLLIDED_PLAYER = 2
 
 # Parked position of a disabled player (rcssserver parks players that said bye off the pitch).
 PARKED_Y = -37.0
+
+
+@njit(cache=True, inline="always")
+def player_unum(obj: int, n_keepers: int) -> int:
+    """Uniform number of player object ``obj``: the keepers are objects 1..n_keepers, the takers follow
+    (the one definition, for the kernels and :meth:`World.unum`)."""
+    return obj if obj <= n_keepers else obj - n_keepers
 
 
 class World(NamedTuple):
@@ -67,7 +75,7 @@ class World(NamedTuple):
 
     def unum(self, obj: int) -> int:
         """Uniform number of player object ``obj``."""
-        return obj if obj <= self.n_keepers else obj - self.n_keepers
+        return player_unum.py_func(obj, self.n_keepers)
 
     def player_object(self, side: str, unum: int) -> int:
         """Object index of the player ``unum`` of ``side`` ('l' keepers, 'r' takers)."""
