@@ -480,7 +480,17 @@ def sense_body_row(r: int, s: ModelState, cycle: int, speed_amount: float, speed
 # see (spec 4)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
+def _flag_cos_sin(a):
+    """cos and sin of a flag's direction ``a`` (degrees): from the table for a whole degree, as the
+    server sends, else computed."""
+    if -180.0 <= a <= 180.0 and a == math.floor(a):
+        k = int(a) + 180
+        return _WHOLE_DEGREES[k, 0], _WHOLE_DEGREES[k, 1]
+    return math.cos(math.radians(a)), math.sin(math.radians(a))
+
+
+@borrowing
 def localise_row(r: int, s: ModelState, see: SeeBuffer, flag_pos: np.ndarray, kp) -> None:
     """My head direction and position from the seen flags.
 
@@ -496,22 +506,11 @@ def localise_row(r: int, s: ModelState, see: SeeBuffer, flag_pos: np.ndarray, kp
     if n == 0:
         return
     me = s.me[r]
-    # each flag's weight, distance and direction cosines, computed once for both sums
-    wdcs = np.empty((n, 4))
     sw = mqx = mqy = mfx = mfy = 0.0
     for i in range(n):
         d = see.flag_obs[r, i, 0]
-        a = see.flag_obs[r, i, 1]
         w = _flag_weight(d, kp)
-        if -180.0 <= a <= 180.0 and a == math.floor(a):  # a whole degree, as the server sends
-            k = int(a) + 180
-            ca, sa = _WHOLE_DEGREES[k, 0], _WHOLE_DEGREES[k, 1]
-        else:
-            ca, sa = math.cos(math.radians(a)), math.sin(math.radians(a))
-        wdcs[i, 0] = w
-        wdcs[i, 1] = d
-        wdcs[i, 2] = ca
-        wdcs[i, 3] = sa
+        ca, sa = _flag_cos_sin(see.flag_obs[r, i, 1])
         sw += w
         mqx += w * d * ca
         mqy += w * d * sa
@@ -523,11 +522,12 @@ def localise_row(r: int, s: ModelState, see: SeeBuffer, flag_pos: np.ndarray, kp
     mfy /= sw
     if n >= 2:
         dot = cross = 0.0
-        for i in range(n):
-            w = wdcs[i, 0]
-            d = wdcs[i, 1]
-            qx = d * wdcs[i, 2] - mqx
-            qy = d * wdcs[i, 3] - mqy
+        for i in range(n):  # the same weights and cosines again, computed as above (no scratch array)
+            d = see.flag_obs[r, i, 0]
+            w = _flag_weight(d, kp)
+            ca, sa = _flag_cos_sin(see.flag_obs[r, i, 1])
+            qx = d * ca - mqx
+            qy = d * sa - mqy
             fx = flag_pos[see.flag_id[r, i], 0] - mfx
             fy = flag_pos[see.flag_id[r, i], 1] - mfy
             dot += w * (qx * fx + qy * fy)
