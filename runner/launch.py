@@ -10,11 +10,22 @@ preempts the sender at once; on a machine with fewer cores than processes the se
 about 30 times a cycle, and every switch costs the caches. Batch tasks do not preempt on wake-up, so
 the server sends a cycle's percepts in one go and the players then run. Time slices and fairness are
 the same; only a real-time arena, which keeps wall-clock deadlines, is left as it is.
+
+On Linux the players are forked rather than started: a player process used to spend about 2.5 s of CPU
+importing its modules and loading its compiled kernels (numba's first cache load imports scipy for its
+BLAS check), five times an arena. A fork server (``multiprocessing``'s, started once
+per launcher) imports them and loads the kernels once (:mod:`runner.player_preload`); each player is a
+fork of it that runs the ``keepaway player`` command line as a process of its own, in its own session
+and with its own log, as a started one would (docs/design.md, "Processes and sockets").
 """
 
 from __future__ import annotations
 
 import ctypes
+import multiprocessing
+import multiprocessing.connection
+import multiprocessing.forkserver
+import multiprocessing.util
 import os
 import re
 import signal
@@ -28,7 +39,7 @@ from pathlib import Path
 LISTEN_RE = re.compile(r"players=(tcp://\S+) coach=(tcp://\S+) monitor=(tcp://\S+)")
 ARENA_RE = re.compile(r"arena=(tcp://\S+)")
 VIEW_RE = re.compile(r"keepaway view: (http://\S+)")
-PR_SET_PDEATHSIG = 1  # linux/prctl.h
+PR_SET_PDEATHSIG, PR_SET_NAME = 1, 15  # linux/prctl.h
 # A clean exit (code 0) before the run has finished counts as a death once the server has gone on
 # running this long after it: players and coach exit 0 when the server shuts down, a moment before the
 # server's own process is gone.
@@ -39,12 +50,47 @@ class ArenaFailure(RuntimeError):
     """A process of the arena died or could not start; the message names it."""
 
 
+class ForkedProcess:
+    """A player forked by the fork server (module docstring), behind the part of ``subprocess.Popen``
+    that :class:`ArenaProcesses` and its callers use: ``pid`` (also its session's id), ``returncode``
+    (negative: the signal that killed it), ``poll``, ``wait``, ``send_signal``, ``terminate``, ``kill``."""
+
+    stdout = None
+
+    def __init__(self, process: multiprocessing.process.BaseProcess) -> None:
+        self._process = process
+        self.pid: int = process.pid
+
+    @property
+    def returncode(self) -> int | None:
+        return self._process.exitcode
+
+    def poll(self) -> int | None:
+        return self._process.exitcode
+
+    def wait(self, timeout: float | None = None) -> int:
+        self._process.join(timeout)
+        if self._process.exitcode is None:
+            raise subprocess.TimeoutExpired(f"player {self.pid}", timeout)
+        return self._process.exitcode
+
+    def send_signal(self, sig: int) -> None:
+        if self._process.exitcode is None:
+            os.kill(self.pid, sig)
+
+    def terminate(self) -> None:
+        self.send_signal(signal.SIGTERM)
+
+    def kill(self) -> None:
+        self.send_signal(signal.SIGKILL)
+
+
 @dataclass
 class Member:
     """One process of the arena."""
 
     name: str
-    proc: subprocess.Popen
+    proc: subprocess.Popen | ForkedProcess
 
     def describe_exit(self) -> str:
         code = self.proc.returncode
@@ -94,6 +140,20 @@ class ArenaProcesses:
         self.members.append(member)
         return member
 
+    def start_player(self, name: str, args: list[str]) -> Member:
+        """Start ``keepaway player ARGS`` as member ``name``: forked from the players' fork server on
+        Linux (module docstring), else as :meth:`start` starts a process."""
+        if not forking_players():
+            return self.start(name, keepaway_argv("player", *args))
+        log = self.log_dir / f"{name.replace(' ', '_')}.log"
+        process = _players_fork_server().Process(
+            target=_forked_player, args=(name, args, str(log), dict(os.environ), self.batch_scheduled),
+            name=name, daemon=True)
+        process.start()
+        member = Member(name, ForkedProcess(process))
+        self.members.append(member)
+        return member
+
     def member(self, name: str) -> Member:
         return next(member for member in self.members if member.name == name)
 
@@ -111,6 +171,9 @@ class ArenaProcesses:
         players, each with ``player_args``; with ``keys`` every process uses that keys directory
         (``protocol.security``)."""
         secured = ["--keys", str(keys)] if keys is not None else []
+        if forking_players():  # the fork server loads the players' kernels while the server starts
+            _players_fork_server()
+            multiprocessing.forkserver.ensure_running()
         _, players, coach, monitor = self.start_server([*server_args, *secured])
         arena = None
         if arena_host is None:
@@ -122,8 +185,8 @@ class ArenaProcesses:
             arena = self.announced(member, ARENA_RE, 120.0).group(1)
         for team, count in (("keepers", keepers), ("takers", takers)):
             for i in range(1, count + 1):
-                self.start(f"{team[:-1]} {i}", keepaway_argv("player", "--team", team, "--server", players,
-                                                             *player_args, *secured))
+                self.start_player(f"{team[:-1]} {i}",
+                                  ["--team", team, "--server", players, *player_args, *secured])
         return ArenaEndpoints(players, coach, monitor, arena)
 
     def announced(self, member: Member, pattern: re.Pattern, timeout_s: float) -> re.Match:
@@ -209,6 +272,50 @@ def child_setup(batch_scheduled: bool) -> Callable[[], None] | None:
 def die_with_parent() -> None:
     """In the child, before exec: ask Linux for SIGTERM when the parent dies."""
     ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
+
+
+def forking_players() -> bool:
+    """Whether players are forked from the fork server (module docstring): on Linux, unless
+    ``KEEPAWAY_FORK_PLAYERS=0`` asks for started processes, and only where the fork server listens on a
+    file only this user may open (Python 3.11.0 used Linux's abstract socket namespace, which any local
+    user can connect to and have the server fork what it is sent: CVE-2022-42919)."""
+    if sys.platform != "linux" or os.environ.get("KEEPAWAY_FORK_PLAYERS", "1") == "0":
+        return False
+    address = multiprocessing.connection.arbitrary_address("AF_UNIX")
+    return not multiprocessing.util.is_abstract_socket_namespace(address)
+
+
+def _players_fork_server() -> multiprocessing.context.ForkServerContext:
+    """multiprocessing's fork-server context, preloading the players' modules and kernels."""
+    context = multiprocessing.get_context("forkserver")
+    context.set_forkserver_preload(["runner.player_preload"])
+    return context
+
+
+def _forked_player(name: str, args: list[str], log: str, environ: dict[str, str], batch_scheduled: bool) -> None:
+    """A forked player (module docstring): set up as :meth:`ArenaProcesses.start` sets up a started
+    process (its own session, SIGTERM when its parent, the fork server, dies, which it does when the
+    launcher does; the launcher's environment; stderr appended to ``log``; stdin and stdout
+    ``/dev/null``; ``SCHED_BATCH`` if asked), then the ``keepaway player`` command line. It keeps the
+    fork server's command line, so it takes its member ``name`` ("taker 2") as its process name, which
+    ``ps -o comm`` and ``top`` show. It closes every file it inherited: among them multiprocessing's
+    pipe that keeps the fork server running while any fork holds it, which would keep the server, and
+    with it the player's SIGTERM on its death, waiting for the player after the launcher has died."""
+    os.closerange(3, os.sysconf("SC_OPEN_MAX"))
+    os.setsid()
+    child_setup(batch_scheduled)()
+    ctypes.CDLL(None, use_errno=True).prctl(PR_SET_NAME, name.encode()[:15])
+    os.environ.clear()
+    os.environ.update(environ)
+    null = os.open(os.devnull, os.O_RDWR)
+    stderr = os.open(log, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+    for fd, target in ((0, null), (1, null), (2, stderr)):
+        os.dup2(target, fd)
+    os.close(null)
+    os.close(stderr)
+    from agents.cli import player_command
+
+    player_command.main(args=args, prog_name="keepaway player")
 
 
 def interrupt_on_sigterm() -> None:

@@ -62,6 +62,58 @@ def keepaway_command(*args: str) -> list[str]:
     return [sys.executable, "-m", "keepaway", *args]
 
 
+# multiprocessing's helpers beside a distributed arena's members: the players' fork server
+# (runner.launch) and its resource tracker
+MULTIPROCESSING_HELPERS = ("multiprocessing.forkserver", "multiprocessing.resource_tracker")
+
+
+def process_tree(pid: int) -> dict[int, str]:
+    """pid -> name of every live (not zombie) descendant of ``pid``, from /proc: a forked player
+    (runner.launch) by the member name it takes ("keeper 1", "taker 2"), any other process by its
+    command line."""
+    parent, name = {}, {}
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            state, ppid = (entry / "stat").read_text().rsplit(") ", 1)[1].split()[:2]
+            comm = (entry / "comm").read_text().strip()
+            cmdline = (entry / "cmdline").read_bytes().replace(b"\0", b" ").decode()
+        except (OSError, ValueError, IndexError):
+            continue
+        if state != "Z":
+            parent[int(entry.name)] = int(ppid)
+            name[int(entry.name)] = comm if re.fullmatch(r"(keeper|taker) \d+", comm) else cmdline
+    tree, frontier = {}, [pid]
+    while frontier:
+        found = [child for child, ppid in parent.items() if ppid in frontier]
+        tree.update((child, name[child]) for child in found)
+        frontier = found
+    return tree
+
+
+def arena_members(tree: dict[int, str]) -> dict[int, str]:
+    """The arenas' own processes of a :func:`process_tree` (server, coach, players)."""
+    return {pid: name for pid, name in tree.items() if not any(h in name for h in MULTIPROCESSING_HELPERS)}
+
+
+def running(pids, timeout_s: float = 0.0) -> set[int]:
+    """Those of ``pids`` still running (neither gone nor zombies) once they are all gone or
+    ``timeout_s`` has passed."""
+    deadline = time.monotonic() + timeout_s
+    while True:
+        left = set()
+        for pid in pids:
+            try:
+                if "zombie" not in Path(f"/proc/{pid}/status").read_text():
+                    left.add(pid)
+            except OSError:
+                continue
+        if not left or time.monotonic() >= deadline:
+            return left
+        time.sleep(0.05)
+
+
 def read_until_match(stream, pattern: re.Pattern, timeout_s: float) -> re.Match:
     """Read a child's pipe until ``pattern`` matches what it has said; TimeoutError after ``timeout_s``,
     EOFError if the child closes the pipe first. Reads the file descriptor behind a selector: a

@@ -6,6 +6,7 @@ import json
 import os
 import re
 import signal
+import socket
 import subprocess
 import sys
 import time
@@ -13,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import keepaway_command
+from conftest import arena_members, keepaway_command, process_tree, running
 from server.episode_log import read_jsonl
 from server.game_log import read_rcg
 
@@ -32,22 +33,6 @@ def run_json(processes, *args: str, timeout: float = 600) -> dict:
 def episodes_logged(out: Path) -> int:
     kwy = out / "keepaway.kwy"
     return sum(1 for l in kwy.read_text().splitlines() if l and l[0] != "#") if kwy.exists() else 0
-
-
-def children_of(pid: int) -> dict[int, str]:
-    """pid -> command line of the direct children of ``pid`` (from /proc)."""
-    found = {}
-    for entry in Path("/proc").iterdir():
-        if not entry.name.isdigit():
-            continue
-        try:
-            stat = (entry / "stat").read_text()
-            ppid = int(stat.rsplit(")", 1)[1].split()[1])
-            if ppid == pid:
-                found[int(entry.name)] = (entry / "cmdline").read_bytes().replace(b"\0", b" ").decode()
-        except (OSError, ValueError, IndexError):
-            continue
-    return found
 
 
 @pytest.mark.slow
@@ -88,8 +73,8 @@ def test_a_killed_player_is_named_and_the_run_fails_without_hanging(processes, t
     deadline = time.monotonic() + 180
     victim = None
     while time.monotonic() < deadline and victim is None:
-        kids = children_of(proc.pid)
-        players = sorted(pid for pid, cmd in kids.items() if "player --team takers" in cmd)
+        kids = process_tree(proc.pid)
+        players = sorted(pid for pid, name in kids.items() if name.startswith("taker "))
         # wait until the game runs (an episode was logged), then kill the second taker
         if len(players) == 2 and episodes_logged(tmp_path) >= 1:
             victim = players[1]
@@ -104,10 +89,11 @@ def test_a_killed_player_is_named_and_the_run_fails_without_hanging(processes, t
     logged = episodes_logged(tmp_path)
     assert f"the summary covers the {logged} of 100000 episodes that finished" in message
     assert f"episodes        {logged}\n" in out.decode()
-    # every process of the arena is gone (the run reaped them before it exited)
-    assert len(kids) == 7
-    for pid in kids:
-        assert not Path(f"/proc/{pid}").exists() or "zombie" in Path(f"/proc/{pid}/status").read_text()
+    # every process of the arena is gone (the run reaped them before it exited), and the players' fork
+    # server ends once it sees the run gone
+    assert len(arena_members(kids)) == 7
+    assert not running(arena_members(kids))
+    assert not running(kids, timeout_s=10.0)
 
 
 def test_batched_run_reports_the_same_summary_shape(processes, tmp_path):
@@ -166,17 +152,17 @@ def test_ctrl_c_stops_every_process_of_the_arena(processes, tmp_path):
     deadline = time.monotonic() + 180
     kids: dict[int, str] = {}
     while time.monotonic() < deadline:
-        kids = children_of(proc.pid)
-        if len(kids) == 7 and episodes_logged(tmp_path) >= 1:
+        kids = process_tree(proc.pid)
+        if len(arena_members(kids)) == 7 and episodes_logged(tmp_path) >= 1:
             break
         time.sleep(0.2)
-    assert len(kids) == 7, kids
+    assert len(arena_members(kids)) == 7, kids
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130
     assert "interrupted; every process was stopped" in err.decode()
-    for pid in kids:
-        assert not Path(f"/proc/{pid}").exists() or "zombie" in Path(f"/proc/{pid}/status").read_text()
+    assert not running(arena_members(kids))
+    assert not running(kids, timeout_s=10.0)  # the players' fork server, once it sees the run gone
 
 
 @pytest.mark.slow
@@ -186,7 +172,7 @@ def test_a_player_that_misses_cycles_is_reported_on_the_console_once_and_when_it
     deadline = time.monotonic() + 180
     victim = None
     while time.monotonic() < deadline and victim is None:
-        keepers = sorted(pid for pid, cmd in children_of(proc.pid).items() if "player --team keepers" in cmd)
+        keepers = sorted(pid for pid, name in process_tree(proc.pid).items() if name.startswith("keeper "))
         if len(keepers) == 3 and episodes_logged(tmp_path) >= 1:
             victim = keepers[1]  # one of the keepers (its uniform number is the server's choice)
         time.sleep(0.2)
@@ -323,6 +309,29 @@ def test_batched_rates_count_the_episodes_and_arena_cycles_after_the_first_chunk
     assert result.cycles == sum(c.cycles for c in chunks[first + 1:])  # arena-cycles, compilation excluded
     assert result.rate_episodes == sum(len(c) for c in chunks[first + 1:]), \
         "run() must count the episodes by the cycles the stream yields, not by each arena's own end cycle"
+
+
+@pytest.mark.skipif(not hasattr(os, "SCHED_BATCH"), reason="forked players and SCHED_BATCH are Linux's")
+def test_a_forked_player_runs_as_a_started_one_would(tmp_path):
+    """runner/launch.py: a player forked from the fork server has its own session, its member name, the
+    arena's scheduling policy and its own log, and the arena reads its exit code."""
+    from runner.launch import ArenaProcesses
+
+    with socket.socket() as unused:
+        unused.bind(("127.0.0.1", 0))  # a port that nobody listens on: the player waits for its init_ok
+        endpoint = f"tcp://127.0.0.1:{unused.getsockname()[1]}"
+        with ArenaProcesses(tmp_path, batch_scheduled=True) as arena:
+            waiting = arena.start_player("keeper 1", ["--team", "keepers", "--server", endpoint])
+            failing = arena.start_player("taker 1", ["--team", "takers", "--policy", str(tmp_path / "none.npz")])
+            assert failing.proc.wait(timeout=60) == 2
+            assert failing.describe_exit() == f"taker 1 (pid {failing.proc.pid}) exited with code 2"
+            assert "none.npz" in (tmp_path / "taker_1.log").read_text()
+            pid = waiting.proc.pid
+            assert waiting.proc.poll() is None
+            assert os.getsid(pid) == pid
+            assert os.sched_getscheduler(pid) == os.SCHED_BATCH
+            assert Path(f"/proc/{pid}/comm").read_text().strip() == "keeper 1"
+        assert waiting.proc.returncode is not None  # stopped with its arena
 
 
 @pytest.mark.skipif(not hasattr(os, "SCHED_BATCH"), reason="SCHED_BATCH is Linux's")

@@ -16,7 +16,7 @@ import pytest
 import zmq
 
 from agents.policy_file import load_policy
-from conftest import keepaway_command
+from conftest import arena_members, keepaway_command, process_tree
 from protocol import encode
 from protocol import messages as m
 from protocol.arena import RunEpisodes, decode_from_trainer
@@ -158,10 +158,6 @@ def live_processes() -> dict[int, int]:
     return out
 
 
-def children(pid: int) -> set[int]:
-    return {child for child, parent in live_processes().items() if parent == pid}
-
-
 def alive(pids: set[int]) -> set[int]:
     return pids & set(live_processes())
 
@@ -224,12 +220,13 @@ def test_a_terminated_training_stops_its_arenas_and_resumes_to_the_same_result_o
     trainer = processes.popen(keepaway_command(*TRAIN_ARGS, "--arenas", "1", "--out", str(out)),
                               stderr=subprocess.PIPE)
     wait_for(lambda: (out / "trial_000" / "checkpoint.npz").exists(), 300, "the first checkpoint")
-    arena = children(trainer.pid)
-    assert len(arena) == 7  # server, coach, 3 keepers, 2 takers
+    arena = process_tree(trainer.pid)  # and the players' fork server (runner.launch)
+    assert len(arena_members(arena)) == 7  # server, coach, 3 keepers, 2 takers
     trainer.send_signal(signal.SIGTERM)
     assert trainer.wait(60) == 130
     assert "--resume" in trainer.stderr.read().decode()
-    assert not alive(arena)
+    # the members were stopped before the trainer exited; the players' fork server ends once it sees it gone
+    wait_for(lambda: not alive(set(arena)), 10, "the arena's processes to end")
     resumed = subprocess.run(keepaway_command("train", "--resume", str(out), "--no-progress"), capture_output=True,
                              text=True, timeout=600)
     assert resumed.returncode == 0, resumed.stderr
@@ -245,11 +242,11 @@ def test_a_killed_trainer_leaves_no_arena_process_behind(tmp_path, processes):
     out = tmp_path / "killed"
     trainer = processes.popen(keepaway_command(*TRAIN_ARGS, "--arenas", "2", "--out", str(out)))
     wait_for(lambda: (out / "trial_000").exists(), 300, "the arenas to play")
-    arenas = children(trainer.pid)
-    assert len(arenas) == 14  # two arenas of seven processes
+    arenas = process_tree(trainer.pid)
+    assert len(arena_members(arenas)) == 14  # two arenas of seven processes
     os.kill(trainer.pid, signal.SIGKILL)
     trainer.wait(30)
-    wait_for(lambda: not alive(arenas), 30, "the orphaned arena processes to end")
+    wait_for(lambda: not alive(set(arenas)), 30, "the orphaned arena processes to end")
 
 
 def test_where_a_training_runs_is_checked_against_its_mode(tmp_path):
