@@ -158,6 +158,20 @@ def live_processes() -> dict[int, int]:
     return out
 
 
+def tree_with_members(pid: int, members: int) -> dict[int, str]:
+    """``process_tree(pid)`` (with the players' fork server) once it holds ``members`` arena processes:
+    an arena's players are forked one after another, and a chunk's arena may still be starting."""
+    tree: dict[int, str] = {}
+
+    def complete() -> bool:
+        nonlocal tree
+        tree = process_tree(pid)
+        return len(arena_members(tree)) == members
+
+    wait_for(complete, 60, f"{members} arena processes")
+    return tree
+
+
 def alive(pids: set[int]) -> set[int]:
     return pids & set(live_processes())
 
@@ -220,8 +234,7 @@ def test_a_terminated_training_stops_its_arenas_and_resumes_to_the_same_result_o
     trainer = processes.popen(keepaway_command(*TRAIN_ARGS, "--arenas", "1", "--out", str(out)),
                               stderr=subprocess.PIPE)
     wait_for(lambda: (out / "trial_000" / "checkpoint.npz").exists(), 300, "the first checkpoint")
-    arena = process_tree(trainer.pid)  # and the players' fork server (runner.launch)
-    assert len(arena_members(arena)) == 7  # server, coach, 3 keepers, 2 takers
+    arena = tree_with_members(trainer.pid, 7)  # server, coach, 3 keepers, 2 takers
     trainer.send_signal(signal.SIGTERM)
     assert trainer.wait(60) == 130
     assert "--resume" in trainer.stderr.read().decode()
@@ -242,8 +255,7 @@ def test_a_killed_trainer_leaves_no_arena_process_behind(tmp_path, processes):
     out = tmp_path / "killed"
     trainer = processes.popen(keepaway_command(*TRAIN_ARGS, "--arenas", "2", "--out", str(out)))
     wait_for(lambda: (out / "trial_000").exists(), 300, "the arenas to play")
-    arenas = process_tree(trainer.pid)
-    assert len(arena_members(arenas)) == 14  # two arenas of seven processes
+    arenas = tree_with_members(trainer.pid, 14)  # two arenas of seven processes
     os.kill(trainer.pid, signal.SIGKILL)
     trainer.wait(30)
     wait_for(lambda: not alive(set(arenas)), 30, "the orphaned arena processes to end")
