@@ -256,7 +256,7 @@ def see_to_model_row(out: SeeBuffers, b: int, obs: int, cycle: int, n_keepers: i
     see.cycle[row] = cycle
 
 
-@borrowing
+@borrowing(inline="always")
 def perceive(b: int, obs: int, row: int, w: World, with_see: bool, episode_message: bool, cone: float, kp, cfg,
              pl: Players, see_out: SeeBuffers, body_out: SenseBodyBuffers) -> None:
     """Player ``obs``'s percepts of this cycle into its world-model row, in the server's order
@@ -276,7 +276,7 @@ def perceive(b: int, obs: int, row: int, w: World, with_see: bool, episode_messa
         see_row(row, pl.model, pl.see, FLAG_POSITIONS, w.n_keepers, kp, cfg)
 
 
-@borrowing
+@borrowing(inline="always")
 def learn_pass(learner: int, obs: int, row: int, kp, cfg, pl: Players, sarsa: SarsaMemory, sp) -> None:
     """Keeper ``obs``'s Pass decision point (``keeper_decide`` returned PASS_DECISION_*): its learner row
     (``learner``: its arena's keeper 1's row, :class:`ArenaPolicies`) starts its episode or steps with
@@ -292,7 +292,7 @@ def learn_pass(learner: int, obs: int, row: int, kp, cfg, pl: Players, sarsa: Sa
     execute_pass_action(pl.belief, row, pl.memory, action, kp, cfg, out.main, out.arg1, out.arg2, out.neck)
 
 
-@borrowing
+@borrowing(inline="always")
 def end_pass_episodes(b: int, learner: int, w: World, pl: Players, sarsa: SarsaMemory, sp) -> None:
     """The episode of arena ``b`` (its keepers' learner rows from ``learner`` on) ended: each keeper that
     decided in it gets its terminal update with reward = the new episode's first cycle (``w.time`` after
@@ -303,7 +303,7 @@ def end_pass_episodes(b: int, learner: int, w: World, pl: Players, sarsa: SarsaM
         end_episode(sarsa, learner + p, w.time[b] - pl.memory.t_last[row], sp)
 
 
-@borrowing
+@borrowing(inline="always")
 def decide(b: int, obs: int, row: int, w: World, c: Commands, theta: np.ndarray, kp, cfg, learner: int,
            pl: Players, sarsa: SarsaMemory, sp) -> None:
     """Player ``obs``'s decision on its belief, sent as the player process sends it (``agents/player.py``:
@@ -372,7 +372,7 @@ def deliver_says(b: int, w: World, talk: Talk, kp) -> None:
             talk.heard_new[dst] = True
 
 
-@borrowing
+@borrowing(inline="always")
 def arena_cycle(b: int, w: World, c: Commands, ref: RefereeState, theta: np.ndarray, kp, cfg, learner: int,
                 pl: Players, sarsa: SarsaMemory, sp, see_out: SeeBuffers, body_out: SenseBodyBuffers,
                 episode_message: bool, see_period_ms: float, cone: float) -> int:

@@ -34,10 +34,10 @@ KERNEL_SETS = (SERVER, PLAYERS, BATCHED)
 STAGES = ((SERVER, PLAYERS), (BATCHED,))
 # CPU-seconds each set takes to compile on the project's 2-core machine (measured 2026-11-27 in the
 # evening, numba 0.68, each set alone on a fresh cache and the batched set as the second stage of a
-# fresh clone's compile, loading the other two sets' kernels; an earlier measurement on this machine was
-# about two thirds of these, so its speed varies): only for telling the user roughly how long the first
-# run waits.
-COMPILE_S = {SERVER: 59.0, PLAYERS: 133.0, BATCHED: 79.0}
+# fresh clone's compile, loading the other two sets' kernels; the batched set again on 2026-11-28, after
+# its loop's phases were compiled into run_chunk; an earlier measurement on this machine was about two
+# thirds of these, so its speed varies): only for telling the user roughly how long the first run waits.
+COMPILE_S = {SERVER: 59.0, PLAYERS: 133.0, BATCHED: 36.0}
 
 
 class CompileError(RuntimeError):
