@@ -271,7 +271,12 @@ def child_setup(batch_scheduled: bool) -> Callable[[], None] | None:
 
 def die_with_parent() -> None:
     """In the child, before exec: ask Linux for SIGTERM when the parent dies."""
-    ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
+    _prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
+
+
+def _prctl(option: int, arg: int | bytes) -> None:
+    """Linux's prctl(2) on this process."""
+    ctypes.CDLL(None, use_errno=True).prctl(option, arg)
 
 
 def forking_players() -> bool:
@@ -304,7 +309,7 @@ def _forked_player(name: str, args: list[str], log: str, environ: dict[str, str]
     os.closerange(3, os.sysconf("SC_OPEN_MAX"))
     os.setsid()
     child_setup(batch_scheduled)()
-    ctypes.CDLL(None, use_errno=True).prctl(PR_SET_NAME, name.encode()[:15])
+    _prctl(PR_SET_NAME, name.encode()[:15])
     os.environ.clear()
     os.environ.update(environ)
     null = os.open(os.devnull, os.O_RDWR)

@@ -16,7 +16,7 @@ import pytest
 import zmq
 
 from agents.policy_file import load_policy
-from conftest import arena_members, keepaway_command, process_tree
+from conftest import arena_members, keepaway_command, process_tree, running
 from protocol import encode
 from protocol import messages as m
 from protocol.arena import RunEpisodes, decode_from_trainer
@@ -143,21 +143,6 @@ def trained(tmp_path_factory) -> Path:
     return out
 
 
-def live_processes() -> dict[int, int]:
-    """Every live (not zombie) process: pid -> parent pid."""
-    out = {}
-    for entry in Path("/proc").iterdir():
-        if not entry.name.isdigit():
-            continue
-        try:
-            state, ppid = (entry / "stat").read_text().rsplit(") ", 1)[1].split()[:2]
-        except (OSError, ValueError, IndexError):
-            continue
-        if state != "Z":
-            out[int(entry.name)] = int(ppid)
-    return out
-
-
 def tree_with_members(pid: int, members: int) -> dict[int, str]:
     """``process_tree(pid)`` (with the players' fork server) once it holds ``members`` arena processes:
     an arena's players are forked one after another, and a chunk's arena may still be starting."""
@@ -170,10 +155,6 @@ def tree_with_members(pid: int, members: int) -> dict[int, str]:
 
     wait_for(complete, 60, f"{members} arena processes")
     return tree
-
-
-def alive(pids: set[int]) -> set[int]:
-    return pids & set(live_processes())
 
 
 def wait_for(condition, timeout: float, what: str) -> None:
@@ -238,8 +219,8 @@ def test_a_terminated_training_stops_its_arenas_and_resumes_to_the_same_result_o
     trainer.send_signal(signal.SIGTERM)
     assert trainer.wait(60) == 130
     assert "--resume" in trainer.stderr.read().decode()
-    # the members were stopped before the trainer exited; the players' fork server ends once it sees it gone
-    wait_for(lambda: not alive(set(arena)), 10, "the arena's processes to end")
+    assert not running(arena_members(arena))  # stopped before the trainer exited
+    assert not running(arena, timeout_s=10.0)  # the players' fork server, once it sees the trainer gone
     resumed = subprocess.run(keepaway_command("train", "--resume", str(out), "--no-progress"), capture_output=True,
                              text=True, timeout=600)
     assert resumed.returncode == 0, resumed.stderr
@@ -258,7 +239,7 @@ def test_a_killed_trainer_leaves_no_arena_process_behind(tmp_path, processes):
     arenas = tree_with_members(trainer.pid, 14)  # two arenas of seven processes
     os.kill(trainer.pid, signal.SIGKILL)
     trainer.wait(30)
-    wait_for(lambda: not alive(set(arenas)), 30, "the orphaned arena processes to end")
+    assert not running(arenas, timeout_s=30.0), "orphaned arena processes went on"
 
 
 def test_where_a_training_runs_is_checked_against_its_mode(tmp_path):
