@@ -268,6 +268,32 @@ def test_a_sitting_interrupted_right_after_its_first_record_still_ends_it(tmp_pa
     assert "running" not in sitting and len(written) == 2
 
 
+class _HalfStarted:
+    """A thread whose start() was interrupted after the new thread took its ident and before it set its
+    start flag: the real join() raises RuntimeError("cannot join thread before it is started") then."""
+
+    def __init__(self, **_: object) -> None:
+        self.ident = 1
+
+    def start(self) -> None:
+        raise KeyboardInterrupt
+
+    def join(self) -> None:
+        raise RuntimeError("cannot join thread before it is started")
+
+
+def test_a_sitting_interrupted_while_its_refresher_starts_still_ends_it(tmp_path, monkeypatch):
+    # the window an interrupted worker of `experiment --workers` hit on a busy CI machine: its record
+    # stayed "running" because the end waited for a thread that could not be joined
+    monkeypatch.setattr(experiments.threading, "Thread", _HalfStarted)
+    with pytest.raises(KeyboardInterrupt):
+        with experiments.timed_sitting(tmp_path):
+            pytest.fail("the work must not start")
+    monkeypatch.undo()
+    (sitting,) = json.loads((tmp_path / "timing.json").read_text())["sittings"]
+    assert "running" not in sitting
+
+
 def test_a_sitting_is_timed_even_when_it_is_interrupted(tmp_path):
     with pytest.raises(KeyboardInterrupt):
         with experiments.timed_sitting(tmp_path):

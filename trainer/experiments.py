@@ -257,27 +257,31 @@ def timed_sitting(where: Path, refresh_s: float = TIMING_REFRESH_S) -> Iterator[
     record = _read_json(where / TIMING) or {"sittings": []}
     record["sittings"].append({})
     lock, done = threading.Lock(), threading.Event()
+    ended = False  # the final record is written: a refresh still under way must not replace it
 
     def write(running: bool) -> None:
+        nonlocal ended
         with lock:
+            if ended:
+                return
             record["sittings"][-1] = {"ended": datetime.now(timezone.utc).isoformat(timespec="seconds"),
                                       "wall_s": round(time.perf_counter() - wall, 3),
                                       "cpu_s": round(cpu_seconds() - cpu, 3), **({"running": True} if running else {})}
             write_atomic(where / TIMING, json.dumps(record, indent=1).encode())
+            ended = not running
 
     def refresh() -> None:
         while not done.wait(refresh_s):
             write(running=True)
 
-    refresher = threading.Thread(target=refresh, name="timing", daemon=True)
     try:  # from the first write on: an interruption right after it still ends the sitting's record
         write(running=True)
-        refresher.start()
+        # An interruption inside start() can leave the thread neither unstarted nor joinable (join raises
+        # RuntimeError between its ident and its start flag): the end below does not wait for it.
+        threading.Thread(target=refresh, name="timing", daemon=True).start()
         yield
     finally:
         done.set()
-        if refresher.ident is not None:  # started
-            refresher.join()
         write(running=False)
 
 
