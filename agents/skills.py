@@ -956,7 +956,8 @@ def interception_point(bel: Belief, r: int, mem: AgentMemory, sums, kp, cfg, kno
     after the first) whose ball position is within 1 m of the point chosen last cycle, with margin and a
     ball still moving, if I intercepted during the last 2 cycles. The choice is remembered in ``mem``.
     (The framework scans on to first + 20 cycles, but only first..first + 2 can be chosen, so the scan
-    stops there.) ``known_first`` >= 0: my first reachable cycle with the ball rolling is known (a keeper's
+    stops there, and at the stable point once found; a point's distance after its moves is simulated only
+    where the rule's other tests hold.) ``known_first`` >= 0: my first reachable cycle with the ball rolling is known (a keeper's
     ``fastest_to_ball`` found it), so the travel simulations before it are skipped, and at it too unless the
     stability rule needs my distance there; -1: unknown."""
     me = bel.me[r]
@@ -967,7 +968,7 @@ def interception_point(bel: Belief, r: int, mem: AgentMemory, sums, kp, cfg, kno
     recent = mem.intercept_time[r] >= 0 and bel.time[r] - mem.intercept_time[r] <= cfg.stability_window
     first, stable = -1, -1
     for i in range(int(cfg.intercept_horizon) + 1):
-        if first >= 0 and i > first + cfg.stability_window:
+        if stable >= 0 or (first >= 0 and i > first + cfg.stability_window):
             break
         bx, by = ball_in(bel, r, i, kp)
         if abs(bx) > kp.pitch_length / 2.0 or abs(by) > kp.pitch_width / 2.0:
@@ -977,23 +978,26 @@ def interception_point(bel: Belief, r: int, mem: AgentMemory, sums, kp, cfg, kno
         reach = (i + kickable) * kp.player_speed_max
         if compared_hypot(bx - fx, by - fy, reach) / kp.player_speed_max > i + kickable:
             continue
-        if i == known_first and not recent:
+        # the stability rule's tests that need no simulation: a point failing them can only be the first
+        # (whether it is reached is all that matters then) and is not simulated at all once that is known
+        candidate = (
+            recent
+            and distance(bx, by, mem.intercept_point[r, 0], mem.intercept_point[r, 1]) < cfg.stability_radius
+            and ball_speed * kp.ball_decay**i > cfg.stability_ball_speed
+        )
+        if first >= 0 and not candidate:
+            continue
+        if i == known_first and not candidate:
             reached, end = i, math.nan
         else:
-            reached, end = player_travel(bel, r, me, bx, by, i, recent, sums, kp, cfg)
+            reached, end = player_travel(bel, r, me, bx, by, i, candidate, sums, kp, cfg)
         if reached > i:
             continue
         if first < 0:
             first = i
             if not recent:
                 break
-        if (
-            stable < 0
-            and i <= first + cfg.stability_window
-            and distance(bx, by, mem.intercept_point[r, 0], mem.intercept_point[r, 1]) < cfg.stability_radius
-            and end < cfg.stability_margin * kickable
-            and ball_speed * kp.ball_decay**i > cfg.stability_ball_speed
-        ):
+        if candidate and end < cfg.stability_margin * kickable:
             stable = i
     chosen = stable if stable >= 0 else first
     if chosen < 0:
