@@ -39,6 +39,19 @@ def compared_hypot(dx: float, dy: float, threshold: float) -> float:
 
 
 @borrowing
+def nearer_than(dx: float, dy: float, limit: float) -> float:
+    """hypot(dx, dy) if it is below ``limit``, else inf: the exact distance of a nearer point, for a
+    search for the nearest one (``if d < best_d``) that computes libm's hypot only for the points that
+    improve on the best so far (and the first), a sqrt for the rest. The same answers as comparing
+    hypot itself."""
+    d = math.sqrt(dx * dx + dy * dy)
+    if d < math.inf and not near(d, limit) and d >= limit:
+        return math.inf
+    exact = math.hypot(dx, dy)
+    return exact if exact < limit else math.inf
+
+
+@borrowing
 def normalize_angle(a: float) -> float:
     """Angle in (-180, 180]."""
     a -= 360.0 * math.floor((a + 180.0) / 360.0)

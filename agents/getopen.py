@@ -366,20 +366,35 @@ def lane_open(bel: Belief, r: int, px: float, py: float, bx: float, by: float, c
 def handcoded_target(bel: Belief, r: int, ball_cycles: int, cone: bool, kp, cfg) -> tuple:
     """GO:HC: the admissible grid point with the lowest congestion (strict <, scan order wins ties);
     the region centre if none is admissible (spec `keepaway-agents.md` 2.5 steps 4-5).
-    ``ball_cycles``: the fastest keeper's interception time (``fastest_to_ball``)."""
+    ``ball_cycles``: the fastest keeper's interception time (``fastest_to_ball``).
+
+    Points are compared on congestion estimates (one sqrt a player) wherever these differ by more than
+    DECIDE_SLACK, far beyond their error, and on the exact congestions (hypot) only where they do not:
+    the same point as comparing exact congestions throughout."""
     bx, by = predicted_ball_pos(bel, r, ball_cycles, kp, cfg)
     cos_limit = safety_cosine(cfg)
-    best_x, best_y, best = 0.0, 0.0, math.inf
+    # the best point so far, its congestion estimate (or exact value) and its exact value (NaN: not
+    # computed yet; inf: no point yet, which any finite congestion beats)
+    best, best_e, best_c = -1, math.inf, math.inf
     for k in range(grid_size(cfg)):
         px, py = grid_point(k, kp, cfg)
         if not lane_open(bel, r, px, py, bx, by, cone, cos_limit, cfg):
             continue
-        if congestion_estimate(bel, r, px, py, cfg) - best > DECIDE_SLACK * (1.0 + best):
+        e = congestion_estimate(bel, r, px, py, cfg)
+        if best >= 0 and e - best_e > DECIDE_SLACK * (1.0 + best_e):
             continue  # clearly not lower: the exact congestion cannot win (nor tie) either
+        if e < math.inf and (best < 0 or best_e - e > DECIDE_SLACK * (1.0 + e)):
+            best, best_e, best_c = k, e, math.nan  # clearly lower (or the first, finite): it wins exactly too
+            continue
+        if math.isnan(best_c):  # too close to call on estimates: the exact congestions decide
+            qx, qy = grid_point(best, kp, cfg)
+            best_c = congestion(bel, r, qx, qy, cfg)
         c = congestion(bel, r, px, py, cfg)
-        if c < best:
-            best_x, best_y, best = px, py, c
-    return best_x, best_y
+        if c < best_c:
+            best, best_e, best_c = k, c, c
+    if best < 0:
+        return 0.0, 0.0
+    return grid_point(best, kp, cfg)
 
 
 @borrowing

@@ -48,7 +48,7 @@ from typing import NamedTuple
 import numpy as np
 from core.jit import borrowing
 
-from agents.geometry import ball_after_kick, compared_hypot, kick_rate, player_step
+from agents.geometry import ball_after_kick, compared_hypot, kick_rate, nearer_than, player_step
 from agents.skills import frame_sign, kickable_distance, opponent_range
 from agents.worldmodel import NEVER, ModelState, confidence
 from core.objects import BALL, CMD_DASH, CMD_KICK, CMD_NONE
@@ -196,17 +196,19 @@ def say_row(r: int, s: ModelState, main: int, a1: float, a2: float, n_keepers: i
     me = s.me[r]
     sign = frame_sign(me, n_keepers)
     kickable = kickable_distance(kp)
-    ball_dist = math.hypot(s.pos[r, BALL, 0] - s.pos[r, me, 0], s.pos[r, BALL, 1] - s.pos[r, me, 1])
+    # my distance to the ball is only compared with thresholds: compared_hypot decides each exactly
+    bdx, bdy = s.pos[r, BALL, 0] - s.pos[r, me, 0], s.pos[r, BALL, 1] - s.pos[r, me, 1]
+    ball_kickable = compared_hypot(bdx, bdy, kickable) < kickable
     ball_now = s.seen[r, BALL] == now
     pbx, pby, pvx, pvy = _ball_after_command(r, s, main, a1, a2, kp)
     mx, my = _me_after(r, s, main, a1, kp)
     at = 0
-    if ((s.ball_chg[r] == now and ball_dist < cfg.say_ball_range and ball_now)
-            or (ball_dist < kp.visible_distance and ball_now)
-            or (ball_dist < kickable and compared_hypot(pbx - mx, pby - my, kickable) > kickable)):
+    if ((s.ball_chg[r] == now and ball_now and compared_hypot(bdx, bdy, cfg.say_ball_range) < cfg.say_ball_range)
+            or (ball_now and compared_hypot(bdx, bdy, kp.visible_distance) < kp.visible_distance)
+            or (ball_kickable and compared_hypot(pbx - mx, pby - my, kickable) > kickable)):
         bx, by, vx, vy = s.pos[r, BALL, 0], s.pos[r, BALL, 1], s.vel[r, BALL, 0], s.vel[r, BALL, 1]
         passed = False
-        if ball_dist < kickable:
+        if ball_kickable:
             if main == CMD_KICK:
                 bx, by, vx, vy = pbx, pby, pvx, pvy
                 rx, ry = _me_after(r, s, CMD_KICK, 0.0, kp)  # predictAgentPos(1, 0): coasting
@@ -224,8 +226,11 @@ def say_row(r: int, s: ModelState, main: int, a1: float, a2: float, n_keepers: i
     first, last = opponent_range(me, n_keepers, s.pos.shape[1] - 1)
     nearest, nearest_d = -1, math.inf
     for obj in range(first, last + 1):
-        d = math.hypot(s.pos[r, obj, 0] - s.pos[r, me, 0], s.pos[r, obj, 1] - s.pos[r, me, 1])
-        if s.seen[r, obj] == now and d < kp.visible_distance and d < nearest_d:
+        if s.seen[r, obj] != now:
+            continue
+        limit = min(kp.visible_distance, nearest_d)
+        d = nearer_than(s.pos[r, obj, 0] - s.pos[r, me, 0], s.pos[r, obj, 1] - s.pos[r, me, 1], limit)
+        if d < limit:
             nearest, nearest_d = obj, d
     if nearest >= 0:
         talk.said[r, at] = OPP_POS_ID + nearest - first

@@ -32,6 +32,7 @@ from agents.geometry import (
     geometric_sum,
     kick_rate,
     near,
+    nearer_than,
     normalize_angle,
     player_step,
     rolled_out,
@@ -169,8 +170,9 @@ def ball_in(bel: Belief, r: int, n: float, kp) -> tuple:
 @borrowing
 def ball_kickable(bel: Belief, r: int, obj: int, kp) -> bool:
     """Whether player ``obj`` can kick the ball (centre distance < kickable distance, spec 1 step 3)."""
-    gap = distance(bel.pos[r, obj, 0], bel.pos[r, obj, 1], bel.pos[r, 0, 0], bel.pos[r, 0, 1])
-    return gap < kickable_distance(kp)
+    kickable = kickable_distance(kp)
+    return compared_hypot(bel.pos[r, 0, 0] - bel.pos[r, obj, 0], bel.pos[r, 0, 1] - bel.pos[r, obj, 1],
+                          kickable) < kickable
 
 
 @borrowing
@@ -182,7 +184,7 @@ def closest_to_ball(bel: Belief, r: int, first: int, last: int, skip: int, cfg) 
     for j in range(first, last + 1):
         if j == skip or (j != bel.me[r] and bel.conf[r, j] < cfg.player_conf_threshold):
             continue
-        d = distance(bel.pos[r, j, 0], bel.pos[r, j, 1], bel.pos[r, 0, 0], bel.pos[r, 0, 1])
+        d = nearer_than(bel.pos[r, 0, 0] - bel.pos[r, j, 0], bel.pos[r, 0, 1] - bel.pos[r, j, 1], best_d)
         if d < best_d:
             best, best_d = j, d
     return best
@@ -952,12 +954,12 @@ def close_intercept(bel: Belief, r: int, kp, cfg) -> tuple:
 def interception_point(bel: Belief, r: int, mem: AgentMemory, sums, kp, cfg, known_first: int = -1) -> tuple:
     """(i, x, y): the cycle and ball position at which I intercept (spec 2.1 step 2); (-1, the ball's
     position ``no_intercept_cycles`` ahead) if none within the horizon. First reachable i by default; the
-    stability rule prefers a reachable i (at most 2 cycles
-    after the first) whose ball position is within 1 m of the point chosen last cycle, with margin and a
-    ball still moving, if I intercepted during the last 2 cycles. The choice is remembered in ``mem``.
-    (The framework scans on to first + 20 cycles, but only first..first + 2 can be chosen, so the scan
-    stops there, and at the stable point once found; a point's distance after its moves is simulated only
-    where the rule's other tests hold.) ``known_first`` >= 0: my first reachable cycle with the ball rolling is known (a keeper's
+    stability rule prefers a reachable i (at most 2 cycles after the first) whose ball position is within
+    1 m of the point chosen last cycle, with margin and a ball still moving, if I intercepted during the
+    last 2 cycles. The choice is remembered in ``mem``. (The framework scans on to first + 20 cycles, but
+    only first..first + 2 can be chosen, so the scan stops there, and at the stable point once found; a
+    point's distance after its moves is simulated only where the rule's other tests hold.)
+    ``known_first`` >= 0: my first reachable cycle with the ball rolling is known (a keeper's
     ``fastest_to_ball`` found it), so the travel simulations before it are skipped, and at it too unless the
     stability rule needs my distance there; -1: unknown."""
     me = bel.me[r]
@@ -982,7 +984,8 @@ def interception_point(bel: Belief, r: int, mem: AgentMemory, sums, kp, cfg, kno
         # (whether it is reached is all that matters then) and is not simulated at all once that is known
         candidate = (
             recent
-            and distance(bx, by, mem.intercept_point[r, 0], mem.intercept_point[r, 1]) < cfg.stability_radius
+            and compared_hypot(mem.intercept_point[r, 0] - bx, mem.intercept_point[r, 1] - by,
+                               cfg.stability_radius) < cfg.stability_radius
             and ball_speed * kp.ball_decay**i > cfg.stability_ball_speed
         )
         if first >= 0 and not candidate:

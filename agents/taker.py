@@ -47,7 +47,7 @@ def takers_closer_to_ball(bel: Belief, r: int, cfg) -> int:
     for j in range(bel.n_keepers + 1, bel.n_keepers + bel.n_takers + 1):
         if j == me or bel.conf[r, j] < cfg.player_conf_threshold:
             continue
-        d = distance(bel.pos[r, j, 0], bel.pos[r, j, 1], bx, by)
+        d = compared_hypot(bx - bel.pos[r, j, 0], by - bel.pos[r, j, 1], mine)  # exact near mine: == decides too
         if d < mine or (d == mine and j < me):
             count += 1
     return count

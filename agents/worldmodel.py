@@ -49,7 +49,8 @@ from core.jit import SteadyCall, borrowing, njit
 from core.msgpack_in import FrameCopy
 
 from agents.belief import Belief, empty_belief
-from agents.geometry import believed_dash_power, compared_hypot, kick_rate, normalize_angle, turn_effect
+from agents.geometry import (believed_dash_power, compared_hypot, kick_rate, nearer_than, normalize_angle,
+                             turn_effect)
 from agents.frames import (
     EFFORT,
     FRAME_VALUES,
@@ -256,7 +257,7 @@ def _closest_player(r, s, x, y, lo, hi, skip, cfg):
     for obj in range(lo, hi):
         if obj == skip or confidence(r, s, obj) < cfg.player_conf_threshold:
             continue
-        d = math.hypot(s.pos[r, obj, 0] - x, s.pos[r, obj, 1] - y)
+        d = nearer_than(s.pos[r, obj, 0] - x, s.pos[r, obj, 1] - y, best_d)
         if d < best_d:
             best = obj
             best_d = d
@@ -419,23 +420,27 @@ def _guess_collision(r, s, x, y, vx, vy, nx, ny, kp, cfg):
     within 0.8 m, when the ball overlaps me with zero speed, or when near the ball the speed dropped below
     a quarter of the predicted one with each component flipped or small. A ball not seen since the last
     forget is nowhere (the C++ keeps unknown positions far off the pitch)."""
-    sensed = math.hypot(nx, ny)
-    predicted = math.hypot(vx, vy)
-    d_ball = np.inf
-    if s.seen[r, BALL] != NEVER:
-        d_ball = math.hypot(s.pos[r, BALL, 0] - x, s.pos[r, BALL, 1] - y)
-    stopped = sensed < SPEED_EPSILON
+    # the speeds and the ball's distance meet thresholds (compared_hypot decides each exactly); the
+    # exact lengths are taken only where arithmetic needs them
+    bdx, bdy = s.pos[r, BALL, 0] - x, s.pos[r, BALL, 1] - y
+    ball_known = s.seen[r, BALL] != NEVER
     reversed_x = _sign(vx) != _sign(nx) or abs(vx) < COLLISION_SMALL_COMPONENT
     reversed_y = _sign(vy) != _sign(ny) or abs(vy) < COLLISION_SMALL_COMPONENT
-    collided = ((stopped and predicted > COLLISION_MOVING_SPEED and d_ball < COLLISION_BALL_NEAR)
-                or (stopped and d_ball < kp.player_size + kp.ball_size)
-                or (not stopped and d_ball < kickable_distance(kp) + COLLISION_BALL_MARGIN
-                    and reversed_x and reversed_y and sensed < COLLISION_SPEED_DROP * predicted))
-    if not collided:
+    if compared_hypot(nx, ny, SPEED_EPSILON) < SPEED_EPSILON:  # stopped
+        touching = kp.player_size + kp.ball_size
+        collided = ball_known and (
+            (compared_hypot(vx, vy, COLLISION_MOVING_SPEED) > COLLISION_MOVING_SPEED
+             and compared_hypot(bdx, bdy, COLLISION_BALL_NEAR) < COLLISION_BALL_NEAR)
+            or compared_hypot(bdx, bdy, touching) < touching)
+    else:
+        near_ball = kickable_distance(kp) + COLLISION_BALL_MARGIN
+        collided = (ball_known and compared_hypot(bdx, bdy, near_ball) < near_ball and reversed_x and reversed_y
+                    and math.hypot(nx, ny) < COLLISION_SPEED_DROP * math.hypot(vx, vy))
+    if not collided:  # (every collision has the ball near: known)
         return False
     s.collision_time[r] = s.time[r]
     _, d_player = _closest_player(r, s, x, y, 1, s.pos.shape[1], s.me[r], cfg)
-    if d_ball < d_player:
+    if math.hypot(bdx, bdy) < d_player:
         a = math.atan2(s.pos[r, BALL, 1] - y, s.pos[r, BALL, 0] - x)
         s.pos[r, BALL, 0] = x + COLLISION_BALL_DISTANCE * math.cos(a)
         s.pos[r, BALL, 1] = y + COLLISION_BALL_DISTANCE * math.sin(a)
@@ -655,10 +660,11 @@ def update_ball_row(r: int, s: ModelState, see: SeeBuffer, n_keepers: int, kp, c
             vx, vy = cx, cy
     elif dist < kp.visible_distance:
         vx, vy = _ball_velocity_from_positions(r, s, px, py, vx, vy, kp, cfg)
-    speed = math.hypot(vx, vy)
+    too_fast = (1.0 + kp.ball_rand) * kp.ball_speed_max
     if _opponent_controls_ball(r, s, px, py, dist, n_keepers, kp, cfg):
         vx = vy = 0.0
-    elif speed > (1.0 + kp.ball_rand) * kp.ball_speed_max:
+    elif compared_hypot(vx, vy, too_fast) > too_fast:
+        speed = math.hypot(vx, vy)
         vx *= kp.ball_speed_max / speed
         vy *= kp.ball_speed_max / speed
     s.vel[r, BALL, 0] = vx

@@ -25,7 +25,7 @@ from numba import njit
 
 from agents.belief import AgentMemory, belief_from_truth, new_memory
 from agents.geometry import (ACOS_ESTIMATE_ERROR, acos_estimate, compared_hypot, direction, distance, final_position,
-                             normalize_angle, rolled_out)
+                             nearer_than, normalize_angle, rolled_out)
 from agents.getopen import (TANH_ESTIMATE_ERROR, grid_point, grid_size, handcoded_target, lane_origin,
                             learned_target, net_estimate_error, net_first_layer, net_output, net_output_estimate,
                             net_value, predicted_ball_pos, tanh_estimate)
@@ -582,6 +582,20 @@ def test_compared_hypot_compares_as_the_exact_hypot():
     assert differ > 100  # the estimate does differ from hypot in the last bit, often
 
 
+def test_nearer_than_is_the_exact_hypot_of_nearer_points_only():
+    """On the cases of the test above and limits at, beside and far from the exact length (inf: the
+    first point of a search): libm's hypot where it is below the limit, inf where it is not."""
+    rng = np.random.default_rng(71)
+    cases = [(math.inf, 1.0), (math.nan, 1.0), (1e200, 1e200), (1e-200, 0.0), (0.0, 0.0), (3.0, 4.0)]
+    cases += [tuple(rng.uniform(-30.0, 30.0, 2) * rng.choice([1e-3, 1.0, 1e3])) for _ in range(2000)]
+    for dx, dy in cases:
+        exact = _libm_hypot(dx, dy)
+        for t in (exact, np.nextafter(exact, 0.0), np.nextafter(exact, math.inf), 0.0, 5.0, 25.0, math.inf):
+            got = nearer_than(dx, dy, t)
+            assert got == (exact if exact < t else math.inf), (dx, dy, t)
+    assert nearer_than(3.0, 4.0, 5.5) == 5.0 and nearer_than(3.0, 4.0, 5.0) == math.inf
+
+
 def test_every_belief_of_a_batched_game_decides_as_the_reference():
     """Beliefs of real play (noisy world models, held and passed balls): the interception point with and
     without the keeper's ``fastest_to_ball`` hint, and ``fastest_to_ball`` itself, equal the reference."""
@@ -629,11 +643,12 @@ def test_localisation_matches_the_reference_on_real_sees():
             assert (s.pos[r, me, 0], s.pos[r, me, 1], s.body[r, me]) == ref
 
 
-def _check_handcoded_target(bel, r: int, kp=KP) -> None:
+def _check_handcoded_target(bel, r: int, kp=KP) -> tuple[float, float]:
     _, cycles = fastest_to_ball(bel, r, 1, K, decay_sums(kp, CFG), kp, CFG)
     bx, by = predicted_ball_pos(bel, r, cycles, kp, CFG)
     ref = _ref_handcoded_target(bel.pos[r], bel.conf[r], int(bel.me[r]), bx, by, kp, CFG)
     assert handcoded_target(bel, r, cycles, False, kp, CFG) == ref
+    return ref
 
 
 @pytest.mark.parametrize("params", ["classic", "current"])
@@ -651,6 +666,11 @@ def test_handcoded_getopen_matches_the_reference_on_random_and_boundary_beliefs(
             a = math.atan2(py - by, px - bx) + math.radians(CFG.go_safety_angle)
             bel.pos[r, K + 1] = (bx + 4.0 * math.cos(a), by + 4.0 * math.sin(a))
             bel.pos[r, 2] = grid_point(12, kp, CFG)
+        elif r % 4 == 2:
+            # everyone on the x axis: each point off it ties exactly with its mirror image, and the
+            # first in scan order (y < 0) must win, though the two estimates cannot tell them apart
+            bel.pos[r, :, 1] = 0.0
+            assert _check_handcoded_target(bel, r, kp)[1] <= 0.0
         _check_handcoded_target(bel, r, kp)
 
 
