@@ -127,11 +127,11 @@ def vertex_angle_below(ax: float, ay: float, bx: float, by: float, cx: float, cy
     ux, uy = ax - bx, ay - by
     vx, vy = cx - bx, cy - by
     norms = (ux * ux + uy * uy) * (vx * vx + vy * vy)
-    if 0.0 < norms < math.inf:
-        c = (ux * vx + uy * vy) / math.sqrt(norms)
-        if c < cos_limit - DECIDE_SLACK:
+    if 0.0 < norms < math.inf:  # the cosine dot / length, compared without its division
+        dot, length = ux * vx + uy * vy, math.sqrt(norms)
+        if dot < (cos_limit - DECIDE_SLACK) * length:
             return False
-        if c > cos_limit + DECIDE_SLACK:
+        if dot > (cos_limit + DECIDE_SLACK) * length:
             return True
     return vertex_angle(ax, ay, bx, by, cx, cy) < limit
 

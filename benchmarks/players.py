@@ -4,14 +4,21 @@ In one invocation, one thread, at batch 1 (the single arena Pass learning plays)
 
 * physics + perception alone (``benchmarks/server.py``'s measurement: every player dashes or turns, a
   see on 2 of 3 cycles), arena-cycles/s;
-* the full game, P:HC-GO:HC with five noisy players (``benchmarks/arena_batched.py``), arena-cycles/s;
+* the full game, P:HC-GO:HC with five noisy players (``benchmarks/arena_batched.py``'s game),
+  arena-cycles/s;
 * the players' cost per arena-cycle, 1/full - 1/(physics + perception), in microseconds, and its ratio to
   the cost of physics + perception (the issue's target: at most 2).
 
-Each figure is the median of ``--repeat`` interleaved measurements (the machine is shared). Compilation
-(or loading numba's cache) is done before any clock starts. Prints figures; asserts nothing.
+The two are measured in ``--pairs`` pairs of short runs, one right after the other (the full game's
+runs go on with the same arenas: the games' steady state, not their kick-offs). On this shared machine a process runs
+for seconds at a time up to 1.8 times slower than at others (the host's load, whatever the core): a
+slowdown then falls on both runs of a pair, and the pair's ratio stands, where two figures measured
+apart could put it in one and not the other. The rates are the best of their runs, as ``timeit`` takes
+its minimum time (a slowdown only ever lowers a rate), and the players' cost and its ratio come from
+them; the median and range of the pairs' own ratios follow, to show the spread. Compilation (or
+loading numba's cache) is done before any clock starts. Prints figures; asserts nothing.
 
-Run: ``python benchmarks/players.py [--repeat N] [--seconds S] [--cycles-1 C] [--cycles-1024 C]``.
+Run: ``python benchmarks/players.py [--pairs N] [--seconds S] [--cycles-1 C] [--cycles-1024 C]``.
 """
 
 from __future__ import annotations
@@ -19,37 +26,55 @@ from __future__ import annotations
 import argparse
 import os
 import statistics
+import sys
+import time
+from pathlib import Path
 
 os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # the repository, before benchmarks/
 
 from sibling import load  # noqa: E402
+
+from protocol.params import parameter_set  # noqa: E402
+from runner.batched import BatchedArenas  # noqa: E402
+
+
+def game_rate(arenas: BatchedArenas, cycles: int) -> float:
+    """Arena-cycles per second of ``cycles`` more cycles of every arena of ``arenas``."""
+    start = time.perf_counter()
+    table = arenas.run(max_cycles=cycles)
+    return table.cycles / (time.perf_counter() - start)
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--repeat", type=int, default=3, help="interleaved measurements per figure (median)")
-    parser.add_argument("--seconds", type=float, default=3.0, help="seconds per physics + perception measurement")
-    parser.add_argument("--cycles-1", type=int, default=3000, help="full-game cycles at batch 1")
-    parser.add_argument("--cycles-1024", type=int, default=100, help="full-game cycles per arena at batch 1024")
+    parser.add_argument("--pairs", type=int, default=12, help="pairs of runs per batch size")
+    parser.add_argument("--seconds", type=float, default=0.5, help="seconds per physics + perception run")
+    parser.add_argument("--cycles-1", type=int, default=12000, help="full-game cycles per run at batch 1")
+    parser.add_argument("--cycles-1024", type=int, default=15, help="full-game cycles per arena per run at batch 1024")
     parser.add_argument("--seed", type=int, default=0)
     opts = parser.parse_args()
     server = load("server")
-    game = load("arena_batched")
     cycles = {1: opts.cycles_1, 1024: opts.cycles_1024}
-    rates: dict[tuple[str, int], list[float]] = {}
-    for _ in range(opts.repeat):
-        for batch in cycles:
-            rates.setdefault(("server", batch), []).append(server.batched_throughput(batch, opts.seconds))
-            full = game.measure(batch, cycles[batch], threads=1, seed=opts.seed)["cycles_per_s"]
-            rates.setdefault(("game", batch), []).append(full)
-    print(f"batched mode, one thread, P:HC-GO:HC 3v2, classic parameters; medians of {opts.repeat} interleaved runs")
-    print(f"{'batch':>6} {'physics+perception':>20} {'full game':>12} {'players per arena-cycle':>24} {'ratio':>7}")
-    for batch in cycles:
-        base = statistics.median(rates[("server", batch)])
-        full = statistics.median(rates[("game", batch)])
+    print(f"batched mode, one thread, P:HC-GO:HC 3v2, classic parameters; {opts.pairs} pairs of runs per batch")
+    print(f"{'batch':>6} {'physics+perception':>20} {'full game':>12} {'players per arena-cycle':>24} {'ratio':>6} "
+          f"{'pairs: median (range)':>22}")
+    for batch, n in cycles.items():
+        arenas = BatchedArenas(parameter_set("classic"), batch, opts.seed, pass_policy="handcoded",
+                               getopen_policy="handcoded", threads=1)
+        arenas.run(max_cycles=n)  # compile or load the kernels; past the kick-offs
+        bases, fulls, ratios = [], [], []
+        for _ in range(opts.pairs):
+            bases.append(server.batched_throughput(batch, opts.seconds))  # from a kick-off, as always
+            fulls.append(game_rate(arenas, n))
+            ratios.append(bases[-1] / fulls[-1] - 1.0)  # (1/full - 1/base) / (1/base)
+        base, full = max(bases), max(fulls)
         players_us = (1.0 / full - 1.0 / base) * 1e6
-        print(f"{batch:6d} {base:14,.0f} a-c/s {full:8,.0f} a-c/s {players_us:18.1f} us {players_us * base / 1e6:6.1f}x")
-    print("(ratio: the players' cost per arena-cycle over that of physics + perception; target <= 2)")
+        ratio = players_us * base / 1e6
+        print(f"{batch:6d} {base:14,.0f} a-c/s {full:8,.0f} a-c/s {players_us:18.1f} us {ratio:5.2f}x "
+              f"{statistics.median(ratios):9.2f}x ({min(ratios):.2f}-{max(ratios):.2f})")
+    print("(rates: the best of the runs; ratio: the players' cost per arena-cycle over that of physics + perception, "
+          "target <= 2)")
 
 
 if __name__ == "__main__":
