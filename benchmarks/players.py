@@ -65,7 +65,7 @@ def main() -> None:
         arenas.run(max_cycles=n)  # compile or load the kernels; past the kick-offs
         bases, fulls, ratios = [], [], []
         for _ in range(opts.pairs):
-            bases.append(server.batched_throughput(batch, opts.seconds))  # from a kick-off, as always
+            bases.append(server.batched_throughput(batch, opts.seconds))  # a fresh world each run, as always
             fulls.append(game_rate(arenas, n))
             ratios.append(bases[-1] / fulls[-1] - 1.0)  # (1/full - 1/base) / (1/base)
         base, full = max(bases), max(fulls)
