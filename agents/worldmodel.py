@@ -424,8 +424,6 @@ def _guess_collision(r, s, x, y, vx, vy, nx, ny, kp, cfg):
     # exact lengths are taken only where arithmetic needs them
     bdx, bdy = s.pos[r, BALL, 0] - x, s.pos[r, BALL, 1] - y
     ball_known = s.seen[r, BALL] != NEVER
-    reversed_x = _sign(vx) != _sign(nx) or abs(vx) < COLLISION_SMALL_COMPONENT
-    reversed_y = _sign(vy) != _sign(ny) or abs(vy) < COLLISION_SMALL_COMPONENT
     if compared_hypot(nx, ny, SPEED_EPSILON) < SPEED_EPSILON:  # stopped
         touching = kp.player_size + kp.ball_size
         collided = ball_known and (
@@ -434,6 +432,8 @@ def _guess_collision(r, s, x, y, vx, vy, nx, ny, kp, cfg):
             or compared_hypot(bdx, bdy, touching) < touching)
     else:
         near_ball = kickable_distance(kp) + COLLISION_BALL_MARGIN
+        reversed_x = _sign(vx) != _sign(nx) or abs(vx) < COLLISION_SMALL_COMPONENT
+        reversed_y = _sign(vy) != _sign(ny) or abs(vy) < COLLISION_SMALL_COMPONENT
         collided = (ball_known and compared_hypot(bdx, bdy, near_ball) < near_ball and reversed_x and reversed_y
                     and math.hypot(nx, ny) < COLLISION_SPEED_DROP * math.hypot(vx, vy))
     if not collided:  # (every collision has the ball near: known)

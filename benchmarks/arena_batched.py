@@ -16,22 +16,34 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # the repositor
 
 from protocol.params import parameter_set  # noqa: E402
 from runner.batched import BatchedArenas  # noqa: E402
+from runner.job import EpisodeTable  # noqa: E402
 
 # (batch, cycles per arena): about 3000 arena-cycles at batch 1, 300k at batch 1024.
 DEFAULT_RUNS = ((1, 3000), (1024, 300))
 
 
+def hand_coded(batch: int, threads: int | None = None, seed: int = 0, params_name: str = "classic") -> BatchedArenas:
+    """``batch`` P:HC-GO:HC arenas, their kernels compiled or loaded (one cycle played)."""
+    arenas = BatchedArenas(parameter_set(params_name), batch, seed, pass_policy="handcoded",
+                           getopen_policy="handcoded", threads=threads)
+    arenas.run(max_cycles=1)
+    return arenas
+
+
+def timed_run(arenas: BatchedArenas, cycles: int) -> tuple[EpisodeTable, float]:
+    """The episodes of ``cycles`` more cycles of every arena, and the seconds they took."""
+    start = time.perf_counter()
+    table = arenas.run(max_cycles=cycles)
+    return table, time.perf_counter() - start
+
+
 def measure(batch: int, cycles: int, threads: int | None = None, seed: int = 0,
             params_name: str = "classic") -> dict:
     """Play ``cycles`` cycles in each of ``batch`` hand-coded arenas; return the rates and hold time."""
-    params = parameter_set(params_name)
-    arenas = BatchedArenas(params, batch, seed, pass_policy="handcoded", getopen_policy="handcoded",
-                           threads=threads)
-    arenas.run(max_cycles=1)  # compile or load the kernels
-    start = time.perf_counter()
-    table = arenas.run(max_cycles=cycles)
-    seconds = time.perf_counter() - start
-    hold_s = table.hold_cycles.mean() * params.simulator_step_ms / 1000.0 if len(table) else float("nan")
+    arenas = hand_coded(batch, threads, seed, params_name)
+    table, seconds = timed_run(arenas, cycles)
+    step_s = parameter_set(params_name).simulator_step_ms / 1000.0
+    hold_s = table.hold_cycles.mean() * step_s if len(table) else float("nan")
     return {"batch": batch, "threads": arenas.threads, "seconds": seconds, "episodes": len(table),
             "episodes_per_s": len(table) / seconds, "cycles_per_s": table.cycles / seconds,
             "mean_hold_s": hold_s}

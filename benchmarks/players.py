@@ -27,23 +27,12 @@ import argparse
 import os
 import statistics
 import sys
-import time
 from pathlib import Path
 
 os.environ.setdefault("NUMBA_NUM_THREADS", "1")
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # the repository, before benchmarks/
 
 from sibling import load  # noqa: E402
-
-from protocol.params import parameter_set  # noqa: E402
-from runner.batched import BatchedArenas  # noqa: E402
-
-
-def game_rate(arenas: BatchedArenas, cycles: int) -> float:
-    """Arena-cycles per second of ``cycles`` more cycles of every arena of ``arenas``."""
-    start = time.perf_counter()
-    table = arenas.run(max_cycles=cycles)
-    return table.cycles / (time.perf_counter() - start)
 
 
 def main() -> None:
@@ -54,19 +43,19 @@ def main() -> None:
     parser.add_argument("--cycles-1024", type=int, default=15, help="full-game cycles per arena per run at batch 1024")
     parser.add_argument("--seed", type=int, default=0)
     opts = parser.parse_args()
-    server = load("server")
+    server, game = load("server"), load("arena_batched")
     cycles = {1: opts.cycles_1, 1024: opts.cycles_1024}
     print(f"batched mode, one thread, P:HC-GO:HC 3v2, classic parameters; {opts.pairs} pairs of runs per batch")
     print(f"{'batch':>6} {'physics+perception':>20} {'full game':>12} {'players per arena-cycle':>24} {'ratio':>6} "
           f"{'pairs: median (range)':>22}")
     for batch, n in cycles.items():
-        arenas = BatchedArenas(parameter_set("classic"), batch, opts.seed, pass_policy="handcoded",
-                               getopen_policy="handcoded", threads=1)
-        arenas.run(max_cycles=n)  # compile or load the kernels; past the kick-offs
+        arenas = game.hand_coded(batch, threads=1, seed=opts.seed)
+        game.timed_run(arenas, n)  # past the kick-offs
         bases, fulls, ratios = [], [], []
         for _ in range(opts.pairs):
             bases.append(server.batched_throughput(batch, opts.seconds))  # a fresh world each run, as always
-            fulls.append(game_rate(arenas, n))
+            table, seconds = game.timed_run(arenas, n)
+            fulls.append(table.cycles / seconds)
             ratios.append(bases[-1] / fulls[-1] - 1.0)  # (1/full - 1/base) / (1/base)
         base, full = max(bases), max(fulls)
         players_us = (1.0 / full - 1.0 / base) * 1e6
