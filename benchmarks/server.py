@@ -2,7 +2,9 @@
 
 (a) batched physics + perception throughput, arena-cycles per second, batch 1 (baseline) and 1024, one
     core: every cycle every player dashes or turns, and each player gets a see on 2 of 3 cycles; cycles
-    run in compiled chunks of 100, as the batched mode runs them.
+    run in compiled chunks of 100, as the batched mode runs them. (``benchmarks/players.py`` also
+    measures it with the aural sensor: every player says 10 characters every cycle, as in the game, and
+    the server delivers the hears.)
 (b) synchronous-mode cycles per second of the real ``keepaway server`` process with five minimal client
     processes that answer every think with one dash; baseline in the same invocation: a bare ZeroMQ
     ROUTER loop doing the same message exchange with no simulation (the transport's ceiling).
@@ -32,24 +34,38 @@ from server.referee import new_referee_state, start_game  # noqa: E402
 from server.simulation import new_causes, simulate_cycle  # noqa: E402
 from core.objects import CMD_DASH, CMD_TURN
 from server.world import Commands, new_world  # noqa: E402
+from core.jit import borrowing  # noqa: E402
+from agents.say import new_talk  # noqa: E402
+from runner.batched import deliver_says  # noqa: E402
 
 
-@numba.njit
+SAY_LENGTH = 10  # characters: what the hand-coded players say every cycle (9-10, measured in the game)
+
+
+@borrowing(cache=False)
 def _server_cycles(first: int, n: int, w, c, r, kp, causes, width, due_patterns, mains, args, body_out,
-                   see_out) -> None:
+                   see_out, talk, hear) -> None:
     """Cycles ``first .. first + n - 1`` of :func:`batched_throughput`, compiled: no Python between
-    cycles, as in the batched mode's chunks."""
+    cycles, as in the batched mode's chunks, and without numba's reference counting, as the batched
+    mode's ``run_chunk`` (its counts alone would take a fifth of the time)."""
     for i in range(first, first + n):
-        c.main[:] = mains[i % mains.shape[0]]
-        c.arg1[:] = args[i % args.shape[0]]
+        k = i % mains.shape[0]
+        for b in range(mains.shape[1]):
+            for o in range(mains.shape[2]):
+                c.main[b, o] = mains[k, b, o]
+                c.arg1[b, o] = args[k, b, o]
         simulate_cycle(w, c, r, kp, causes)
+        if hear:
+            for b in range(w.pos.shape[0]):
+                deliver_says(b, w, talk, kp)
         sense_body_batch(w, body_out)
         see_batch(w, width, due_patterns[i % 3], kp, see_out)
 
 
-def batched_throughput(batch: int, seconds: float, chunk: int = 100) -> float:
+def batched_throughput(batch: int, seconds: float, chunk: int = 100, hear: bool = False) -> float:
     """Arena-cycles per second of simulate_cycle + sense_body + see (2 of 3 cycles) for ``batch`` arenas,
-    ``chunk`` cycles per compiled call."""
+    ``chunk`` cycles per compiled call; with ``hear``, every player also says a 10-character message every
+    cycle and the server delivers them after the step, as the batched mode does (``deliver_says``)."""
     params = parameter_set("classic")
     kp = params.kernel()
     w = new_world(params, 3, 2, batch=batch, seed=1)
@@ -68,7 +84,10 @@ def batched_throughput(batch: int, seconds: float, chunk: int = 100) -> float:
     rng = np.random.default_rng(0)
     mains = rng.choice([CMD_DASH, CMD_TURN], size=(64, batch, w.n_objects)).astype(np.int8)
     args = rng.uniform(-100, 100, size=(64, batch, w.n_objects))
-    state = (w, c, r, kp, causes, width, due_patterns, mains, args, body_out, see_out)
+    talk = new_talk(batch * (w.n_objects - 1))
+    talk.said_len[:] = SAY_LENGTH
+    talk.said[:, :SAY_LENGTH] = rng.integers(0, 10, size=(talk.said.shape[0], SAY_LENGTH))
+    state = (w, c, r, kp, causes, width, due_patterns, mains, args, body_out, see_out, talk, hear)
     _server_cycles(0, 3, *state)  # compile / load the cache
     cycles, start = 3, time.perf_counter()
     while time.perf_counter() - start < seconds:

@@ -20,7 +20,7 @@ from typing import Any, NamedTuple
 
 import msgpack
 import numpy as np
-from core.jit import njit
+from core.jit import borrowing, njit
 from core.msgpack_out import (FLOAT_BYTES, MAX_INT_BYTES, MAX_STR_HEADER_BYTES, packed, put_array, put_float, put_int,
                               put_nil, put_raw, put_str)
 
@@ -357,7 +357,7 @@ class SenseBodyBuffers(NamedTuple):
 # see
 
 
-@njit(cache=True)
+@borrowing
 def see_arena(b: int, w: World, obs: int, width_factor: float, kp: KernelParams, out: SeeBuffers) -> None:
     """Compute player object ``obs``'s see of arena ``b`` into row ``obs - 1`` of ``out``.
 
@@ -493,7 +493,7 @@ def _see_lines(b: int, p: int, ox: float, oy: float, head: float, kp, out: SeeBu
         out.line_dir[b, p, k] = round_deg(sight - _HALF_PI if sight > 0.0 else sight + _HALF_PI)
 
 
-@njit(cache=True)
+@borrowing
 def see_batch(w: World, width_factor: np.ndarray, due: np.ndarray, kp: KernelParams, out: SeeBuffers) -> None:
     """Every due, enabled observer of every arena: ``due`` and ``width_factor`` are (B, P)."""
     for b in range(w.pos.shape[0]):
@@ -506,7 +506,7 @@ def see_batch(w: World, width_factor: np.ndarray, due: np.ndarray, kp: KernelPar
 # sense_body
 
 
-@njit(cache=True)
+@borrowing
 def sense_body_arena(b: int, w: World, obs: int, out: SenseBodyBuffers) -> None:
     """Player object ``obs``'s sense_body values into row ``obs - 1`` (rcssserver BodySenderPlayerV6+,
     spec 4 "sense_body"): speed Q(|v|, 0.01) of the stored velocity, its direction relative to body +
@@ -527,7 +527,7 @@ def sense_body_arena(b: int, w: World, obs: int, out: SenseBodyBuffers) -> None:
     out.collision[b, p] = w.collision[b, obs]
 
 
-@njit(cache=True)
+@borrowing
 def sense_body_batch(w: World, out: SenseBodyBuffers) -> None:
     """sense_body of every enabled player of every arena."""
     for b in range(w.pos.shape[0]):
