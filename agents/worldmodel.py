@@ -153,6 +153,7 @@ class SeeBuffer(NamedTuple):
     target: np.ndarray  # (B, P) int64 scratch: object each observation was assigned to
     taken: np.ndarray  # (B, N) bool scratch: objects already assigned
     cost: np.ndarray  # (B, P, N) scratch: association costs
+    flag_q: np.ndarray  # (B, F, 3) scratch: each flag's weight and relative position [w, d cos, d sin]
 
 
 def new_model_state(batch: int, n_keepers: int, n_takers: int, me: np.ndarray | int,
@@ -201,6 +202,7 @@ def new_see_buffer(batch: int, n_flags: int, n_objects: int) -> SeeBuffer:
         target=np.zeros((batch, n_players), dtype=np.int64),
         taken=np.zeros((batch, n_objects), dtype=np.bool_),
         cost=np.zeros((batch, n_players, n_objects)),
+        flag_q=np.zeros((batch, n_flags, 3)),
     )
 
 
@@ -516,6 +518,9 @@ def localise_row(r: int, s: ModelState, see: SeeBuffer, flag_pos: np.ndarray, kp
         d = see.flag_obs[r, i, 0]
         w = _flag_weight(d, kp)
         ca, sa = _flag_cos_sin(see.flag_obs[r, i, 1])
+        see.flag_q[r, i, 0] = w  # kept for the second pass
+        see.flag_q[r, i, 1] = d * ca
+        see.flag_q[r, i, 2] = d * sa
         sw += w
         mqx += w * d * ca
         mqy += w * d * sa
@@ -527,12 +532,10 @@ def localise_row(r: int, s: ModelState, see: SeeBuffer, flag_pos: np.ndarray, kp
     mfy /= sw
     if n >= 2:
         dot = cross = 0.0
-        for i in range(n):  # the same weights and cosines again, computed as above (no scratch array)
-            d = see.flag_obs[r, i, 0]
-            w = _flag_weight(d, kp)
-            ca, sa = _flag_cos_sin(see.flag_obs[r, i, 1])
-            qx = d * ca - mqx
-            qy = d * sa - mqy
+        for i in range(n):
+            w = see.flag_q[r, i, 0]
+            qx = see.flag_q[r, i, 1] - mqx
+            qy = see.flag_q[r, i, 2] - mqy
             fx = flag_pos[see.flag_id[r, i], 0] - mfx
             fy = flag_pos[see.flag_id[r, i], 1] - mfy
             dot += w * (qx * fx + qy * fy)

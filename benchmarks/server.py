@@ -44,7 +44,7 @@ SAY_LENGTH = 10  # characters: what the hand-coded players say every cycle (9-10
 
 @borrowing(cache=False)
 def _server_cycles(first: int, n: int, w, c, r, kp, causes, width, due_patterns, mains, args, body_out,
-                   see_out, talk, hear) -> None:
+                   see_out, talk, hear_scratch, hear) -> None:
     """Cycles ``first .. first + n - 1`` of :func:`batched_throughput`, compiled: no Python between
     cycles, as in the batched mode's chunks, and without numba's reference counting, as the batched
     mode's ``run_chunk`` (its counts alone would take a fifth of the time)."""
@@ -57,7 +57,7 @@ def _server_cycles(first: int, n: int, w, c, r, kp, causes, width, due_patterns,
         simulate_cycle(w, c, r, kp, causes)
         if hear:
             for b in range(w.pos.shape[0]):
-                deliver_says(b, w, talk, kp)
+                deliver_says(b, w, talk, kp, hear_scratch)
         sense_body_batch(w, body_out)
         see_batch(w, width, due_patterns[i % 3], kp, see_out)
 
@@ -87,7 +87,8 @@ def batched_throughput(batch: int, seconds: float, chunk: int = 100, hear: bool 
     talk = new_talk(batch * (w.n_objects - 1))
     talk.said_len[:] = SAY_LENGTH
     talk.said[:, :SAY_LENGTH] = rng.integers(0, 10, size=(talk.said.shape[0], SAY_LENGTH))
-    state = (w, c, r, kp, causes, width, due_patterns, mains, args, body_out, see_out, talk, hear)
+    hear_scratch = np.zeros((2, talk.said.shape[0]), dtype=np.int64)
+    state = (w, c, r, kp, causes, width, due_patterns, mains, args, body_out, see_out, talk, hear_scratch, hear)
     _server_cycles(0, 3, *state)  # compile / load the cache
     cycles, start = 3, time.perf_counter()
     while time.perf_counter() - start < seconds:

@@ -174,6 +174,7 @@ class Players(NamedTuple):
     out: Decisions
     talk: Talk  # say and hear (agents/say.py)
     decay_sums: np.ndarray  # the travel simulations' table (agents.skills.decay_sums), one for all rows
+    hear_scratch: np.ndarray  # (2, rows) int64: deliver_says' speakers and picks, in each arena's columns
 
 
 class ArenaPolicies(NamedTuple):
@@ -342,15 +343,16 @@ def decide(b: int, obs: int, row: int, w: World, c: Commands, theta: np.ndarray,
         w.counts[b, obs, COUNT_SAY] += 1
 
 
-@njit(cache=True)
-def deliver_says(b: int, w: World, talk: Talk, kp) -> None:
+@borrowing
+def deliver_says(b: int, w: World, talk: Talk, kp, scratch: np.ndarray) -> None:
     """After the step, who heard which of this cycle's says, as the server delivers them
     (``server.arena.Arena``: a say longer than say_msg_size is dropped, the rest go through
     ``hear_picks``); a teammate's message becomes the listener's last heard one (an opponent's is drawn
-    for but ignored, as the players ignore it)."""
+    for but ignored, as the players ignore it). ``scratch``: (2, rows) int64, the speakers and the picks
+    of arena ``b`` in its rows' columns (``Players.hear_scratch``)."""
     n_players = w.pos.shape[1] - 1
     base = b * n_players
-    said = np.empty(n_players, dtype=np.int64)
+    said = scratch[0, base:base + n_players]
     n = 0
     for p in range(n_players):
         if 0 < talk.said_len[base + p] <= kp.say_msg_size:
@@ -359,15 +361,16 @@ def deliver_says(b: int, w: World, talk: Talk, kp) -> None:
     if n == 0:
         return
     speakers = said[:n]
-    picks = np.empty(n, dtype=np.int64)
+    picks = scratch[1, base:base + n]
     for listener in range(1, n_players + 1):
         keeper = listener <= w.n_keepers
-        for k in picks[:hear_picks(b, w, speakers, listener, kp.hear_max, kp.audio_cut_dist, picks)]:
-            speaker = speakers[k]
+        for i in range(hear_picks(b, w, speakers, listener, kp.hear_max, kp.audio_cut_dist, picks)):
+            speaker = speakers[picks[i]]
             if (speaker <= w.n_keepers) != keeper:
                 continue
             src, dst = base + speaker - 1, base + listener - 1
-            talk.heard[dst, :] = talk.said[src, :]
+            for j in range(talk.said.shape[1]):  # element by element: a slice copy would allocate
+                talk.heard[dst, j] = talk.said[src, j]
             talk.heard_len[dst] = talk.said_len[src]
             talk.heard_new[dst] = True
 
@@ -387,7 +390,7 @@ def arena_cycle(b: int, w: World, c: Commands, ref: RefereeState, theta: np.ndar
         perceive(b, obs, row, w, with_see, episode_message, cone, kp, cfg, pl, see_out, body_out)
         decide(b, obs, row, w, c, theta, kp, cfg, learner, pl, sarsa, sp)
     cause = step_arena(b, w, c, ref, kp)
-    deliver_says(b, w, pl.talk, kp)
+    deliver_says(b, w, pl.talk, kp, pl.hear_scratch)
     return cause
 
 
@@ -566,6 +569,7 @@ class BatchedArenas:
             ),
             talk=new_talk(rows),
             decay_sums=decay_sums(self.kp, self.cfg),
+            hear_scratch=np.zeros((2, rows), dtype=np.int64),
         )
         self.book = Bookkeeping(
             episode_message=np.zeros(batch, dtype=np.bool_),
