@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from core.jit import njit
+from core.jit import borrowing
 from core.msgpack_out import FLOAT64, NIL
 
 BAD = -1
@@ -28,7 +28,7 @@ _ARRAY16, _ARRAY32 = 0xDC, 0xDD
 _MAP16, _MAP32 = 0xDE, 0xDF
 
 
-@njit(cache=True)
+@borrowing
 def _big_endian(buf: np.ndarray, n: int, size: int) -> np.uint64:
     """``size`` bytes at ``buf[n:]`` as an unsigned big-endian number."""
     value = np.uint64(0)
@@ -37,12 +37,12 @@ def _big_endian(buf: np.ndarray, n: int, size: int) -> np.uint64:
     return value
 
 
-@njit(cache=True)
+@borrowing
 def is_nil(buf: np.ndarray, n: int, end: int) -> bool:
     return n < end and buf[n] == NIL
 
 
-@njit(cache=True)
+@borrowing
 def read_int(buf: np.ndarray, n: int, end: int) -> tuple:
     """(value, next) of an int in any of msgpack's forms; (0, BAD) for anything else, and for a uint 64
     above the int64 range (no percept holds one)."""
@@ -73,7 +73,7 @@ def read_int(buf: np.ndarray, n: int, end: int) -> tuple:
     return 0, BAD
 
 
-@njit(cache=True)
+@borrowing
 def read_double(buf: np.ndarray, n: int, end: int) -> tuple:
     """(value, next) of a double (0xcb), NaN and infinities included; (0.0, BAD) for anything else."""
     if n + 9 > end or buf[n] != FLOAT64:
@@ -81,7 +81,7 @@ def read_double(buf: np.ndarray, n: int, end: int) -> tuple:
     return np.uint64(_big_endian(buf, n + 1, 8)).view(np.float64), n + 9
 
 
-@njit(cache=True)
+@borrowing
 def read_str(buf: np.ndarray, n: int, end: int) -> tuple:
     """(start, length, next) of a str's bytes (fixstr, str 8/16/32); (0, 0, BAD) for anything else."""
     if n >= end:
@@ -101,7 +101,7 @@ def read_str(buf: np.ndarray, n: int, end: int) -> tuple:
     return start, length, start + length
 
 
-@njit(cache=True)
+@borrowing
 def str_equals(buf: np.ndarray, start: int, length: int, text: np.ndarray) -> bool:
     """Whether the str bytes at ``buf[start:start + length]`` are ``text`` (uint8, e.g. :func:`ascii`)."""
     if length != text.shape[0]:
@@ -112,7 +112,7 @@ def str_equals(buf: np.ndarray, start: int, length: int, text: np.ndarray) -> bo
     return True
 
 
-@njit(cache=True)
+@borrowing
 def _header(buf: np.ndarray, n: int, end: int, fix: int, tag16: int) -> tuple:
     """(size, next) of an array (``fix`` 0x90, ``tag16`` 0xdc) or map (0x80, 0xde) header."""
     if n >= end:
@@ -128,13 +128,13 @@ def _header(buf: np.ndarray, n: int, end: int, fix: int, tag16: int) -> tuple:
     return 0, BAD
 
 
-@njit(cache=True)
+@borrowing
 def read_array(buf: np.ndarray, n: int, end: int) -> tuple:
     """(size, next) of an array header (fixarray, array 16/32); (0, BAD) for anything else."""
     return _header(buf, n, end, 0x90, _ARRAY16)
 
 
-@njit(cache=True)
+@borrowing
 def read_map(buf: np.ndarray, n: int, end: int) -> tuple:
     """(size, next) of a map header (fixmap, map 16/32); (0, BAD) for anything else."""
     return _header(buf, n, end, 0x80, _MAP16)

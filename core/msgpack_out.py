@@ -19,7 +19,7 @@ from typing import Any
 import msgpack
 import numpy as np
 
-from core.jit import njit
+from core.jit import borrowing
 
 NIL = 0xC0
 FLOAT64 = 0xCB
@@ -35,7 +35,7 @@ def packed(value: Any) -> np.ndarray:
     return np.frombuffer(msgpack.packb(value, use_bin_type=True), dtype=np.uint8).copy()
 
 
-@njit(cache=True)
+@borrowing
 def put_raw(buf: np.ndarray, n: int, data: np.ndarray) -> int:
     """Already packed bytes (:func:`packed`)."""
     for i in range(data.shape[0]):
@@ -43,13 +43,13 @@ def put_raw(buf: np.ndarray, n: int, data: np.ndarray) -> int:
     return n + data.shape[0]
 
 
-@njit(cache=True)
+@borrowing
 def put_nil(buf: np.ndarray, n: int) -> int:
     buf[n] = NIL
     return n + 1
 
 
-@njit(cache=True)
+@borrowing
 def _put_tagged(buf: np.ndarray, n: int, tag: int, value: int, size: int) -> int:
     """``tag`` then the low ``size`` bytes of ``value``, big-endian (two's complement for negatives)."""
     buf[n] = tag
@@ -58,7 +58,7 @@ def _put_tagged(buf: np.ndarray, n: int, tag: int, value: int, size: int) -> int
     return n + 1 + size
 
 
-@njit(cache=True)
+@borrowing
 def put_int(buf: np.ndarray, n: int, value: int) -> int:
     """An int in its smallest form, as the packer chooses it: fixint, then (u)int8/16/32/64."""
     if value >= 0:
@@ -84,13 +84,13 @@ def put_int(buf: np.ndarray, n: int, value: int) -> int:
     return _put_tagged(buf, n, 0xD3, value, 8)
 
 
-@njit(cache=True)
+@borrowing
 def put_float(buf: np.ndarray, n: int, value: float) -> int:
     """A Python float: always a double (0xcb), NaN and infinities bit for bit."""
     return _put_tagged(buf, n, FLOAT64, np.float64(value).view(np.int64), 8)
 
 
-@njit(cache=True)
+@borrowing
 def put_str(buf: np.ndarray, n: int, text: np.ndarray) -> int:
     """A str of the UTF-8 bytes ``text`` (fixstr, str 8, str 16 or str 32, as the packer chooses with
     ``use_bin_type``)."""
@@ -107,7 +107,7 @@ def put_str(buf: np.ndarray, n: int, text: np.ndarray) -> int:
     return put_raw(buf, n, text)
 
 
-@njit(cache=True)
+@borrowing
 def put_array(buf: np.ndarray, n: int, size: int) -> int:
     """The header of an array of ``size`` elements (fixarray, array 16 or array 32)."""
     if size < 16:

@@ -586,7 +586,7 @@ def see_frame_bytes(n_objects: int) -> int:
             + n_objects * _PLAYER_ROW_BYTES)
 
 
-@njit(cache=True)
+@borrowing
 def write_see(out: SeeBuffers, b: int, obs: int, n_keepers: int, cycle: int, buf: np.ndarray) -> int:
     """One observer's ``see`` message (``protocol.messages.See``) as msgpack into ``buf``; returns its
     length. Rows in spec 4 "Content" order: flags, lines, the ball, players left then right. Omitted
@@ -664,7 +664,7 @@ def write_see(out: SeeBuffers, b: int, obs: int, n_keepers: int, cycle: int, buf
     return n
 
 
-@njit(cache=True)
+@borrowing
 def _put_changes(buf: np.ndarray, n: int, out: SeeBuffers, b: int, p: int, slot: int, full: bool) -> int:
     """dist_chg and dir_chg of a FULL record, else two nils."""
     if full:
@@ -672,7 +672,7 @@ def _put_changes(buf: np.ndarray, n: int, out: SeeBuffers, b: int, p: int, slot:
     return put_nil(buf, put_nil(buf, n))
 
 
-@njit(cache=True)
+@borrowing
 def write_sense_body(out: SenseBodyBuffers, b: int, obs: int, cycle: int, view_mode: np.ndarray,
                      buf: np.ndarray) -> int:
     """One player's ``sense_body`` message (``protocol.messages.SenseBody``, spec 4 "sense_body") as
@@ -711,7 +711,7 @@ def write_sense_body(out: SenseBodyBuffers, b: int, obs: int, cycle: int, view_m
 
 
 
-@njit(cache=True)
+@borrowing
 def see_frame(b: int, w: World, obs: int, width_factor: float, kp: KernelParams, out: SeeBuffers, cycle: int,
               buf: np.ndarray) -> int:
     """Player object ``obs``'s see of this cycle (:func:`see_arena`) written into ``buf``
@@ -721,7 +721,7 @@ def see_frame(b: int, w: World, obs: int, width_factor: float, kp: KernelParams,
     return write_see(out, b, obs, w.n_keepers, cycle, buf)
 
 
-@njit(cache=True)
+@borrowing
 def sense_body_frame(b: int, w: World, obs: int, out: SenseBodyBuffers, cycle: int, view_mode: np.ndarray,
                      buf: np.ndarray) -> int:
     """Player object ``obs``'s sense_body of this cycle (:func:`sense_body_arena`) written into ``buf``
@@ -781,7 +781,7 @@ def hear_picks(b: int, w: World, speakers: np.ndarray, listener: int, hear_max: 
     return n_picked
 
 
-@njit(cache=True)
+@borrowing
 def write_hear(buf: np.ndarray, n: int, cycle: int, sender: int, direction: int, unum: int,
                text: np.ndarray) -> int:
     """A hear of a player's say as msgpack at ``buf[n:]``, byte for byte ``encode(Hear(...))``: ``sender``
@@ -803,7 +803,7 @@ def write_hear(buf: np.ndarray, n: int, cycle: int, sender: int, direction: int,
     return put_str(buf, n, text)
 
 
-@njit(cache=True)
+@borrowing
 def hear_direction(b: int, w: World, listener: int, speaker: int) -> int:
     """Where ``listener`` hears ``speaker`` from: the direction to it relative to the listener's body,
     in whole degrees (-180..180, rounded half to even)."""
