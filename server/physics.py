@@ -23,7 +23,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from core.jit import njit
+from core.jit import borrowing, njit
 
 from protocol.params import NOISE_POLAR
 from core.rng import randint, uniform
@@ -85,7 +85,7 @@ def dash_direction_rate(direction: float, kp) -> float:
     return _clamp(rate, 0.0, 1.0)
 
 
-@njit(cache=True)
+@borrowing
 def dash(b: int, w: World, i: int, power: float, direction: float, kp) -> None:
     """``Player::dash``: stamina cost, then an acceleration along body + direction into ``w.acc`` (spec 3).
 
@@ -109,7 +109,7 @@ def dash(b: int, w: World, i: int, power: float, direction: float, kp) -> None:
     w.counts[b, i, COUNT_DASH] += 1
 
 
-@njit(cache=True)
+@borrowing
 def turn(b: int, w: World, i: int, moment: float, kp) -> None:
     """``Player::turn``: the pending body angle, slowed by inertia at the stored speed (spec 3)."""
     moment = _clamp(moment, kp.min_moment, kp.max_moment)
@@ -119,7 +119,7 @@ def turn(b: int, w: World, i: int, moment: float, kp) -> None:
     w.counts[b, i, COUNT_TURN] += 1
 
 
-@njit(cache=True)
+@borrowing
 def turn_neck(b: int, w: World, i: int, moment: float, kp) -> None:
     """``Player::turn_neck``: pending neck angle relative to the body, clamped; no noise (spec 3)."""
     moment = _clamp(moment, kp.min_neck_moment, kp.max_neck_moment)
@@ -127,7 +127,7 @@ def turn_neck(b: int, w: World, i: int, moment: float, kp) -> None:
     w.counts[b, i, COUNT_TURN_NECK] += 1
 
 
-@njit(cache=True)
+@borrowing
 def kick_possible(b: int, w: World, i: int, kp) -> bool:
     """``Player::ballKickable``: enabled player whose centre is within 0.3 + 0.7 + 0.085 m of the ball's."""
     if i == BALL or not w.enabled[b, i]:
@@ -138,7 +138,7 @@ def kick_possible(b: int, w: World, i: int, kp) -> bool:
     return dx * dx + dy * dy <= reach * reach
 
 
-@njit(cache=True)
+@borrowing
 def kick(b: int, w: World, i: int, power: float, direction: float, kp) -> None:
     """``Player::kick`` in play_on: effective power by distance and angle, plus noise, added to the
     ball's acceleration (spec 3). Marks the kicker even when the ball is out of reach (``KICK`` state);
@@ -174,7 +174,7 @@ def kick(b: int, w: World, i: int, power: float, direction: float, kp) -> None:
     w.counts[b, i, COUNT_KICK] += 1
 
 
-@njit(cache=True)
+@borrowing
 def apply_commands(b: int, w: World, c: Commands, kp) -> None:
     """Execute the already-resolved main command and the turn_neck of every enabled player (spec 3).
 
@@ -197,7 +197,7 @@ def apply_commands(b: int, w: World, c: Commands, kp) -> None:
             turn_neck(b, w, i, c.neck[b, i], kp)
 
 
-@njit(cache=True)
+@borrowing
 def _move_object(b: int, w: World, i: int, decay: float, rand: float, speed_max: float,
                  accel_max: float, kp) -> None:
     """``MPObject::_inc`` for one object (spec 2 step 1 a-e)."""
@@ -236,7 +236,7 @@ def _move_object(b: int, w: World, i: int, decay: float, rand: float, speed_max:
     w.acc[b, i, 1] = 0.0
 
 
-@njit(cache=True)
+@borrowing
 def move_objects(b: int, w: World, kp) -> None:
     """Step 1 of spec 2 for every enabled object; also starts this step's collision flags afresh.
 
@@ -273,7 +273,7 @@ def _overlap(b: int, w: World, i: int, j: int, kp) -> bool:
     return dx * dx + dy * dy < reach * reach
 
 
-@njit(cache=True)
+@borrowing
 def _any_overlap(b: int, w: World, kp) -> bool:
     n = w.pos.shape[1]
     for i in range(n - 1):
@@ -283,7 +283,7 @@ def _any_overlap(b: int, w: World, kp) -> bool:
     return False
 
 
-@njit(cache=True)
+@borrowing
 def _collide_pair(b: int, w: World, i: int, j: int, scratch: np.ndarray, kp) -> None:
     """``Stadium::calcCollisionPos``: both objects go to the midpoint plus half the separation distance
     (+EPS) along midpoint-to-object, enlarged x1.0001 while rounding still leaves an overlap."""
@@ -375,7 +375,7 @@ def resolve_collisions(b: int, w: World, kp) -> None:
             w.vel[b, i, 1] *= COLLISION_VEL_FACTOR
 
 
-@njit(cache=True)
+@borrowing
 def update_stamina(b: int, w: World, kp) -> None:
     """``Player::updateStamina`` for every enabled player (spec 3 "Stamina").
 
@@ -405,7 +405,7 @@ def update_stamina(b: int, w: World, kp) -> None:
         w.stamina[b, i] = min(stamina + gain, kp.stamina_max)
 
 
-@njit(cache=True)
+@borrowing
 def place_object(b: int, w: World, i: int, x: float, y: float, vx: float, vy: float,
                  body_or_nan: float, kp) -> None:
     """The trainer's move (``Stadium::moveBall`` / ``movePlayer``): position, velocity, no acceleration,
@@ -425,7 +425,7 @@ def place_object(b: int, w: World, i: int, x: float, y: float, vx: float, vy: fl
     resolve_collisions(b, w, kp)
 
 
-@njit(cache=True)
+@borrowing
 def physics_step(w: World, c: Commands, kp) -> None:
     """One play_on cycle of every arena without a referee: commands, movement, collisions, time, stamina
     (spec 2, steps 0-3 and 5)."""

@@ -12,7 +12,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from core.jit import njit
+from core.jit import borrowing
 
 from server import episode_log
 from core.rng import randint, uniform
@@ -68,7 +68,7 @@ def new_referee_state(batch: int) -> RefereeState:
     )
 
 
-@njit(cache=True)
+@borrowing
 def reset_field(b: int, w: World, kp) -> None:
     """Place the players and the ball for a new episode (spec 5 Reset; agents spec 6).
 
@@ -121,21 +121,21 @@ def reset_field(b: int, w: World, kp) -> None:
     w.acc[b, BALL, :] = 0.0
 
 
-@njit(cache=True)
+@borrowing
 def _clear_end_record(b: int, r: RefereeState) -> None:
     r.ended[b] = False
     r.end_cause[b] = END_NONE
     r.dropped[b] = False
 
 
-@njit(cache=True)
+@borrowing
 def _anchor_ball(b: int, w: World, r: RefereeState) -> None:
     r.stuck_anchor[b, 0] = w.pos[b, BALL, 0]
     r.stuck_anchor[b, 1] = w.pos[b, BALL, 1]
     r.stuck_cycle[b] = w.time[b]
 
 
-@njit(cache=True)
+@borrowing
 def start_game(b: int, w: World, r: RefereeState, kp) -> None:
     """The first play_on (spec 5 Start): reset the field; episode 1 starts at the current cycle.
 
@@ -150,7 +150,7 @@ def start_game(b: int, w: World, r: RefereeState, kp) -> None:
     r.start_cycle[b] = w.time[b]
 
 
-@njit(cache=True)
+@borrowing
 def _ball_stuck(b: int, w: World, r: RefereeState, kp) -> None:
     """BallStuck referee (spec 5 "Other referees"): a ball that stays within ``ball_stuck_area`` of
     its anchor for ``drop_ball_time`` cycles is dropped where it is (velocity 0) and re-anchored;
@@ -168,7 +168,7 @@ def _ball_stuck(b: int, w: World, r: RefereeState, kp) -> None:
         _anchor_ball(b, w, r)
 
 
-@njit(cache=True)
+@borrowing
 def _near_ball(b: int, w: World, first: int, stop: int, kickable2: float) -> bool:
     """Whether an enabled player among objects ``first..stop-1`` has centre distance < kickable area."""
     bx = w.pos[b, BALL, 0]
@@ -182,7 +182,7 @@ def _near_ball(b: int, w: World, first: int, stop: int, kickable2: float) -> boo
     return False
 
 
-@njit(cache=True)
+@borrowing
 def keepaway_referee(b: int, w: World, r: RefereeState, kp) -> int:
     """The referees of one play_on cycle of arena ``b``; returns the END_* cause (0: episode goes on).
 
@@ -228,7 +228,7 @@ def keepaway_referee(b: int, w: World, r: RefereeState, kp) -> int:
     return cause
 
 
-@njit(cache=True)
+@borrowing
 def _referee_batch(w: World, r: RefereeState, kp, causes: np.ndarray) -> None:
     for b in range(w.pos.shape[0]):
         causes[b] = keepaway_referee(b, w, r, kp)

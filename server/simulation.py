@@ -7,13 +7,13 @@ compiled loop serves the distributed server (batch of one) and the batched mode 
 from __future__ import annotations
 
 import numpy as np
-from core.jit import njit
+from core.jit import borrowing
 
 from server.physics import apply_commands, move_objects, resolve_collisions, update_stamina
 from server.referee import keepaway_referee
 
 
-@njit(cache=True)
+@borrowing
 def step_arena(b, w, c, r, kp) -> int:
     """Advance arena ``b`` one cycle; returns the referee's episode-end code (0: goes on). The batched
     mode composes it with percepts and decisions in its own loop over arenas."""
@@ -26,7 +26,7 @@ def step_arena(b, w, c, r, kp) -> int:
     return cause
 
 
-@njit(cache=True)
+@borrowing
 def simulate_cycle(w, c, r, kp, causes):
     """Advance every arena one cycle; ``causes[b]`` gets the referee's episode-end code (0: goes on)."""
     for b in range(w.pos.shape[0]):
