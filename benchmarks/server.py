@@ -21,7 +21,6 @@ import sys
 import time
 from pathlib import Path
 
-import numba
 import numpy as np
 
 REPO = Path(__file__).resolve().parent.parent
