@@ -99,7 +99,7 @@ def new_talk(rows: int, start: int = 0) -> Talk:
 
 def to_text(talk: Talk, r: int) -> str:
     """Row ``r``'s message of this cycle as text ("" if it says nothing)."""
-    return "".join(VALID_CHARS[int(c)] for c in talk.said[r, :talk.said_len[r]])
+    return "".join(map(VALID_CHARS.__getitem__, talk.said[r, :talk.said_len[r]].tolist()))
 
 
 def hear_text(talk: Talk, r: int, text: str) -> None:
