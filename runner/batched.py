@@ -56,7 +56,7 @@ from typing import NamedTuple
 
 import numpy as np
 import numba
-from core.jit import borrowing, njit
+from core.jit import borrowing
 
 from agents.belief import AgentMemory, Belief, empty_belief, forget_episode, new_memory
 from agents.getopen import net_size
