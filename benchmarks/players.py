@@ -67,9 +67,9 @@ def main() -> None:
         base, heard, full = max(bases), max(hearing), max(fulls)
         players_us = (1.0 / full - 1.0 / heard) * 1e6
         ratios = [_players_ratio(h, f) for h, f in zip(hearing, fulls)]
+        spread = f"{statistics.median(ratios):10.2f}x ({min(ratios):.2f}-{max(ratios):.2f})"
         print(f"{batch:6d} {heard:14,.0f} a-c/s {full:8,.0f} a-c/s {players_us:18.1f} us "
-              f"{_players_ratio(heard, full):5.2f}x {statistics.median(ratios):10.2f}x ({min(ratios):.2f}-{max(ratios):.2f}) "
-              f"{_players_ratio(base, full):8.2f}x ({base:,.0f} a-c/s)")
+              f"{_players_ratio(heard, full):5.2f}x {spread} {_players_ratio(base, full):8.2f}x ({base:,.0f} a-c/s)")
     print("(rates: the best of the runs; ratio: the players' cost per arena-cycle over that of physics + perception "
           "with the hears, target <= 2; last: over physics + perception without the hears, which then count as the "
           "players')")
