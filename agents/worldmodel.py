@@ -46,7 +46,6 @@ from typing import Any, NamedTuple
 
 import numpy as np
 from core.jit import SteadyCall, borrowing, njit
-from core.msgpack_in import FrameCopy
 
 from agents.belief import Belief, empty_belief
 from agents.geometry import (believed_dash_power, compared_hypot, kick_rate, nearer_than, normalize_angle,
@@ -90,7 +89,7 @@ COLLISION_SMALL_COMPONENT = 0.08  # ... each velocity component flipped or below
 COLLISION_SPEED_DROP = 0.25  # ... and the speed below this fraction of the predicted one
 # WorldModel::updateBallForCollision: the ball is put this far from my centre (m), towards where it was.
 COLLISION_BALL_DISTANCE = 0.2
-# The largest frame a player copies for on_frame (bytes): the server's sees, its largest per-cycle
+# The largest frame on_frame's kernel reads (bytes): the server's sees, its largest per-cycle
 # frames, are at most 3,444 bytes in 3v2, 4,991 in 11v11 (server.perception.see_frame_bytes). A larger
 # one is decoded in full.
 FRAME_BYTES = 8192
@@ -862,7 +861,6 @@ class WorldModel:
         self._hold_exact_ball_row = SteadyCall(hold_exact_ball_row)
         self._write_belief_row = SteadyCall(write_belief_row)
         self._decode_frame = SteadyCall(decode_frame)
-        self._frame = FrameCopy(FRAME_BYTES)  # on_frame's copy of a frame
         self.frame_values = np.zeros(FRAME_VALUES)  # the values of the last frame on_frame read
 
     def _is_exact(self, msg: Mapping[str, Any]) -> bool:
@@ -919,11 +917,13 @@ class WorldModel:
         or :meth:`on_sense_body` takes the decoded message; a hear's or think's values are left in
         :attr:`frame_values` for the agent. Returns (``NOT_TAKEN``, -1) for any other frame, which is then
         the caller's to decode in full, and this model is as it was but for the see buffer's scratch."""
-        size = self._frame.load(data)
-        if size < 0:
+        if type(data) is not bytes:
+            data = bytes(data)  # the kernel takes the frame as bytes (core.msgpack_in)
+        size = len(data)
+        if size > FRAME_BYTES:
             return NOT_TAKEN, -1
         values = self.frame_values
-        kind, cycle = self._decode_frame(self._frame.buf, size, 0, self.see_buffer, len(self.flag_pos), values)
+        kind, cycle = self._decode_frame(data, size, 0, self.see_buffer, len(self.flag_pos), values)
         if kind == SEE and cycle != self._exact_cycle:
             self._see_row(0, self.state, self.see_buffer, self.flag_pos, self.n_keepers, self.kp, self.cfg)
         elif kind == SENSE_BODY:

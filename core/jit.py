@@ -154,9 +154,10 @@ def borrowing(function=None, **options):
     return numba_njit(**options) if function is None else numba_njit(**options)(function)
 
 
-# Argument types that a SteadyCall checks by type (numba types every value of one of these alike); any
-# other argument (an array, a record, a tuple of arrays) it checks by identity.
-_SCALARS = (bool, int, float, np.bool_, np.number)
+# Argument types that a SteadyCall checks by type (numba types every value of one of these alike: a bytes
+# object as a read-only buffer of uint8, whatever its length); any other argument (an array, a record, a
+# tuple of arrays) it checks by identity.
+_BY_TYPE = (bool, int, float, bytes, np.bool_, np.number)
 
 
 class SteadyCall:
@@ -168,8 +169,8 @@ class SteadyCall:
     and the server of the embedded and distributed modes make a few dozen such calls per cycle, a
     quarter of the embedded mode's time (a ``py-spy`` profile). Here the first call goes through the
     dispatcher (types checked, the kernel compiled or loaded) and binds the compiled entry point of
-    exactly those argument types; a later call whose arguments are the same objects (scalars: of the
-    same Python type) calls that entry point directly, which unboxes them as the dispatcher's call does,
+    exactly those argument types; a later call whose arguments are the same objects (scalars and bytes: of
+    the same Python type) calls that entry point directly, which unboxes them as the dispatcher's call does,
     so the kernel runs the same code on the same values. Any other call goes through the dispatcher and
     binds afresh. Binding keeps the arguments alive; an array must not change its dtype or number of
     dimensions in place (nothing here does)."""
@@ -199,7 +200,7 @@ class SteadyCall:
         if compiled is None:  # the dispatcher converted an argument: leave such calls to it
             self._key, self._entry = (), None
             return
-        self._key = tuple(type(arg) if isinstance(arg, _SCALARS) else arg for arg in args)
+        self._key = tuple(type(arg) if isinstance(arg, _BY_TYPE) else arg for arg in args)
         self._entry = compiled.entry_point
 
 

@@ -8,6 +8,9 @@ when the bytes there are not a value of its kind or run past ``end``. A kernel b
 the values it knows how to read; anything else it leaves to the full decoder (``protocol.codec``), which
 accepts every msgpack form and reports what is wrong. Every int form is read (the packer writes the
 smallest, other packers may not), doubles only: a float32 is refused here, not misread.
+
+``buf`` is the frame as it came, a ``bytes`` object (numba takes it as a read-only uint8 buffer, without
+a copy; a kernel that takes a frame is called with it as it is), or any uint8 array.
 """
 
 from __future__ import annotations
@@ -145,23 +148,5 @@ def ascii(text: str) -> np.ndarray:
     return np.frombuffer(text.encode("ascii"), dtype=np.uint8).copy()
 
 
-class FrameCopy:
-    """A reusable buffer into which a frame's bytes are copied for a reader kernel, which takes a uint8
-    array (one per receiving loop: ``agents.worldmodel.WorldModel.on_frame``,
-    ``server.command_frame.CommandReader``)."""
-
-    def __init__(self, capacity: int) -> None:
-        self.buf = np.empty(capacity, dtype=np.uint8)
-
-    def load(self, data: bytes) -> int:
-        """Copy ``data`` to the front of :attr:`buf`; its length, or -1 if it does not fit (the caller
-        leaves such a frame to the full decoder)."""
-        size = len(data)
-        if size > self.buf.shape[0]:
-            return -1
-        self.buf[:size] = np.frombuffer(data, dtype=np.uint8)
-        return size
-
-
-__all__ = ["BAD", "FrameCopy", "ascii", "is_nil", "read_array", "read_double", "read_int", "read_map", "read_str",
+__all__ = ["BAD", "ascii", "is_nil", "read_array", "read_double", "read_int", "read_map", "read_str",
            "str_equals"]

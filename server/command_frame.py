@@ -30,7 +30,7 @@ from typing import NamedTuple, Union
 import numpy as np
 
 from core.jit import SteadyCall, borrowing
-from core.msgpack_in import BAD, FrameCopy, ascii, read_array, read_double, read_int, read_map, read_str, str_equals
+from core.msgpack_in import BAD, ascii, read_array, read_double, read_int, read_map, read_str, str_equals
 from core.msgpack_out import FLOAT64
 from protocol import messages as m
 from protocol.codec import MAX_EXACT_INT, number
@@ -246,18 +246,17 @@ class CommandReader:
 
     def __init__(self, max_bytes: int = DEFAULT_MAX_MESSAGE_BYTES) -> None:
         self.max_bytes = max_bytes
-        self._frame = FrameCopy(min(max_bytes, MAX_FRAME_BYTES))
+        self._frame_bytes = min(max_bytes, MAX_FRAME_BYTES)  # the longest frame the kernel reads
         self._out = CommandBuffer.empty()
         self._read = SteadyCall(read_command_frame)
 
     def read(self, data: bytes) -> CommandFrame | None:
         """The command frame ``data`` as the full decoder decodes it (as pairs), if the kernel takes it;
         else None."""
-        size = self._frame.load(data) if type(data) is bytes else -1
-        if size < 0:
+        if type(data) is not bytes or len(data) > self._frame_bytes:
             return None
         out = self._out
-        cycle, count, noted = self._read(self._frame.buf, size, out)
+        cycle, count, noted = self._read(data, len(data), out)
         if cycle < 0:
             return None
         commands = []
