@@ -4,6 +4,8 @@ goes through numba's dispatcher."""
 
 from __future__ import annotations
 
+import pickle
+from copy import deepcopy
 from typing import NamedTuple
 
 import numba
@@ -11,7 +13,7 @@ import numpy as np
 import pytest
 
 from agents.skills import AgentConfig
-from core.jit import SteadyCall
+from core.jit import SteadyCall, borrowing
 from core.records import KernelTable
 from protocol.params import parameter_set
 
@@ -59,6 +61,25 @@ def test_other_objects_or_scalar_types_go_through_the_dispatcher_and_give_its_re
     assert out[0] == pytest.approx(5.0 * 0.94)
 
 
+@borrowing
+def byte_sum(data, n) -> int:
+    total = 0
+    for i in range(n):
+        total += data[i]
+    return total
+
+
+def test_bytes_are_bound_by_type_and_read_where_they_lie():
+    """Any bytes object calls the bound entry point (numba types them all alike: a read-only uint8
+    buffer), and the kernel reads each one's own bytes."""
+    call = SteadyCall(byte_sum)
+    assert call(b"\x01\x02\x03", 3) == 6
+    entry = call._entry
+    for data in (bytes(range(200)), b"", b"\xff" * 5000):
+        assert call(data, len(data)) == sum(data)
+        assert call._entry is entry
+
+
 def test_kernel_tables_hand_numba_their_own_bytes():
     """A parameter table's ``data`` (what numba unboxes a record from) is the memory the record lives in,
     byte for byte what numpy's own buffer of the record holds; a copy answers as numpy does."""
@@ -67,6 +88,7 @@ def test_kernel_tables_hand_numba_their_own_bytes():
         own = bytes(np.record.data.__get__(table))
         assert bytes(table.data) == own and len(own) == table.dtype.itemsize
         assert np.shares_memory(table.data, np.asarray(table.base))
-    copy = np.array([KP], dtype=KP.dtype)[0]
-    assert bytes(copy.data) == bytes(np.record.data.__get__(KP))
+    for copy in (np.array([KP], dtype=KP.dtype)[0], pickle.loads(pickle.dumps(KP)), deepcopy(KP)):
+        assert isinstance(copy.data, memoryview)  # numpy's own buffer, not the original's bytes
+        assert bytes(copy.data) == bytes(np.record.data.__get__(KP))
     assert numba.njit(lambda kp: kp.player_decay)(KP) == 0.4
