@@ -61,6 +61,23 @@ PAUSE_POLL_MS = 50
 # cost paid ~30 times a cycle.
 _NOBLOCK = int(zmq.NOBLOCK)
 _NOBLOCK_MORE = int(zmq.NOBLOCK | zmq.SNDMORE)
+_EVENTS, _POLLIN = int(zmq.EVENTS), int(zmq.POLLIN)
+# pyzmq's compiled send, without the Python method its Socket puts over it (for routing_id and group,
+# which the server does not use): the server sends about 60 frames a cycle (docs/design.md, "Processes
+# and sockets").
+_send_frame = zmq.backend.Socket.send
+
+
+def _recv_message(sock: zmq.Socket) -> list[bytes]:
+    """``sock.recv_multipart(NOBLOCK)``, with the frames' "more" flags read from the frames themselves
+    rather than by a ``getsockopt`` each (a whole message is delivered at once, so its other frames are
+    there). Raises ``zmq.Again`` if no message waits."""
+    part = sock.recv(_NOBLOCK, copy=False)
+    frames = [part.bytes]
+    while part.more:
+        part = sock.recv(_NOBLOCK, copy=False)
+        frames.append(part.bytes)
+    return frames
 
 
 @dataclass
@@ -455,12 +472,14 @@ class Server:
         intake = self.intakes[sock]
         for _ in range(ROUND_MESSAGES):
             try:
-                frames = sock.recv_multipart(zmq.NOBLOCK)
+                frames = _recv_message(sock)
             except zmq.Again:
                 return
             member = frames[0] in members
             if intake.admit(frames[0], member, frames):
                 (seated if member else unseated).append((sock, frames))
+            if not sock.get(_EVENTS) & _POLLIN:  # nothing more: cheaper to ask than to fail a receive
+                return
 
     def _serve(self, sock: zmq.Socket, frames: list[bytes]) -> None:
         if len(frames) != 2:
@@ -510,8 +529,8 @@ class Server:
 
     def _send_raw(self, sock: zmq.Socket, ident: bytes, data: bytes) -> None:
         try:
-            sock.send(ident, _NOBLOCK_MORE)
-            sock.send(data, _NOBLOCK)
+            _send_frame(sock, ident, _NOBLOCK_MORE)
+            _send_frame(sock, data, _NOBLOCK)
         except zmq.ZMQError as exc:  # peer gone (ROUTER_MANDATORY) or its queue is full
             if exc.errno != zmq.EHOSTUNREACH:
                 return
