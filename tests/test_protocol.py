@@ -205,6 +205,16 @@ def test_every_message_round_trips_through_every_port_that_carries_it(msg):
     assert carried
 
 
+def test_encode_writes_packb_bytes_with_its_kept_packer_even_after_a_failure():
+    """``encode`` keeps a Packer per thread: its bytes are ``msgpack.packb``'s for every message, and a
+    message that cannot be packed leaves nothing behind in it."""
+    unpackable = m.Report(cycle=0, payload={"x": object()})
+    with pytest.raises(TypeError):
+        encode(unpackable)
+    for msg in SAMPLES:
+        assert encode(msg) == msgpack.packb(msg.to_wire(), use_bin_type=True)
+
+
 @pytest.mark.parametrize("msg", SAMPLES, ids=lambda m: m.TYPE)
 def test_from_wire_inverts_to_wire(msg):
     assert type(msg).from_wire(msg.to_wire()) == msg
