@@ -56,8 +56,6 @@ def main() -> None:
     print(f"  bare ZeroMQ loop, no simulation {bare:21,.0f} cycles/s  (distributed: {distributed / bare:.2f}x of it)")
     print("  targets (issue 11): batched >= 300 episodes/s and >= 150x embedded; distributed >= 0.9x embedded and "
           ">= 5 episodes/s (>= 750 cycles/s)")
-    print("  bound: with five player processes on two cores, players that computed nothing would still leave "
-          "about 1.6 ms a cycle (about 630 cycles/s; docs/design.md, \"Processes and sockets\")")
 
 
 if __name__ == "__main__":
