@@ -84,7 +84,7 @@ from agents.policy_file import (
     keeper_pass_arrays,
 )
 from agents.sarsa import MODE_GREEDY, MODE_LEARN, MODE_NAMES, SarsaConfig, SarsaLearner
-from agents.say import hear_row, hear_text, new_talk, say_row, to_text
+from agents.say import BYTE_CODES, hear_bytes, hear_row, hear_text, new_talk, say_row, to_text
 from agents.skills import (
     GETOPEN_EXTERNAL,
     GETOPEN_POLICIES,
@@ -122,6 +122,7 @@ TIMING_MODES = ("sync", "realtime")
 EPISODE_MESSAGE = "training Keepaway 1"
 KICK_OFF_MESSAGE = "play_on"
 LEARNED = "learned"  # the Pass policy name of the external learner
+TEAMMATE = "our"  # the sender of a teammate's say (docs/protocol.md 6 "hear"), the only one taken in
 # Arena size when init_ok's config does not give it (spec `keepaway-task.md` 1: 3 keepers vs 2 takers).
 DEFAULT_KEEPERS = 3
 DEFAULT_TAKERS = 2
@@ -346,6 +347,7 @@ class PlayerAgent:
         self._fields = _Fields()
         # the decision kernels of every cycle, called without numba's typing of their arguments at each call
         self._hear_row = SteadyCall(hear_row)
+        self._hear_bytes = SteadyCall(hear_bytes)
         self._keeper_decide = SteadyCall(keeper_decide)
         self._taker_decide = SteadyCall(taker_decide)
         self._say_row = SteadyCall(say_row)
@@ -528,15 +530,17 @@ class PlayerAgent:
         """A player's say (``self``, ``our`` or ``opp``): only a teammate's is taken in, at the decision,
         after this cycle's see."""
         self._record(cycle)
-        if sender == "our":
+        if sender == TEAMMATE:
             hear_text(self.talk, 0, text)
 
     def _heard_frame(self, cycle: int, data: bytes) -> None:
-        """A player's hear read from its frame (``agents.frames``: an ASCII text at its place in the frame)."""
+        """A player's hear read from its frame (``agents.frames``: an ASCII text at its place in the frame),
+        taken as :meth:`_heard_player` takes the decoded message, the text's codes read from the frame
+        (``agents.say.hear_bytes``)."""
         values = self.wm.frame_values
-        start = int(values[TEXT_START])
-        text = data[start:start + int(values[TEXT_LENGTH])].decode("ascii")
-        self._heard_player(cycle, m.PLAYER_HEAR_SENDERS[int(values[SENDER])], text)
+        self._record(cycle)
+        if m.PLAYER_HEAR_SENDERS[int(values[SENDER])] == TEAMMATE:
+            self._hear_bytes(self.talk, 0, data, int(values[TEXT_START]), int(values[TEXT_LENGTH]), BYTE_CODES)
 
     def _fresh_world_model(self) -> None:
         """A world model that knows nothing, fed again with this cycle's percepts and own commands (those

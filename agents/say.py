@@ -74,6 +74,9 @@ HEARD_BALL_DECAY = 0.94
 # KeepawayPlayer's first say time: "long ago".
 NEVER_SAID = -5
 _CHAR_CODES = {c: i for i, c in enumerate(VALID_CHARS)}
+# The code of each ASCII byte, -1 outside the alphabet: hear_bytes' table of _CHAR_CODES.
+BYTE_CODES = np.full(128, -1, dtype=np.int64)
+BYTE_CODES[[ord(c) for c in VALID_CHARS]] = np.arange(len(VALID_CHARS))
 
 
 class Talk(NamedTuple):
@@ -111,6 +114,26 @@ def hear_text(talk: Talk, r: int, text: str) -> None:
     talk.heard_len[r] = len(codes) if ok else -1
     if ok:
         talk.heard[r, :len(codes)] = codes
+    talk.heard_new[r] = True
+
+
+@borrowing
+def hear_bytes(talk: Talk, r: int, buf, start: int, length: int, codes) -> None:
+    """:func:`hear_text` of the text whose bytes lie at ``buf[start:start + length]`` (a hear frame's,
+    ``agents.frames``), with ``codes`` = :data:`BYTE_CODES`: the same row afterwards, without making the
+    text a str and looking each character up in Python (a player hears its teammates' says every cycle).
+    A byte beyond ASCII is outside the alphabet, as its character would be."""
+    ok = length <= MAX_CHARS
+    if ok:
+        for i in range(length):
+            byte = buf[start + i]
+            if byte >= codes.shape[0] or codes[byte] < 0:
+                ok = False
+                break
+    if ok:
+        for i in range(length):
+            talk.heard[r, i] = codes[buf[start + i]]
+    talk.heard_len[r] = length if ok else -1
     talk.heard_new[r] = True
 
 
@@ -342,6 +365,7 @@ def hear_row(r: int, s: ModelState, n_keepers: int, cfg, talk: Talk) -> None:
 
 
 __all__ = [
+    "BYTE_CODES",
     "MAX_CHARS",
     "NUM_CHARS",
     "Talk",
@@ -349,6 +373,7 @@ __all__ = [
     "decode_value",
     "encode_position",
     "encode_velocity",
+    "hear_bytes",
     "hear_row",
     "hear_text",
     "new_talk",

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from agents.say import (
+    BYTE_CODES,
     VALID_CHARS,
     X_LOW,
     X_SPAN,
@@ -18,6 +19,7 @@ from agents.say import (
     decode_value,
     encode_position,
     encode_velocity,
+    hear_bytes,
     hear_row,
     hear_text,
     new_talk,
@@ -204,6 +206,24 @@ def test_a_message_that_does_not_decode_is_dropped_whole(text):
     s = model(2, {2: (10.0, 0.0)})
     heard(s, text)
     assert s.seen[0, BALL] < 0  # the ball (never seen) was not taken from a partly decoded message
+
+
+def test_a_text_heard_from_its_bytes_leaves_the_row_as_heard_from_its_str():
+    """``hear_bytes`` (a hear frame's text, read where it lies) against ``hear_text`` (the decoded
+    message's): the same codes, length and flag on random texts, valid, too long, with characters
+    outside the alphabet or beyond ASCII, over rows that held other messages before."""
+    rng = np.random.default_rng(4)
+    alphabet = VALID_CHARS + " @#!~\x7f\x80\xff"
+    by_str, by_bytes = new_talk(2), new_talk(2)
+    for _ in range(600):
+        r = int(rng.integers(2))
+        text = "".join(rng.choice(list(alphabet), size=int(rng.integers(0, 14))))
+        frame = bytes(rng.integers(0, 256, size=int(rng.integers(0, 5)), dtype=np.uint8)) + text.encode("latin-1")
+        start = len(frame) - len(text)
+        hear_text(by_str, r, text)
+        hear_bytes(by_bytes, r, frame, start, len(text), BYTE_CODES)
+        for got, want in zip(by_bytes, by_str):
+            assert np.array_equal(got, want), text
 
 
 # -------------------------------------------------------------------------------- who hears whom
