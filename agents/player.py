@@ -514,7 +514,8 @@ class PlayerAgent:
 
     def _on_hear(self, msg: m.Hear) -> None:
         if msg.sender in m.PLAYER_HEAR_SENDERS:
-            self._heard_player(msg.cycle, msg.sender, msg.message)
+            if self._heard_player(msg.cycle, msg.sender):
+                hear_text(self.talk, 0, msg.message)
             return
         self._record(msg.cycle)  # a paused server's bare hears belong to a cycle without percepts yet
         if msg.sender == "referee":
@@ -526,20 +527,17 @@ class PlayerAgent:
         else:
             self._on_advice(msg.message, msg.cycle)
 
-    def _heard_player(self, cycle: int, sender: str, text: str) -> None:
-        """A player's say (``self``, ``our`` or ``opp``): only a teammate's is taken in, at the decision,
-        after this cycle's see."""
+    def _heard_player(self, cycle: int, sender: str) -> bool:
+        """A player's say (``self``, ``our`` or ``opp``) heard: whether its text is taken in, which only a
+        teammate's is (at the decision, after this cycle's see)."""
         self._record(cycle)
-        if sender == TEAMMATE:
-            hear_text(self.talk, 0, text)
+        return sender == TEAMMATE
 
     def _heard_frame(self, cycle: int, data: bytes) -> None:
         """A player's hear read from its frame (``agents.frames``: an ASCII text at its place in the frame),
-        taken as :meth:`_heard_player` takes the decoded message, the text's codes read from the frame
-        (``agents.say.hear_bytes``)."""
+        its text's codes read there (``agents.say.hear_bytes``)."""
         values = self.wm.frame_values
-        self._record(cycle)
-        if m.PLAYER_HEAR_SENDERS[int(values[SENDER])] == TEAMMATE:
+        if self._heard_player(cycle, m.PLAYER_HEAR_SENDERS[int(values[SENDER])]):
             self._hear_bytes(self.talk, 0, data, int(values[TEXT_START]), int(values[TEXT_LENGTH]), BYTE_CODES)
 
     def _fresh_world_model(self) -> None:

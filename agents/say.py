@@ -73,8 +73,7 @@ V_LOW, V_SPAN = -2.7, 5.4
 HEARD_BALL_DECAY = 0.94
 # KeepawayPlayer's first say time: "long ago".
 NEVER_SAID = -5
-_CHAR_CODES = {c: i for i, c in enumerate(VALID_CHARS)}
-# The code of each ASCII byte, -1 outside the alphabet: hear_bytes' table of _CHAR_CODES.
+# The code of each ASCII byte, -1 outside the alphabet (hear_bytes).
 BYTE_CODES = np.full(128, -1, dtype=np.int64)
 BYTE_CODES[[ord(c) for c in VALID_CHARS]] = np.arange(len(VALID_CHARS))
 
@@ -106,23 +105,19 @@ def to_text(talk: Talk, r: int) -> str:
 
 
 def hear_text(talk: Talk, r: int, text: str) -> None:
-    """Row ``r`` heard ``text`` from a teammate: it replaces any message not yet processed (the C++ keeps
-    the last one). Text longer than the encoder's or with a character outside the alphabet is kept as
-    undecodable: the C++ decoder fails on it and processes none of it."""
-    codes = [_CHAR_CODES.get(ch, -1) for ch in text]
-    ok = len(codes) <= MAX_CHARS and min(codes, default=0) >= 0
-    talk.heard_len[r] = len(codes) if ok else -1
-    if ok:
-        talk.heard[r, :len(codes)] = codes
-    talk.heard_new[r] = True
+    """Row ``r`` heard ``text`` from a teammate (:func:`hear_bytes` of its UTF-8 bytes: a text in the
+    alphabet is ASCII, one byte a character, and any other character makes a byte beyond the alphabet)."""
+    data = text.encode("utf-8", "surrogatepass")
+    hear_bytes(talk, r, data, 0, len(data), BYTE_CODES)
 
 
 @borrowing
 def hear_bytes(talk: Talk, r: int, buf, start: int, length: int, codes) -> None:
-    """:func:`hear_text` of the text whose bytes lie at ``buf[start:start + length]`` (a hear frame's,
-    ``agents.frames``), with ``codes`` = :data:`BYTE_CODES`: the same row afterwards, without making the
-    text a str and looking each character up in Python (a player hears its teammates' says every cycle).
-    A byte beyond ASCII is outside the alphabet, as its character would be."""
+    """Row ``r`` heard from a teammate the text whose bytes lie at ``buf[start:start + length]`` (a hear
+    frame's, ``agents.frames``, read where it lies: a player hears its teammates' says every cycle), with
+    ``codes`` = :data:`BYTE_CODES`. It replaces any message not yet processed (the C++ keeps the last
+    one). Text longer than the encoder's or with a character outside the alphabet (a byte beyond ASCII
+    among them) is kept as undecodable: the C++ decoder fails on it and processes none of it."""
     ok = length <= MAX_CHARS
     if ok:
         for i in range(length):

@@ -11,6 +11,7 @@ import pytest
 
 from agents.say import (
     BYTE_CODES,
+    MAX_CHARS,
     VALID_CHARS,
     X_LOW,
     X_SPAN,
@@ -208,21 +209,37 @@ def test_a_message_that_does_not_decode_is_dropped_whole(text):
     assert s.seen[0, BALL] < 0  # the ball (never seen) was not taken from a partly decoded message
 
 
+def _heard_by_the_rule(talk, r: int, text: str) -> None:
+    """The hearing rule written out: each character's place in the alphabet; a text longer than the
+    encoder's or with a character outside it is kept as undecodable (length -1, codes untouched)."""
+    codes = [VALID_CHARS.find(ch) for ch in text]
+    ok = len(codes) <= MAX_CHARS and min(codes, default=0) >= 0
+    talk.heard_len[r] = len(codes) if ok else -1
+    if ok:
+        talk.heard[r, :len(codes)] = codes
+    talk.heard_new[r] = True
+
+
 def test_a_text_heard_from_its_bytes_leaves_the_row_as_heard_from_its_str():
-    """``hear_bytes`` (a hear frame's text, read where it lies) against ``hear_text`` (the decoded
-    message's): the same codes, length and flag on random texts, valid, too long, with characters
-    outside the alphabet or beyond ASCII, over rows that held other messages before."""
+    """``hear_bytes`` (a hear frame's text, read where it lies) and ``hear_text`` (the decoded
+    message's) against the rule written out: the same codes, length and flag on random texts, valid,
+    too long, with characters outside the alphabet or beyond ASCII, over rows that held other messages
+    before."""
     rng = np.random.default_rng(4)
-    alphabet = VALID_CHARS + " @#!~\x7f\x80\xff"
-    by_str, by_bytes = new_talk(2), new_talk(2)
+    alphabet = VALID_CHARS + " @#!~\x7f\x80\xff\u00e9\u20ac\ud800"
+    by_rule, by_str, by_bytes = new_talk(2), new_talk(2), new_talk(2)
     for _ in range(600):
         r = int(rng.integers(2))
         text = "".join(rng.choice(list(alphabet), size=int(rng.integers(0, 14))))
-        frame = bytes(rng.integers(0, 256, size=int(rng.integers(0, 5)), dtype=np.uint8)) + text.encode("latin-1")
-        start = len(frame) - len(text)
+        data = bytes(min(ord(ch), 0xFF) for ch in text)  # one byte a character: beyond ASCII stays beyond it
+        frame = bytes(rng.integers(0, 256, size=int(rng.integers(0, 5)), dtype=np.uint8)) + data
+        start = len(frame) - len(data)
+        _heard_by_the_rule(by_rule, r, text)
         hear_text(by_str, r, text)
-        hear_bytes(by_bytes, r, frame, start, len(text), BYTE_CODES)
-        for got, want in zip(by_bytes, by_str):
+        hear_bytes(by_bytes, r, frame, start, len(data), BYTE_CODES)
+        for got, want in zip(by_bytes, by_rule):
+            assert np.array_equal(got, want), text
+        for got, want in zip(by_str, by_rule):
             assert np.array_equal(got, want), text
 
 
