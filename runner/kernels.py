@@ -49,7 +49,7 @@ def compile_set(kernel_set: str) -> float:
     start = time.perf_counter()
     if kernel_set == SERVER:
         from protocol.params import parameter_set
-        from server.arena import compile_kernels
+        from server.game_log import compile_kernels
 
         compile_kernels(parameter_set("classic"), 3, 2)
     elif kernel_set == PLAYERS:

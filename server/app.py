@@ -39,11 +39,11 @@ from protocol.endpoints import MONITOR_EPISODE_TOPIC, MONITOR_FRAME_TOPIC, confi
 from protocol.errors import ProtocolError
 from protocol import PROTOCOL_VERSION
 from protocol.security import PortGuard, open_keys
-from server.arena import TEAMS, Arena, ArenaError, PlayerSlot, compile_kernels, player_name, truth_state
+from server.arena import TEAMS, Arena, ArenaError, PlayerSlot, player_name, truth_state
 from server.command_frame import CommandFrame, CommandReader
 from server.config import ServerConfig
 from server.episode_log import EpisodeRecord, JsonlLog, KwyLog
-from server.game_log import RCG_SUFFIX, ArenaGameLog
+from server.game_log import RCG_SUFFIX, ArenaGameLog, compile_kernels
 from server.intake import ROUND_MESSAGES, WINDOW_S, Intake
 from core.log_limit import KIND_ATTR, RepeatLimit
 

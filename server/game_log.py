@@ -26,10 +26,10 @@ show after that step.
 
 The core is sans-IO: :class:`RcgFormatter` turns shows and events into text lines, :func:`parse_rcg`
 turns text back into :class:`Show` frames. Writing a show line is most of a game log's cost, paid every
-cycle by the server's one thread: writers take a :class:`ShowTable` (the world's arrays, read once) and
-:func:`show_line` formats all of its numbers in one ``%`` format (tests/test_show_line.py pins it to the
-format's definition, number by number); :class:`RcgLog` is the thin file sink the server and
-``keepaway run`` use, :func:`read_rcg` the reader the viewer's replay and ``keepaway render`` share.
+cycle by the server's one thread: writers take a :class:`ShowTable` (the world's arrays, read by a
+kernel) and :func:`show_line` writes it with the kernel of ``server.show_text`` (tests/test_show_line.py
+pins it to the format's definition, number by number); :class:`RcgLog` is the thin file sink the server
+and ``keepaway run`` use, :func:`read_rcg` the reader the viewer's replay and ``keepaway render`` share.
 """
 
 from __future__ import annotations
@@ -38,7 +38,8 @@ import re
 import time
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
-from functools import cache, lru_cache
+from functools import cache
+import threading
 from pathlib import Path
 from typing import NamedTuple
 
@@ -46,35 +47,41 @@ import numpy as np
 
 from protocol import messages as m
 from protocol.params import ServerParams
+from core.jit import SteadyCall
 from server.arena import REFEREE_EPISODE_MESSAGE, VIEW_WIDTHS, Arena
+from server.arena import compile_kernels as compile_arena_kernels
 from server.episode_log import EpisodeRecord, LineLog, cpp_number, read_kwy
-from server.world import COLLIDED_BALL, COLLIDED_PLAYER, COUNT_KICK, N_COUNTS, PARKED_Y, World
+from server.show_text import (
+    ANGLE_PREC,
+    BAD_ORDER,
+    HOLE_NUMBER,
+    MAX_HOLES,
+    MAX_LINE_BYTES,
+    MAX_UNUM,
+    N_NUMBERS,
+    N_RCG_COUNTS,
+    N_ROW,
+    N_SLOTS,
+    PLAYER_NUMBERS,
+    POS_PREC,
+    STATE_BALL_COLLIDE,
+    STATE_DISABLE,
+    STATE_KICK,
+    STATE_KICK_FAULT,
+    STATE_PLAYER_COLLIDE,
+    STATE_STAND,
+    world_table,
+    write_show,
+)
+from server.world import COUNT_KICK, PARKED_Y, World, new_world
 
 RCG_SUFFIX = ".rcg"
 RCG_VERSION_LINE = "ULG5"
-MAX_UNUM = 11  # players per side in every show (rcssserver's MAX_PLAYER)
-N_RCG_COUNTS = 11  # kick dash turn catch move turn_neck change_view say tackle pointto attentionto
-POS_PREC = 0.0001  # rcssserver's SerializerMonitorStdv3::PREC (positions, velocities)
-ANGLE_PREC = 0.001  # ... DPREC (body, neck, view angle)
-# A player's numbers in a show, in PlayerShow's order, each with the precision rcssserver quantizes it to
-# (SerializerMonitorStdv3) or None
-PLAYER_NUMBERS = {"x": POS_PREC, "y": POS_PREC, "vx": POS_PREC, "vy": POS_PREC, "body": ANGLE_PREC,
-                  "neck": ANGLE_PREC, "view_angle": ANGLE_PREC, "stamina": None, "effort": None, "recovery": None,
-                  "capacity": None}
-N_ROW = len(PLAYER_NUMBERS) + N_RCG_COUNTS  # a player's numbers in a ShowTable
 MSG_BOARD = 1  # rcssserver's BoardType
 LOG_BOARD = 2
 REFEREE_NAME = "referee"
 GETOPEN_NOTE = "getopen"
 PLAY_ON = "play_on"
-
-# Player state bits (rcssserver's PlayerState)
-STATE_DISABLE = 0x0
-STATE_STAND = 0x1
-STATE_KICK = 0x2
-STATE_KICK_FAULT = 0x4
-STATE_BALL_COLLIDE = 0x400
-STATE_PLAYER_COLLIDE = 0x800
 
 # Our parameter names that rcssserver's server_param spells otherwise; parameters rcssserver does not
 # have (our modelling switches, the pitch size) are left out of the server_param line.
@@ -160,14 +167,15 @@ def show_from_frame(frame: m.Frame) -> Show:
 
 
 class ShowTable(NamedTuple):
-    """A show as its line is written (:func:`show_line`): all of its players' numbers in one array, so that
-    a line costs a few array operations and one ``%`` format however many players it has. The players
-    are those on the pitch, in rcssserver's order (``l 1`` to ``l 11``, then ``r 1`` to ``r 11``), each
-    once. :class:`WorldShows` makes tables from a world's arrays, :meth:`of` from a :class:`Show`."""
+    """A show as its line is written (:func:`show_line`, by ``server.show_text.write_show``): the players on
+    the pitch, each with its slot in rcssserver's order (``l 1`` to ``l 11`` are slots 0 to 10, ``r 1`` to
+    ``r 11`` slots 11 to 21; increasing), its state and a row of its numbers. :class:`WorldShows` makes
+    tables from a world's arrays, :meth:`of` from a :class:`Show`."""
 
     cycle: int
     ball: np.ndarray  # (4,): x y vx vy
-    players: tuple[tuple[str, int, int], ...]  # (side, unum, state) of each player
+    slots: np.ndarray  # (P,) int64
+    states: np.ndarray  # (P,) int64, STATE_* bits
     rows: np.ndarray  # (P, N_ROW): a player's PLAYER_NUMBERS, then its N_RCG_COUNTS counts (floats, exact below 2**53)
 
     @classmethod
@@ -175,54 +183,44 @@ class ShowTable(NamedTuple):
         """The table of ``show``: of two entries of one player the last counts, and a player none of
         rcssserver's 22 places has is left out."""
         by_id = {(p.side, p.unum): p for p in show.players}
-        players = [by_id[slot] for slot in _SLOTS if slot in by_id]
-        rows = np.array([(*p[3:3 + len(PLAYER_NUMBERS)], *p.counts) for p in players], dtype=float).reshape(-1, N_ROW)
-        return cls(show.cycle, np.asarray(show.ball, dtype=float), tuple((p.side, p.unum, p.state) for p in players),
-                   rows)
+        slots = [slot for slot, place in enumerate(_SLOTS) if place in by_id]
+        players = [by_id[_SLOTS[slot]] for slot in slots]
+        rows = np.array([(*p[3:3 + N_NUMBERS], *p.counts) for p in players], dtype=float).reshape(-1, N_ROW)
+        return cls(show.cycle, np.asarray(show.ball, dtype=float), np.array(slots, dtype=np.int64),
+                   np.array([p.state for p in players], dtype=np.int64), rows)
 
     def show(self) -> Show:
         """This show with its players as :class:`PlayerShow`."""
-        n = len(PLAYER_NUMBERS)
-        players = tuple(PlayerShow(side, unum, state, *row[:n], tuple(int(c) for c in row[n:]))
-                        for (side, unum, state), row in zip(self.players, self.rows.tolist()))
+        players = tuple(PlayerShow(*_SLOTS[slot], state, *row[:N_NUMBERS], tuple(int(c) for c in row[N_NUMBERS:]))
+                        for slot, state, row in zip(self.slots.tolist(), self.states.tolist(), self.rows.tolist()))
         return Show(self.cycle, tuple(self.ball.tolist()), players)
 
 
 class WorldShows:
-    """Shows of the arenas of a :class:`server.world.World` (any batch), one cycle after another.
-
-    A kick that did not reach the ball is ``KICK | KICK_FAULT``, as in rcssserver: the world marks every
-    kick command (``world.kicked``) and counts only those that reached the ball, so the kick count of the
-    previous show tells them apart; :meth:`table` therefore remembers each arena's counts."""
+    """Shows of the arenas of a :class:`server.world.World` (any batch), one cycle after another
+    (``server.show_text.world_table``, which remembers each arena's kick counts to tell a kick that
+    missed the ball)."""
 
     def __init__(self, world: World, visible_angle: float) -> None:
         self.world = world
-        self.visible_angle = visible_angle
-        self._kicks = world.counts[:, :, COUNT_KICK].copy()
-        self._sides = [world.side(i) for i in range(1, world.n_objects)]
-        self._unums = [world.unum(i) for i in range(1, world.n_objects)]
-        self._view_angles = np.full((world.n_objects - 1, 1), float(visible_angle))
-        self._no_counts = np.zeros((world.n_objects - 1, N_RCG_COUNTS - N_COUNTS))  # tackle pointto attentionto: never
+        self.visible_angle = float(visible_angle)
+        n_players = world.n_objects - 1
+        self._last_kicks = world.counts[:, :, COUNT_KICK].copy()
+        self._slots = np.array([_SLOTS.index((world.side(o), world.unum(o))) for o in range(1, world.n_objects)],
+                               dtype=np.int64)
+        self._factors = np.ones(world.n_objects)
+        self._ball = np.zeros(4)
+        self._states = np.zeros(n_players, dtype=np.int64)
+        self._rows = np.zeros((n_players, N_ROW))
+        self._fill = SteadyCall(world_table)
 
     def table(self, b: int = 0, view_factors: Sequence[float] | None = None) -> ShowTable:
         """Arena ``b`` now; ``view_factors`` per player object (1 normal, 0.5 narrow, 2 wide; default 1)."""
-        w = self.world
-        kicks = w.counts[b, :, COUNT_KICK]
-        faulted = (kicks == self._kicks[b]).tolist()
-        self._kicks[b] = kicks
-        states = [(STATE_STAND if enabled else STATE_DISABLE)
-                  | ((STATE_KICK | (STATE_KICK_FAULT if fault else 0)) if kicked else 0)
-                  | (STATE_BALL_COLLIDE if collision & COLLIDED_BALL else 0)
-                  | (STATE_PLAYER_COLLIDE if collision & COLLIDED_PLAYER else 0)
-                  for enabled, kicked, fault, collision
-                  in zip(w.enabled[b, 1:].tolist(), w.kicked[b, 1:].tolist(), faulted[1:], w.collision[b, 1:].tolist())]
-        view = (self._view_angles if view_factors is None
-                else self.visible_angle * np.asarray(view_factors, dtype=float)[1:, None])
-        rows = np.concatenate((w.pos[b, 1:], w.vel[b, 1:], w.body[b, 1:, None], w.neck[b, 1:, None], view,
-                               w.stamina[b, 1:, None], w.effort[b, 1:, None], w.recovery[b, 1:, None],
-                               w.capacity[b, 1:, None], w.counts[b, 1:], self._no_counts), axis=1)
-        return ShowTable(int(w.time[b]), np.concatenate((w.pos[b, 0], w.vel[b, 0])),
-                         tuple(zip(self._sides, self._unums, states)), rows)
+        self._factors[:] = 1.0 if view_factors is None else view_factors
+        self._fill(self.world, b, self._factors, self.visible_angle, self._last_kicks, self._ball, self._states,
+                   self._rows)
+        return ShowTable(int(self.world.time[b]), self._ball.copy(), self._slots, self._states.copy(),
+                         self._rows.copy())
 
     def show(self, b: int = 0, view_factors: Sequence[float] | None = None) -> Show:
         """:meth:`table` as a :class:`Show`."""
@@ -230,61 +228,74 @@ class WorldShows:
 
 
 # -- writing ---------------------------------------------------------------------------------------------
+class _ShowWriter:
+    """One thread's buffers for ``write_show``: a table's arrays are copied in (a few hundred nanoseconds
+    each), so that its :class:`SteadyCall` calls the kernel with the same arrays every line."""
+
+    def __init__(self, parked: np.ndarray, parked_at: np.ndarray) -> None:
+        self.out = np.zeros(MAX_LINE_BYTES, np.uint8)
+        self.entry_at = np.zeros(N_SLOTS + 1, np.int64)
+        self.holes = np.zeros((MAX_HOLES, 3))
+        self.ball = np.zeros(4)
+        self.slots = np.zeros(N_SLOTS, np.int64)
+        self.states = np.zeros(N_SLOTS, np.int64)
+        self.rows = np.zeros((N_SLOTS, N_ROW))
+        self.parked, self.parked_at = parked, parked_at
+        self.write = SteadyCall(write_show)
+
+    def line(self, table: ShowTable) -> str:
+        """The table's line: written by the kernel, its holes (if any) filled by Python's format."""
+        n = len(table.slots)
+        if n > N_SLOTS:
+            raise ValueError("a show table's players go in rcssserver's order, each once")
+        self.ball[:] = table.ball
+        self.slots[:n] = table.slots
+        self.states[:n] = table.states
+        self.rows[:n] = table.rows
+        length, n_holes = self.write(self.out, self.entry_at, self.holes, table.cycle, self.ball, n, self.slots,
+                                     self.states, self.rows, self.parked, self.parked_at)
+        if length == BAD_ORDER:
+            raise ValueError("a show table's players go in rcssserver's order, each once")
+        text = self.out[:length].tobytes().decode("ascii")
+        if not n_holes:
+            return text
+        pieces, at = [], 0
+        for offset, value, kind in self.holes[:n_holes].tolist():
+            pieces += [text[at:int(offset)], format(value, ".6g") if kind == HOLE_NUMBER else "%d" % value]
+            at = int(offset)
+        return "".join(pieces) + text[at:]
+
+
 @cache
-def _quanta(n_players: int) -> tuple[np.ndarray, np.ndarray]:
-    """What each number of a line with ``n_players`` players (:func:`_line_numbers`) is quantized to, and
-    whether it is: the ball's numbers and each player's positions, velocities and angles are."""
-    row = [*PLAYER_NUMBERS.values(), *[None] * N_RCG_COUNTS]
-    precs = [POS_PREC] * 4 + row * n_players
-    quantized = np.array([prec is not None for prec in precs])
-    return np.array([prec or 1.0 for prec in precs]), quantized
+def _parked_entries() -> tuple[np.ndarray, np.ndarray]:
+    """The text of the 22 parked players' entries back to back and where each starts (and the end):
+    written once by the kernel itself, from a table of all 22."""
+    table = ShowTable.of(Show(0, (0.0,) * 4, tuple(parked(*slot) for slot in _SLOTS)))
+    writer = _ShowWriter(np.zeros(0, np.uint8), np.zeros(N_SLOTS + 1, np.int64))
+    writer.line(table)
+    start, end = writer.entry_at[0], writer.entry_at[N_SLOTS]
+    return writer.out[start:end].copy(), writer.entry_at - start
 
 
-def _line_numbers(table: ShowTable) -> list[float]:
-    """The numbers of ``table``'s line in order, the ball's then each player's, those that rcssserver
-    quantizes quantized by its ``Quantize(value, prec)``, ``rint(value / prec) * prec`` (half to even;
-    -0.1 gives -0, printed "-0" as in C++)."""
-    numbers = np.concatenate((table.ball, table.rows.ravel()))
-    quantum, quantized = _quanta(len(table.players))
-    return np.where(quantized, np.rint(numbers / quantum) * quantum, numbers).tolist()
-
-
-def _entry_template(side: str, unum: int, state: int) -> str:
-    """A player's entry of a v5 show (``serializePlayer*``) as a ``%`` template of its numbers: 6
-    significant digits as a default C++ ostream prints them (``%.6g`` formats as ``cpp_number``), the
-    counts as integers, the state in hex with C++'s ``showbase``, which prints 0 bare."""
-    state_text = f"{state:#x}" if state else "0"
-    counts = " ".join(["%d"] * N_RCG_COUNTS)
-    return (f" (({side} {unum}) 0 {state_text} %.6g %.6g %.6g %.6g %.6g %.6g (v h %.6g) "
-            f"(s %.6g %.6g %.6g %.6g) (c {counts}))")
-
-
-def _parked_entry(side: str, unum: int) -> str:
-    player = parked(side, unum)
-    table = ShowTable.of(Show(0, (0.0,) * 4, (player,)))
-    return _entry_template(side, unum, player.state) % tuple(_line_numbers(table)[4:])
-
-
-_PARKED_ENTRIES = {slot: _parked_entry(*slot) for slot in _SLOTS}
-
-
-@lru_cache(maxsize=4096)
-def _show_template(players: tuple[tuple[str, int, int], ...]) -> str:
-    """The ``%`` template of a show line with ``players`` (side, unum, state) on the pitch and the others
-    parked; its arguments are the cycle and :func:`_line_numbers`. The states are written in: a game has
-    few sets of them, so few templates."""
-    states = {(side, unum): state for side, unum, state in players}
-    if [slot for slot in _SLOTS if slot in states] != [(side, unum) for side, unum, _ in players]:
-        raise ValueError("a show table's players go in rcssserver's order, each once")
-    entries = (_entry_template(*slot, states[slot]) if slot in states else _PARKED_ENTRIES[slot] for slot in _SLOTS)
-    return "(show %d ((b) %.6g %.6g %.6g %.6g)" + "".join(entries) + ")"
+_writers = threading.local()
 
 
 def show_line(show: Show | ShowTable) -> str:
     """``(show T ((b) x y vx vy) ((l 1) ...) ... ((r 11) ...))``: all 22 players, those not in the show
-    parked (module docstring); one ``%`` format of all the show's numbers."""
+    parked (module docstring), written by ``server.show_text.write_show``."""
     table = show if isinstance(show, ShowTable) else ShowTable.of(show)
-    return _show_template(table.players) % (table.cycle, *_line_numbers(table))
+    writer = getattr(_writers, "writer", None)
+    if writer is None:
+        writer = _writers.writer = _ShowWriter(*_parked_entries())
+    return writer.line(table)
+
+
+def compile_kernels(params: ServerParams, keepers: int, takers: int) -> None:
+    """Compile (or load) every kernel of a server that writes a game log: the arena's
+    (``server.arena.compile_kernels``) and the show's, on a scratch world's show."""
+    compile_arena_kernels(params, keepers, takers)
+    world = new_world(params, keepers, takers)
+    show_line(WorldShows(world, params.visible_angle).table(0, [1.0] * world.n_objects))
 
 
 def msg_line(cycle: int, board: int, text: str) -> str:
@@ -572,6 +583,7 @@ __all__ = [
     "Show",
     "ShowTable",
     "WorldShows",
+    "compile_kernels",
     "parse_rcg",
     "parse_show",
     "read_rcg",

@@ -10,6 +10,7 @@ import random
 
 import numpy as np
 import pytest
+from numba import njit
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -29,6 +30,7 @@ from server.game_log import (
     WorldShows,
     show_line,
 )
+from server.show_text import LARGEST, SMALLEST, _put_number
 from server.world import COLLIDED_BALL, COLLIDED_PLAYER, new_world
 
 SLOTS = [(side, unum) for side in "lr" for unum in range(1, 12)]
@@ -155,4 +157,45 @@ def test_a_world_table_writes_the_line_of_its_show():
 def test_a_table_with_players_out_of_order_is_refused():
     table = ShowTable.of(Show(0, (0.0,) * 4, (PlayerShow("l", 1, 1, *[0.0] * 6), PlayerShow("r", 1, 1, *[0.0] * 6))))
     with pytest.raises(ValueError, match="rcssserver's order"):
-        show_line(table._replace(players=table.players[::-1]))
+        show_line(table._replace(slots=table.slots[::-1]))
+
+
+@njit(cache=False)
+def _printed(values, out, ends):
+    """Each value through the show kernel's number writer, back to back; a hole's end is -1."""
+    at = 0
+    for i in range(len(values)):
+        ends[i] = _put_number(out, at, values[i])
+        if ends[i] >= 0:
+            at = ends[i]
+    return at
+
+
+def test_the_number_writer_prints_what_printf_prints():
+    """``%.6g`` of the exact double: halfway values n + 1/2 scaled by every power of ten the writer
+    uses and the doubles either side of them (where a rounding decided on a rounded product would go
+    wrong), quantized positions and angles, random bit patterns and magnitudes; beyond its range, holes."""
+    rng = np.random.default_rng(11)
+    n = 20_000
+    ties = (rng.integers(100_000, 1_000_000, n) + 0.5) * 10.0 ** -rng.integers(-21, 21, n).astype(float)
+    bits = rng.integers(0, 2**63, n, dtype=np.int64).view(np.float64)
+    values = np.concatenate((
+        ties, np.nextafter(ties, np.inf), np.nextafter(ties, -np.inf),
+        np.rint(rng.uniform(-60, 60, n) / POS_PREC) * POS_PREC, np.rint(rng.uniform(-180, 180, n) / ANGLE_PREC) * ANGLE_PREC,
+        bits[np.isfinite(bits)], 10.0 ** rng.uniform(-17, 27, n) * rng.choice([-1.0, 1.0], n),
+        [0.0, -0.0, 1e-5, 1e-4, 999999.5, 9999995.0, 0.000999995, 130600.0, SMALLEST, np.nextafter(SMALLEST, 0.0),
+         LARGEST, np.nextafter(LARGEST, 0.0), 5e-324, math.inf, -math.inf, math.nan]))
+    out = np.zeros(16 * len(values), np.uint8)
+    ends = np.zeros(len(values), np.int64)
+    text = out[:_printed(values, out, ends)].tobytes().decode("ascii")
+    at = 0
+    printed = holes = 0
+    for value, end in zip(values.tolist(), ends.tolist()):
+        if end < 0:
+            assert not SMALLEST <= abs(value) < LARGEST or value != value, value
+            holes += 1
+            continue
+        assert text[at:end] == format(value, ".6g"), value
+        at = end
+        printed += 1
+    assert printed > 100_000 and holes > 1_000

@@ -1,0 +1,341 @@
+"""A show line of the game log written by a kernel: rcssserver's v5 ``(show ...)`` text straight from a
+world's arrays or a table of numbers (``server.game_log`` holds the format's other lines and the files).
+
+Why a kernel: the show line is the game log's cost, paid every cycle by the server's one thread and by
+the embedded mode. Built in Python (a table from the world with numpy, then one ``%`` format of about
+110 numbers) it took about 125 us a cycle, a tenth of the embedded mode's time; here it takes a few.
+
+**The numbers.** rcssserver quantizes positions and velocities to ``POS_PREC`` and angles to
+``ANGLE_PREC`` (``Quantize``: ``rint(value / prec) * prec``) and prints every number as a default C++
+ostream does, ``%.6g``: the double's exact binary value rounded to 6 significant digits, ties to even,
+then the shorter of the fixed and the exponent forms by C's rule, trailing zeros dropped (-0 printed
+"-0"). :func:`_rounded` decides that rounding on the exact value: it scales by a power of ten that a
+double holds exactly (10^k, |k| <= 22) and carries the product's rounding error along (Dekker's exact
+product), so a value just below or above a tie rounds as printf rounds it. A number outside
+[``SMALLEST``, ``LARGEST``) in magnitude, NaN or an infinity, and a count that is not a whole number below
+2^53, is left as a *hole*: the kernel writes nothing there and records where it goes, and
+:func:`server.game_log.show_line` fills it with Python's format of the same number (never in a game:
+tests/test_show_line.py makes them).
+
+**The players.** A show lists all 22 players in rcssserver's order (``l 1`` to ``l 11``, then ``r 1`` to
+``r 11``: slots 0 to 21); a table holds the players on the pitch, each with its slot, and the others are
+written from ``parked``, their entries' text made once by this same kernel.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from core.jit import borrowing
+from server.world import COLLIDED_BALL, COLLIDED_PLAYER, COUNT_KICK, N_COUNTS
+
+MAX_UNUM = 11  # players per side in every show (rcssserver's MAX_PLAYER)
+N_SLOTS = 2 * MAX_UNUM
+N_RCG_COUNTS = 11  # kick dash turn catch move turn_neck change_view say tackle pointto attentionto
+POS_PREC = 0.0001  # rcssserver's SerializerMonitorStdv3::PREC (positions, velocities)
+ANGLE_PREC = 0.001  # ... DPREC (body, neck, view angle)
+# A player's numbers in a show, in PlayerShow's order, each with the precision rcssserver quantizes it to
+# (SerializerMonitorStdv3) or None
+PLAYER_NUMBERS = {"x": POS_PREC, "y": POS_PREC, "vx": POS_PREC, "vy": POS_PREC, "body": ANGLE_PREC,
+                  "neck": ANGLE_PREC, "view_angle": ANGLE_PREC, "stamina": None, "effort": None, "recovery": None,
+                  "capacity": None}
+N_NUMBERS = len(PLAYER_NUMBERS)
+N_ROW = N_NUMBERS + N_RCG_COUNTS  # a player's numbers in a table row
+
+# Player state bits (rcssserver's PlayerState)
+STATE_DISABLE = 0x0
+STATE_STAND = 0x1
+STATE_KICK = 0x2
+STATE_KICK_FAULT = 0x4
+STATE_BALL_COLLIDE = 0x400
+STATE_PLAYER_COLLIDE = 0x800
+
+# the magnitudes the kernel prints itself: 10^k of the scaling stays exact (|k| <= 22, see _rounded)
+SMALLEST = 1e-16
+LARGEST = 1e26
+MAX_LINE_BYTES = 16384  # a line of 22 players at the longest numbers is below 9,000
+MAX_HOLES = 4 + N_SLOTS * N_ROW  # every number of a line
+HOLE_NUMBER, HOLE_COUNT = 0, 1  # a hole's kind: a %.6g number, a %d count
+BAD_ORDER = -1  # write_show's length when the table's slots are not increasing within 0..21
+
+_PRECS = np.array([np.nan if prec is None else prec for prec in PLAYER_NUMBERS.values()])
+_POW10 = np.array([10.0 ** k for k in range(23)])  # exact doubles
+_SPLITTER = 134217729.0  # 2^27 + 1 (Veltkamp's split of a double into two 26-bit halves)
+_WHOLE_LIMIT = 2.0 ** 53
+
+
+def _text(text: str) -> np.ndarray:
+    return np.frombuffer(text.encode("ascii"), np.uint8).copy()
+
+
+_SHOW = _text("(show ")
+_BALL = _text(" ((b)")
+_ENTRY = _text(" ((")
+_SIDES = _text("lr")
+_STATE = _text(") 0 ")
+_VIEW = _text(" (v h ")
+_STAMINA = _text(") (s ")
+_COUNTS = _text(") (c ")
+_END = _text("))")
+_HEX = _text("0123456789abcdef")
+_SPACE, _MINUS, _PLUS, _DOT, _ZERO, _E, _X, _CLOSE = (ord(c) for c in " -+.0ex)")
+
+
+@borrowing
+def _put(out, at, text, start=0, end=-1) -> int:
+    """``text[start:end]`` (end -1: to its end) at ``out[at:]``; its end."""
+    if end < 0:
+        end = len(text)
+    for i in range(start, end):
+        out[at + i - start] = text[i]
+    return at + end - start
+
+
+@borrowing
+def _put_whole(out, at, value) -> int:
+    """A whole number ``value`` (int64) in decimal (digits from the last: a division by the constant 10
+    is a multiplication)."""
+    if value < 0:
+        out[at] = _MINUS
+        at += 1
+        value = -value
+    n_digits = 1
+    rest = value
+    while rest >= 10:
+        rest //= 10
+        n_digits += 1
+    for i in range(at + n_digits - 1, at - 1, -1):
+        out[i] = _ZERO + value % 10
+        value //= 10
+    return at + n_digits
+
+
+@borrowing
+def _two_product(a, b) -> tuple:
+    """(p, e): p = a * b rounded, p + e = a * b exactly (Dekker; no overflow or underflow here)."""
+    p = a * b
+    c = _SPLITTER * a
+    a_hi = c - (c - a)
+    a_lo = a - a_hi
+    c = _SPLITTER * b
+    b_hi = c - (c - b)
+    b_lo = b - b_hi
+    return p, ((a_hi * b_hi - p) + a_hi * b_lo + a_lo * b_hi) + a_lo * b_lo
+
+
+@borrowing
+def _rounded(a, k) -> int:
+    """``a * 10^k`` rounded to a whole number, ties to even, decided on the exact value (|k| <= 22, the
+    product between 10^4 and 10^7). With k >= 0 the product is exact as h + l; the sign of
+    (h - n - 1/2) + l, each step exact but the last, whose sign is the exact sum's, says which side of
+    n + 1/2 it lies. With k < 0 the quotient's n is compared the other way round: a against
+    (n + 1/2) 10^-k, held exactly as h + l."""
+    if k >= 0:
+        h, l = _two_product(a, _POW10[k])
+        n = math.floor(h)
+        side = ((h - n) - 0.5) + l
+    else:
+        n = math.floor(a / _POW10[-k])
+        h, l = _two_product(n + 0.5, _POW10[-k])
+        side = (a - h) - l
+    if side > 0.0 or (side == 0.0 and n % 2 == 1):
+        return n + 1
+    return n
+
+
+@borrowing
+def _put_number(out, at, x) -> int:
+    """``x`` as ``%.6g`` prints it, at ``out[at:]``; its end, or -1 for a hole (nothing written)."""
+    if x == 0.0:
+        if math.copysign(1.0, x) < 0.0:
+            out[at] = _MINUS
+            at += 1
+        out[at] = _ZERO
+        return at + 1
+    a = abs(x)
+    if not SMALLEST <= a < LARGEST:  # NaN too
+        return -1
+    if x < 0.0:
+        out[at] = _MINUS
+        at += 1
+    k = 5 - math.floor(math.log10(a))  # so that 10^5 <= a 10^k < 10^6, but log10 may miss by one
+    digits = _rounded(a, k)
+    while digits < 100_000 or digits > 1_000_000:
+        k += 1 if digits < 100_000 else -1
+        digits = _rounded(a, k)
+    exponent = 5 - k  # of the first digit
+    if digits == 1_000_000:  # rounded up to the next power of ten
+        digits = 100_000
+        exponent += 1
+    n_digits = 6
+    while digits % 10 == 0:  # %g drops trailing zeros
+        digits //= 10
+        n_digits -= 1
+    # where digit i goes, after `at`: d.ddddde+XX (exponent form), 0.000ddd or ddd.ddd and dddd00 (fixed)
+    fixed = -4 <= exponent < 6
+    if not fixed or exponent >= 0:
+        first, point = 0, (1 if not fixed else exponent + 1)  # the digits before the point
+        end = at + max(n_digits + (1 if n_digits > point else 0), point)
+        if n_digits > point:
+            out[at + point] = _DOT
+        for i in range(at + n_digits, at + point):  # whole digits beyond the significant ones
+            out[i] = _ZERO
+    else:
+        first, point = 1 - exponent, 6  # "0." and -exponent - 1 zeros, then the digits
+        out[at] = _ZERO
+        out[at + 1] = _DOT
+        for i in range(at + 2, at + first):
+            out[i] = _ZERO
+        end = at + first + n_digits
+    for i in range(n_digits - 1, -1, -1):
+        out[at + first + i + (1 if i >= point else 0)] = _ZERO + digits % 10
+        digits //= 10
+    if fixed:
+        return end
+    out[end] = _E
+    out[end + 1] = _MINUS if exponent < 0 else _PLUS
+    end += 2
+    if abs(exponent) < 10:
+        out[end] = _ZERO
+        end += 1
+    return _put_whole(out, end, abs(exponent))
+
+
+@borrowing
+def _put_value(out, at, x, holes, n_holes) -> tuple:
+    """A number, or a hole where it goes: (end, holes)."""
+    end = _put_number(out, at, x)
+    if end >= 0:
+        return end, n_holes
+    holes[n_holes, 0] = at
+    holes[n_holes, 1] = x
+    holes[n_holes, 2] = HOLE_NUMBER
+    return at, n_holes + 1
+
+
+@borrowing
+def _put_count(out, at, x, holes, n_holes) -> tuple:
+    """A count (%d of a whole float), or a hole: (end, holes)."""
+    if abs(x) < _WHOLE_LIMIT and math.floor(x) == x:
+        return _put_whole(out, at, np.int64(x)), n_holes
+    holes[n_holes, 0] = at
+    holes[n_holes, 1] = x
+    holes[n_holes, 2] = HOLE_COUNT
+    return at, n_holes + 1
+
+
+@borrowing
+def _put_state(out, at, state) -> int:
+    """rcssserver's ``std::hex << std::showbase``: 0 bare, else 0x and lower-case digits."""
+    if state == 0:
+        out[at] = _ZERO
+        return at + 1
+    out[at] = _ZERO
+    out[at + 1] = _X
+    at += 2
+    shift = 0
+    while state >> (shift + 4) > 0:
+        shift += 4
+    while shift >= 0:
+        out[at] = _HEX[(state >> shift) & 15]
+        at += 1
+        shift -= 4
+    return at
+
+
+@borrowing
+def write_show(out, entry_at, holes, cycle, ball, n_players, slots, states, rows, parked, parked_at) -> tuple:
+    """The show line of ``cycle`` into ``out``: the ball's (x, y, vx, vy), the ``n_players`` players of
+    ``rows`` (the table's PLAYER_NUMBERS then N_RCG_COUNTS counts, as floats) in slots ``slots``
+    (increasing, 0..21) with states ``states``, every other slot's entry copied from ``parked`` (slot s's text is
+    ``parked[parked_at[s]:parked_at[s + 1]]``). Returns (length, holes): the holes (offset, value,
+    kind) are in ``holes[:holes]``; ``entry_at[s]`` is where slot s's entry starts (``entry_at[22]``:
+    the final parenthesis). Length BAD_ORDER, nothing else valid, if the slots are out of order."""
+    for p in range(n_players):
+        if not (0 <= slots[p] < N_SLOTS and (p == 0 or slots[p] > slots[p - 1])):
+            return BAD_ORDER, 0
+    at = _put(out, 0, _SHOW)
+    at = _put_whole(out, at, cycle)
+    at = _put(out, at, _BALL)
+    n_holes = 0
+    for i in range(4):
+        out[at] = _SPACE
+        at, n_holes = _put_value(out, at + 1, np.rint(ball[i] / POS_PREC) * POS_PREC, holes, n_holes)
+    out[at] = _CLOSE
+    at += 1
+    p = 0
+    for slot in range(N_SLOTS):
+        entry_at[slot] = at
+        if p >= n_players or slots[p] != slot:
+            at = _put(out, at, parked, parked_at[slot], parked_at[slot + 1])
+            continue
+        at = _put(out, at, _ENTRY)
+        out[at] = _SIDES[slot // MAX_UNUM]
+        out[at + 1] = _SPACE
+        at = _put_whole(out, at + 2, slot % MAX_UNUM + 1)
+        at = _put(out, at, _STATE)
+        at = _put_state(out, at, states[p])
+        for i in range(N_NUMBERS):
+            if i == 6:
+                at = _put(out, at, _VIEW)
+            elif i == 7:
+                at = _put(out, at, _STAMINA)
+            else:
+                out[at] = _SPACE
+                at += 1
+            prec = _PRECS[i]
+            value = rows[p, i] if np.isnan(prec) else np.rint(rows[p, i] / prec) * prec
+            at, n_holes = _put_value(out, at, value, holes, n_holes)
+        at = _put(out, at, _COUNTS)
+        for i in range(N_RCG_COUNTS):
+            if i > 0:
+                out[at] = _SPACE
+                at += 1
+            at, n_holes = _put_count(out, at, rows[p, N_NUMBERS + i], holes, n_holes)
+        at = _put(out, at, _END)
+        p += 1
+    entry_at[N_SLOTS] = at
+    out[at] = _CLOSE
+    return at + 1, n_holes
+
+
+@borrowing
+def world_table(w, b, factors, visible_angle, last_kicks, ball, states, rows) -> None:
+    """Arena ``b`` of world ``w`` as a show table: the ball's numbers into ``ball``, each player's state
+    and row into ``states`` and ``rows`` (player object o in row o - 1), its view angle
+    ``visible_angle * factors[o]``. A kick that did not reach the ball is ``KICK | KICK_FAULT``, as in
+    rcssserver: the world marks every kick command (``w.kicked``) but counts only those that reached the
+    ball, so ``last_kicks`` (the kick counts at the previous show, updated here) tells them apart."""
+    ball[0] = w.pos[b, 0, 0]
+    ball[1] = w.pos[b, 0, 1]
+    ball[2] = w.vel[b, 0, 0]
+    ball[3] = w.vel[b, 0, 1]
+    for o in range(1, w.pos.shape[1]):
+        p = o - 1
+        state = STATE_STAND if w.enabled[b, o] else STATE_DISABLE
+        kicks = w.counts[b, o, COUNT_KICK]
+        if w.kicked[b, o]:
+            state |= STATE_KICK | (STATE_KICK_FAULT if kicks == last_kicks[b, o] else 0)
+        if w.collision[b, o] & COLLIDED_BALL:
+            state |= STATE_BALL_COLLIDE
+        if w.collision[b, o] & COLLIDED_PLAYER:
+            state |= STATE_PLAYER_COLLIDE
+        states[p] = state
+        row = (w.pos[b, o, 0], w.pos[b, o, 1], w.vel[b, o, 0], w.vel[b, o, 1], w.body[b, o], w.neck[b, o],
+               visible_angle * factors[o], w.stamina[b, o], w.effort[b, o], w.recovery[b, o], w.capacity[b, o])
+        for i in range(N_NUMBERS):
+            rows[p, i] = row[i]
+        for i in range(N_RCG_COUNTS):
+            rows[p, N_NUMBERS + i] = w.counts[b, o, i] if i < N_COUNTS else 0
+    for o in range(w.pos.shape[1]):
+        last_kicks[b, o] = w.counts[b, o, COUNT_KICK]
+
+
+__all__ = [
+    "ANGLE_PREC", "BAD_ORDER", "HOLE_COUNT", "HOLE_NUMBER", "LARGEST", "MAX_HOLES", "MAX_LINE_BYTES", "MAX_UNUM",
+    "N_NUMBERS", "N_ROW", "N_RCG_COUNTS", "N_SLOTS", "PLAYER_NUMBERS", "POS_PREC", "SMALLEST", "STATE_BALL_COLLIDE",
+    "STATE_DISABLE", "STATE_KICK", "STATE_KICK_FAULT", "STATE_PLAYER_COLLIDE", "STATE_STAND", "world_table",
+    "write_show",
+]
