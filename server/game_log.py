@@ -35,19 +35,19 @@ and ``keepaway run`` use, :func:`read_rcg` the reader the viewer's replay and ``
 from __future__ import annotations
 
 import re
+import threading
 import time
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from functools import cache
-import threading
 from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
+from core.jit import SteadyCall
 from protocol import messages as m
 from protocol.params import ServerParams
-from core.jit import SteadyCall
 from server.arena import REFEREE_EPISODE_MESSAGE, VIEW_WIDTHS, Arena
 from server.arena import compile_kernels as compile_arena_kernels
 from server.episode_log import EpisodeRecord, LineLog, cpp_number, read_kwy
