@@ -30,9 +30,10 @@ import math
 import numpy as np
 
 from core.jit import borrowing
+from protocol.params import MAX_TEAM_SIZE
 from server.world import COLLIDED_BALL, COLLIDED_PLAYER, COUNT_KICK, N_COUNTS
 
-MAX_UNUM = 11  # players per side in every show (rcssserver's MAX_PLAYER)
+MAX_UNUM = MAX_TEAM_SIZE  # players per side in every show (rcssserver's MAX_PLAYER)
 N_SLOTS = 2 * MAX_UNUM
 N_RCG_COUNTS = 11  # kick dash turn catch move turn_neck change_view say tackle pointto attentionto
 POS_PREC = 0.0001  # rcssserver's SerializerMonitorStdv3::PREC (positions, velocities)
