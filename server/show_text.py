@@ -44,6 +44,8 @@ PLAYER_NUMBERS = {"x": POS_PREC, "y": POS_PREC, "vx": POS_PREC, "vy": POS_PREC, 
                   "neck": ANGLE_PREC, "view_angle": ANGLE_PREC, "stamina": None, "effort": None, "recovery": None,
                   "capacity": None}
 N_NUMBERS = len(PLAYER_NUMBERS)
+_VIEW_AT = list(PLAYER_NUMBERS).index("view_angle")  # the numbers that open "(v h" and "(s"
+_STAMINA_AT = list(PLAYER_NUMBERS).index("stamina")
 N_ROW = N_NUMBERS + N_RCG_COUNTS  # a player's numbers in a table row
 
 # Player state bits (rcssserver's PlayerState)
@@ -285,9 +287,9 @@ def write_show(out, entry_at, holes, cycle, ball, n_players, slots, states, rows
         at = _put(out, at, _STATE)
         at = _put_state(out, at, states[p])
         for i in range(N_NUMBERS):
-            if i == 6:
+            if i == _VIEW_AT:
                 at = _put(out, at, _VIEW)
-            elif i == 7:
+            elif i == _STAMINA_AT:
                 at = _put(out, at, _STAMINA)
             else:
                 out[at] = _SPACE
