@@ -228,6 +228,9 @@ class WorldShows:
 
 
 # -- writing ---------------------------------------------------------------------------------------------
+_ORDER_ERROR = "a show table's players go in rcssserver's order, each once"
+
+
 class _ShowWriter:
     """One thread's buffers for ``write_show``: a table's arrays are copied in (a few hundred nanoseconds
     each), so that its :class:`SteadyCall` calls the kernel with the same arrays every line."""
@@ -247,7 +250,7 @@ class _ShowWriter:
         """The table's line: written by the kernel, its holes (if any) filled by Python's format."""
         n = len(table.slots)
         if n > N_SLOTS:
-            raise ValueError("a show table's players go in rcssserver's order, each once")
+            raise ValueError(_ORDER_ERROR)
         self.ball[:] = table.ball
         self.slots[:n] = table.slots
         self.states[:n] = table.states
@@ -255,7 +258,7 @@ class _ShowWriter:
         length, n_holes = self.write(self.out, self.entry_at, self.holes, table.cycle, self.ball, n, self.slots,
                                      self.states, self.rows, self.parked, self.parked_at)
         if length == BAD_ORDER:
-            raise ValueError("a show table's players go in rcssserver's order, each once")
+            raise ValueError(_ORDER_ERROR)
         text = self.out[:length].tobytes().decode("ascii")
         if not n_holes:
             return text

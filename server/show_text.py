@@ -208,15 +208,21 @@ def _put_number(out, at, x) -> int:
 
 
 @borrowing
+def _hole(holes, n_holes, at, x, kind) -> tuple:
+    """A number left to the caller, recorded where it goes: (end, holes), the end unmoved."""
+    holes[n_holes, 0] = at
+    holes[n_holes, 1] = x
+    holes[n_holes, 2] = kind
+    return at, n_holes + 1
+
+
+@borrowing
 def _put_value(out, at, x, holes, n_holes) -> tuple:
     """A number, or a hole where it goes: (end, holes)."""
     end = _put_number(out, at, x)
-    if end >= 0:
-        return end, n_holes
-    holes[n_holes, 0] = at
-    holes[n_holes, 1] = x
-    holes[n_holes, 2] = HOLE_NUMBER
-    return at, n_holes + 1
+    if end < 0:
+        return _hole(holes, n_holes, at, x, HOLE_NUMBER)
+    return end, n_holes
 
 
 @borrowing
@@ -224,10 +230,7 @@ def _put_count(out, at, x, holes, n_holes) -> tuple:
     """A count (%d of a whole float), or a hole: (end, holes)."""
     if abs(x) < _WHOLE_LIMIT and math.floor(x) == x:
         return _put_whole(out, at, np.int64(x)), n_holes
-    holes[n_holes, 0] = at
-    holes[n_holes, 1] = x
-    holes[n_holes, 2] = HOLE_COUNT
-    return at, n_holes + 1
+    return _hole(holes, n_holes, at, x, HOLE_COUNT)
 
 
 @borrowing
