@@ -92,3 +92,29 @@ def test_kernel_tables_hand_numba_their_own_bytes():
         assert isinstance(copy.data, memoryview)  # numpy's own buffer, not the original's bytes
         assert bytes(copy.data) == bytes(np.record.data.__get__(KP))
     assert numba.njit(lambda kp: kp.player_decay)(KP) == 0.4
+
+
+@numba.njit
+def constant():
+    return 7
+
+
+@numba.njit
+def plus_one(x=1.0):
+    return x + 1.0
+
+
+def test_calls_of_no_or_one_argument_or_of_another_count_bind_and_fall_back_alike():
+    """The bound test is written out for the number of arguments bound: none and one work, and a call
+    with another number of them goes through the dispatcher (which knows the kernel's defaults)."""
+    call = SteadyCall(constant)
+    assert call() == 7 and call() == 7 and call._entry is not None
+    call = SteadyCall(plus_one)
+    assert call(2.0) == 3.0
+    entry = call._entry
+    assert call(5.0) == 6.0 and call._entry is entry
+    call.kernel = refuse
+    with pytest.raises(AssertionError, match="dispatcher"):
+        call()  # no argument where one was bound
+    call.kernel = plus_one
+    assert call() == 2.0 and call(3.0) == 4.0
