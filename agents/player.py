@@ -143,13 +143,6 @@ class Awaiting(NamedTuple):
     cycle: int
 
 
-class Frame(NamedTuple):
-    """A percept taken straight from its frame (:meth:`PlayerAgent.take_frame`: a see or sense_body), as
-    the cycle's log keeps it."""
-
-    data: bytes
-
-
 class Taken(NamedTuple):
     """What :meth:`PlayerAgent.take_frame` did with a frame: whether it took it, and if it did, the command
     to send (None if the frame calls for none)."""
@@ -159,6 +152,7 @@ class Taken(NamedTuple):
 
 
 _NOT_TAKEN = Taken(False, None)
+_TAKEN = Taken(True, None)  # most frames call for no command; a NamedTuple costs 0.8 us to make
 
 
 class PassLearner(Protocol):
@@ -363,8 +357,8 @@ class PlayerAgent:
         # take_frame's handlers of (cycle, frame), by the kind agents.frames.decode_frame read
         # (agents.frames.FRAME_TYPES: see, sense_body, hear, think); the world model took the percepts
         self._frame_handlers: tuple[Callable[[int, bytes], m.Command | None], ...] = (
-            lambda cycle, data: self._record(cycle, Frame(data)),
-            lambda cycle, data: self._sensed_body(cycle, Frame(data)),
+            lambda cycle, data: self._record(cycle, data),
+            lambda cycle, data: self._sensed_body(cycle, data),
             self._heard_frame,
             lambda cycle, data: self._thought(cycle),
         )
@@ -464,8 +458,9 @@ class PlayerAgent:
         return self._fields
 
     def _record(self, cycle: int, item: Any = None) -> None:
-        """Log what the world model was fed in ``cycle`` (a percept, or own commands as a tuple); any
-        message of a later cycle (``item`` None: a hear) starts a new log."""
+        """Log what the world model was fed in ``cycle`` (a percept: a message, or the bytes of a frame taken
+        straight; or own commands as a tuple); any message of a later cycle (``item`` None: a hear) starts a
+        new log."""
         if cycle != self._cycle:
             self._cycle, self._cycle_log = cycle, []
         if item is not None:
@@ -491,12 +486,13 @@ class PlayerAgent:
         send if the frame calls for one. ``Taken(False, None)``, with nothing done, for any other frame and
         before ``init_ok``: the caller decodes it (``protocol.messages.decode_for_player``) and hands it to
         :meth:`on_message`."""
-        if not self.ready:
+        if self.side is None:  # not ready
             return _NOT_TAKEN
         kind, cycle = self.wm.on_frame(data)
         if kind == NOT_TAKEN:
             return _NOT_TAKEN
-        return Taken(True, self._frame_handlers[kind](cycle, data))
+        command = self._frame_handlers[kind](cycle, data)
+        return _TAKEN if command is None else Taken(True, command)
 
     def _on_fullstate(self, msg: m.Fullstate) -> m.Command | None:
         if not self.fullstate:
@@ -548,8 +544,8 @@ class PlayerAgent:
         for item in self._cycle_log:
             if type(item) is tuple:
                 self.wm.on_own_commands(*item)
-            elif type(item) is Frame:
-                self.wm.on_frame(item.data)
+            elif type(item) is bytes:  # a see or sense_body taken straight from its frame
+                self.wm.on_frame(item)
             else:
                 feed[type(item)](self._view(item))
 
@@ -838,7 +834,6 @@ def compile_kernels() -> None:
 __all__ = [
     "Awaiting",
     "EPISODE_MESSAGE",
-    "Frame",
     "GETOPEN_POLICIES",
     "OUTSIDE_BODY",
     "OUTSIDE_DECISIONS",
