@@ -104,10 +104,13 @@ def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop
         sock.connect(endpoint)
 
         def send(msg: Any) -> None:
+            send_frame(encode(msg), msg.TYPE)
+
+        def send_frame(data: bytes, kind: str = m.Command.TYPE) -> None:
             try:
-                sock.send(encode(msg), zmq.NOBLOCK)
+                sock.send(data, zmq.NOBLOCK)
             except zmq.Again:
-                log.warning("could not send %s: the server is not reachable", msg.TYPE)
+                log.warning("could not send %s: the server is not reachable", kind)
 
         def say_bye() -> None:
             nonlocal linger_ms
@@ -151,7 +154,7 @@ def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop
             taken, command = agent.take_frame(data)  # a percept or think of every cycle, without a message
             if taken:
                 if command is not None:
-                    send(command)
+                    send_frame(command)
                 continue
             try:
                 msg = decode_for_player(data)

@@ -65,6 +65,7 @@ from typing import Any, NamedTuple, Protocol
 import numpy as np
 
 from agents.belief import forget_episode, new_memory
+from agents.command_wire import MAIN_COMMANDS, MAX_COMMAND_BYTES, write_command
 from agents.frames import NOT_TAKEN, SENDER, TEXT_LENGTH, TEXT_START
 from agents.getopen import grid_size, grid_states, grid_values
 from agents.keeper import (
@@ -84,7 +85,7 @@ from agents.policy_file import (
     keeper_pass_arrays,
 )
 from agents.sarsa import MODE_GREEDY, MODE_LEARN, MODE_NAMES, SarsaConfig, SarsaLearner
-from agents.say import BYTE_CODES, hear_bytes, hear_row, hear_text, new_talk, say_row, to_text
+from agents.say import BYTE_CODES, hear_bytes, hear_row, hear_text, new_talk, say_row
 from agents.skills import (
     GETOPEN_EXTERNAL,
     GETOPEN_POLICIES,
@@ -110,9 +111,10 @@ from protocol.advice import (
     SeedAdvice,
     advice_kind,
 )
+from protocol.messages import MAX_NOTE_NUMBERS, decode_from_player
 from protocol.params import ServerParams
 from core.jit import SteadyCall
-from core.objects import CMD_DASH, CMD_KICK, CMD_TURN
+from core.objects import CMD_DASH
 
 log = logging.getLogger("keepaway.player")
 
@@ -126,8 +128,6 @@ TEAMMATE = "our"  # the sender of a teammate's say (docs/protocol.md 6 "hear"), 
 # Arena size when init_ok's config does not give it (spec `keepaway-task.md` 1: 3 keepers vs 2 takers).
 DEFAULT_KEEPERS = 3
 DEFAULT_TAKERS = 2
-# Atomic command name and number of arguments of each main command code (`core/objects.py`).
-_MAIN_COMMANDS = {CMD_DASH: ("dash", 1), CMD_TURN: ("turn", 1), CMD_KICK: ("kick", 2)}
 # The decisions a keeper can leave to its caller (module docstring, "Decisions made outside").
 OUTSIDE_PASS = "pass"  # action: 0 HoldBall, k >= 1 PassBall to the k-th nearest teammate
 OUTSIDE_GETOPEN = "getopen"  # action: a grid point, 0 .. grid size - 1 (agents.getopen.grid_point)
@@ -144,11 +144,12 @@ class Awaiting(NamedTuple):
 
 
 class Taken(NamedTuple):
-    """What :meth:`PlayerAgent.take_frame` did with a frame: whether it took it, and if it did, the command
-    to send (None if the frame calls for none)."""
+    """What :meth:`PlayerAgent.take_frame` did with a frame: whether it took it, and if it did, the frame of
+    the command to send (None if the frame calls for none): the bytes of ``encode`` of the ``m.Command``
+    that :meth:`PlayerAgent.on_message` returns for the decoded message."""
 
     taken: bool
-    command: m.Command | None
+    command: bytes | None
 
 
 _NOT_TAKEN = Taken(False, None)
@@ -345,18 +346,21 @@ class PlayerAgent:
         self._keeper_decide = SteadyCall(keeper_decide)
         self._taker_decide = SteadyCall(taker_decide)
         self._say_row = SteadyCall(say_row)
+        self._write_command = SteadyCall(write_command)
+        self._command_buf = np.zeros(MAX_COMMAND_BYTES, np.uint8)  # the frame _command writes
+        self._note = np.zeros(MAX_NOTE_NUMBERS)  # its GetOpen note
         # What the world model was fed in the cycle of the last percept (percepts and own commands), to
         # feed a fresh world model again at a seed advice.
         self._cycle = -1
         self._cycle_log: list[Any] = []
         self._decide_on: type | None = None
-        self._handlers: dict[type, Callable[[Any], m.Command | None]] = {
+        self._handlers: dict[type, Callable[[Any], bytes | None]] = {
             m.InitOk: self._on_init_ok, m.SenseBody: self._on_sense_body, m.See: self._on_see,
             m.Fullstate: self._on_fullstate, m.Hear: self._on_hear, m.Think: self._on_think,
         }
         # take_frame's handlers of (cycle, frame), by the kind agents.frames.decode_frame read
         # (agents.frames.FRAME_TYPES: see, sense_body, hear, think); the world model took the percepts
-        self._frame_handlers: tuple[Callable[[int, bytes], m.Command | None], ...] = (
+        self._frame_handlers: tuple[Callable[[int, bytes], bytes | None], ...] = (
             lambda cycle, data: self._record(cycle, data),
             lambda cycle, data: self._sensed_body(cycle, data),
             self._heard_frame,
@@ -380,7 +384,8 @@ class PlayerAgent:
         handler = self._handlers.get(type(msg))
         if handler is None or (not self.ready and type(msg) is not m.InitOk):
             return None
-        return handler(msg)
+        command = handler(msg)
+        return None if command is None else decode_from_player(command)
 
     # -- setup -------------------------------------------------------------------------------------
     def _on_init_ok(self, msg: m.InitOk) -> None:
@@ -466,11 +471,11 @@ class PlayerAgent:
         if item is not None:
             self._cycle_log.append(item)
 
-    def _on_sense_body(self, msg: m.SenseBody) -> m.Command | None:
+    def _on_sense_body(self, msg: m.SenseBody) -> bytes | None:
         self.wm.on_sense_body(self._view(msg))
         return self._sensed_body(msg.cycle, msg)
 
-    def _sensed_body(self, cycle: int, item: Any) -> m.Command | None:
+    def _sensed_body(self, cycle: int, item: Any) -> bytes | None:
         """A sense_body the world model took, logged as ``item``; the decision, if it runs on sense_body."""
         self._record(cycle, item)
         return self._decide(cycle) if self._decide_on is m.SenseBody else None
@@ -482,10 +487,10 @@ class PlayerAgent:
     def take_frame(self, data: bytes) -> Taken:
         """A frame from the server, taken as :meth:`on_message` takes the decoded message, straight from
         its bytes (``WorldModel.on_frame``, ``agents.frames``), if it is a see, sense_body, player's hear
-        or think in the form the server sends them: returns ``Taken(True, command)``, with the command to
-        send if the frame calls for one. ``Taken(False, None)``, with nothing done, for any other frame and
-        before ``init_ok``: the caller decodes it (``protocol.messages.decode_for_player``) and hands it to
-        :meth:`on_message`."""
+        or think in the form the server sends them: returns ``Taken(True, command)``, with the frame of the
+        command to send if the frame calls for one. ``Taken(False, None)``, with nothing done, for any other
+        frame and before ``init_ok``: the caller decodes it (``protocol.messages.decode_for_player``) and
+        hands it to :meth:`on_message`."""
         if self.side is None:  # not ready
             return _NOT_TAKEN
         kind, cycle = self.wm.on_frame(data)
@@ -494,17 +499,17 @@ class PlayerAgent:
         command = self._frame_handlers[kind](cycle, data)
         return _TAKEN if command is None else Taken(True, command)
 
-    def _on_fullstate(self, msg: m.Fullstate) -> m.Command | None:
+    def _on_fullstate(self, msg: m.Fullstate) -> bytes | None:
         if not self.fullstate:
             return None
         self.wm.on_fullstate(self._view(msg))
         self._record(msg.cycle, msg)
         return self._decide(msg.cycle) if self._decide_on is m.Fullstate else None
 
-    def _on_think(self, msg: m.Think) -> m.Command | None:
+    def _on_think(self, msg: m.Think) -> bytes | None:
         return self._thought(msg.cycle)
 
-    def _thought(self, cycle: int) -> m.Command | None:
+    def _thought(self, cycle: int) -> bytes | None:
         """The decision, if it runs on think."""
         return self._decide(cycle) if self._decide_on is m.Think else None
 
@@ -690,9 +695,9 @@ class PlayerAgent:
         return reports
 
     # -- deciding ----------------------------------------------------------------------------------
-    def _decide(self, cycle: int) -> m.Command | None:
-        """Run the decision kernel for this cycle and turn its output into atomic commands; None when the
-        decision is left outside (:attr:`awaiting`)."""
+    def _decide(self, cycle: int) -> bytes | None:
+        """Run the decision kernel for this cycle and turn its output into the command's frame; None when
+        the decision is left outside (:attr:`awaiting`)."""
         if not self.fullstate:  # the C++ ignores what it hears while it has the full state
             self._hear_row(0, self.wm.state, self.n_keepers, self.cfg, self.talk)
         bel = self.wm.belief()
@@ -732,8 +737,8 @@ class PlayerAgent:
         outs = self._outs()
         if awaiting.decision == OUTSIDE_BODY:
             code, a1, a2 = action
-            if int(code) not in _MAIN_COMMANDS:
-                raise ValueError(f"the main command code {code} is not one of {sorted(_MAIN_COMMANDS)}")
+            if int(code) not in MAIN_COMMANDS:
+                raise ValueError(f"the main command code {code} is not one of {sorted(MAIN_COMMANDS)}")
             outs[0][0], outs[1][0], outs[2][0] = int(code), float(a1), float(a2)
             outs[3][0] = neck_to_ball(bel, 0, int(code), float(a1), self.kp)
         else:
@@ -745,7 +750,7 @@ class PlayerAgent:
             else:
                 execute_getopen_action(bel, 0, self.memory, int(action), self.kp, self.cfg, *outs)
         self.awaiting = None
-        return self._command(awaiting.cycle)
+        return decode_from_player(self._command(awaiting.cycle))
 
     def _getopen_note(self) -> tuple[float, ...]:
         """The GetOpen note this cycle's command carries (``protocol.messages.getopen_note``): none unless
@@ -761,22 +766,21 @@ class PlayerAgent:
             note += tuple(self._grid_values[:n].ravel().tolist())
         return note
 
-    def _command(self, cycle: int) -> m.Command:
-        """This cycle's decision (the output arrays) as atomic commands; the world model is told."""
+    def _command(self, cycle: int) -> bytes:
+        """This cycle's decision (the output arrays) as its command frame (``agents.command_wire``: the
+        bytes of ``encode(m.Command(...))`` with the main command, the neck's turn, the say and the note);
+        the world model is told."""
         note = self._getopen_note()
         main = int(self._out_main[0])
         a1, a2, neck = float(self._out_a1[0]), float(self._out_a2[0]), float(self._out_neck[0])
         self.wm.on_own_commands(main, a1, a2, neck)
         self._record(cycle, (main, a1, a2, neck))
-        commands = [m.AtomicCommand("turn_neck", (neck,))]
-        spec = _MAIN_COMMANDS.get(main)
-        if spec is not None:
-            name, n_args = spec
-            commands.insert(0, m.AtomicCommand(name, (a1, a2)[:n_args]))
-        self._say_row(0, self.wm.state, main, a1, a2, self.n_keepers, self.kp, self.cfg, self.talk)
-        if self.talk.said_len[0]:
-            commands.append(m.AtomicCommand("say", (to_text(self.talk, 0),)))
-        return m.Command(cycle=cycle, commands=tuple(commands), getopen=note)
+        talk = self.talk
+        self._say_row(0, self.wm.state, main, a1, a2, self.n_keepers, self.kp, self.cfg, talk)
+        if note:
+            self._note[:len(note)] = note
+        n = self._write_command(self._command_buf, cycle, main, a1, a2, neck, talk, 0, self._note, len(note))
+        return self._command_buf[:n].tobytes()
 
     def _ask_learner(self, bel: Any, decision: int, outs: tuple) -> None:
         """A Pass decision point with an external learner (agents/keeper.py docstring): start or step

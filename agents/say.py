@@ -56,7 +56,7 @@ from core.objects import BALL, CMD_DASH, CMD_KICK, CMD_NONE
 # saymsglib's alphabet (SayMsgDataTypes.h validchars): a character is its index, 0..72.
 VALID_CHARS = "0123456789abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ().+-*/?<>_"
 NUM_CHARS = len(VALID_CHARS)
-_CHAR_BYTES = np.frombuffer(VALID_CHARS.encode("ascii"), dtype=np.uint8)  # code -> its character's byte
+CHAR_BYTES = np.frombuffer(VALID_CHARS.encode("ascii"), dtype=np.uint8)  # code -> its character's byte
 # The encoder's length (SayMsgEncoder's default maxsize, whatever the server's say_msg_size).
 MAX_CHARS = 10
 # Message unit ids (SayMsgIDs.h; 2 is unused) and their lengths in characters (SayMsgTypes.h getCost).
@@ -103,7 +103,7 @@ def new_talk(rows: int, start: int = 0) -> Talk:
 def to_text(talk: Talk, r: int) -> str:
     """Row ``r``'s message of this cycle as text ("" if it says nothing): its codes' characters picked by
     numpy (1.7 us a message; a join of the characters took 3.1)."""
-    return _CHAR_BYTES[talk.said[r, :talk.said_len[r]]].tobytes().decode("ascii")
+    return CHAR_BYTES[talk.said[r, :talk.said_len[r]]].tobytes().decode("ascii")
 
 
 def hear_text(talk: Talk, r: int, text: str) -> None:
@@ -363,6 +363,7 @@ def hear_row(r: int, s: ModelState, n_keepers: int, cfg, talk: Talk) -> None:
 
 __all__ = [
     "BYTE_CODES",
+    "CHAR_BYTES",
     "MAX_CHARS",
     "NUM_CHARS",
     "Talk",

@@ -25,6 +25,7 @@ import tempfile
 import time
 from functools import lru_cache
 from pathlib import Path
+from types import CodeType, FunctionType
 
 import llvmlite
 import numba
@@ -209,20 +210,26 @@ class SteadyCall:
 
 def _bound_call(entry, key: tuple, by_type: list[bool], unbound):
     """``call(args)``: ``entry(*args)`` if ``args`` are ``key``'s objects (where ``by_type``, of its
-    types), else ``unbound(args)``; the tests in straight-line code, one per argument."""
-    names = [f"a{i}" for i in range(len(key))]
-    tests = [f"type({name}) is k{i}" if typed else f"{name} is k{i}"
-             for i, (name, typed) in enumerate(zip(names, by_type))]
-    unpack = f"        ({', '.join(names)},) = args\n" if names else ""
+    types), else ``unbound(args)``; the tests in straight-line code, one per argument. The code is
+    compiled once per pattern of tests (:func:`_call_code`); a binding only gives it its objects."""
+    names = {"entry": entry, "unbound": unbound, **{f"k{i}": bound for i, bound in enumerate(key)}}
+    return FunctionType(_call_code(len(key), tuple(by_type)), names)
+
+
+@lru_cache(maxsize=None)
+def _call_code(n: int, by_type: tuple[bool, ...]) -> CodeType:
+    """The code of :func:`_bound_call`'s function for ``n`` arguments, tested by type where ``by_type``."""
+    args = [f"a{i}" for i in range(n)]
+    tests = [f"type({arg}) is k{i}" if typed else f"{arg} is k{i}" for i, (arg, typed) in enumerate(zip(args, by_type))]
+    unpack = f"        ({', '.join(args)},) = args\n" if args else ""
     source = (f"def call(args):\n"
-              f"    if len(args) == {len(key)}:\n"
+              f"    if len(args) == {n}:\n"
               f"{unpack}"
               f"        if {' and '.join(tests) or 'True'}:\n"
               f"            return entry(*args)\n"
               f"    return unbound(args)\n")
-    namespace = {"entry": entry, "unbound": unbound, **{f"k{i}": bound for i, bound in enumerate(key)}}
-    exec(source, namespace)
-    return namespace["call"]
+    module = compile(source, f"<SteadyCall of {n} arguments>", "exec")
+    return next(const for const in module.co_consts if isinstance(const, CodeType))
 
 
 configure_cache()

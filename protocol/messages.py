@@ -234,7 +234,8 @@ class Reconnect(Message):
 
 GETOPEN_NOTE_MODES = ("none", "target", "values")  # what keepers note, as ``init_ok``'s config asks
 MAX_NOTE_POINTS = 121  # grid points one GetOpen note may rate (an 11 x 11 grid)
-_NOTE_NUMBERS = sequence(number, 2 + 3 * MAX_NOTE_POINTS)
+MAX_NOTE_NUMBERS = 2 + 3 * MAX_NOTE_POINTS  # its target's two, then three a point
+_NOTE_NUMBERS = sequence(number, MAX_NOTE_NUMBERS)
 
 
 def getopen_note(value: Any) -> tuple[float, ...]:

@@ -39,7 +39,7 @@ from protocol.messages import (
     COMMAND_ARGUMENTS,
     MAX_COMMANDS,
     MAX_CYCLE,
-    MAX_NOTE_POINTS,
+    MAX_NOTE_NUMBERS,
     MAX_SAY_CHARS,
     decode_from_player,
 )
@@ -61,7 +61,6 @@ assert _FEWEST[_SAY] == _MOST[_SAY] == 1, "the kernel reads say's one text argum
 _NAME_BYTES = ascii("".join(COMMAND_NAMES))  # the names end to end, name i at _NAME_START[i]:[i + 1]
 _NAME_START = np.cumsum([0] + [len(name) for name in COMMAND_NAMES]).astype(np.int64)
 MAX_ARGUMENTS = int(_MOST.max())
-MAX_NOTE_NUMBERS = 2 + 3 * MAX_NOTE_POINTS  # ``protocol.messages.getopen_note``'s bound
 
 _KEY_TYPE, _KEY_CYCLE = ascii("type"), ascii("cycle")
 _KEY_COMMANDS, _KEY_GETOPEN = ascii("commands"), ascii("getopen")

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from mutations import mutated_frames
 
-from protocol import ProtocolError, encode
+from protocol import ProtocolError
 from protocol import messages as m
 from protocol.params import parameter_set
 from runner.embedded import ArenaSpec, EmbeddedGame
@@ -63,8 +63,8 @@ def game_frames() -> list[tuple[int, bytes]]:
     submit = game.submit
 
     def recording(slot, command):
-        if command is not None:
-            recorded.append((slot.obj, encode(command)))
+        if command is not None:  # a player's frame (PlayerAgent.take_frame)
+            recorded.append((slot.obj, command))
         submit(slot, command)
 
     game.submit = recording
