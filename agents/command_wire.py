@@ -4,8 +4,8 @@ Every cycle each player answers with one command frame: its main command (dash, 
 turn, its say and, when the server asks for them, a GetOpen note. Built as ``AtomicCommand``\\ s and a
 ``Command``, then packed, that cost a keeper about 16 of its 49 us of a think (docs/design.md, "Processes
 and sockets"). :func:`write_command` writes the same bytes from the decision's output arrays and the
-say's codes into a buffer; ``tests/test_command_wire.py`` checks them against ``encode`` for every
-command of games and for made-up ones. A caller that wants the message decodes the frame
+say's codes into a buffer; ``tests/test_command_wire.py`` checks them against ``encode`` for every kind of
+command, and ``tests/test_player_frames.py`` for every command of a game. A caller that wants the message decodes the frame
 (``protocol.messages.decode_from_player``): the frame is the one definition of a player's command.
 """
 
