@@ -178,7 +178,7 @@ def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop
                 log.warning("server error at cycle %d: %s: %s", msg.cycle, msg.code, msg.message)
                 continue
             try:
-                command = agent.on_message(msg)
+                command = agent.message_frame(msg)
             except (PolicyFileError, ValueError) as exc:
                 if agent.ready and not isinstance(msg, m.InitOk):
                     raise
@@ -187,7 +187,7 @@ def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop
             if isinstance(msg, m.InitOk):
                 log.info("joined as %s %d (%s mode)", agent.team, agent.unum, agent.mode)
             if command is not None:
-                send(command)
+                send_frame(command)
             for report in agent.pending_reports():
                 send(report)
     finally:

@@ -381,11 +381,16 @@ class PlayerAgent:
         """Take one decoded server message; return the command to send, if this message calls for one.
         ``error`` and ``shutdown`` are the transport's business and return None, as does anything
         before ``init_ok``."""
+        frame = self.message_frame(msg)
+        return None if frame is None else decode_from_player(frame)
+
+    def message_frame(self, msg: m.Message) -> bytes | None:
+        """:meth:`on_message`, with the command as the frame to send (``agents.command_wire``): what a
+        caller that sends it takes, so the command is not decoded only to be encoded again."""
         handler = self._handlers.get(type(msg))
         if handler is None or (not self.ready and type(msg) is not m.InitOk):
             return None
-        command = handler(msg)
-        return None if command is None else decode_from_player(command)
+        return handler(msg)
 
     # -- setup -------------------------------------------------------------------------------------
     def _on_init_ok(self, msg: m.InitOk) -> None:
@@ -730,6 +735,10 @@ class PlayerAgent:
         nearest teammate), a grid point, or a main command ``(code, arg1, arg2)`` (module docstring), with
         the neck turned to the ball as the hand-coded keepers do). Returns the cycle's command. ValueError
         (one line) when nothing is awaited or the action is not one."""
+        return decode_from_player(self.act_frame(action))
+
+    def act_frame(self, action: Any) -> bytes:
+        """:meth:`act`, with the command as the frame to send (as :meth:`message_frame`)."""
         awaiting = self.awaiting
         if awaiting is None:
             raise ValueError("no decision is awaited")
@@ -750,7 +759,7 @@ class PlayerAgent:
             else:
                 execute_getopen_action(bel, 0, self.memory, int(action), self.kp, self.cfg, *outs)
         self.awaiting = None
-        return decode_from_player(self._command(awaiting.cycle))
+        return self._command(awaiting.cycle)
 
     def _getopen_note(self) -> tuple[float, ...]:
         """The GetOpen note this cycle's command carries (``protocol.messages.getopen_note``): none unless

@@ -163,7 +163,7 @@ class KeepawayParallelEnv(ParallelEnv):
         chosen = [self._command(i, keeper, actions) for i, keeper in enumerate(game.keepers)]
         for i, (keeper, action) in enumerate(zip(game.keepers, chosen)):
             if action is not None:
-                game.send(i, keeper.act(action))
+                game.send(i, keeper.act_frame(action))
         ended = game.advance()
         now = ended if ended is not None else self._decision_cycle()
         rewards = {agent: (now - self._last_cycle) * self.step_s for agent in self.agents}

@@ -52,12 +52,12 @@ def _wire(msg: m.Message, decode: Callable[[bytes], m.Message]) -> m.Message:
     return decode(encode(msg))
 
 
-def _take(player: PlayerAgent, frame: bytes) -> bytes | m.Command | None:
+def _take(player: PlayerAgent, frame: bytes) -> bytes | None:
     """A server frame as a player process takes it (``agents.cli.run_player``): straight from its bytes
-    if the player can (:meth:`PlayerAgent.take_frame`: the command's frame), else decoded in full (the
-    command); what it calls for."""
+    if the player can (:meth:`PlayerAgent.take_frame`), else decoded in full; the frame of the command it
+    calls for."""
     taken, command = player.take_frame(frame)
-    return command if taken else player.on_message(decode_for_player(frame))
+    return command if taken else player.message_frame(decode_for_player(frame))
 
 
 class EmbeddedGame:
@@ -110,11 +110,11 @@ class EmbeddedGame:
         for slot, player in self.players:
             self.submit(slot, _take(player, think))
 
-    def submit(self, slot: PlayerSlot, command: bytes | m.Command | None) -> None:
-        """A player's command for this cycle (or its frame), as the server receives it: encoded, and
-        decoded as the server decodes it (``server.command_frame``)."""
-        if command is not None:
-            command = self.command_reader.decode(command if type(command) is bytes else encode(command))
+    def submit(self, slot: PlayerSlot, frame: bytes | None) -> None:
+        """A player's command frame for this cycle, decoded as the server decodes it
+        (``server.command_frame``)."""
+        if frame is not None:
+            command = self.command_reader.decode(frame)
             self.arena.submit(slot.obj, command.commands)
             self.arena.note_getopen(slot.obj, command.getopen)
 

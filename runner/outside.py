@@ -53,8 +53,9 @@ class EmbeddedKeepers:
             game.think()
             self._mid_cycle = True
 
-    def send(self, index: int, command: m.Command) -> None:
-        self.game.submit(self.slots[index], command)
+    def send(self, index: int, frame: bytes) -> None:
+        """Keeper ``index``'s command frame (``PlayerAgent.act_frame``), to the arena."""
+        self.game.submit(self.slots[index], frame)
 
     def close(self) -> None:
         """Nothing to release: the arena lives in this process."""
@@ -137,7 +138,7 @@ class AttachedKeepers:
                 self.episode_start = msg.cycle
         if isinstance(msg, m.Think):
             self._thought[index] = msg.cycle
-        command = agent.on_message(msg)
+        command = agent.message_frame(msg)
         if command is not None:
             self.send(index, command)
 
@@ -164,8 +165,9 @@ class AttachedKeepers:
                 if sock in ready:
                     self._take(index, self._receive(index))
 
-    def send(self, index: int, command: m.Message) -> None:
-        self.sockets[index].send(encode(command))
+    def send(self, index: int, frame: bytes) -> None:
+        """Keeper ``index``'s command frame (``PlayerAgent.act_frame``), to the server."""
+        self.sockets[index].send(frame)
 
     def close(self) -> None:
         """Say bye for every keeper that joined and close the sockets."""
