@@ -180,11 +180,10 @@ class SteadyCall:
     a loop over the arguments cost more than the entry point's call itself (1.8 against 0.4 us with
     eight arguments, 1.2 us written out)."""
 
-    __slots__ = ("kernel", "_key", "_entry", "_call")
+    __slots__ = ("kernel", "_entry", "_call")
 
     def __init__(self, kernel) -> None:
         self.kernel = kernel
-        self._key: tuple = ()
         self._entry = None
         self._call = self._unbound
 
@@ -200,12 +199,12 @@ class SteadyCall:
         signature = tuple(typeof(arg, Purpose.argument) for arg in args)
         compiled = self.kernel.overloads.get(signature)
         if compiled is None:  # the dispatcher converted an argument: leave such calls to it
-            self._key, self._entry, self._call = (), None, self._unbound
+            self._entry, self._call = None, self._unbound
             return
         by_type = [isinstance(arg, _BY_TYPE) for arg in args]
-        self._key = tuple(type(arg) if typed else arg for arg, typed in zip(args, by_type))
+        key = tuple(type(arg) if typed else arg for arg, typed in zip(args, by_type))
         self._entry = compiled.entry_point
-        self._call = _bound_call(self._entry, self._key, by_type, self._unbound)
+        self._call = _bound_call(self._entry, key, by_type, self._unbound)  # its names keep the arguments alive
 
 
 def _bound_call(entry, key: tuple, by_type: list[bool], unbound):
