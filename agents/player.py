@@ -18,7 +18,8 @@ and batched execution). Per message (docs/protocol.md 6, 9):
 
 A decision is one call of ``keeper_decide`` / ``taker_decide`` on a batch of one, converted to the
 atomic commands ``[main, turn_neck]``; the world model is told what was sent so it predicts the next
-cycle. The per-cycle arrays are allocated once, at ``init_ok``.
+cycle. One kernel call (``agents.think.think``) hears, decides and writes the command's frame. The
+per-cycle arrays are allocated once, at ``init_ok``.
 
 With ``--pass learned`` the keeper's Pass decisions go to a :class:`PassLearner` (spec
 `keepaway-agents.md` 5: ``start``/``step``/``end``): by default an SMDP Sarsa learner
@@ -74,7 +75,6 @@ from agents.keeper import (
     PASS_DECISION_START,
     execute_getopen_action,
     execute_pass_action,
-    keeper_decide,
 )
 from agents.pass_wire import REPORT_BYTES, chunked, pass_arrays_from_chunks, sparse_pass_chunks
 from agents.policy_file import (
@@ -85,7 +85,7 @@ from agents.policy_file import (
     keeper_pass_arrays,
 )
 from agents.sarsa import MODE_GREEDY, MODE_LEARN, MODE_NAMES, SarsaConfig, SarsaLearner
-from agents.say import BYTE_CODES, hear_bytes, hear_row, hear_text, new_talk, say_row
+from agents.say import BYTE_CODES, hear_bytes, hear_row, hear_text, new_talk
 from agents.skills import (
     GETOPEN_EXTERNAL,
     GETOPEN_POLICIES,
@@ -96,7 +96,7 @@ from agents.skills import (
     neck_to_ball,
 )
 from agents.state_vars import getopen_state_size, pass_state_size
-from agents.taker import taker_decide
+from agents.think import NOT_WRITTEN, commit_row, think
 from agents.worldmodel import SIDE_CODES, WorldModel
 from protocol import PROTOCOL_VERSION, ProtocolError
 from protocol import messages as m
@@ -343,9 +343,8 @@ class PlayerAgent:
         # the decision kernels of every cycle, called without numba's typing of their arguments at each call
         self._hear_row = SteadyCall(hear_row)
         self._hear_bytes = SteadyCall(hear_bytes)
-        self._keeper_decide = SteadyCall(keeper_decide)
-        self._taker_decide = SteadyCall(taker_decide)
-        self._say_row = SteadyCall(say_row)
+        self._think = SteadyCall(think)
+        self._commit_row = SteadyCall(commit_row)
         self._write_command = SteadyCall(write_command)
         self._command_buf = np.zeros(MAX_COMMAND_BYTES, np.uint8)  # the frame _command writes
         self._note = np.zeros(MAX_NOTE_NUMBERS)  # its GetOpen note
@@ -427,6 +426,7 @@ class PlayerAgent:
         if self.is_keeper and policy is not None and policy.getopen_theta is not None:
             self.theta[:] = policy.getopen_net  # the file's input scaling folded in
         self.pass_state = np.zeros(pass_state_size(n_keepers, n_takers))
+        self._pass_rows = self.pass_state.reshape(1, -1)  # the think kernel's view of it
         self._grid_values = np.zeros((grid_size(self.cfg), 3))  # the rows of a GetOpen note's values
         self._noted_time = -1  # the getopen_time of the last GetOpen note sent
         self._out_main = np.zeros(1, dtype=np.int8)
@@ -702,29 +702,34 @@ class PlayerAgent:
     # -- deciding ----------------------------------------------------------------------------------
     def _decide(self, cycle: int) -> bytes | None:
         """Run the decision kernel for this cycle and turn its output into the command's frame; None when
-        the decision is left outside (:attr:`awaiting`)."""
-        if not self.fullstate:  # the C++ ignores what it hears while it has the full state
-            self._hear_row(0, self.wm.state, self.n_keepers, self.cfg, self.talk)
-        bel = self.wm.belief()
-        outs = self._outs()
+        the decision is left outside (:attr:`awaiting`). The think kernel (``agents.think``) writes the
+        frame itself unless a note is asked for or a decision point is left to Python."""
+        wm = self.wm
         if OUTSIDE_BODY in self.outside:
+            if not self.fullstate:  # the C++ ignores what it hears while it has the full state
+                self._hear_row(0, wm.state, self.n_keepers, self.cfg, self.talk)
+            wm.belief()
             self.awaiting = Awaiting(OUTSIDE_BODY, cycle)
             return None
-        if self.is_keeper:
-            decision = self._keeper_decide(bel, 0, self.memory, self.theta, self.decay_sums, self.kp, self.cfg,
-                                           *outs, self.pass_state)
-            if decision == GETOPEN_DECISION:
-                self.awaiting = Awaiting(OUTSIDE_GETOPEN, cycle)
-                return None
-            if decision != NO_PASS_DECISION and OUTSIDE_PASS in self.outside:
-                self.awaiting = Awaiting(OUTSIDE_PASS, cycle)
-                return None
-            # the learner plays only while the Pass policy is the learned one (docs/advice.md: a keeper
-            # switched to another policy keeps its learner for a switch back; that policy has already acted)
-            if decision != NO_PASS_DECISION and self.learner is not None and self.cfg.pass_policy == PASS_EXTERNAL:
-                self._ask_learner(bel, decision, outs)
-        else:
-            self._taker_decide(bel, 0, self.memory, self.decay_sums, self.kp, self.cfg, *outs)
+        out_main, out_a1, out_a2, out_neck = self._out_main, self._out_a1, self._out_a2, self._out_neck
+        decision, n = self._think(cycle, not self.fullstate, wm.state, self.talk, wm.belief_rows, self.memory,
+                                  self.theta, self.decay_sums, self.kp, self.cfg, self.is_keeper, out_main, out_a1,
+                                  out_a2, out_neck, self._pass_rows,
+                                  self.learner is None and OUTSIDE_PASS not in self.outside,
+                                  self.getopen_notes == "none", self._command_buf, self._note)
+        if n != NOT_WRITTEN:
+            self._record(cycle, (int(out_main[0]), float(out_a1[0]), float(out_a2[0]), float(out_neck[0])))
+            return self._command_buf[:n].tobytes()
+        if decision == GETOPEN_DECISION:
+            self.awaiting = Awaiting(OUTSIDE_GETOPEN, cycle)
+            return None
+        if decision != NO_PASS_DECISION and OUTSIDE_PASS in self.outside:
+            self.awaiting = Awaiting(OUTSIDE_PASS, cycle)
+            return None
+        # the learner plays only while the Pass policy is the learned one (docs/advice.md: a keeper
+        # switched to another policy keeps its learner for a switch back; that policy has already acted)
+        if decision != NO_PASS_DECISION and self.learner is not None and self.cfg.pass_policy == PASS_EXTERNAL:
+            self._ask_learner(wm.belief_rows, decision, self._outs())
         return self._command(cycle)
 
     def _outs(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -782,10 +787,9 @@ class PlayerAgent:
         note = self._getopen_note()
         main = int(self._out_main[0])
         a1, a2, neck = float(self._out_a1[0]), float(self._out_a2[0]), float(self._out_neck[0])
-        self.wm.on_own_commands(main, a1, a2, neck)
         self._record(cycle, (main, a1, a2, neck))
         talk = self.talk
-        self._say_row(0, self.wm.state, main, a1, a2, self.n_keepers, self.kp, self.cfg, talk)
+        self._commit_row(0, self.wm.state, main, a1, a2, neck, self.n_keepers, self.kp, self.cfg, talk)
         if note:
             self._note[:len(note)] = note
         n = self._write_command(self._command_buf, cycle, main, a1, a2, neck, talk, 0, self._note, len(note))
@@ -836,6 +840,12 @@ def compile_kernels() -> None:
                         np.zeros((grid_size(agent.cfg), getopen_state_size(DEFAULT_KEEPERS, DEFAULT_TAKERS))))
             execute_getopen_action(agent.wm.belief(), 0, agent.memory, 0, agent.kp, agent.cfg, *agent._outs())
             neck_to_ball(agent.wm.belief(), 0, CMD_DASH, 0.0, agent.kp)
+    # a decision left outside is heard, and its command written, from Python (the think kernel's steps)
+    agent = PlayerAgent("keepers", outside=(OUTSIDE_BODY,))
+    agent.on_message(m.InitOk(side="l", unum=1, team="keepers", **init))
+    for msg in (body, see, heard, m.Think(cycle=0)):
+        agent.take_frame(encode(msg))
+    agent.act_frame((CMD_DASH, 0.0, 0.0))
     # the Sarsa learner's kernels: a keeper may become a learner at any episode boundary (docs/advice.md)
     learner = SarsaLearner(DEFAULT_KEEPERS, DEFAULT_TAKERS, SarsaConfig(table_size=1 << 16), 0, MODE_LEARN)
     state = np.zeros(pass_state_size(DEFAULT_KEEPERS, DEFAULT_TAKERS))

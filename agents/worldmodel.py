@@ -853,7 +853,7 @@ class WorldModel:
         self.flag_pos.setflags(write=False)
         self.state = new_model_state(1, n_keepers, n_takers, self.me, params)
         self.see_buffer = new_see_buffer(1, len(self.flag_pos), 1 + n_keepers + n_takers)
-        self._belief = empty_belief(1, n_keepers, n_takers)
+        self.belief_rows = empty_belief(1, n_keepers, n_takers)  # what belief() writes (and agents.think)
         self._exact_cycle = -1
         # the kernels of every percept, called without numba's typing of their arguments at each call
         self._sense_body_row = SteadyCall(sense_body_row)
@@ -968,8 +968,8 @@ class WorldModel:
 
     def belief(self) -> Belief:
         """The current belief (B = 1). The arrays are reused: copy them to keep a snapshot."""
-        self._write_belief_row(0, self.state, self._belief, 0)
-        return self._belief
+        self._write_belief_row(0, self.state, self.belief_rows, 0)
+        return self.belief_rows
 
 
 __all__ = [

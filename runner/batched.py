@@ -60,7 +60,7 @@ from core.jit import borrowing
 
 from agents.belief import AgentMemory, Belief, empty_belief, forget_episode, new_memory
 from agents.getopen import net_size
-from agents.keeper import NO_PASS_DECISION, PASS_DECISION_START, execute_pass_action, keeper_decide
+from agents.keeper import NO_PASS_DECISION, PASS_DECISION_START, execute_pass_action
 from agents.sarsa import (
     MODE_NAMES,
     SarsaConfig,
@@ -75,7 +75,7 @@ from agents.sarsa import (
     step as sarsa_step,
 )
 from agents.player import agent_seed_sequence, learner_seed as player_learner_seed
-from agents.say import Talk, hear_row, new_talk, say_row
+from agents.say import Talk, new_talk
 from agents.skills import (
     GETOPEN_POLICIES,
     PASS_POLICIES,
@@ -84,7 +84,7 @@ from agents.skills import (
     decay_sums,
 )
 from agents.state_vars import getopen_state_size, pass_state_size
-from agents.taker import taker_decide
+from agents.think import commit_row, decide_row
 from agents.frames import NO_SIDE
 from agents.worldmodel import (
     SIDE_CODES,
@@ -95,7 +95,6 @@ from agents.worldmodel import (
     new_see_buffer,
     see_row,
     sense_body_row,
-    write_belief_row,
 )
 from protocol.landmarks import FLAG_POSITIONS, N_FLAGS
 from protocol.params import ServerParams
@@ -310,19 +309,15 @@ def decide(b: int, obs: int, row: int, w: World, c: Commands, theta: np.ndarray,
     """Player ``obs``'s decision on its belief, sent as the player process sends it (``agents/player.py``:
     the main command and always a turn_neck) into the server's slots (``server.arena.Arena.submit``: a
     kick that cannot reach the ball does not take the main slot unless ``failed_kick_uses_slot``) and
-    remembered by its world model as sent (``WorldModel.on_own_commands``). With PASS_EXTERNAL the
+    remembered by its world model as sent (``WorldModel.on_own_commands``): the steps of a player process's
+    think (``agents.think``: ``decide_row``, ``commit_row``) around the slots. With PASS_EXTERNAL the
     keeper's Pass decisions come from its Sarsa row (:func:`learn_pass`; ``learner``: the arena's
     keeper 1's)."""
     out = pl.out
-    hear_row(row, pl.model, w.n_keepers, cfg, pl.talk)
-    write_belief_row(row, pl.model, pl.belief, row)
-    if obs <= w.n_keepers:
-        out.decision[row] = keeper_decide(pl.belief, row, pl.memory, theta, pl.decay_sums, kp, cfg, out.main,
-                                          out.arg1, out.arg2, out.neck, out.pass_state[row])
-        if out.decision[row] != NO_PASS_DECISION and int(cfg.pass_policy) == PASS_EXTERNAL:
-            learn_pass(learner, obs, row, kp, cfg, pl, sarsa, sp)
-    else:
-        taker_decide(pl.belief, row, pl.memory, pl.decay_sums, kp, cfg, out.main, out.arg1, out.arg2, out.neck)
+    out.decision[row] = decide_row(row, True, pl.model, pl.talk, pl.belief, row, pl.memory, theta, pl.decay_sums, kp,
+                                   cfg, obs <= w.n_keepers, out.main, out.arg1, out.arg2, out.neck, out.pass_state)
+    if out.decision[row] != NO_PASS_DECISION and int(cfg.pass_policy) == PASS_EXTERNAL:
+        learn_pass(learner, obs, row, kp, cfg, pl, sarsa, sp)
     code = out.main[row]
     if code == CMD_KICK and kp.failed_kick_uses_slot == 0.0 and not kick_possible(b, w, obs, kp):
         c.main[b, obs] = CMD_NONE
@@ -334,11 +329,7 @@ def decide(b: int, obs: int, row: int, w: World, c: Commands, theta: np.ndarray,
         c.arg2[b, obs] = out.arg2[row] if code == CMD_KICK else 0.0  # dash and turn go with one argument
     c.neck[b, obs] = out.neck[row]
     c.has_neck[b, obs] = True
-    pl.model.cmd_main[row] = code
-    pl.model.cmd_args[row, 0] = out.arg1[row]
-    pl.model.cmd_args[row, 1] = out.arg2[row]
-    pl.model.cmd_args[row, 2] = out.neck[row]
-    say_row(row, pl.model, code, out.arg1[row], out.arg2[row], w.n_keepers, kp, cfg, pl.talk)
+    commit_row(row, pl.model, code, out.arg1[row], out.arg2[row], out.neck[row], w.n_keepers, kp, cfg, pl.talk)
     if pl.talk.said_len[row] > 0:
         w.counts[b, obs, COUNT_SAY] += 1
 

@@ -13,6 +13,7 @@ import pytest
 from mutations import mutated_frames
 
 from agents.player import PlayerAgent
+from agents.think import NOT_WRITTEN
 from protocol import ProtocolError, encode
 from protocol import messages as m
 from protocol.advice import SeedAdvice
@@ -92,6 +93,30 @@ def test_every_frame_of_a_game_gives_the_agent_the_decoded_message_gives(game, m
     assert commands == len(inits) * CYCLES
     assert taken["sense_body"] == taken["think"] == len(inits) * CYCLES
     assert taken["hear"] > 2 * len(inits) * CYCLES and taken["see"] > 900
+
+
+def test_the_think_kernel_writes_what_its_steps_called_from_python_write(game):
+    """agents.think.think finishes a think in the kernel (the commands told to the world model, the say,
+    the frame); asked to leave every decision to the caller, the agent finishes it in Python
+    (``_command``): the same frames, world model, talk and decision memory at every frame of a game."""
+    inits, frames = game
+    written = {True: 0, False: 0}  # by the kernel of each agent
+
+    def counted(think, finish: bool):
+        def call(*args):
+            decision, n = think(*args[:17], finish, *args[18:])
+            written[finish] += n != NOT_WRITTEN
+            return decision, n
+        return call
+
+    for key, init in inits.items():
+        kernel, steps = _agent(init), _agent(init)
+        kernel._think, steps._think = counted(kernel._think, True), counted(steps._think, False)
+        for frame in frames[key]:
+            assert kernel.take_frame(frame) == steps.take_frame(frame)
+            assert _same(kernel, steps)
+            assert all(np.array_equal(x, y) for x, y in zip(kernel.memory, steps.memory))
+    assert written == {True: len(inits) * CYCLES, False: 0}
 
 
 def test_a_seed_advice_replays_the_frames_taken_in_its_cycle(game):

@@ -1,0 +1,78 @@
+"""A player's think, from what it heard to the frame of its command, in one kernel call.
+
+At each think a player hears its teammates' says (``agents.say.hear_row``), writes its belief
+(``agents.worldmodel.write_belief_row``), decides (``keeper_decide`` / ``taker_decide``), tells its world
+model the commands it sends (they act in the next step) and composes its say (``agents.say.say_row``).
+The batched mode runs these steps inside its chunk loop (``runner.batched.decide``, with its learners and
+the server's slots between the decision and the rest). A player process called each step from Python, a
+kernel call and its Python glue apiece: 24 us of a keeper's think, of which the kernels' own work is
+less than half (docs/design.md, "A think in one kernel call"). :func:`think` runs them, and writes the
+command's frame (``agents.command_wire.write_command``), in one call; :func:`decide_row` and
+:func:`commit_row` are the steps both modes share, written once.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from agents.belief import AgentMemory, Belief
+from agents.command_wire import write_command
+from agents.keeper import GETOPEN_DECISION, NO_PASS_DECISION, keeper_decide
+from agents.say import Talk, hear_row, say_row
+from agents.taker import taker_decide
+from agents.worldmodel import ModelState, write_belief_row
+from core.jit import borrowing
+
+NOT_WRITTEN = -1
+""":func:`think`'s frame length when it wrote no frame: the decision is its caller's to finish."""
+
+
+@borrowing(inline="always")
+def decide_row(r: int, hear: bool, model: ModelState, talk: Talk, bel: Belief, row: int, mem: AgentMemory, theta,
+               sums, kp, cfg, is_keeper: bool, out_main, out_a1, out_a2, out_neck, out_states) -> int:
+    """Model row ``r``'s decision on what it has heard (unless ``hear`` is false: the C++ ignores what
+    it hears while it has the full state), written to belief row ``row`` and decided there into the
+    output arrays (a keeper's Pass state into ``out_states[row]``). Returns ``keeper_decide``'s decision
+    (NO_PASS_DECISION for a taker)."""
+    if hear:
+        hear_row(r, model, bel.n_keepers, cfg, talk)
+    write_belief_row(r, model, bel, row)
+    if is_keeper:
+        return keeper_decide(bel, row, mem, theta, sums, kp, cfg, out_main, out_a1, out_a2, out_neck,
+                             out_states[row])
+    taker_decide(bel, row, mem, sums, kp, cfg, out_main, out_a1, out_a2, out_neck)
+    return NO_PASS_DECISION
+
+
+@borrowing(inline="always")
+def commit_row(r: int, model: ModelState, main: int, a1: float, a2: float, neck: float, n_keepers: int, kp, cfg,
+               talk: Talk) -> None:
+    """The commands model row ``r`` sends (main command ``main`` with its arguments ``a1``, ``a2``; turn_neck
+    ``neck``), as ``WorldModel.on_own_commands`` records them, and its say of this cycle."""
+    model.cmd_main[r] = main
+    model.cmd_args[r, 0] = a1
+    model.cmd_args[r, 1] = a2
+    model.cmd_args[r, 2] = neck
+    say_row(r, model, main, a1, a2, n_keepers, kp, cfg, talk)
+
+
+@borrowing
+def think(cycle: int, hear: bool, model: ModelState, talk: Talk, bel: Belief, mem: AgentMemory, theta, sums, kp,
+          cfg, is_keeper: bool, out_main, out_a1, out_a2, out_neck, out_states, finish_pass: bool, finish: bool,
+          buf: np.ndarray, note: np.ndarray) -> tuple[int, int]:
+    """A player's think at ``cycle`` (row 0 of its model and belief): :func:`decide_row`, then, unless the
+    decision is left to the caller, :func:`commit_row` and the command's frame into ``buf``, with no
+    GetOpen note. Left to the caller: every decision if ``finish`` is false (the caller adds a note), a
+    Pass decision point if ``finish_pass`` is false (an outside decision or a learner in Python), and the
+    GetOpen decision of GETOPEN_EXTERNAL. Returns (decision, the frame's length or NOT_WRITTEN)."""
+    decision = decide_row(0, hear, model, talk, bel, 0, mem, theta, sums, kp, cfg, is_keeper, out_main, out_a1,
+                          out_a2, out_neck, out_states)
+    if not finish or decision == GETOPEN_DECISION or (decision != NO_PASS_DECISION and not finish_pass):
+        return decision, NOT_WRITTEN
+    main = np.int64(out_main[0])
+    a1, a2, neck = out_a1[0], out_a2[0], out_neck[0]
+    commit_row(0, model, main, a1, a2, neck, bel.n_keepers, kp, cfg, talk)
+    return decision, write_command(buf, cycle, main, a1, a2, neck, talk, 0, note, 0)
+
+
+__all__ = ["NOT_WRITTEN", "commit_row", "decide_row", "think"]
