@@ -825,6 +825,23 @@ def write_belief_row(r: int, s: ModelState, out: Belief, row: int) -> None:
 # the per-process wrapper
 
 
+@borrowing
+def frame_row(buf, end: int, s: ModelState, see: SeeBuffer, flag_pos: np.ndarray, values: np.ndarray, exact_cycle: int,
+              n_keepers: int, kp, cfg) -> tuple:
+    """The frame ``buf[:end]`` read by ``agents.frames.decode_frame`` (a see into row 0 of ``see``, other
+    values into ``values``) and, if it is a see or sense_body of another cycle than ``exact_cycle`` (a
+    fullstate's), taken into model row 0 as :func:`see_row` and :func:`sense_body_row` take them; a hear's
+    or think's values are left in ``values``. Returns decode_frame's (kind, cycle)."""
+    kind, cycle = decode_frame(buf, end, 0, see, flag_pos.shape[0], values)
+    if cycle != exact_cycle:
+        if kind == SEE:
+            see_row(0, s, see, flag_pos, n_keepers, kp, cfg)
+        elif kind == SENSE_BODY:
+            sense_body_row(0, s, cycle, values[SPEED_AMOUNT], values[SPEED_DIRECTION], int(values[HEAD_ANGLE]),
+                           values[STAMINA], values[EFFORT], n_keepers, kp, cfg)
+    return kind, cycle
+
+
 class WorldModel:
     """The world model of one player process (B = 1): feed it the decoded percepts of each cycle and
     the commands sent, read :meth:`belief` before deciding.
@@ -860,7 +877,7 @@ class WorldModel:
         self._see_row = SteadyCall(see_row)
         self._hold_exact_ball_row = SteadyCall(hold_exact_ball_row)
         self._write_belief_row = SteadyCall(write_belief_row)
-        self._decode_frame = SteadyCall(decode_frame)
+        self._frame_row = SteadyCall(frame_row)
         self.frame_values = np.zeros(FRAME_VALUES)  # the values of the last frame on_frame read
 
     def _is_exact(self, msg: Mapping[str, Any]) -> bool:
@@ -869,17 +886,12 @@ class WorldModel:
 
     def on_sense_body(self, msg: Mapping[str, Any]) -> None:
         """A sense_body payload (spec 4): my neck, velocity, stamina and effort of its cycle."""
-        speed, stamina = msg["speed"], msg["stamina"]
-        self._sense_body(int(msg["cycle"]), float(speed[0]), float(speed[1]), int(msg["head_angle"]),
-                         float(stamina[0]), float(stamina[1]))
-
-    def _sense_body(self, cycle: int, speed_amount: float, speed_dir: float, head_angle: int, stamina: float,
-                    effort: float) -> None:
-        """What :meth:`on_sense_body` and :meth:`on_frame` take from a sense_body, taken."""
+        cycle = int(msg["cycle"])
         if cycle == self._exact_cycle:
             return
-        self._sense_body_row(0, self.state, cycle, speed_amount, speed_dir, head_angle, stamina, effort,
-                             self.n_keepers, self.kp, self.cfg)
+        speed, stamina = msg["speed"], msg["stamina"]
+        self._sense_body_row(0, self.state, cycle, float(speed[0]), float(speed[1]), int(msg["head_angle"]),
+                             float(stamina[0]), float(stamina[1]), self.n_keepers, self.kp, self.cfg)
 
     def on_see(self, msg: Mapping[str, Any]) -> None:
         """A see payload (spec 4): anonymous flags are skipped, and so are flags whose id lies beyond
@@ -912,7 +924,8 @@ class WorldModel:
 
     def on_frame(self, data: bytes) -> tuple[int, int]:
         """A frame's msgpack bytes, read by ``agents.frames.decode_frame`` if it is in the form that kernel
-        takes (every see, sense_body, player's hear and think the server sends is): returns (kind, cycle),
+        takes (every see, sense_body, player's hear and think the server sends is), in one kernel call
+        (:func:`frame_row`): returns (kind, cycle),
         the kind an index of ``agents.frames.FRAME_TYPES``. A see or sense_body is taken as :meth:`on_see`
         or :meth:`on_sense_body` takes the decoded message; a hear's or think's values are left in
         :attr:`frame_values` for the agent. Returns (``NOT_TAKEN``, -1) for any other frame, which is then
@@ -922,14 +935,8 @@ class WorldModel:
         size = len(data)
         if size > FRAME_BYTES:
             return NOT_TAKEN, -1
-        values = self.frame_values
-        kind, cycle = self._decode_frame(data, size, 0, self.see_buffer, len(self.flag_pos), values)
-        if kind == SEE and cycle != self._exact_cycle:
-            self._see_row(0, self.state, self.see_buffer, self.flag_pos, self.n_keepers, self.kp, self.cfg)
-        elif kind == SENSE_BODY:
-            self._sense_body(cycle, float(values[SPEED_AMOUNT]), float(values[SPEED_DIRECTION]),
-                             int(values[HEAD_ANGLE]), float(values[STAMINA]), float(values[EFFORT]))
-        return kind, cycle
+        return self._frame_row(data, size, self.state, self.see_buffer, self.flag_pos, self.frame_values,
+                               self._exact_cycle, self.n_keepers, self.kp, self.cfg)
 
     def on_fullstate(self, msg: Mapping[str, Any]) -> None:
         """Exact state (spec 4 fullstate): every object known exactly at the message's cycle; percepts
@@ -981,6 +988,7 @@ __all__ = [
     "associate_row",
     "confidence",
     "forget_row",
+    "frame_row",
     "localise_row",
     "new_model_state",
     "new_see_buffer",
