@@ -66,7 +66,7 @@ from typing import Any, NamedTuple, Protocol
 import numpy as np
 
 from agents.belief import forget_episode, new_memory
-from agents.command_wire import MAIN_COMMANDS, MAX_COMMAND_BYTES, write_command
+from agents.command_wire import MAIN_COMMANDS, MAX_COMMAND_BYTES
 from agents.frames import NOT_TAKEN, SENDER, TEXT_LENGTH, TEXT_START
 from agents.getopen import grid_size, grid_states, grid_values
 from agents.keeper import (
@@ -96,7 +96,7 @@ from agents.skills import (
     neck_to_ball,
 )
 from agents.state_vars import getopen_state_size, pass_state_size
-from agents.think import NOT_WRITTEN, commit_row, think
+from agents.think import NOT_WRITTEN, finish_row, think
 from agents.worldmodel import SIDE_CODES, WorldModel
 from protocol import PROTOCOL_VERSION, ProtocolError
 from protocol import messages as m
@@ -344,9 +344,8 @@ class PlayerAgent:
         self._hear_row = SteadyCall(hear_row)
         self._hear_bytes = SteadyCall(hear_bytes)
         self._think = SteadyCall(think)
-        self._commit_row = SteadyCall(commit_row)
-        self._write_command = SteadyCall(write_command)
-        self._command_buf = np.zeros(MAX_COMMAND_BYTES, np.uint8)  # the frame _command writes
+        self._finish_row = SteadyCall(finish_row)
+        self._command_buf = np.zeros(MAX_COMMAND_BYTES, np.uint8)  # the command frame a think writes
         self._note = np.zeros(MAX_NOTE_NUMBERS)  # its GetOpen note
         # What the world model was fed in the cycle of the last percept (percepts and own commands), to
         # feed a fresh world model again at a seed advice.
@@ -718,8 +717,7 @@ class PlayerAgent:
                                   self.learner is None and OUTSIDE_PASS not in self.outside,
                                   self.getopen_notes == "none", self._command_buf, self._note)
         if n != NOT_WRITTEN:
-            self._record(cycle, (int(out_main[0]), float(out_a1[0]), float(out_a2[0]), float(out_neck[0])))
-            return self._command_buf[:n].tobytes()
+            return self._sent(cycle, n)
         if decision == GETOPEN_DECISION:
             self.awaiting = Awaiting(OUTSIDE_GETOPEN, cycle)
             return None
@@ -781,18 +779,20 @@ class PlayerAgent:
         return note
 
     def _command(self, cycle: int) -> bytes:
-        """This cycle's decision (the output arrays) as its command frame (``agents.command_wire``: the
+        """This cycle's decision (the output arrays) as its command frame (``agents.think.finish_row``: the
         bytes of ``encode(m.Command(...))`` with the main command, the neck's turn, the say and the note);
         the world model is told."""
         note = self._getopen_note()
-        main = int(self._out_main[0])
-        a1, a2, neck = float(self._out_a1[0]), float(self._out_a2[0]), float(self._out_neck[0])
-        self._record(cycle, (main, a1, a2, neck))
-        talk = self.talk
-        self._commit_row(0, self.wm.state, main, a1, a2, neck, self.n_keepers, self.kp, self.cfg, talk)
         if note:
             self._note[:len(note)] = note
-        n = self._write_command(self._command_buf, cycle, main, a1, a2, neck, talk, 0, self._note, len(note))
+        n = self._finish_row(cycle, self.wm.state, self.talk, self.n_keepers, self.kp, self.cfg, self._out_main,
+                         self._out_a1, self._out_a2, self._out_neck, self._command_buf, self._note, len(note))
+        return self._sent(cycle, n)
+
+    def _sent(self, cycle: int, n: int) -> bytes:
+        """The command frame of ``n`` bytes just written; its commands logged for a seed advice's replay."""
+        self._record(cycle, (int(self._out_main[0]), float(self._out_a1[0]), float(self._out_a2[0]),
+                             float(self._out_neck[0])))
         return self._command_buf[:n].tobytes()
 
     def _ask_learner(self, bel: Any, decision: int, outs: tuple) -> None:
@@ -840,7 +840,7 @@ def compile_kernels() -> None:
                         np.zeros((grid_size(agent.cfg), getopen_state_size(DEFAULT_KEEPERS, DEFAULT_TAKERS))))
             execute_getopen_action(agent.wm.belief(), 0, agent.memory, 0, agent.kp, agent.cfg, *agent._outs())
             neck_to_ball(agent.wm.belief(), 0, CMD_DASH, 0.0, agent.kp)
-    # a decision left outside is heard, and its command written, from Python (the think kernel's steps)
+    # a decision left outside: heard from Python, its command sent by agents.think.finish_row
     agent = PlayerAgent("keepers", outside=(OUTSIDE_BODY,))
     agent.on_message(m.InitOk(side="l", unum=1, team="keepers", **init))
     for msg in (body, see, heard, m.Think(cycle=0)):

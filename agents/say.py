@@ -36,8 +36,10 @@ matters: a pass said in a cycle before one without a see reaches a listener more
 before he sees it.
 
 Messages are arrays of character codes (0..72, :data:`VALID_CHARS`), so the batched mode passes them
-between rows without strings; a player process sends and reads them as text (:func:`to_text`,
-:func:`hear_text`). The server's side (who hears whom) is ``server.perception.hear_picks``.
+between rows without strings; a player process writes them into its command frame
+(``agents.command_wire``, with :data:`CHAR_BYTES`) and reads them from its hear frames (:func:`hear_bytes`)
+or a decoded hear's text (:func:`hear_text`); :func:`to_text` gives a message as text. The server's side
+(who hears whom) is ``server.perception.hear_picks``.
 """
 
 from __future__ import annotations
@@ -101,8 +103,7 @@ def new_talk(rows: int, start: int = 0) -> Talk:
 
 
 def to_text(talk: Talk, r: int) -> str:
-    """Row ``r``'s message of this cycle as text ("" if it says nothing): its codes' characters picked by
-    numpy (1.7 us a message; a join of the characters took 3.1)."""
+    """Row ``r``'s message of this cycle as text ("" if it says nothing)."""
     return CHAR_BYTES[talk.said[r, :talk.said_len[r]]].tobytes().decode("ascii")
 
 

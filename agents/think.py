@@ -8,7 +8,8 @@ the server's slots between the decision and the rest). A player process called e
 kernel call and its Python glue apiece: 24 us of a keeper's think, of which the kernels' own work is
 less than half (docs/design.md, "A think in one kernel call"). :func:`think` runs them, and writes the
 command's frame (``agents.command_wire.write_command``), in one call; :func:`decide_row` and
-:func:`commit_row` are the steps both modes share, written once.
+:func:`commit_row` are the steps both modes share, written once, and :func:`finish_row` sends a decision that
+Python finished (a note, a learner's or an outside action) as :func:`think` sends its own.
 """
 
 from __future__ import annotations
@@ -57,22 +58,31 @@ def commit_row(r: int, model: ModelState, main: int, a1: float, a2: float, neck:
 
 
 @borrowing
+def finish_row(cycle: int, model: ModelState, talk: Talk, n_keepers: int, kp, cfg, out_main, out_a1, out_a2,
+               out_neck, buf: np.ndarray, note: np.ndarray, noted: int) -> int:
+    """The decision in the output arrays (row 0) sent: :func:`commit_row`, then the command's frame of
+    ``cycle`` into ``buf`` with the GetOpen note ``note[:noted]``. Returns the frame's length."""
+    main = np.int64(out_main[0])
+    a1, a2, neck = out_a1[0], out_a2[0], out_neck[0]
+    commit_row(0, model, main, a1, a2, neck, n_keepers, kp, cfg, talk)
+    return write_command(buf, cycle, main, a1, a2, neck, talk, 0, note, noted)
+
+
+@borrowing
 def think(cycle: int, hear: bool, model: ModelState, talk: Talk, bel: Belief, mem: AgentMemory, theta, sums, kp,
           cfg, is_keeper: bool, out_main, out_a1, out_a2, out_neck, out_states, finish_pass: bool, finish: bool,
           buf: np.ndarray, note: np.ndarray) -> tuple[int, int]:
     """A player's think at ``cycle`` (row 0 of its model and belief): :func:`decide_row`, then, unless the
-    decision is left to the caller, :func:`commit_row` and the command's frame into ``buf``, with no
-    GetOpen note. Left to the caller: every decision if ``finish`` is false (the caller adds a note), a
-    Pass decision point if ``finish_pass`` is false (an outside decision or a learner in Python), and the
-    GetOpen decision of GETOPEN_EXTERNAL. Returns (decision, the frame's length or NOT_WRITTEN)."""
+    decision is left to the caller, :func:`finish_row` with no GetOpen note. Left to the caller: every
+    decision if ``finish`` is false (the caller adds a note), a Pass decision point if ``finish_pass`` is
+    false (an outside decision or a learner in Python), and the GetOpen decision of GETOPEN_EXTERNAL.
+    Returns (decision, the frame's length or NOT_WRITTEN)."""
     decision = decide_row(0, hear, model, talk, bel, 0, mem, theta, sums, kp, cfg, is_keeper, out_main, out_a1,
                           out_a2, out_neck, out_states)
     if not finish or decision == GETOPEN_DECISION or (decision != NO_PASS_DECISION and not finish_pass):
         return decision, NOT_WRITTEN
-    main = np.int64(out_main[0])
-    a1, a2, neck = out_a1[0], out_a2[0], out_neck[0]
-    commit_row(0, model, main, a1, a2, neck, bel.n_keepers, kp, cfg, talk)
-    return decision, write_command(buf, cycle, main, a1, a2, neck, talk, 0, note, 0)
+    return decision, finish_row(cycle, model, talk, bel.n_keepers, kp, cfg, out_main, out_a1, out_a2, out_neck,
+                                buf, note, 0)
 
 
-__all__ = ["NOT_WRITTEN", "commit_row", "decide_row", "think"]
+__all__ = ["NOT_WRITTEN", "commit_row", "decide_row", "finish_row", "think"]
