@@ -111,7 +111,7 @@ from server.perception import (
     see_arena,
     sense_body_arena,
 )
-from server.physics import kick_possible
+from server.command_slots import take_main, take_neck
 from server.referee import END_NONE, RefereeState, new_referee_state, start_game
 from core.rng import seed_streams
 from server.simulation import step_arena
@@ -307,8 +307,9 @@ def end_pass_episodes(b: int, learner: int, w: World, pl: Players, sarsa: SarsaM
 def decide(b: int, obs: int, row: int, w: World, c: Commands, theta: np.ndarray, kp, cfg, learner: int,
            pl: Players, sarsa: SarsaMemory, sp) -> None:
     """Player ``obs``'s decision on its belief, sent as the player process sends it (``agents/player.py``:
-    the main command and always a turn_neck) into the server's slots (``server.arena.Arena.submit``: a
-    kick that cannot reach the ball does not take the main slot unless ``failed_kick_uses_slot``) and
+    the main command and always a turn_neck) into the server's slots by the server's rules
+    (``server.command_slots``: a kick that cannot reach the ball does not take the main slot unless
+    ``failed_kick_uses_slot``) and
     remembered by its world model as sent (``WorldModel.on_own_commands``): the steps of a player process's
     think (``agents.think``: ``decide_row``, ``commit_row``) around the slots. With PASS_EXTERNAL the
     keeper's Pass decisions come from its Sarsa row (:func:`learn_pass`; ``learner``: the arena's
@@ -319,16 +320,12 @@ def decide(b: int, obs: int, row: int, w: World, c: Commands, theta: np.ndarray,
     if out.decision[row] != NO_PASS_DECISION and int(cfg.pass_policy) == PASS_EXTERNAL:
         learn_pass(learner, obs, row, kp, cfg, pl, sarsa, sp)
     code = out.main[row]
-    if code == CMD_KICK and kp.failed_kick_uses_slot == 0.0 and not kick_possible(b, w, obs, kp):
-        c.main[b, obs] = CMD_NONE
-        c.arg1[b, obs] = 0.0
-        c.arg2[b, obs] = 0.0
-    else:
-        c.main[b, obs] = code
-        c.arg1[b, obs] = out.arg1[row]
-        c.arg2[b, obs] = out.arg2[row] if code == CMD_KICK else 0.0  # dash and turn go with one argument
-    c.neck[b, obs] = out.neck[row]
-    c.has_neck[b, obs] = True
+    c.main[b, obs] = CMD_NONE  # the slots as the server's step leaves them (the batched step keeps them)
+    c.arg1[b, obs] = 0.0
+    c.arg2[b, obs] = 0.0
+    c.has_neck[b, obs] = False
+    take_main(b, c, obs, code, out.arg1[row], out.arg2[row] if code == CMD_KICK else 0.0, w, kp)  # dash, turn: 1
+    take_neck(b, c, obs, out.neck[row])
     commit_row(row, pl.model, code, out.arg1[row], out.arg2[row], out.neck[row], w.n_keepers, kp, cfg, pl.talk)
     if pl.talk.said_len[row] > 0:
         w.counts[b, obs, COUNT_SAY] += 1

@@ -30,7 +30,6 @@ from protocol.params import ServerParams
 from runner.coached import Chunk, CoachedBackend
 from runner.job import CHUNK_EPISODES, Game, Progress
 from server.arena import Arena, PlayerSlot
-from server.command_frame import CommandReader
 from server.episode_log import EpisodeRecord
 from server.game_log import ArenaGameLog
 
@@ -71,7 +70,6 @@ class EmbeddedGame:
                  agent: AgentConfig | None = None, outside: Collection[str] = (),
                  game_log: Path | None = None, getopen_notes: str = "none") -> None:
         self.arena = Arena(spec.params, spec.keepers, spec.takers, spec.seed)
-        self.command_reader = CommandReader()
         # the .rcg of every cycle, as the server writes it (server.game_log), with the keepers'
         # GetOpen notes if ``getopen_notes`` asks for them (as ``keepaway server --getopen-notes``)
         self.game_log = ArenaGameLog(game_log, self.arena) if game_log is not None else None
@@ -111,12 +109,10 @@ class EmbeddedGame:
             self.submit(slot, _take(player, think))
 
     def submit(self, slot: PlayerSlot, frame: bytes | None) -> None:
-        """A player's command frame for this cycle, decoded as the server decodes it
-        (``server.command_frame``)."""
-        if frame is not None:
-            command = self.command_reader.decode(frame)
-            self.arena.submit(slot.obj, command.commands)
-            self.arena.note_getopen(slot.obj, command.getopen)
+        """A player's command frame for this cycle, taken as the server takes it (``Arena.submit_frame``,
+        or decoded in full if its kernel does not read it)."""
+        if frame is not None and self.arena.submit_frame(slot.obj, frame) is None:
+            self.arena.submit_command(slot.obj, decode_from_player(frame))
 
     def step(self) -> EpisodeRecord | None:
         """The arena's step (written to the game log, if any); the record of the episode it ended."""

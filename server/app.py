@@ -34,13 +34,12 @@ import zmq
 
 from protocol import messages as m
 from protocol.codec import encode
-from protocol.messages import advice_hear, decode_from_coach
+from protocol.messages import advice_hear, decode_from_coach, decode_from_player
 from protocol.endpoints import MONITOR_EPISODE_TOPIC, MONITOR_FRAME_TOPIC, configure
 from protocol.errors import ProtocolError
 from protocol import PROTOCOL_VERSION
 from protocol.security import PortGuard, open_keys
 from server.arena import TEAMS, Arena, ArenaError, PlayerSlot, player_name, truth_state
-from server.command_frame import CommandFrame, CommandReader
 from server.config import ServerConfig
 from server.episode_log import EpisodeRecord, JsonlLog, KwyLog
 from server.game_log import RCG_SUFFIX, ArenaGameLog, compile_kernels
@@ -118,7 +117,6 @@ class Server:
     def __post_init__(self) -> None:
         cfg = self.config
         self.arena = Arena(cfg.params, cfg.keepers, cfg.takers, cfg.seed)
-        self.player_frames = CommandReader(cfg.max_message_bytes)  # decodes the players' frames
         self.ctx = zmq.Context()
         self.players = self.ctx.socket(zmq.ROUTER)
         self.coach = self.ctx.socket(zmq.ROUTER)
@@ -556,18 +554,24 @@ class Server:
 
     # -- players port --------------------------------------------------------------------------------
     def _on_player(self, ident: bytes, data: bytes) -> None:
+        conn = self.conns.get(ident)
+        if conn is not None and len(data) <= self.config.max_message_bytes:
+            # a command frame read and taken by the kernel (``Arena.submit_frame``); any other in full
+            taken = self.arena.submit_frame(conn.slot.obj, data)
+            if taken is not None:
+                self._answered(conn, *taken)
+                return
         try:
-            msg = self.player_frames.decode(data)
+            msg = decode_from_player(data, self.config.max_message_bytes)
         except ProtocolError as exc:
             self._error_raw(self.players, ident, exc.code, exc.message)
             return
-        conn = self.conns.get(ident)
         if isinstance(msg, (m.Init, m.Reconnect)):
             self._on_init(ident, conn, msg)
         elif conn is None:
             self._error_raw(self.players, ident, "not_initialised", "send init (or reconnect) first")
-        elif isinstance(msg, (m.Command, CommandFrame)):
-            self._on_command(conn, msg)
+        elif isinstance(msg, m.Command):
+            self._answered(conn, msg.cycle, self.arena.submit_command(conn.slot.obj, msg))
         elif isinstance(msg, m.Report):
             player_report = encode(m.PlayerReport(cycle=self.arena.cycle, side=conn.slot.side,
                                                   unum=conn.slot.unum, payload=msg.payload))
@@ -618,18 +622,18 @@ class Server:
             del self.conns[holder.identity]
             self.next_see.pop(holder.identity, None)
 
-    def _on_command(self, conn: Connection, msg: m.Command | CommandFrame) -> None:
+    def _answered(self, conn: Connection, cycle_of_frame: int, warnings: list[str]) -> None:
+        """After a command frame of ``cycle_of_frame`` was submitted (``Arena.submit_frame`` or
+        ``submit_command``: a later cycle than the server's is not taken): ``bad_cycle`` for such a
+        frame, else its warnings; a frame of this cycle is the player's answer to it."""
         cycle = self.arena.cycle
-        if msg.cycle > cycle:
+        if cycle_of_frame > cycle:
             self._send(conn, m.Error(cycle=cycle, code="bad_cycle",
-                                     message=f"command for cycle {msg.cycle} but the server is at {cycle}"))
+                                     message=f"command for cycle {cycle_of_frame} but the server is at {cycle}"))
             return
-        warnings = self.arena.submit(conn.slot.obj, msg.commands)
-        if msg.cycle == cycle:
-            self.arena.note_getopen(conn.slot.obj, msg.getopen)
         for text in warnings:
             self._send(conn, m.Error(cycle=cycle, code="dropped", message=text))
-        if msg.cycle == cycle:
+        if cycle_of_frame == cycle:
             if conn.hung:
                 log.warning("%s answers again (cycle %d); waiting for it again", conn.name, cycle)
             conn.answered = cycle

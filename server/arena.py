@@ -8,7 +8,6 @@ seed and the commands that follow, whatever was played before (docs/protocol.md 
 
 from __future__ import annotations
 
-import re
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple
@@ -21,22 +20,18 @@ from protocol.codec import encode
 from protocol.landmarks import to_wire as landmarks_to_wire
 from protocol.params import ServerParams
 from server import perception
-from server.command_frame import CommandReader
-from server.physics import kick_possible
+from server.command_frame import MAX_FRAME_BYTES, SAY, CommandBuffer
+from server.command_slots import COMMAND_CODES, SAY_ALPHABET, say_allowed, take_command_frame, take_commands
 from server.referee import END_CAUSES, new_referee_state, reset_field, start_game
 from server.simulation import new_causes, simulate_cycle
 from core.jit import SteadyCall
-from core.objects import CMD_CATCH, CMD_DASH, CMD_KICK, CMD_MOVE, CMD_TACKLE, CMD_TURN
-from server.world import COUNT_CHANGE_VIEW, COUNT_SAY, PARKED_Y, Commands, World, new_world
+from server.world import COUNT_CHANGE_VIEW, PARKED_Y, Commands, World, new_world
 from server.episode_log import EpisodeRecord
 
 TEAMS = {"keepers": "l", "takers": "r"}
-MAIN_SLOT = {"dash": CMD_DASH, "turn": CMD_TURN, "kick": CMD_KICK, "tackle": CMD_TACKLE, "move": CMD_MOVE,
-             "catch": CMD_CATCH}
 VIEW_WIDTHS = {"narrow": 0.5, "normal": 1.0, "wide": 2.0}
 DEFAULT_VIEW_WIDTH = "normal"
 SYNCH_SEE_PERIOD = {"narrow": 1, "normal": 2, "wide": 3}
-SAY_ALLOWED = re.compile(r"^[-0-9a-zA-Z ().+*/?<>_]*$")
 REFEREE_EPISODE_MESSAGE = "training Keepaway 1"
 # World arrays a reseeding reset keeps: the clock, who is connected, and the command counters (they
 # count per connection in rcssserver and never go back; a client may compare successive sense_bodies).
@@ -71,8 +66,6 @@ class PlayerSlot:
     synch_see: bool = False
     view_width: str = DEFAULT_VIEW_WIDTH
     see_phase_ms: float = 0.0  # virtual time of this player's first see (connect time, as rcssserver)
-    main_taken: bool = False
-    neck_taken: bool = False
     hears: list[QueuedHear] = field(default_factory=list)
 
     def see_period_ms(self, send_step_ms: float) -> float:
@@ -101,7 +94,11 @@ class Arena:
         self.view_modes = {width: perception.packed_view_mode("high", width) for width in VIEW_WIDTHS}
         # the kernels of every cycle, called without numba's typing of their arguments at each call
         self._simulate_cycle = SteadyCall(simulate_cycle)
-        self._kick_possible = SteadyCall(kick_possible)
+        self._take_frame = SteadyCall(take_command_frame)
+        self._take_commands = SteadyCall(take_commands)
+        self._say_allowed = SteadyCall(say_allowed)
+        self._frame = CommandBuffer.empty()  # a player's commands as the slot rules' kernel takes them
+        self._say_dropped = f"say dropped: at most {int(params.say_msg_size)} characters from {SAY_ALPHABET}"
         self._see_frame = SteadyCall(perception.see_frame)
         self._sense_body_frame = SteadyCall(perception.sense_body_frame)
         self._hear_frames = SteadyCall(perception.hear_frames)
@@ -115,7 +112,7 @@ class Arena:
     # -- connections ---------------------------------------------------------------------------------
     @property
     def cycle(self) -> int:
-        return int(self.world.time[0])
+        return self.world.time.item()  # the one arena's: item() is a quarter of int(time[0])'s cost
 
     @property
     def play_mode(self) -> str:
@@ -189,49 +186,82 @@ class Arena:
             self._referee_says("play_on")
 
     def submit(self, obj: int, commands: Iterable[m.AtomicCommand | tuple[str, tuple]]) -> list[str]:
-        """Queue one client's atomic commands for this cycle; return one-line warnings for the client.
-        The commands are (name, args) pairs: a decoded ``Command``'s, or those the server's kernel read
-        straight from the frame (``server.command_frame``); one set of rules for both.
+        """Queue one client's atomic commands for this cycle, as (name, args) pairs (a decoded
+        ``Command``'s); return one-line warnings for the client.
 
         Slot rule (spec 1 Commands): the first accepted dash/turn/kick/tackle/move/catch wins, later
         ones are ignored; CLASSIC: a kick that cannot reach the ball does not use the slot. turn_neck
         has its own slot; say and change_view are unlimited. Numbers are finite (the codec checks);
-        ranges are clamped by the kernels as rcssserver clamps them.
+        ranges are clamped by the kernels as rcssserver clamps them. The slot rules are a kernel's
+        (``server.command_slots``), which a frame read straight from the wire goes through too
+        (:meth:`submit_frame`); the commands' numbers are written into its buffer, up to
+        ``MAX_COMMANDS`` (a ``Command``'s most) at a time.
         """
-        s = self.slot(obj)
-        c = self.commands
+        out = self._frame
         warnings: list[str] = []
+        count = 0
         for name, args in commands:
-            code = MAIN_SLOT.get(name)
-            if code is not None:
-                if s.main_taken:
-                    continue
-                if code == CMD_KICK and not self.params.failed_kick_uses_slot \
-                        and not self._kick_possible(0, self.world, obj, self.kp):
-                    continue
-                s.main_taken = True
-                c.main[0, obj] = code
-                c.arg1[0, obj] = args[0] if args else 0.0
-                c.arg2[0, obj] = args[1] if len(args) > 1 else 0.0
-            elif name == "turn_neck":
-                if not s.neck_taken:
-                    s.neck_taken = True
-                    c.neck[0, obj] = args[0]
-                    c.has_neck[0, obj] = True
-            elif name == "say":
-                self.world.counts[0, obj, COUNT_SAY] += 1
-                text = args[0]
-                if len(text) > self.params.say_msg_size or not SAY_ALLOWED.match(text):
-                    warnings.append(f"say dropped: at most {int(self.params.say_msg_size)} characters "
-                                    "from [-0-9a-zA-Z ().+*/?<>_]")
-                else:
-                    self.pending_says.append((obj, text))
-            elif name == "change_view":
+            if name == "change_view":
                 self.world.counts[0, obj, COUNT_CHANGE_VIEW] += 1
-                s.view_width = args[0]
+                self.slot(obj).view_width = args[0]
                 if len(args) > 1 and args[1] == "low":  # its content (directions only) is not modelled
                     warnings.append("change_view: low quality is not supported; the view stays high")
+                continue
+            code = COMMAND_CODES.get(name)
+            if code is None:
+                continue
+            if count == len(out.command):
+                self._take_commands(out, count, self.commands, obj, self.world, self.kp)
+                count = 0
+            if code == SAY:
+                self._say(obj, args[0], warnings)
+            else:
+                out.args[count, :len(args)] = args
+            out.command[count, :2] = code, len(args)
+            count += 1
+        self._take_commands(out, count, self.commands, obj, self.world, self.kp)
         return warnings
+
+    def submit_frame(self, obj: int, frame: bytes) -> tuple[int, list[str]] | None:
+        """One client's command frame as it came (``server.command_frame``): None if the kernel does not
+        read it (then decode it in full and :meth:`submit_command` it), else its cycle and the warnings
+        for the client. A frame of a later cycle than this one is not taken (the server answers it with
+        ``bad_cycle``); as with :meth:`submit_command`, its note counts only in its own cycle."""
+        if type(frame) is not bytes or len(frame) > MAX_FRAME_BYTES:
+            return None
+        out, now = self._frame, self.cycle
+        cycle, count, noted, says, dropped, start, length = self._take_frame(
+            frame, len(frame), out, now, self.commands, obj, self.world, self.kp)
+        if cycle < 0:
+            return None
+        if says == 1:
+            self.pending_says.append((obj, frame[start:start + length].decode("ascii")))
+        elif says:
+            self.pending_says.extend((obj, frame[at:at + size].decode("ascii"))
+                                     for code, _, at, size in out.command[:count].tolist() if code == SAY)
+        warnings = [self._say_dropped] * dropped
+        if noted and cycle == now:
+            self.note_getopen(obj, tuple(out.note[:noted].tolist()))
+        return cycle, warnings
+
+    def submit_command(self, obj: int, command: m.Command) -> list[str]:
+        """A decoded ``Command``: its commands submitted (:meth:`submit`) if its cycle is this one or an
+        earlier one, its note noted if its cycle is this one; the warnings for the client."""
+        if command.cycle > self.cycle:
+            return []
+        warnings = self.submit(obj, command.commands)
+        if command.cycle == self.cycle:
+            self.note_getopen(obj, command.getopen)
+        return warnings
+
+    def _say(self, obj: int, text: str, warnings: list[str]) -> None:
+        """A decoded say's text (counted by the slot rules' kernel): queued for the listeners, or dropped
+        with a warning if it breaks the size or alphabet rule (``command_slots.say_allowed``, as a frame's)."""
+        data = text.encode()  # a character beyond ASCII is out of the alphabet, whatever its bytes
+        if self._say_allowed(data, 0, len(data), self.kp):
+            self.pending_says.append((obj, text))
+        else:
+            warnings.append(self._say_dropped)
 
     def note_getopen(self, obj: int, note: tuple[float, ...]) -> None:
         """A keeper's GetOpen note sent with its commands of this cycle (``protocol.messages.getopen_note``);
@@ -246,8 +276,6 @@ class Arena:
         self.commands.clear()
         self.step_notes = tuple(sorted(self._noted.items()))
         self._noted.clear()
-        for s in self.slots:
-            s.main_taken = s.neck_taken = False
         self._deliver_says()
         if self.referee.dropped[0]:
             self._referee_says("drop_ball", "play_on")
@@ -304,7 +332,6 @@ class Arena:
         self.pending_says.clear()
         for s in self.slots:
             s.hears = [h for h in s.hears if h.sender not in m.PLAYER_HEAR_SENDERS]
-            s.main_taken = s.neck_taken = False
             s.view_width = DEFAULT_VIEW_WIDTH
             s.see_phase_ms = now_ms
 
@@ -471,13 +498,14 @@ def compile_kernels(params: ServerParams, keepers: int, takers: int) -> None:
     for s in scratch.slots:
         scratch.connect("keepers" if s.side == "l" else "takers")
     scratch.start()
-    reader = CommandReader()
-    kick_say = reader.read(encode(m.Command(cycle=scratch.cycle, commands=(m.AtomicCommand("kick", (10.0, 0.0)),
-                                                                            m.AtomicCommand("say", ("a",))))))
+    kick_say = m.Command(cycle=scratch.cycle, commands=(m.AtomicCommand("kick", (10.0, 0.0)),
+                                                        m.AtomicCommand("say", ("a",))))
     for s in scratch.slots:
         scratch.see_due(s, scratch.cycle)
         scratch.cycle_frames(s, True)
-        scratch.submit(s.obj, kick_say.commands)  # the kick's reach, the hears' kernel and the reader's
+        # the kick's reach, the hears' kernel, the slot rules of a frame and of a decoded command
+        scratch.submit_frame(s.obj, encode(kick_say))
+        scratch.submit_command(s.obj, kick_say)
     scratch.step()
 
 

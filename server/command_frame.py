@@ -3,12 +3,12 @@
 The server of the distributed mode is one thread, and every cycle each player sends it one command
 frame. Through the full decoder a frame goes msgpack -> dicts and lists -> the loaders of
 ``protocol.messages.Command`` and ``_atomic_command``, Python all the way: about 18 us a frame, nearly
-a hundred of every cycle's microseconds with five players. :class:`CommandReader` reads the same bytes
-once, in a kernel (:func:`read_command_frame`, on ``core.msgpack_in``'s readers, as the players read
-their sees: ``agents.frames``), into a :class:`CommandFrame`: the decoded ``Command``'s cycle, note
-and commands, these as the (name, args) pairs an ``AtomicCommand`` unpacks to. The server and the
-embedded mode then take either alike: one ``bad_cycle`` check, one ``Arena.submit`` and its slot rules,
-whichever path decoded the frame.
+a hundred of every cycle's microseconds with five players. :func:`read_command_frame` reads the same
+bytes once, in a kernel (on ``core.msgpack_in``'s readers, as the players read their sees:
+``agents.frames``), into a :class:`CommandBuffer`: the ``Command``'s cycle, its commands as codes and
+numbers, its GetOpen note; ``server.command_slots.take_command_frame`` takes the commands into the
+arena's slots in the same call (``Arena.submit_frame``). The server and the embedded mode then treat
+a frame alike whichever path decoded it: one ``bad_cycle`` check, one set of slot rules.
 
 The kernel takes exactly the command frames that the full decoder takes as they are: a map of
 ``type`` ``"command"``, ``cycle`` (an int in the cycle range) and optionally ``commands`` and
@@ -18,30 +18,28 @@ done), with as many arguments as the table allows, or ``say`` with an ASCII str 
 ``MAX_SAY_CHARS``; numbers are finite doubles or ints within ``MAX_EXACT_INT`` (taken as floats, as
 ``protocol.codec.number`` takes them); a GetOpen note of the shape ``getopen_note`` allows. Any other
 frame, valid or not (``change_view``, a float32, a non-ASCII say, a duplicate key, a bool for a
-number, trailing bytes, ...), is refused, and :meth:`CommandReader.decode` gives it to the full
-decoder, which takes it or reports what is wrong exactly as before (``tests/test_command_frame.py``
-checks every command of a game, variants and corrupted frames against it).
+number, trailing bytes, ...), is refused, and the server gives it to the full decoder, which takes it
+or reports what is wrong exactly as before (``tests/test_command_frame.py`` checks every command of a
+game, variants and corrupted frames against it).
 """
 
 from __future__ import annotations
 
-from typing import NamedTuple, Union
+from typing import NamedTuple
 
 import numpy as np
 
-from core.jit import SteadyCall, borrowing
+from core.jit import borrowing
 from core.msgpack_in import BAD, ascii, read_array, read_double, read_int, read_map, read_str, str_equals
 from core.msgpack_out import FLOAT64
 from protocol import messages as m
 from protocol.codec import MAX_EXACT_INT, number
-from protocol.endpoints import DEFAULT_MAX_MESSAGE_BYTES
 from protocol.messages import (
     COMMAND_ARGUMENTS,
     MAX_COMMANDS,
     MAX_CYCLE,
     MAX_NOTE_NUMBERS,
     MAX_SAY_CHARS,
-    decode_from_player,
 )
 
 TEXT_COMMAND = "say"
@@ -56,8 +54,8 @@ a ``number``, and ``say``."""
 
 _FEWEST = np.array([len(COMMAND_ARGUMENTS[name][0]) for name in COMMAND_NAMES], dtype=np.int64)
 _MOST = np.array([sum(map(len, COMMAND_ARGUMENTS[name])) for name in COMMAND_NAMES], dtype=np.int64)
-_SAY = COMMAND_NAMES.index(TEXT_COMMAND)
-assert _FEWEST[_SAY] == _MOST[_SAY] == 1, "the kernel reads say's one text argument"
+SAY = COMMAND_NAMES.index(TEXT_COMMAND)
+assert _FEWEST[SAY] == _MOST[SAY] == 1, "the kernel reads say's one text argument"
 _NAME_BYTES = ascii("".join(COMMAND_NAMES))  # the names end to end, name i at _NAME_START[i]:[i + 1]
 _NAME_START = np.cumsum([0] + [len(name) for name in COMMAND_NAMES]).astype(np.int64)
 MAX_ARGUMENTS = int(_MOST.max())
@@ -78,25 +76,11 @@ MAX_FRAME_BYTES = (
 )
 
 
-class CommandFrame(NamedTuple):
-    """A command frame as the kernel read it: ``protocol.messages.Command``'s fields, each command an
-    (name, args) pair as an ``AtomicCommand`` unpacks. Pairs, not messages: building the dataclasses
-    took most of the fast path's time, and ``Arena.submit`` needs only the pairs."""
-
-    cycle: int
-    commands: tuple[tuple[str, tuple], ...]
-    getopen: tuple[float, ...]
-
-
-PlayerMessage = Union[m.Message, CommandFrame]
-"""What :meth:`CommandReader.decode` gives: a decoded message, or a command frame the kernel read."""
-
-
 class CommandBuffer(NamedTuple):
     """What the kernel read of a frame's commands and note: command i is ``COMMAND_NAMES[code]`` with
     ``args[i, :n_args]``, or for ``say`` the text at ``frame[start:start + length]``, where
-    ``command[i]`` is (code, n_args, start, length). Two arrays for the commands, not five: the server
-    takes them into Python every frame, a few hundred nanoseconds a ``tolist``."""
+    ``command[i]`` is (code, n_args, start, length). ``Arena.submit`` writes a decoded ``Command``'s
+    commands into one for the slot rules' kernel (``server.command_slots``)."""
 
     command: np.ndarray  # (MAX_COMMANDS, 4) int64
     args: np.ndarray  # (MAX_COMMANDS, MAX_ARGUMENTS) float64
@@ -170,7 +154,7 @@ def _commands(buf, n, end, out) -> tuple:
             return 0, BAD
         out.command[i, 0] = code
         out.command[i, 1] = given
-        if code == _SAY:
+        if code == SAY:
             start, length, n = _say_text(buf, n, end)
             out.command[i, 2] = start
             out.command[i, 3] = length
@@ -239,40 +223,4 @@ def read_command_frame(buf: np.ndarray, end: int, out: CommandBuffer) -> tuple:
     return cycle, count, noted
 
 
-class CommandReader:
-    """Decodes a player's frames with command frames read by :func:`read_command_frame` (module
-    docstring): one per receiving loop, reusing its buffers."""
-
-    def __init__(self, max_bytes: int = DEFAULT_MAX_MESSAGE_BYTES) -> None:
-        self.max_bytes = max_bytes
-        self._frame_bytes = min(max_bytes, MAX_FRAME_BYTES)  # the longest frame the kernel reads
-        self._out = CommandBuffer.empty()
-        self._read = SteadyCall(read_command_frame)
-
-    def read(self, data: bytes) -> CommandFrame | None:
-        """The command frame ``data`` as the full decoder decodes it (as pairs), if the kernel takes it;
-        else None."""
-        if type(data) is not bytes or len(data) > self._frame_bytes:
-            return None
-        out = self._out
-        cycle, count, noted = self._read(data, len(data), out)
-        if cycle < 0:
-            return None
-        commands = []
-        for (code, n_args, start, length), args in zip(out.command[:count].tolist(), out.args[:count].tolist()):
-            if code == _SAY:
-                commands.append((TEXT_COMMAND, (data[start:start + length].decode("ascii"),)))
-            else:
-                commands.append((COMMAND_NAMES[code], tuple(args[:n_args])))
-        return CommandFrame(cycle, tuple(commands), tuple(out.note[:noted].tolist()) if noted else ())
-
-    def decode(self, data: bytes) -> PlayerMessage:
-        """``protocol.messages.decode_from_player(data, max_bytes)``, but a command frame the kernel takes
-        read by it (:meth:`read`): the same message (as a :class:`CommandFrame`), or the same
-        ``ProtocolError``."""
-        command = self.read(data)
-        return decode_from_player(data, self.max_bytes) if command is None else command
-
-
-__all__ = ["COMMAND_NAMES", "CommandBuffer", "CommandFrame", "CommandReader", "MAX_FRAME_BYTES", "PlayerMessage",
-           "read_command_frame"]
+__all__ = ["COMMAND_NAMES", "CommandBuffer", "MAX_FRAME_BYTES", "SAY", "TEXT_COMMAND", "read_command_frame"]

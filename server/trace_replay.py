@@ -18,8 +18,10 @@ from pathlib import Path
 from typing import Any
 
 from protocol.params import ServerParams, parameter_set
-from server.physics import kick_possible, physics_step, place_object
-from core.objects import BALL, CMD_DASH, CMD_KICK, CMD_TURN
+from server.command_frame import CommandBuffer
+from server.command_slots import COMMAND_CODES, take_commands
+from server.physics import physics_step, place_object
+from core.objects import BALL
 from server.world import COLLIDED_BALL, COLLIDED_PLAYER, Commands, World, new_world
 
 RELATIVE_TOLERANCE = 1e-5  # 6 significant digits as printed by the server (traces README)
@@ -31,7 +33,6 @@ PLAYER_FIELDS = ("x", "y", "vx", "vy", "body", "neck")
 ANGLE_FIELDS = ("body", "neck")
 STAMINA_FIELDS = ("stamina", "effort", "recovery", "capacity")
 PLAYER_COMMAND_ARITY = {"dash": (1, 2), "turn": (1,), "turn_neck": (1,), "kick": (2,)}
-MAIN_COMMANDS = {"dash": CMD_DASH, "turn": CMD_TURN, "kick": CMD_KICK}
 COUNT_FIELDS = ("kick", "dash", "turn", "catch", "move", "turn_neck", "change_view", "say")
 
 _COMMAND_RE = re.compile(r"^\(\s*(\w+)((?:\s+[-+0-9.eE]+)*)\s*\)$")
@@ -96,6 +97,7 @@ class _Replay:
         self.player = self.world.player_object("l", self.unum)
         self.world.enabled[0, self.player] = True
         self.commands = Commands.empty(1, self.world.n_objects)
+        self._read = CommandBuffer.empty()  # a cycle's player commands, as the slot rules' kernel takes them
         before = data.get("initial", {}).get("fullstate_before_setup")
         if before:
             self._set_state(BALL, before["ball"])
@@ -132,32 +134,23 @@ class _Replay:
         place_object(0, self.world, obj, args[0], args[1], vel[0], vel[1], body, self.kp)
 
     def player_commands(self, texts: list[str]) -> None:
-        """Resolve the slots as rcssserver does: the first dash/turn/kick wins (a CLASSIC kick that cannot
-        reach the ball leaves the slot free), turn_neck has its own slot (spec 1, "Commands")."""
-        c, i = self.commands, self.player
-        c.clear()
-        main_taken = False
-        for text in texts:
+        """Resolve the slots as rcssserver does, by the server's rules (``server.command_slots``): the
+        first dash/turn/kick wins (a CLASSIC kick that cannot reach the ball leaves the slot free),
+        turn_neck has its own slot (spec 1, "Commands")."""
+        out = self._read
+        if len(texts) > len(out.command):
+            raise ValueError(f"more than {len(out.command)} player commands in a cycle: {texts!r}")
+        for count, text in enumerate(texts):
             match = _COMMAND_RE.match(text)
             if not match:
                 raise ValueError(f"unsupported player command {text!r}")
             name, args = match.group(1), _numbers(match.group(2))
             if name not in PLAYER_COMMAND_ARITY or len(args) not in PLAYER_COMMAND_ARITY[name]:
                 raise ValueError(f"unsupported player command {text!r}")
-            if name == "turn_neck":
-                if not c.has_neck[0, i]:
-                    c.has_neck[0, i] = True
-                    c.neck[0, i] = args[0]
-                continue
-            if main_taken:
-                continue
-            if (name == "kick" and not self.params.failed_kick_uses_slot
-                    and not kick_possible(0, self.world, i, self.kp)):
-                continue
-            c.main[0, i] = MAIN_COMMANDS[name]
-            c.arg1[0, i] = args[0]
-            c.arg2[0, i] = args[1] if len(args) > 1 else 0.0
-            main_taken = True
+            out.command[count, :2] = COMMAND_CODES[name], len(args)
+            out.args[count, :len(args)] = args
+        self.commands.clear()
+        take_commands(out, len(texts), self.commands, self.player, self.world, self.kp)
 
     def step(self) -> None:
         physics_step(self.world, self.commands, self.kp)

@@ -1,16 +1,20 @@
-"""The server's rules for a player's commands of a cycle (``server.arena.Arena.submit``, spec
-`server-physics.md` 1 "Commands", docs/protocol.md): one main command (dash, turn, kick, ...) and one
-turn_neck per cycle, the first accepted winning; a kick that cannot reach the ball does not use the main
-slot under the classic parameters (``failed_kick_uses_slot``) but does under the current ones; says and
-change_views are counted and unlimited, a say that breaks the size or alphabet rule is dropped with a
-warning. These are the rules every path to the arena goes through (the server's reader of command frames,
-the decoded messages, the embedded mode), so they are pinned here directly, command by command."""
+"""The server's rules for a player's commands of a cycle (``server.command_slots``, spec `server-physics.md`
+1 "Commands", docs/protocol.md): one main command (dash, turn, kick, ...) and one turn_neck per cycle, the
+first accepted winning; a kick that cannot reach the ball does not use the main slot under the classic
+parameters (``failed_kick_uses_slot``) but does under the current ones; says and change_views are counted
+and unlimited, a say that breaks the size or alphabet rule is dropped with a warning. These are the rules
+every path to the arena goes through, so they are pinned here command by command through both: a decoded
+``Command`` (``Arena.submit_command``) and a frame as the server and the embedded mode take it
+(``Arena.submit_frame``: read and taken by the kernel, or decoded in full when the kernel leaves it, as a
+change_view). A frame's cycle decides whether it is taken and whether its GetOpen note counts."""
 
 from __future__ import annotations
 
 import pytest
 
 from core.objects import BALL, CMD_DASH, CMD_KICK, CMD_NONE, CMD_TURN
+from protocol import encode
+from protocol import messages as m
 from protocol.params import parameter_set
 from server.arena import Arena
 from server.world import COUNT_CHANGE_VIEW, COUNT_SAY
@@ -36,73 +40,147 @@ def _slot(arena: Arena) -> tuple[int, float, float, float, bool]:
             float(c.neck[0, KEEPER]), bool(c.has_neck[0, KEEPER]))
 
 
-def test_the_first_main_command_and_the_first_turn_neck_of_a_cycle_win():
+def _command(arena: Arena, commands: list[tuple[str, tuple]], cycle: int | None = None,
+             getopen: tuple[float, ...] = ()) -> m.Command:
+    return m.Command(cycle=arena.cycle if cycle is None else cycle,
+                     commands=tuple(m.AtomicCommand(name, args) for name, args in commands), getopen=getopen)
+
+
+def _decoded(arena: Arena, obj: int, commands: list[tuple[str, tuple]]) -> list[str]:
+    return arena.submit_command(obj, _command(arena, commands))
+
+
+def _frame(arena: Arena, obj: int, commands: list[tuple[str, tuple]]) -> list[str]:
+    frame = encode(_command(arena, commands))
+    taken = arena.submit_frame(obj, frame)
+    if taken is None:  # left to the full decoder (change_view)
+        assert any(name == "change_view" for name, _ in commands)
+        return arena.submit_command(obj, m.decode_from_player(frame))
+    assert taken[0] == arena.cycle
+    return taken[1]
+
+
+@pytest.fixture(params=[_decoded, _frame], ids=["decoded", "frame"])
+def submit(request):
+    """``submit(arena, obj, commands) -> warnings``, by one path to the slot rules."""
+    return request.param
+
+
+def test_the_first_main_command_and_the_first_turn_neck_of_a_cycle_win(submit):
     arena = _arena()
-    assert arena.submit(KEEPER, [("dash", (80.0,)), ("turn_neck", (30.0,)), ("turn", (45.0,)),
+    assert submit(arena, KEEPER, [("dash", (80.0,)), ("turn_neck", (30.0,)), ("turn", (45.0,)),
                                  ("turn_neck", (-60.0,))]) == []
     # a later frame of the same cycle cannot take the slots either
-    assert arena.submit(KEEPER, [("kick", (50.0, 10.0)), ("turn_neck", (5.0,))]) == []
+    assert submit(arena, KEEPER, [("kick", (50.0, 10.0)), ("turn_neck", (5.0,))]) == []
     assert _slot(arena) == (CMD_DASH, 80.0, 0.0, 30.0, True)
 
 
-def test_a_command_takes_its_own_arguments_and_zero_for_those_it_has_not():
+def test_a_command_takes_its_own_arguments_and_zero_for_those_it_has_not(submit):
     arena = _arena()
-    arena.submit(KEEPER, [("kick", (50.0, -20.0))])
+    submit(arena, KEEPER, [("kick", (50.0, -20.0))])
     assert _slot(arena) == (CMD_KICK, 50.0, -20.0, 0.0, False)
     arena = _arena()
-    arena.submit(KEEPER, [("turn", (-45.0,))])
+    submit(arena, KEEPER, [("turn", (-45.0,))])
     assert _slot(arena) == (CMD_TURN, -45.0, 0.0, 0.0, False)
 
 
-def test_the_slots_are_free_again_after_the_step():
+def test_the_slots_are_free_again_after_the_step(submit):
     arena = _arena()
-    arena.submit(KEEPER, [("dash", (80.0,)), ("turn_neck", (30.0,))])
+    submit(arena, KEEPER, [("dash", (80.0,)), ("turn_neck", (30.0,))])
     arena.step()
     assert _slot(arena) == (CMD_NONE, 0.0, 0.0, 0.0, False)
-    arena.submit(KEEPER, [("turn", (10.0,)), ("turn_neck", (-10.0,))])
+    submit(arena, KEEPER, [("turn", (10.0,)), ("turn_neck", (-10.0,))])
     assert _slot(arena) == (CMD_TURN, 10.0, 0.0, -10.0, True)
 
 
 @pytest.mark.parametrize("params, uses_slot", [("classic", False), ("current", True)])
-def test_a_kick_that_cannot_reach_the_ball_uses_the_slot_only_if_failed_kick_uses_slot(params, uses_slot):
+def test_a_kick_that_cannot_reach_the_ball_uses_the_slot_only_if_failed_kick_uses_slot(submit, params, uses_slot):
     arena = _arena(params, ball_at=10.0)
-    arena.submit(KEEPER, [("kick", (100.0, 0.0)), ("dash", (60.0,))])
+    submit(arena, KEEPER, [("kick", (100.0, 0.0)), ("dash", (60.0,))])
     assert _slot(arena)[:3] == ((CMD_KICK, 100.0, 0.0) if uses_slot else (CMD_DASH, 60.0, 0.0))
 
 
-def test_a_kick_within_reach_uses_the_slot_under_either_parameter_set():
+def test_a_kick_within_reach_uses_the_slot_under_either_parameter_set(submit):
     for params in ("classic", "current"):
         arena = _arena(params, ball_at=1.0)  # within 0.3 + 0.7 + 0.085 m
-        arena.submit(KEEPER, [("kick", (100.0, 0.0)), ("dash", (60.0,))])
+        submit(arena, KEEPER, [("kick", (100.0, 0.0)), ("dash", (60.0,))])
         assert _slot(arena)[:3] == (CMD_KICK, 100.0, 0.0)
 
 
-def test_says_are_counted_and_queued_and_a_bad_one_is_dropped_with_a_warning():
+def test_says_are_counted_and_queued_and_a_bad_one_is_dropped_with_a_warning(submit):
     arena = _arena()
     size = int(arena.params.say_msg_size)
-    warnings = arena.submit(KEEPER, [("say", ("1aaaa18aa1"[:size],)), ("say", ("x" * (size + 1),)),
-                                     ("say", ("bad!text",)), ("say", ("",))])
-    assert warnings == [f"say dropped: at most {size} characters from [-0-9a-zA-Z ().+*/?<>_]"] * 2
-    assert arena.pending_says == [(KEEPER, "1aaaa18aa1"[:size]), (KEEPER, "")]
-    assert int(arena.world.counts[0, KEEPER, COUNT_SAY]) == 4  # every say counts, taken or not
+    warnings = submit(arena, KEEPER, [("say", ("1aaaa18aa1"[:size],)), ("say", ("x" * (size + 1),)),
+                                     ("say", ("bad!text",)), ("say", ("",)), ("say", ("ab\n",)),
+                                     ("say", ("x" * size,))])
+    assert warnings == [f"say dropped: at most {size} characters from [-0-9a-zA-Z ().+*/?<>_]"] * 3
+    assert arena.pending_says == [(KEEPER, "1aaaa18aa1"[:size]), (KEEPER, ""), (KEEPER, "x" * size)]
+    assert int(arena.world.counts[0, KEEPER, COUNT_SAY]) == 6  # every say counts, taken or not
     assert _slot(arena) == (CMD_NONE, 0.0, 0.0, 0.0, False)  # no slot used
 
 
-def test_change_view_is_counted_sets_the_width_and_refuses_low_quality_with_a_warning():
+def test_change_view_is_counted_sets_the_width_and_refuses_low_quality_with_a_warning(submit):
     arena = _arena()
-    assert arena.submit(KEEPER, [("change_view", ("wide",))]) == []
+    assert submit(arena, KEEPER, [("change_view", ("wide",))]) == []
     assert arena.slot(KEEPER).view_width == "wide"
-    assert arena.submit(KEEPER, [("change_view", ("narrow", "low"))]) == [
+    assert submit(arena, KEEPER, [("change_view", ("narrow", "low"))]) == [
         "change_view: low quality is not supported; the view stays high"]
     assert arena.slot(KEEPER).view_width == "narrow"
     assert int(arena.world.counts[0, KEEPER, COUNT_CHANGE_VIEW]) == 2
 
 
-def test_one_players_commands_leave_the_others_slots_alone():
+def test_one_players_commands_leave_the_others_slots_alone(submit):
     arena = _arena()
-    arena.submit(KEEPER, [("dash", (80.0,)), ("turn_neck", (30.0,))])
+    submit(arena, KEEPER, [("dash", (80.0,)), ("turn_neck", (30.0,))])
     c = arena.commands
     for obj in range(2, arena.world.n_objects):
         assert int(c.main[0, obj]) == CMD_NONE and not bool(c.has_neck[0, obj])
-    arena.submit(2, [("turn", (15.0,))])  # keeper 2 has its own slot
+    submit(arena, 2, [("turn", (15.0,))])  # keeper 2 has its own slot
     assert int(c.main[0, 2]) == CMD_TURN and _slot(arena)[0] == CMD_DASH
+
+
+NOTE = (1.0, 2.0, 3.0, 4.0, 0.5)  # a target and one rated point
+
+
+def test_a_frame_is_taken_up_to_its_cycle_and_its_note_counts_in_its_own_cycle_only():
+    arena = _arena()
+    later = encode(_command(arena, [("dash", (80.0,))], cycle=arena.cycle + 1, getopen=NOTE))
+    assert arena.submit_frame(KEEPER, later) == (arena.cycle + 1, [])  # the server's bad_cycle
+    assert _slot(arena) == (CMD_NONE, 0.0, 0.0, 0.0, False)
+    arena.step()
+    assert arena.step_notes == ()
+    earlier = encode(_command(arena, [("dash", (80.0,)), ("say", ("x" * 200,))], cycle=arena.cycle - 1, getopen=NOTE))
+    size = int(arena.params.say_msg_size)
+    assert arena.submit_frame(KEEPER, earlier) == (arena.cycle - 1, [
+        f"say dropped: at most {size} characters from [-0-9a-zA-Z ().+*/?<>_]"])  # taken, the note not
+    assert _slot(arena)[:2] == (CMD_DASH, 80.0)
+    arena.step()
+    assert arena.step_notes == ()
+    own = encode(_command(arena, [("turn", (5.0,))], getopen=NOTE))
+    assert arena.submit_frame(KEEPER, own) == (arena.cycle, [])
+    arena.step()
+    assert arena.step_notes == ((1, NOTE),)
+
+
+def test_a_decoded_command_is_taken_up_to_its_cycle_and_its_note_counts_in_its_own_cycle_only():
+    arena = _arena()
+    assert arena.submit_command(KEEPER, _command(arena, [("dash", (80.0,))], cycle=arena.cycle + 1,
+                                                 getopen=NOTE)) == []
+    assert _slot(arena) == (CMD_NONE, 0.0, 0.0, 0.0, False)
+    arena.step()
+    arena.submit_command(KEEPER, _command(arena, [("dash", (80.0,))], cycle=arena.cycle - 1, getopen=NOTE))
+    assert _slot(arena)[:2] == (CMD_DASH, 80.0)
+    arena.step()
+    assert arena.step_notes == ()
+    arena.submit_command(KEEPER, _command(arena, [("turn", (5.0,))], getopen=NOTE))
+    arena.step()
+    assert arena.step_notes == ((1, NOTE),)
+
+
+def test_more_commands_than_a_frame_holds_are_all_taken_in_order():
+    arena = _arena()
+    says = [("say", (str(i),)) for i in range(2 * m.MAX_COMMANDS)]
+    assert arena.submit(KEEPER, [*says, ("turn_neck", (7.0,)), ("turn", (3.0,)), ("dash", (1.0,))]) == []
+    assert int(arena.world.counts[0, KEEPER, COUNT_SAY]) == 2 * m.MAX_COMMANDS
+    assert arena.pending_says == [(KEEPER, text) for _, (text,) in says]
+    assert _slot(arena) == (CMD_TURN, 3.0, 0.0, 7.0, True)

@@ -1,7 +1,8 @@
 """A command frame read by the server's kernel (server.command_frame) is read exactly as the full decoder
 decodes it (protocol.messages.decode_from_player): the same Command for every frame of a real game and its
 variants, and every frame the kernel does not take left to the full decoder, which then takes it or
-reports it as before."""
+reports it as before. A game commanded through the kernel (``Arena.submit_frame``: read and taken in one
+call) is the game commanded through the full decoder (``Arena.submit_command``)."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ from __future__ import annotations
 import msgpack
 import numpy as np
 import pytest
+from command_read import Read, read
 from mutations import mutated_frames
 
 from protocol import ProtocolError
@@ -16,10 +18,10 @@ from protocol import messages as m
 from protocol.params import parameter_set
 from runner.embedded import ArenaSpec, EmbeddedGame
 from server.arena import Arena
-from server.command_frame import MAX_FRAME_BYTES, CommandFrame, CommandReader
+from server.command_frame import MAX_FRAME_BYTES
 
 PARAMS = parameter_set("classic")
-READER = CommandReader()
+
 
 
 def _full(frame: bytes) -> m.Message | None:
@@ -29,14 +31,14 @@ def _full(frame: bytes) -> m.Message | None:
         return None
 
 
-def _as_read(msg: m.Message | CommandFrame | None) -> CommandFrame | None:
+def _as_read(msg: m.Message | Read | None) -> Read | None:
     """A decoded Command as the kernel gives it: its commands as (name, args) pairs."""
     if type(msg) is not m.Command:
         return msg
-    return CommandFrame(msg.cycle, tuple((c.name, c.args) for c in msg.commands), msg.getopen)
+    return Read(msg.cycle, tuple((c.name, c.args) for c in msg.commands), msg.getopen)
 
 
-def _same(a: m.Message | CommandFrame | None, b: m.Message | CommandFrame | None) -> bool:
+def _same(a: m.Message | Read | None, b: m.Message | Read | None) -> bool:
     """The same command, to the last bit and type (repr tells 1 from 1.0 and -0.0 from 0.0, == would
     not), or the same other message."""
     a, b = _as_read(a), _as_read(b)
@@ -46,7 +48,7 @@ def _same(a: m.Message | CommandFrame | None, b: m.Message | CommandFrame | None
 def _taken_alike(frame: bytes) -> bool:
     """True if the kernel takes ``frame``, which the full decoder then decodes to the same command; False
     if it leaves the frame to the full decoder."""
-    fast = READER.read(frame)
+    fast = read(frame)
     if fast is None:
         return False
     full = _full(frame)
@@ -99,26 +101,35 @@ def test_every_command_of_a_game_is_read_as_the_full_decoder_decodes_it(game_fra
     assert len(game_frames) > 1400 and noted > 100
 
 
-def _arena_after(frames: list[tuple[int, bytes]], decode) -> tuple:
-    """An arena that took ``frames`` (decoded by ``decode``) as a cycle's commands, stepping after every
-    five: its world, pending says, and the warnings it gave."""
+def _arena_after(frames: list[tuple[int, bytes]], through_kernel: bool) -> tuple:
+    """An arena that took ``frames`` as a cycle's commands, stepping after every five, each frame taken
+    as the server takes it (``Arena.submit_frame``, the full decoder for a frame the kernel leaves) or
+    decoded in full (``Arena.submit_command``): its world, pending says, notes, and the warnings it gave."""
     arena = Arena(PARAMS, 3, 2, seed=3)
     for slot in arena.slots:
         arena.connect("keepers" if slot.side == "l" else "takers")
     arena.start()
     warnings = []
     for i, (obj, frame) in enumerate(frames):
-        command = decode(frame)
-        warnings.append(arena.submit(obj, command.commands))
-        arena.note_getopen(obj, command.getopen)
+        taken = arena.submit_frame(obj, frame) if through_kernel else None
+        if taken is None:
+            command = m.decode_from_player(frame)
+            assert command.cycle == arena.cycle  # every frame is taken as its cycle's answer
+            taken = command.cycle, arena.submit_command(obj, command)
+        assert taken[0] == arena.cycle
+        warnings.append(taken[1])
         if i % 5 == 4:
             arena.step()
-    world = [value.tobytes() if isinstance(value, np.ndarray) else value for value in arena.world]
-    return world, arena.pending_says, arena.step_notes, warnings
+    return _state(arena), arena.pending_says, arena.step_notes, warnings
+
+
+def _state(arena: Arena) -> list:
+    """The arena's world and command slots, to the bit."""
+    return [value.tobytes() if isinstance(value, np.ndarray) else value for value in (*arena.world, *arena.commands)]
 
 
 def test_a_game_commanded_through_the_kernel_is_the_game_commanded_through_the_full_decoder(game_frames):
-    assert _arena_after(game_frames, READER.decode) == _arena_after(game_frames, m.decode_from_player)
+    assert _arena_after(game_frames, True) == _arena_after(game_frames, False)
 
 
 @pytest.mark.parametrize("frame", [
@@ -195,30 +206,23 @@ LEFT = {  # frames the kernel leaves: False if the full decoder refuses them too
 }
 
 
-def _error(decode, frame: bytes) -> tuple[str, str] | None:
-    try:
-        decode(frame)
-    except ProtocolError as exc:
-        return exc.code, exc.message
-    return None
-
-
 @pytest.mark.parametrize("case", LEFT)
 def test_frames_the_kernel_leaves_to_the_full_decoder(case):
     """... which then takes them, or refuses them with the very error it gives without the kernel."""
     frame, valid = LEFT[case]
-    assert READER.read(frame) is None
+    assert read(frame) is None
     assert (_full(frame) is not None) == valid
-    if valid:
-        assert _same(READER.decode(frame), m.decode_from_player(frame))
-    else:
-        assert _error(READER.decode, frame) == _error(m.decode_from_player, frame) is not None
+    arena = Arena(PARAMS, 3, 2, seed=3)
+    arena.connect("keepers")
+    before = _state(arena)
+    assert arena.submit_frame(1, frame) is None  # left to the full decoder: nothing taken
+    assert _state(arena) == before
 
 
 def test_no_prefix_of_a_command_frame_is_taken(game_frames):
     for frame in (BASE, max((f for _, f in game_frames), key=len)):
         for end in range(len(frame)):
-            assert READER.read(frame[:end]) is None
+            assert read(frame[:end]) is None
 
 
 def test_mutated_frames_are_taken_only_as_the_full_decoder_takes_them(game_frames):
@@ -234,22 +238,11 @@ def test_mutated_frames_are_taken_only_as_the_full_decoder_takes_them(game_frame
     assert taken > 200 and refused > 200  # both kinds occur
 
 
-def test_frames_beyond_the_size_limit_are_refused_as_the_full_decoder_refuses_them():
-    small = CommandReader(max_bytes=40)
-    frame = _frame()
-    assert 40 < len(frame) < MAX_FRAME_BYTES and READER.read(frame) is not None
-    assert small.read(frame) is None
-    with pytest.raises(ProtocolError, match="exceeds the limit of 40") as refused:
-        small.decode(frame)
-    assert refused.value.code == "too_large"
-    assert small.read(_pack([("type", "command"), ("cycle", 1)])) is not None
-
-
 def test_the_longest_frame_the_kernel_takes_fits_its_buffer():
     longest = _pack([("type", "command"), ("cycle", m.MAX_CYCLE),
                      ("commands", [["say", "x" * m.MAX_SAY_CHARS]] * m.MAX_COMMANDS),
                      ("getopen", [2**63 - 1 - i for i in range(2 + 3 * m.MAX_NOTE_POINTS)])])
     assert len(longest) <= MAX_FRAME_BYTES
-    assert READER.read(longest) is None and _full(longest) is None  # the note's ints are too large
+    assert read(longest) is None and _full(longest) is None  # the note's ints are too large
     fits = longest.replace(b"\xcf\x7f", b"\xcb\x40")  # as large doubles: valid
     assert len(fits) == len(longest) and _taken_alike(fits)

@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 import pytest
+from command_read import read
 
 from agents.command_wire import MAIN_COMMANDS, MAX_COMMAND_BYTES, write_command
 from agents.say import MAX_CHARS, NUM_CHARS, VALID_CHARS, new_talk
@@ -15,7 +16,6 @@ from core.objects import CMD_DASH, CMD_KICK, CMD_NONE, CMD_TURN
 from protocol import encode
 from protocol import messages as m
 from protocol.messages import MAX_NOTE_NUMBERS, decode_from_player
-from server.command_frame import CommandReader
 
 
 def _reference(cycle, main, a1, a2, neck, codes, note) -> bytes:
@@ -62,7 +62,7 @@ def test_the_server_reads_the_written_frame_as_the_command_it_decodes(main):
     codes = [1, 2, 40, 70]
     data = _written(77, main, 55.5, -12.25, 30.0, np.array(codes), (1.0, 2.0))
     command = decode_from_player(data)
-    assert CommandReader().read(data) == (command.cycle, tuple((c.name, c.args) for c in command.commands),
+    assert read(data) == (command.cycle, tuple((c.name, c.args) for c in command.commands),
                                           command.getopen)
     assert command.commands[-1] == m.AtomicCommand("say", ("12E<",)) == m.AtomicCommand("say", ("".join(
         VALID_CHARS[c] for c in codes),))

@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import csv
 import json
+import logging
 import math
+import multiprocessing
 import os
 import shutil
 import signal
@@ -438,6 +440,29 @@ def test_a_worker_interrupted_inside_a_callback_that_drops_exceptions_is_interru
         signal.signal(signal.SIGTERM, previous_term)
 
 
+def _worker_ending(send, ending: str) -> None:
+    if ending == "crash":
+        os._exit(3)
+    send.send(RuntimeError("disk full") if ending == "error" else KeyboardInterrupt())
+
+
+@pytest.mark.parametrize("ending, warning", [
+    ("interrupted", None),
+    ("error", "the interrupted worker of P:L-GO:HC ended with exit code 0 and RuntimeError: disk full"),
+    ("crash", "the interrupted worker of P:L-GO:HC ended with exit code 3 and no result")])
+def test_an_interrupted_worker_that_ends_otherwise_is_named_with_its_exit_code(ending, warning, caplog):
+    context = multiprocessing.get_context("fork")  # the target is a test's function: spawn could not import it
+    receive, send = context.Pipe(duplex=False)
+    process = context.Process(target=_worker_ending, args=(send, ending))
+    process.start()
+    send.close()
+    with caplog.at_level(logging.WARNING, "keepaway.experiment"):
+        experiments._join_interrupted(receive, process, (LEARNED, "handcoded"))
+    assert not process.is_alive()
+    assert [r.getMessage().removeprefix("keepaway experiment: ") for r in caplog.records] == (
+        [warning] if warning else [])
+
+
 def _until_two_workers_train(proc: subprocess.Popen, out: Path) -> tuple[set[int], set[int]]:
     """(children, workers) of a running ``experiment figure3 --workers 2`` once both workers run and the
     longest configuration's is training."""
@@ -501,7 +526,7 @@ def test_an_interrupted_run_in_worker_processes_stops_them_and_keeps_their_timin
     assert not [pid for pid in children if _alive(pid)], "a child process outlived the run"
     # the interrupted sitting ended in its worker's finally, not at a refresh
     (sitting,) = json.loads(started.read_text())["sittings"]
-    assert "running" not in sitting and sitting["wall_s"] > 0
+    assert "running" not in sitting and sitting["wall_s"] > 0, err.decode()
 
 
 @pytest.mark.slow

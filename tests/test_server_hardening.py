@@ -149,6 +149,32 @@ def test_oversized_frames_get_an_error_each_and_one_counted_log_line(processes, 
     assert len(lines) < frames and len(lines) + sum(held) == frames  # one a second, the others counted
 
 
+def test_a_seated_players_command_frame_above_the_limit_is_too_large_however_readable(processes, tmp_path):
+    """The server's kernel could read a command frame of this size (``server.command_frame``), but the
+    server's ``max_message_bytes`` comes first, for a seated player's frames as for any."""
+    config = tmp_path / "server.toml"
+    config.write_text("max_message_bytes = 1024\n")
+    srv = processes.start_server(tmp_path, "--config", str(config), "--max-cycles", "2")
+    players = connect_all(srv.players_endpoint)
+    says = [m.AtomicCommand("say", ("x" * 200,))] * 6
+    for p in players:
+        p.recv_until(m.Think)
+    over = encode(m.Command(cycle=0, commands=(m.AtomicCommand("dash", (100.0,)), *says)))
+    under = encode(m.Command(cycle=0, commands=(m.AtomicCommand("dash", (100.0,)), *says[:4])))
+    assert len(under) <= 1024 < len(over)
+    players[0].send_raw(over)
+    refused = players[0].recv_until(m.Error)
+    assert refused.code == "too_large" and "1024" in refused.message
+    players[0].send_raw(under)  # taken: its says are dropped by the size rule, each with a warning
+    assert [players[0].recv_until(m.Error).code for _ in range(4)] == ["dropped"] * 4
+    for p in players[1:]:
+        p.answer(0)
+    body = players[0].recv_until(m.SenseBody)
+    assert body.cycle == 1 and body.speed[0] > 0  # the dash of the frame under the limit
+    answer_cycle(players, 1)
+    assert srv.wait(30) == 0
+
+
 def play_until_logged(srv, players: list[ScriptedPlayer], text: str, first_cycle: int,
                       timeout_s: float = 60.0) -> int:
     """Play cycles from ``first_cycle`` (at most 50 a second) until the server's log says ``text``;

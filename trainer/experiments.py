@@ -31,6 +31,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import logging
 import math
 import multiprocessing
 import os
@@ -102,6 +103,8 @@ from trainer.train import (
     write_summary,
     write_trial_outputs,
 )
+
+log = logging.getLogger("keepaway.experiment")
 
 POLICIES = ("random", "handcoded", LEARNED)  # the paper's R, HC, L, in its order
 SHORT = {"random": "R", "handcoded": "HC", LEARNED: "L"}
@@ -567,7 +570,9 @@ def run_in_workers(exp: ExperimentConfig, configurations: Sequence[tuple[str, st
 
     Workers are spawned (numba's threads do not survive a fork). A worker's error is raised here after
     the others have been interrupted (SIGINT: they keep their checkpoints, as Ctrl-C does); so is an
-    interruption of this process."""
+    interruption of this process. An interrupted worker that ends otherwise than interrupted (its own
+    error, or no result: killed, crashed) is named in a warning, with its exit code, since its last
+    checkpoint or timing record may then be missing."""
     if placement.attach or placement.launcher is not None:
         raise ValueError("worker processes start their own arenas: not with --arena or --backend ray")
     placement = replace(placement, threads=placement.threads or 1)
@@ -603,9 +608,23 @@ def run_in_workers(exp: ExperimentConfig, configurations: Sequence[tuple[str, st
         for process, _ in running.values():
             if process.is_alive():
                 os.kill(process.pid, signal.SIGINT)
-        for process, _ in running.values():
-            process.join()
+        for receive, (process, config) in running.items():
+            _join_interrupted(receive, process, config)
     return done
+
+
+def _join_interrupted(receive: Connection, process: BaseProcess, config: tuple[str, str]) -> None:
+    """Wait for a worker of :func:`run_in_workers` that was told to stop (its result read first, so a
+    worker never waits on a full pipe), and warn if it did not end as interrupted or finished."""
+    try:
+        outcome: Any = receive.recv()
+    except EOFError:
+        outcome = None
+    process.join()
+    if outcome is None or (isinstance(outcome, BaseException) and not isinstance(outcome, KeyboardInterrupt)):
+        ending = "no result" if outcome is None else f"{type(outcome).__name__}: {outcome}"
+        log.warning("keepaway experiment: the interrupted worker of %s ended with exit code %s and %s",
+                    configuration_name(*config), process.exitcode, ending)
 
 
 def _configuration_worker(send: Connection, exp: ExperimentConfig, config: tuple[str, str], out: Path,
