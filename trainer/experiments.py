@@ -47,6 +47,8 @@ from multiprocessing.process import BaseProcess
 from pathlib import Path
 from typing import Any
 
+import llvmlite
+import numba
 import numpy as np
 from scipy import stats
 
@@ -615,13 +617,15 @@ def run_in_workers(exp: ExperimentConfig, configurations: Sequence[tuple[str, st
 
 def _join_interrupted(receive: Connection, process: BaseProcess, config: tuple[str, str]) -> None:
     """Wait for a worker of :func:`run_in_workers` that was told to stop (its result read first, so a
-    worker never waits on a full pipe), and warn if it did not end as interrupted or finished."""
+    worker never waits on a full pipe), and warn if it did not end as interrupted or finished. A worker
+    that SIGINT ended before it set its handler (exit code -SIGINT, no result) had not begun its work."""
     try:
         outcome: Any = receive.recv()
     except EOFError:
         outcome = None
     process.join()
-    if outcome is None or (isinstance(outcome, BaseException) and not isinstance(outcome, KeyboardInterrupt)):
+    if (outcome is None and process.exitcode != -signal.SIGINT) or (
+            isinstance(outcome, BaseException) and not isinstance(outcome, KeyboardInterrupt)):
         ending = "no result" if outcome is None else f"{type(outcome).__name__}: {outcome}"
         log.warning("keepaway experiment: the interrupted worker of %s ended with exit code %s and %s",
                     configuration_name(*config), process.exitcode, ending)
@@ -659,7 +663,7 @@ def _configuration_worker(send: Connection, exp: ExperimentConfig, config: tuple
 
 
 def _interrupt_once(signum: int, frame: Any) -> None:
-    if _in_foreign_callback(frame):  # raised there, it would be printed and dropped: deliver it again soon
+    if _in_unsafe_code(frame):  # raised there, it would be dropped or break numba: deliver it again soon
         threading.Timer(0.05, os.kill, (os.getpid(), signum)).start()
         return
     signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -667,15 +671,25 @@ def _interrupt_once(signum: int, frame: Any) -> None:
     raise KeyboardInterrupt
 
 
-def _in_foreign_callback(frame: Any) -> bool:
-    """Whether ``frame`` runs inside code that swallows exceptions: llvmlite's object-cache hooks,
-    through which numba loads its cached kernels (a ctypes callback prints an exception raised in it
-    and goes on), and any finalizer (``__del__``; Python prints "Exception ignored in" and goes on: a
-    CI run lost a worker's interrupt in llvmlite's ``ObjectRef.__del__``, and the worker trained on)."""
+# numba's and llvmlite's code (their package directories)
+_NUMBA_CODE = tuple(os.path.dirname(module.__file__) + os.sep for module in (numba, llvmlite))
+
+
+def _in_unsafe_code(frame: Any) -> bool:
+    """Whether ``frame`` runs where an interrupt must not be raised:
+    - inside numba or llvmlite, which a worker's first calls of its kernels go through (loading them
+      from the cache; numba's own registries on its first load). Interrupted there, numba keeps half-made
+      state: a later kernel call failed with "duplicate registration" in a test, and in a CI run a
+      worker died of SIGSEGV at its next kernel's first call and never wrote its timing. This also
+      covers llvmlite's object-cache hooks, ctypes callbacks that print an exception raised in them and
+      go on;
+    - in any finalizer (``__del__``; Python prints "Exception ignored in" and goes on: a CI run lost a
+      worker's interrupt in llvmlite's ``ObjectRef.__del__``, and the worker trained on).
+    The worker's kernels are compiled before it starts (``prepare_kernels``), so loading them is a
+    matter of seconds, and so is the interrupt's delay."""
     while frame is not None:
         code = frame.f_code
-        if code.co_name == "__del__" or (code.co_name.startswith("_raw_object_cache")
-                                         and "llvmlite" in code.co_filename):
+        if code.co_name == "__del__" or code.co_filename.startswith(_NUMBA_CODE):
             return True
         frame = frame.f_back
     return False
