@@ -21,7 +21,14 @@ from protocol.landmarks import to_wire as landmarks_to_wire
 from protocol.params import ServerParams
 from server import perception
 from server.command_frame import MAX_FRAME_BYTES, SAY, CommandBuffer
-from server.command_slots import COMMAND_CODES, SAY_ALPHABET, say_allowed, take_command_frame, take_commands
+from server.command_slots import (
+    COMMAND_CODES,
+    SAY_ALPHABET,
+    put_command,
+    say_allowed,
+    take_command_frame,
+    take_commands,
+)
 from server.referee import END_CAUSES, new_referee_state, reset_field, start_game
 from server.simulation import new_causes, simulate_cycle
 from core.jit import SteadyCall
@@ -215,9 +222,7 @@ class Arena:
                 count = 0
             if code == SAY:
                 self._say(obj, args[0], warnings)
-            else:
-                out.args[count, :len(args)] = args
-            out.command[count, :2] = code, len(args)
+            put_command(out, count, code, () if code == SAY else args)
             count += 1
         self._take_commands(out, count, self.commands, obj, self.world, self.kp)
         return warnings

@@ -11,14 +11,16 @@ dropped one and change_view are ``Arena``'s.
 One definition for every path: :func:`take_command_frame` reads a command frame and takes its commands
 in one kernel call, its says checked too (the server's and the embedded mode's every-cycle path: reading
 the frame into Python pairs and applying the rules in Python took 17.7 us a frame, this 6.5);
-``Arena.submit`` writes a decoded ``Command``'s numbers into the same buffer for :func:`take_commands`;
-the batched mode's players (``runner.batched.decide``) and the trace replays (``server.trace_replay``)
-take their commands with :func:`take_main` and :func:`take_neck`.
+``Arena.submit`` writes a decoded ``Command``'s numbers into the same buffer (:func:`put_command`) for
+:func:`take_commands`, and so do the trace replays (``server.trace_replay``) with rcssserver's text
+commands; the batched mode's players (``runner.batched.decide``) take their commands with
+:func:`take_main` and :func:`take_neck`.
 """
 
 from __future__ import annotations
 
 import re
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -56,6 +58,13 @@ def say_allowed(buf: np.ndarray, start: int, length: int, kp) -> bool:
         if not _SAY_BYTE[buf[i]]:
             return False
     return True
+
+
+def put_command(out, i: int, code: int, args: Sequence[float]) -> None:
+    """Command ``i`` of ``out`` (a ``CommandBuffer``): ``code`` (:data:`COMMAND_CODES`) with the numbers
+    ``args``, as :func:`take_commands` takes it (a say's text is the caller's: give a say no args)."""
+    out.command[i, :2] = code, len(args)
+    out.args[i, :len(args)] = args
 
 
 @borrowing(inline="always")
@@ -124,5 +133,5 @@ def take_command_frame(buf: np.ndarray, end: int, out, now: int, c, obj: int, w,
     return cycle, count, noted, allowed, dropped, first_start, first_length
 
 
-__all__ = ["COMMAND_CODES", "DROPPED_SAY", "MAIN_SLOT", "SAY_ALPHABET", "say_allowed", "take_command_frame",
-           "take_commands", "take_main", "take_neck"]
+__all__ = ["COMMAND_CODES", "DROPPED_SAY", "MAIN_SLOT", "SAY_ALPHABET", "put_command", "say_allowed",
+           "take_command_frame", "take_commands", "take_main", "take_neck"]

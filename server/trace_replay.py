@@ -19,7 +19,7 @@ from typing import Any
 
 from protocol.params import ServerParams, parameter_set
 from server.command_frame import CommandBuffer
-from server.command_slots import COMMAND_CODES, take_commands
+from server.command_slots import COMMAND_CODES, put_command, take_commands
 from server.physics import physics_step, place_object
 from core.objects import BALL
 from server.world import COLLIDED_BALL, COLLIDED_PLAYER, Commands, World, new_world
@@ -147,8 +147,7 @@ class _Replay:
             name, args = match.group(1), _numbers(match.group(2))
             if name not in PLAYER_COMMAND_ARITY or len(args) not in PLAYER_COMMAND_ARITY[name]:
                 raise ValueError(f"unsupported player command {text!r}")
-            out.command[count, :2] = COMMAND_CODES[name], len(args)
-            out.args[count, :len(args)] = args
+            put_command(out, count, COMMAND_CODES[name], args)
         self.commands.clear()
         take_commands(out, len(texts), self.commands, self.player, self.world, self.kp)
 
