@@ -2,10 +2,29 @@
 
 from __future__ import annotations
 
+import sys
+
 import click
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+class _Keepaway(click.Group):
+    """The group, with one answer to an interrupt that no command took itself (say, during a command's
+    start-up): one line and exit code 130, where click would print "Aborted!" and exit 1, the code of a
+    failure. The commands that run for long (``run``, ``train``, ``experiment``, ...) catch it first and
+    say what they kept."""
+
+    def invoke(self, ctx: click.Context) -> object:
+        try:
+            return super().invoke(ctx)
+        except KeyboardInterrupt:
+            from runner.launch import EXIT_INTERRUPTED
+
+            name = f"keepaway {ctx.invoked_subcommand}" if ctx.invoked_subcommand else "keepaway"
+            click.echo(f"{name}: interrupted", err=True)
+            sys.exit(EXIT_INTERRUPTED)
+
+
+@click.group(cls=_Keepaway, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(package_name="keepaway")
 def main() -> None:
     """RoboCup Keepaway: server, players, coach and trainer over ZeroMQ."""

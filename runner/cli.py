@@ -160,7 +160,7 @@ def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str,
     from protocol.params import parameter_set as make_params
     from runner.embedded import ArenaSpec
     from runner.kernels import CompileError
-    from runner.launch import ArenaFailure, interrupt_on_sigterm
+    from runner.launch import EXIT_INTERRUPTED, ArenaFailure, interrupt_on_sigterm
     from runner.report import dump_json, summary_table
     from runner.run import RunOptions, RunStopped, run
 
@@ -200,7 +200,7 @@ def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str,
         finished = f"the summary covers the {len(stop.result.episodes)} of {episodes} episodes that finished"
         if isinstance(stop.cause, KeyboardInterrupt):
             click.echo(f"keepaway run: interrupted; every process was stopped; {finished}", err=True)
-            sys.exit(130)
+            sys.exit(EXIT_INTERRUPTED)
         click.echo(f"keepaway run: {stop.cause}; {finished}", err=True)
         sys.exit(1)
     except (ArenaFailure, CompileError) as exc:
@@ -208,7 +208,7 @@ def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str,
         sys.exit(1)
     except KeyboardInterrupt:
         click.echo("keepaway run: interrupted; every process was stopped", err=True)
-        sys.exit(130)
+        sys.exit(EXIT_INTERRUPTED)
     show(result)
 
 

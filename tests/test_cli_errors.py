@@ -4,6 +4,7 @@ what is allowed: no traceback, exit code 2 for a usage error, and nothing on dis
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 
@@ -265,3 +266,30 @@ def test_evaluate_plays_a_training_without_pass_learners_with_hand_coded_pass(pr
     line = refused(processes, "evaluate", "--policy", str(tmp_path / "training"), "--pass", "learned",
                    timeout_s=PLAYING_S)
     assert line == f"Error: {trial / 'policy.npz'}: --pass learned needs Pass weights; the file has no Pass weights"
+
+
+INTERRUPT_IN_GENERATED_CODE = '''
+import click
+_invoke = click.Command.invoke
+def invoke(self, ctx):
+    if self.name == "keys":  # as Ctrl-C lands in a dataclass's or numba's generated code at start-up
+        exec("raise KeyboardInterrupt")
+    return _invoke(self, ctx)
+click.Command.invoke = invoke
+'''
+
+
+def test_an_interrupt_at_a_commands_start_up_exits_130_in_one_line_however_it_was_raised(processes, tmp_path):
+    """Ctrl-C before a command catches it itself (its imports, its kernels' loads): one line and exit 130,
+    not click's "Aborted!" and 1. Raised inside code run from a string, as it is when it lands in a
+    dataclass's, a namedtuple's or numba's generated code, it made ``python -m keepaway`` end with -SIGINT
+    (keepaway/__main__.py)."""
+    (tmp_path / "sitecustomize.py").write_text(INTERRUPT_IN_GENERATED_CODE)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tmp_path), *sys.path])}
+    proc = processes.popen(keepaway_command("keys", str(tmp_path / "keys")), stdout=subprocess.PIPE,
+                           stderr=subprocess.PIPE, env=env)
+    _, err_bytes = proc.communicate(timeout=QUICK_S)
+    err = err_bytes.decode()
+    assert proc.returncode == 130, err
+    assert err.strip() == "keepaway keys: interrupted"
+    assert not (tmp_path / "keys").exists()

@@ -103,7 +103,7 @@ def _report(run: Any) -> None:
 
 
 def _run(what: Callable[..., Any], exp: Any, where: Placement, out: Path, no_progress: bool) -> Any:
-    from runner.launch import ArenaFailure, interrupt_on_sigterm
+    from runner.launch import EXIT_INTERRUPTED, ArenaFailure, interrupt_on_sigterm
     from trainer.train_cli import prepare_kernels
 
     interrupt_on_sigterm()
@@ -118,7 +118,7 @@ def _run(what: Callable[..., Any], exp: Any, where: Placement, out: Path, no_pro
         sys.exit(1)
     except KeyboardInterrupt:
         click.echo(f"keepaway experiment: interrupted; run the same command again to continue in {out}", err=True)
-        sys.exit(130)
+        sys.exit(EXIT_INTERRUPTED)
 
 
 @click.group("experiment")

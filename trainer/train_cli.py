@@ -109,7 +109,7 @@ def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, s
     from agents.policy_file import getopen_theta_size
     from trainer.cem import CEMConfig
     from trainer.schedule import parse_schedule, training_schedule
-    from runner.launch import ArenaFailure, interrupt_on_sigterm
+    from runner.launch import EXIT_INTERRUPTED, ArenaFailure, interrupt_on_sigterm
     from trainer.train import TrainConfig, hive_mind_sarsa, load_checkpoint, read_config, train
 
     ctx = click.get_current_context()
@@ -154,7 +154,7 @@ def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, s
         sys.exit(1)
     except KeyboardInterrupt:
         click.echo(f"keepaway train: interrupted; continue with --resume {resume or out}", err=True)
-        sys.exit(130)
+        sys.exit(EXIT_INTERRUPTED)
     from runner.report import format_hold
     from trainer.curves import stderr_basis
 
@@ -205,7 +205,7 @@ def evaluate_command(policy_path: Path, episodes: int, seed: int, pass_policy: s
     from protocol.params import parameter_set as make_params
     from runner.backends import open_backend
     from runner.job import Behaviours, Game
-    from runner.launch import ArenaFailure, interrupt_on_sigterm
+    from runner.launch import EXIT_INTERRUPTED, ArenaFailure, interrupt_on_sigterm
     from runner.report import dump_json, summary_table
 
     where = placement(mode, attach, backend, ray_address, threads, keys)
@@ -253,7 +253,7 @@ def evaluate_command(policy_path: Path, episodes: int, seed: int, pass_policy: s
         sys.exit(1)
     except KeyboardInterrupt:
         click.echo("keepaway evaluate: interrupted; every arena was stopped", err=True)
-        sys.exit(130)
+        sys.exit(EXIT_INTERRUPTED)
     if as_json:
         click.echo(dump_json(results[0] if len(results) == 1 else results))
 
