@@ -36,8 +36,10 @@ STAGES = ((SERVER, PLAYERS), (BATCHED,))
 # evening, numba 0.68, each set alone on a fresh cache and the batched set as the second stage of a
 # fresh clone's compile, loading the other two sets' kernels; the batched set again on 2026-11-28, after
 # its loop's phases were compiled into run_chunk; an earlier measurement on this machine was about two
-# thirds of these, so its speed varies): only for telling the user roughly how long the first run waits.
-COMPILE_S = {SERVER: 59.0, PLAYERS: 133.0, BATCHED: 36.0}
+# thirds of these, so its speed varies; the players' and the batched set's raised to a fresh clone's
+# compile on 2026-11-28 at 7108306, late at a slow hour: the first stage 232 s wall, the batched set 72 s,
+# so that the estimate errs long): only for telling the user roughly how long the first run waits.
+COMPILE_S = {SERVER: 59.0, PLAYERS: 232.0, BATCHED: 72.0}
 
 
 class CompileError(RuntimeError):

@@ -258,11 +258,19 @@ def processes(request, tmp_path_factory):
         group.cleanup()
 
 
-@pytest.fixture(scope="session", autouse=True)
-def compiled_kernels(tmp_path_factory):
+def pytest_sessionstart(session: pytest.Session) -> None:
     """Every numba kernel set compiled into the cache once, before any test starts processes: otherwise
     the first tests' server and five players would each compile the same kernels at once (``keepaway
-    compile``; a no-op when this source's cache is already warm)."""
-    from runner.kernels import KERNEL_SETS, ensure_compiled
+    compile``; a no-op when this source's cache is already warm, as it is in every xdist worker, which the
+    controller starts after this). Here and not in a fixture: a fixture's setup counts against the first
+    test's timeout (pyproject's ``timeout``), and a clean checkout's cold compile takes 3-6 minutes on the
+    2-core machine (a fresh clone's CI run had every test fail with the compile cut off at 300 s)."""
+    if session.config.option.collectonly:
+        return
+    from runner.kernels import KERNEL_SETS, CompileError, ensure_compiled
 
-    ensure_compiled(KERNEL_SETS, log_dir=tmp_path_factory.mktemp("compile"))
+    reporter = session.config.pluginmanager.get_plugin("terminalreporter")
+    try:
+        ensure_compiled(KERNEL_SETS, announce=None if reporter is None else reporter.write_line)
+    except CompileError as exc:
+        pytest.exit(str(exc), returncode=pytest.ExitCode.INTERNAL_ERROR)
