@@ -27,19 +27,23 @@ import numpy as np
 
 from runner.launch import die_with_parent, keepaway_argv
 
-SERVER, PLAYERS, BATCHED = "server", "players", "batched"
-KERNEL_SETS = (SERVER, PLAYERS, BATCHED)
-# Sets compiled side by side first, then the rest (the batched loop calls into the other two sets'
-# kernels, which it then loads instead of compiling them again).
-STAGES = ((SERVER, PLAYERS), (BATCHED,))
+# The players' kernels are two sets, their percepts' and their decisions' (agents.player.compile_kernels'
+# halves), which share few kernels: compiled in two processes, they take about half the time.
+SERVER, PERCEPTS, DECISIONS, BATCHED = "server", "percepts", "decisions", "batched"
+PLAYER_SETS = (PERCEPTS, DECISIONS)
+KERNEL_SETS = (SERVER, *PLAYER_SETS, BATCHED)
+# Sets compiled side by side first, then the rest (the batched loop calls into the other sets' kernels,
+# which it then loads instead of compiling them again).
+STAGES = ((SERVER, *PLAYER_SETS), (BATCHED,))
 # CPU-seconds each set takes to compile on the project's 2-core machine (measured 2026-11-27 in the
 # evening, numba 0.68, each set alone on a fresh cache and the batched set as the second stage of a
 # fresh clone's compile, loading the other two sets' kernels; the batched set again on 2026-11-28, after
 # its loop's phases were compiled into run_chunk; an earlier measurement on this machine was about two
-# thirds of these, so its speed varies; the players' and the batched set's raised to a fresh clone's
-# compile on 2026-11-28 at 7108306, late at a slow hour: the first stage 232 s wall, the batched set 72 s,
-# so that the estimate errs long): only for telling the user roughly how long the first run waits.
-COMPILE_S = {SERVER: 59.0, PLAYERS: 232.0, BATCHED: 72.0}
+# thirds of these, so its speed varies; the batched set's raised to a fresh clone's compile on
+# 2026-11-28 at 7108306, late at a slow hour, 72 s; the players' two sets, each alone beside the other, on
+# 2026-11-29: 92 and 115 s, where the players' kernels took 209 s in one process): only for telling the
+# user roughly how long the first run waits.
+COMPILE_S = {SERVER: 59.0, PERCEPTS: 92.0, DECISIONS: 115.0, BATCHED: 72.0}
 
 
 class CompileError(RuntimeError):
@@ -54,10 +58,10 @@ def compile_set(kernel_set: str) -> float:
         from server.game_log import compile_kernels
 
         compile_kernels(parameter_set("classic"), 3, 2)
-    elif kernel_set == PLAYERS:
+    elif kernel_set in PLAYER_SETS:
         from agents.player import compile_kernels
 
-        compile_kernels()
+        compile_kernels(percepts=kernel_set == PERCEPTS, decisions=kernel_set == DECISIONS)
     elif kernel_set == BATCHED:
         _compile_batched()
     else:
@@ -88,7 +92,7 @@ def _compile_batched() -> None:
 def kernel_sets(mode: str) -> tuple[str, ...]:
     """The kernel sets that the arenas of ``mode`` use where they run: the batched loop, or the server's
     and the players' (in their processes or, embedded, in this one)."""
-    return (BATCHED,) if mode == "batched" else (SERVER, PLAYERS)
+    return (BATCHED,) if mode == "batched" else (SERVER, *PLAYER_SETS)
 
 
 def missing(kernel_sets: Sequence[str]) -> list[str]:
@@ -98,13 +102,14 @@ def missing(kernel_sets: Sequence[str]) -> list[str]:
 
 
 def estimate_s(kernel_sets: Sequence[str]) -> float:
-    """Rough wall-clock seconds to compile ``kernel_sets`` as :func:`ensure_compiled` does."""
-    parallel = (os.cpu_count() or 1) >= 2
+    """Rough wall-clock seconds to compile ``kernel_sets`` as :func:`ensure_compiled` does: a stage's
+    processes share the cores, and none ends before its own set is compiled."""
+    cores = os.cpu_count() or 1
     total = 0.0
     for stage in STAGES:
         costs = [COMPILE_S[s] for s in stage if s in kernel_sets]
         if costs:
-            total += max(costs) if parallel else sum(costs)
+            total += max(max(costs), sum(costs) / cores)
     return total
 
 
