@@ -35,14 +35,11 @@ KERNEL_SETS = (SERVER, *PLAYER_SETS, BATCHED)
 # Sets compiled side by side first, then the rest (the batched loop calls into the other sets' kernels,
 # which it then loads instead of compiling them again).
 STAGES = ((SERVER, *PLAYER_SETS), (BATCHED,))
-# CPU-seconds each set takes to compile on the project's 2-core machine (measured 2026-11-27 in the
-# evening, numba 0.68, each set alone on a fresh cache and the batched set as the second stage of a
-# fresh clone's compile, loading the other two sets' kernels; the batched set again on 2026-11-28, after
-# its loop's phases were compiled into run_chunk; an earlier measurement on this machine was about two
-# thirds of these, so its speed varies; the batched set's raised to a fresh clone's compile on
-# 2026-11-28 at 7108306, late at a slow hour, 72 s; the players' two sets, each alone beside the other, on
-# 2026-11-29: 92 and 115 s, where the players' kernels took 209 s in one process): only for telling the
-# user roughly how long the first run waits.
+# Seconds each set takes to compile on the project's 2-core machine, the players' two sets side by side
+# (2026-11-29: percepts 92 s, decisions 115 s, where the players' kernels took 209 s in one process; the
+# batched set 72 s after them in a fresh clone's compile on 2026-11-28; the server's 59 s on 2026-11-27,
+# alone). The machine's speed varies by half, so these are only for telling the user roughly how long the
+# first run waits.
 COMPILE_S = {SERVER: 59.0, PERCEPTS: 92.0, DECISIONS: 115.0, BATCHED: 72.0}
 
 
