@@ -1,5 +1,6 @@
 """What the layers above share below the protocol: the numba set-up (``core.jit``), lazy package
-exports (``core.exports``) and the rate-limited log the server and the coach both keep (``core.log_limit``).
+exports (``core.exports``), the rate-limited log the server and the coach both keep (``core.log_limit``) and
+the exit code of an interrupted command (``core.exits``).
 
 A leaf: it imports nothing of the project, so ``server``, ``agents``, ``runner`` and ``trainer`` can all
 build on it.

@@ -11,9 +11,9 @@ through ``Py_Exit`` without that check. An empty string run after the command cl
 string run resets when it starts; a KeyboardInterrupt that the command itself lets out sets it again.
 """
 
-from keepaway.cli import main
-
 try:
+    from keepaway.cli import main  # inside: a Ctrl-C while the commands load also ends through the flag's reset
+
     main()
 finally:
     exec("")  # noqa: S102 -- clears CPython's flag of a KeyboardInterrupt left by code run from a string

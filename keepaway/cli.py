@@ -6,6 +6,8 @@ import sys
 
 import click
 
+from core.exits import EXIT_INTERRUPTED
+
 
 class _Keepaway(click.Group):
     """The group, with one answer to an interrupt that no command took itself (say, during a command's
@@ -17,8 +19,6 @@ class _Keepaway(click.Group):
         try:
             return super().invoke(ctx)
         except KeyboardInterrupt:
-            from runner.launch import EXIT_INTERRUPTED
-
             name = f"keepaway {ctx.invoked_subcommand}" if ctx.invoked_subcommand else "keepaway"
             click.echo(f"{name}: interrupted", err=True)
             sys.exit(EXIT_INTERRUPTED)
@@ -45,4 +45,8 @@ def _register() -> None:
         main.add_command(command)
 
 
-_register()
+try:
+    _register()
+except KeyboardInterrupt:  # Ctrl-C while the commands' modules load, the command line's first half-second
+    click.echo("keepaway: interrupted", err=True)
+    sys.exit(EXIT_INTERRUPTED)

@@ -160,7 +160,8 @@ def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str,
     from protocol.params import parameter_set as make_params
     from runner.embedded import ArenaSpec
     from runner.kernels import CompileError
-    from runner.launch import EXIT_INTERRUPTED, ArenaFailure, interrupt_on_sigterm
+    from core.exits import EXIT_INTERRUPTED
+    from runner.launch import ArenaFailure, interrupt_on_sigterm
     from runner.report import dump_json, summary_table
     from runner.run import RunOptions, RunStopped, run
 

@@ -323,11 +323,6 @@ def _forked_player(name: str, args: list[str], log: str, environ: dict[str, str]
     player_command.main(args=args, prog_name="keepaway player")
 
 
-# The exit code of a command stopped by Ctrl-C or SIGTERM (which interrupt_on_sigterm makes alike): 128 +
-# SIGINT, as a shell reports a process that SIGINT ended.
-EXIT_INTERRUPTED = 130
-
-
 def interrupt_on_sigterm() -> None:
     """Treat SIGTERM like Ctrl-C (KeyboardInterrupt), so a terminated run or training stops its arenas
     and keeps what it has written."""

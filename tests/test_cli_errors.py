@@ -293,3 +293,28 @@ def test_an_interrupt_at_a_commands_start_up_exits_130_in_one_line_however_it_wa
     assert proc.returncode == 130, err
     assert err.strip() == "keepaway keys: interrupted"
     assert not (tmp_path / "keys").exists()
+
+
+INTERRUPT_WHILE_COMMANDS_LOAD = '''
+import sys
+class InterruptAnImport:
+    def find_spec(self, name, path=None, target=None):
+        if name == "viewer.cli":  # as Ctrl-C lands while keepaway.cli imports the commands' modules
+            exec("raise KeyboardInterrupt")
+        return None
+sys.meta_path.insert(0, InterruptAnImport())
+'''
+
+
+def test_an_interrupt_while_the_command_line_loads_its_commands_exits_130_in_one_line(processes, tmp_path):
+    """Ctrl-C in the command line's first half-second, while ``keepaway.cli`` imports every command's
+    module and no command runs yet: one line and exit 130, not Python's traceback."""
+    (tmp_path / "sitecustomize.py").write_text(INTERRUPT_WHILE_COMMANDS_LOAD)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tmp_path), *sys.path])}
+    proc = processes.popen(keepaway_command("keys", str(tmp_path / "keys")), stdout=subprocess.PIPE,
+                           stderr=subprocess.PIPE, env=env)
+    _, err_bytes = proc.communicate(timeout=QUICK_S)
+    err = err_bytes.decode()
+    assert proc.returncode == 130, err
+    assert err.strip() == "keepaway: interrupted"
+    assert not (tmp_path / "keys").exists()

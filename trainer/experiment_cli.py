@@ -103,7 +103,8 @@ def _report(run: Any) -> None:
 
 
 def _run(what: Callable[..., Any], exp: Any, where: Placement, out: Path, no_progress: bool) -> Any:
-    from runner.launch import EXIT_INTERRUPTED, ArenaFailure, interrupt_on_sigterm
+    from core.exits import EXIT_INTERRUPTED
+    from runner.launch import ArenaFailure, interrupt_on_sigterm
     from trainer.train_cli import prepare_kernels
 
     interrupt_on_sigterm()

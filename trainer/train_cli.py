@@ -109,7 +109,8 @@ def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, s
     from agents.policy_file import getopen_theta_size
     from trainer.cem import CEMConfig
     from trainer.schedule import parse_schedule, training_schedule
-    from runner.launch import EXIT_INTERRUPTED, ArenaFailure, interrupt_on_sigterm
+    from core.exits import EXIT_INTERRUPTED
+    from runner.launch import ArenaFailure, interrupt_on_sigterm
     from trainer.train import TrainConfig, hive_mind_sarsa, load_checkpoint, read_config, train
 
     ctx = click.get_current_context()
@@ -205,7 +206,8 @@ def evaluate_command(policy_path: Path, episodes: int, seed: int, pass_policy: s
     from protocol.params import parameter_set as make_params
     from runner.backends import open_backend
     from runner.job import Behaviours, Game
-    from runner.launch import EXIT_INTERRUPTED, ArenaFailure, interrupt_on_sigterm
+    from core.exits import EXIT_INTERRUPTED
+    from runner.launch import ArenaFailure, interrupt_on_sigterm
     from runner.report import dump_json, summary_table
 
     where = placement(mode, attach, backend, ray_address, threads, keys)
