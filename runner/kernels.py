@@ -35,12 +35,11 @@ KERNEL_SETS = (SERVER, *PLAYER_SETS, BATCHED)
 # Sets compiled side by side first, then the rest (the batched loop calls into the other sets' kernels,
 # which it then loads instead of compiling them again).
 STAGES = ((SERVER, *PLAYER_SETS), (BATCHED,))
-# Seconds each set takes to compile on the project's 2-core machine, the players' two sets side by side
-# (2026-11-29: percepts 92 s, decisions 115 s, where the players' kernels took 209 s in one process; the
-# batched set 72 s after them in a fresh clone's compile on 2026-11-28; the server's 59 s on 2026-11-27,
-# alone). The machine's speed varies by half, so these are only for telling the user roughly how long the
-# first run waits.
-COMPILE_S = {SERVER: 59.0, PERCEPTS: 92.0, DECISIONS: 115.0, BATCHED: 72.0}
+# Seconds each set takes to compile on the project's 2-core machine: the four compiled one after another in
+# one process on 2026-11-29, each loading what the sets before it had compiled (a fresh `keepaway compile`
+# that hour, the first three side by side: 124 s, then the batched set 33 s). The machine's speed varies by
+# half, so these are only for telling the user roughly how long the first run waits.
+COMPILE_S = {SERVER: 72.0, PERCEPTS: 58.0, DECISIONS: 91.0, BATCHED: 30.0}
 
 
 class CompileError(RuntimeError):
