@@ -950,8 +950,15 @@ def close_intercept(bel: Belief, r: int, kp, cfg) -> tuple:
     return False, CMD_DASH, 0.0
 
 
+UNKNOWN_FIRST = np.int64(-1)
+"""``known_first`` of :func:`interception_point` and :func:`intercept` when my first reachable cycle is not
+known. An int64, not the literal -1 nor a default: numba compiles a kernel again for each literal type it
+is given and for an omitted argument, so the takers' calls, which pass this, and the keepers', which pass
+a computed cycle, share one compiled ``intercept`` (docs/design.md, "Row 0 as an int64")."""
+
+
 @borrowing
-def interception_point(bel: Belief, r: int, mem: AgentMemory, sums, kp, cfg, known_first: int = -1) -> tuple:
+def interception_point(bel: Belief, r: int, mem: AgentMemory, sums, kp, cfg, known_first: int) -> tuple:
     """(i, x, y): the cycle and ball position at which I intercept (spec 2.1 step 2); (-1, the ball's
     position ``no_intercept_cycles`` ahead) if none within the horizon. First reachable i by default; the
     stability rule prefers a reachable i (at most 2 cycles after the first) whose ball position is within
@@ -961,7 +968,7 @@ def interception_point(bel: Belief, r: int, mem: AgentMemory, sums, kp, cfg, kno
     point's distance after its moves is simulated only where the rule's other tests hold.)
     ``known_first`` >= 0: my first reachable cycle with the ball rolling is known (a keeper's
     ``fastest_to_ball`` found it), so the travel simulations before it are skipped, and at it too unless the
-    stability rule needs my distance there; -1: unknown."""
+    stability rule needs my distance there; -1 (:data:`UNKNOWN_FIRST`): unknown."""
     me = bel.me[r]
     px, py, vx, vy = bel.pos[r, me, 0], bel.pos[r, me, 1], bel.vel[r, me, 0], bel.vel[r, me, 1]
     fx, fy = final_position(px, py, vx, vy, kp.player_decay)
@@ -1014,7 +1021,7 @@ def interception_point(bel: Belief, r: int, mem: AgentMemory, sums, kp, cfg, kno
 
 
 @borrowing
-def intercept(bel: Belief, r: int, mem: AgentMemory, sums, kp, cfg, known_first: int = -1) -> tuple:
+def intercept(bel: Belief, r: int, mem: AgentMemory, sums, kp, cfg, known_first: int) -> tuple:
     """Intercept / GoToBall (spec 2.1 step 3): the close intercept when the chosen point is < 3 cycles
     away and one exists; no move when my position rolled out min(i, 4) cycles is already within 0.5 m of
     the point (the framework then turns to its global 0 deg, ``forward_angle``, a quirk kept); else move

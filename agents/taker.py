@@ -20,6 +20,7 @@ from agents.belief import AgentMemory, Belief
 from agents.geometry import compared_hypot, distance, in_cone
 from agents.getopen import move_to_spot
 from agents.skills import (
+    UNKNOWN_FIRST,
     ball_kickable,
     closest_to_ball,
     fastest_to_ball,
@@ -114,6 +115,6 @@ def taker_decide(bel: Belief, r: int, mem: AgentMemory, sums, kp, cfg, out_main,
             code, a1, a2 = turn_to_point(bel, r, bel.pos[r, 0, 0], bel.pos[r, 0, 1], 1.0, kp)
             write_action(r, code, a1, a2, neck_with_body(bel, r), out_main, out_a1, out_a2, out_neck)
             return
-        code, a1, a2 = intercept(bel, r, mem, sums, kp, cfg)
+        code, a1, a2 = intercept(bel, r, mem, sums, kp, cfg, UNKNOWN_FIRST)
     write_action(r, code, a1, a2, neck_to_ball(bel, r, code, a1, kp), out_main, out_a1, out_a2, out_neck)
 

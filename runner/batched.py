@@ -264,9 +264,11 @@ def perceive(b: int, obs: int, row: int, w: World, with_see: bool, episode_messa
     p = obs - 1
     cycle = w.time[b]
     sense_body_arena(b, w, obs, body_out)
+    # an int64 head angle, as a player process passes it: one compiled sense_body_row for both (numba compiles
+    # a kernel again for each new argument type; docs/design.md, "Row 0 as an int64")
     sense_body_row(row, pl.model, cycle, body_out.speed[b, p], float(body_out.speed_dir[b, p]),
-                   body_out.head_angle[b, p], body_out.stamina[b, p], body_out.effort[b, p], w.n_keepers, kp,
-                   cfg)
+                   np.int64(body_out.head_angle[b, p]), body_out.stamina[b, p], body_out.effort[b, p], w.n_keepers,
+                   kp, cfg)
     if episode_message:
         forget_row(row, pl.model)
         forget_episode(pl.memory, row)
@@ -287,7 +289,7 @@ def learn_pass(learner: int, obs: int, row: int, kp, cfg, pl: Players, sarsa: Sa
     if out.decision[row] == PASS_DECISION_START:
         action = start_episode(sarsa, r, out.pass_state[row], sp)
     else:
-        reward = pl.belief.time[row] - pl.memory.t_last[row]
+        reward = float(pl.belief.time[row] - pl.memory.t_last[row])  # float64, as a player process's learner
         action = sarsa_step(sarsa, r, reward, out.pass_state[row], sp)
     execute_pass_action(pl.belief, row, pl.memory, action, kp, cfg, out.main, out.arg1, out.arg2, out.neck)
 
@@ -300,7 +302,7 @@ def end_pass_episodes(b: int, learner: int, w: World, pl: Players, sarsa: SarsaM
     `keepaway-agents.md` 1 step 1, 5); ``end_episode`` skips keepers that never had the ball."""
     for p in range(w.n_keepers):
         row = b * (w.pos.shape[1] - 1) + p
-        end_episode(sarsa, learner + p, w.time[b] - pl.memory.t_last[row], sp)
+        end_episode(sarsa, learner + p, float(w.time[b] - pl.memory.t_last[row]), sp)
 
 
 @borrowing(inline="always")
@@ -319,7 +321,7 @@ def decide(b: int, obs: int, row: int, w: World, c: Commands, theta: np.ndarray,
                                    cfg, obs <= w.n_keepers, out.main, out.arg1, out.arg2, out.neck, out.pass_state)
     if out.decision[row] != NO_PASS_DECISION and int(cfg.pass_policy) == PASS_EXTERNAL:
         learn_pass(learner, obs, row, kp, cfg, pl, sarsa, sp)
-    code = out.main[row]
+    code = np.int64(out.main[row])  # int64, as a player process's think passes it on to its say
     c.main[b, obs] = CMD_NONE  # the slots as the server's step leaves them (the batched step keeps them)
     c.arg1[b, obs] = 0.0
     c.arg2[b, obs] = 0.0

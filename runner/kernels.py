@@ -37,9 +37,9 @@ KERNEL_SETS = (SERVER, *PLAYER_SETS, BATCHED)
 STAGES = ((SERVER, *PLAYER_SETS), (BATCHED,))
 # Seconds each set takes to compile on the project's 2-core machine: the four compiled one after another in
 # one process on 2026-11-29, each loading what the sets before it had compiled (a fresh `keepaway compile`
-# that hour, the first three side by side: 124 s, then the batched set 33 s). The machine's speed varies by
+# that hour, the first three side by side: 120 s, then the batched set 23 s). The machine's speed varies by
 # half, so these are only for telling the user roughly how long the first run waits.
-COMPILE_S = {SERVER: 72.0, PERCEPTS: 58.0, DECISIONS: 91.0, BATCHED: 30.0}
+COMPILE_S = {SERVER: 72.0, PERCEPTS: 56.0, DECISIONS: 82.0, BATCHED: 22.0}
 
 
 class CompileError(RuntimeError):

@@ -179,3 +179,39 @@ def test_a_borrowing_kernel_counts_no_references_and_may_call_an_allocating_one(
     counted_ir = _function_body(counted.inspect_llvm(counted.signatures[0]), "_switching_walk")
     assert "NRT_incref" in counted_ir and "NRT_decref" in counted_ir
     assert "NRT_incref" not in borrowed_ir and "NRT_decref" not in borrowed_ir
+
+
+# The decision tree below a player's think, which the batched mode's loop calls too: each compiled once.
+SHARED_KERNELS = ("agents.keeper.keeper_decide", "agents.taker.taker_decide", "agents.skills.intercept",
+                  "agents.skills.interception_point", "agents.say.say_row", "agents.say.hear_row",
+                  "agents.worldmodel.sense_body_row", "agents.worldmodel.see_row",
+                  "agents.worldmodel.write_belief_row", "agents.think.finish_row",
+                  "agents.command_wire.write_command", "agents.sarsa.step", "agents.sarsa.end_episode")
+
+
+def cached_signatures(dotted: str) -> list[tuple]:
+    """The argument types of every machine-code version of kernel ``dotted`` in this source's cache."""
+    import importlib
+
+    from core.jit import configure_cache
+
+    configure_cache()
+    module, name = dotted.rsplit(".", 1)
+    kernel = getattr(importlib.import_module(module), name)
+    return [key[0] for key in kernel._cache._cache_file._load_index()]  # numba's index: (signature, ...) keys
+
+
+def test_the_players_kernels_are_compiled_for_no_literal_argument():
+    """A constant passed from one kernel to another (a player's row 0, an omitted optional argument) is a
+    type of its own to numba, and compiling a kernel for it compiles every kernel below it again, apart from
+    the batched mode's int64 rows (docs/design.md, "Row 0 as an int64": a fresh compile took 3 min 50 s
+    where it now takes 2 min 24 s). After the session's compile (conftest) no version of the shared
+    kernels takes a literal or an omitted argument; Python's own calls never make either."""
+    import numba
+
+    for dotted in SHARED_KERNELS:
+        signatures = cached_signatures(dotted)
+        assert signatures, f"{dotted} is not in the cache"
+        for signature in signatures:
+            odd = [str(t) for t in signature if isinstance(t, (numba.types.Literal, numba.types.Omitted))]
+            assert not odd, f"{dotted} compiled for {', '.join(odd)}"

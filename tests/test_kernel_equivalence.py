@@ -32,8 +32,8 @@ from agents.getopen import (TANH_ESTIMATE_ERROR, grid_point, grid_size, handcode
 from agents.sarsa import (EMPTY_SLOT, INDEX_INCREMENT, CHECK_INCREMENT, MAX_LONG_INT, SarsaConfig,
                           load_policy_arrays, load_tiles, new_memory as new_sarsa_memory, policy_arrays, quantize,
                           tiling_coordinate, unh_hash)
-from agents.skills import (AgentConfig, _longest_run, closest_to_ball, decay_sums, fastest_to_ball, interception_point,
-                           travel)
+from agents.skills import (UNKNOWN_FIRST, AgentConfig, _longest_run, closest_to_ball, decay_sums, fastest_to_ball,
+                           interception_point, travel)
 from agents.state_vars import (ESTIMATE_ANGLE_ERROR, ESTIMATE_DISTANCE_ERROR, getopen_point_estimate,
                                getopen_point_state, getopen_setup, getopen_state, pass_state, vertex_scratch)
 from agents.worldmodel import ModelState, SeeBuffer, localise_row, whole_degree_table
@@ -444,7 +444,7 @@ def _check_interception(bel, r: int, last_point, last_time: int, kp=KP) -> None:
                                   last_time if last_point is not None else -1, kp, CFG)
     one = belief_from_truth(bel.pos[r], bel.vel[r], bel.body[r], bel.neck[r], me, time, K, T, bel.effort[r])
     one.conf[0] = bel.conf[r]
-    got = interception_point(one, 0, _memory(last_point, last_time), decay_sums(kp, CFG), kp, CFG)
+    got = interception_point(one, 0, _memory(last_point, last_time), decay_sums(kp, CFG), kp, CFG, UNKNOWN_FIRST)
     assert got == ref
 
 
@@ -619,7 +619,7 @@ def test_every_belief_of_a_batched_game_decides_as_the_reference():
                     one = belief_from_truth(bel.pos[r], bel.vel[r], bel.body[r], bel.neck[r], me, bel.time[r],
                                             K, T, bel.effort[r])
                     assert (interception_point(one, 0, hint, SUMS, KP, CFG, fastest[1])
-                            == interception_point(one, 0, plain, SUMS, KP, CFG))
+                            == interception_point(one, 0, plain, SUMS, KP, CFG, UNKNOWN_FIRST))
                     assert np.array_equal(hint.intercept_point, plain.intercept_point)
                 hinted += 1
     assert checked > 300 and hinted > 40  # the game gave the kernels something to decide (400 and 80)

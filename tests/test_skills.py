@@ -20,6 +20,7 @@ from agents.geometry import (
     vertex_angle_below,
 )
 from agents.skills import (
+    UNKNOWN_FIRST,
     AgentConfig,
     _longest_run,
     close_intercept,
@@ -223,11 +224,11 @@ def test_interception_point_of_a_ball_rolling_towards_me():
     bel = belief([[-10.0, 0.0], [0.0, 0.0], [9.0, 0.0], [0.0, 9.0]] + FAR_TAKERS, 1,
                  vel=[[1.5, 0.0], [0, 0], [0, 0], [0, 0], [0, 0], [0, 0]], body=[0, 180, 0, 0, 0, 0])
     mem = new_memory(1, seed_streams(0, 1))
-    i, x, y = interception_point(bel, 0, mem, SUMS, KP, CFG)
+    i, x, y = interception_point(bel, 0, mem, SUMS, KP, CFG, UNKNOWN_FIRST)
     assert i == 5
     assert (x, y) == pytest.approx((-10.0 + 25.0 * (1.0 - 0.94**5), 0.0))
     # far from it (i >= 3): move there, a full dash since 3.35 m in 5 cycles needs more than 1.2 m/cycle
-    assert intercept(bel, 0, new_memory(1, seed_streams(0, 1)), SUMS, KP, CFG) == (CMD_DASH, 100.0, 0.0)
+    assert intercept(bel, 0, new_memory(1, seed_streams(0, 1)), SUMS, KP, CFG, UNKNOWN_FIRST) == (CMD_DASH, 100.0, 0.0)
 
 
 def test_fastest_keeper_to_a_rolling_ball():
@@ -293,14 +294,15 @@ def test_a_player_stuck_dashing_backwards_turns_round():
     commands = []
     for t in range(32):
         bel = belief_from_truth(pos, np.zeros_like(pos), np.zeros(6), np.zeros(6), 1, t, 3, 2)
-        commands.append(intercept(bel, 0, mem, sums, current, CFG))
+        commands.append(intercept(bel, 0, mem, sums, current, CFG, UNKNOWN_FIRST))
     assert commands[:30] == [(CMD_DASH, -100.0, 0.0)] * 30
     assert commands[30] == (CMD_TURN, 180.0, 0.0)
     assert commands[31] == (CMD_DASH, -100.0, 0.0) and mem.stuck_dashes[0] == 1
     # moving resets the count
     vel = np.zeros_like(pos)
     vel[1] = (0.05, 0.0)
-    intercept(belief_from_truth(pos, vel, np.zeros(6), np.zeros(6), 1, 32, 3, 2), 0, mem, sums, current, CFG)
+    intercept(belief_from_truth(pos, vel, np.zeros(6), np.zeros(6), 1, 32, 3, 2), 0, mem, sums, current, CFG,
+              UNKNOWN_FIRST)
     assert mem.stuck_dashes[0] == 0
 
 
@@ -329,7 +331,7 @@ def _run_intercept(ball_pos, ball_vel, me_pos, me_body, cycles):
         if math.dist(pos[0], pos[1]) < KP.player_size + KP.kickable_margin + KP.ball_size:
             return t
         bel = belief_from_truth(pos, vel, body, np.zeros(6), 1, t, 3, 2)
-        code, a1, _ = intercept(bel, 0, mem, SUMS, KP, CFG)
+        code, a1, _ = intercept(bel, 0, mem, SUMS, KP, CFG, UNKNOWN_FIRST)
         x, y, vx, vy, b = player_step(pos[1, 0], pos[1, 1], vel[1, 0], vel[1, 1], body[1], 1.0, code, a1, KP)
         pos[1], vel[1], body[1] = (x, y), (vx, vy), b
         pos[0] += vel[0]
