@@ -279,22 +279,6 @@ click.Command.invoke = invoke
 '''
 
 
-def test_an_interrupt_at_a_commands_start_up_exits_130_in_one_line_however_it_was_raised(processes, tmp_path):
-    """Ctrl-C before a command catches it itself (its imports, its kernels' loads): one line and exit 130,
-    not click's "Aborted!" and 1. Raised inside code run from a string, as it is when it lands in a
-    dataclass's, a namedtuple's or numba's generated code, it made ``python -m keepaway`` end with -SIGINT
-    (keepaway/__main__.py)."""
-    (tmp_path / "sitecustomize.py").write_text(INTERRUPT_IN_GENERATED_CODE)
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tmp_path), *sys.path])}
-    proc = processes.popen(keepaway_command("keys", str(tmp_path / "keys")), stdout=subprocess.PIPE,
-                           stderr=subprocess.PIPE, env=env)
-    _, err_bytes = proc.communicate(timeout=QUICK_S)
-    err = err_bytes.decode()
-    assert proc.returncode == 130, err
-    assert err.strip() == "keepaway keys: interrupted"
-    assert not (tmp_path / "keys").exists()
-
-
 INTERRUPT_WHILE_COMMANDS_LOAD = '''
 import sys
 class InterruptAnImport:
@@ -306,15 +290,22 @@ sys.meta_path.insert(0, InterruptAnImport())
 '''
 
 
-def test_an_interrupt_while_the_command_line_loads_its_commands_exits_130_in_one_line(processes, tmp_path):
-    """Ctrl-C in the command line's first half-second, while ``keepaway.cli`` imports every command's
-    module and no command runs yet: one line and exit 130, not Python's traceback."""
-    (tmp_path / "sitecustomize.py").write_text(INTERRUPT_WHILE_COMMANDS_LOAD)
+@pytest.mark.parametrize("sitecustomize, line", [
+    (INTERRUPT_IN_GENERATED_CODE, "keepaway keys: interrupted"),
+    (INTERRUPT_WHILE_COMMANDS_LOAD, "keepaway: interrupted"),
+], ids=["at-the-commands-start", "while-the-commands-load"])
+def test_an_interrupt_before_a_command_catches_it_exits_130_in_one_line(processes, tmp_path, sitecustomize, line):
+    """Ctrl-C before a command catches it itself: one line and exit 130, neither click's "Aborted!" and 1
+    nor Python's traceback. At the command's start (its imports, its kernels' loads), raised inside code
+    run from a string, as it is when it lands in a dataclass's, a namedtuple's or numba's generated code
+    (it made ``python -m keepaway`` end with -SIGINT: keepaway/__main__.py); and earlier, in the command
+    line's first half-second, while ``keepaway.cli`` imports every command's module."""
+    (tmp_path / "sitecustomize.py").write_text(sitecustomize)
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tmp_path), *sys.path])}
     proc = processes.popen(keepaway_command("keys", str(tmp_path / "keys")), stdout=subprocess.PIPE,
                            stderr=subprocess.PIPE, env=env)
     _, err_bytes = proc.communicate(timeout=QUICK_S)
     err = err_bytes.decode()
     assert proc.returncode == 130, err
-    assert err.strip() == "keepaway: interrupted"
+    assert err.strip() == line
     assert not (tmp_path / "keys").exists()
