@@ -82,7 +82,7 @@ def think(cycle: int, hear: bool, model: ModelState, talk: Talk, bel: Belief, me
     if not finish or decision == GETOPEN_DECISION or (decision != NO_PASS_DECISION and not finish_pass):
         return decision, NOT_WRITTEN
     return decision, finish_row(cycle, model, talk, bel.n_keepers, kp, cfg, out_main, out_a1, out_a2, out_neck,
-                                buf, note, np.int64(0))  # no note; an int64 as from Python: one finish_row
+                                buf, note, np.int64(0))  # no note, counted as an int64 as Python counts it
 
 
 __all__ = ["NOT_WRITTEN", "commit_row", "decide_row", "finish_row", "think"]

@@ -114,7 +114,7 @@ ROW_0 = np.int64(0)
 """A player's own row of its model and belief, for the per-process kernels to pass down, as a plain int64:
 numba types a literal ``0`` as ``Literal[int](0)`` and compiles every kernel it reaches again for that
 type, apart from the batched mode's, whose rows are int64 variables; with ``ROW_0`` both share one
-compiled version (docs/design.md, "Compiled kernels")."""
+compiled version (docs/design.md, "Row 0 as an int64")."""
 
 
 class ModelState(NamedTuple):
