@@ -811,7 +811,7 @@ def compile_kernels(percepts: bool = True, decisions: bool = True) -> None:
     """Run every kernel a player uses once, on a synthetic arena, so numba compiles them (or loads them
     from its cache) before a server waits for this player's answers. In two halves, which share few
     kernels, so that two processes compile them side by side in about half the time (runner.kernels;
-    209 s in one process, 92 and 115 s side by side on 2026-11-29): ``percepts``, the percepts taken
+    docs/design.md, "Compiled kernels", has the measurements): ``percepts``, the percepts taken
     (decoded and from their frames), the hears and the Sarsa learner's kernels; ``decisions``, the think
     (from a ``think`` decoded and from its frame, on a model that may have seen nothing: numba compiles
     for the arguments' types, not their values) and the decisions that Python calls outside it."""

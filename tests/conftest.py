@@ -263,8 +263,9 @@ def pytest_sessionstart(session: pytest.Session) -> None:
     the first tests' server and five players would each compile the same kernels at once (``keepaway
     compile``; a no-op when this source's cache is already warm, as it is in every xdist worker, which the
     controller starts after this). Here and not in a fixture: a fixture's setup counts against the first
-    test's timeout (pyproject's ``timeout``), and a clean checkout's cold compile takes 3-6 minutes on the
-    2-core machine (a fresh clone's CI run had every test fail with the compile cut off at 300 s)."""
+    test's timeout (pyproject's ``timeout``), and a clean checkout's cold compile takes minutes on the
+    2-core machine (2.5 now, 5 at a slow hour before the kernels stopped being compiled twice: a fresh
+    clone's CI run then had every test fail with the compile cut off at 300 s)."""
     if session.config.option.collectonly:
         return
     from runner.kernels import KERNEL_SETS, CompileError, ensure_compiled
