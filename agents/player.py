@@ -809,12 +809,12 @@ class PlayerAgent:
 
 def compile_kernels(percepts: bool = True, decisions: bool = True) -> None:
     """Run every kernel a player uses once, on a synthetic arena, so numba compiles them (or loads them
-    from its cache) before a server waits for this player's answers. In two halves, which share few
-    kernels, so that two processes compile them side by side in about half the time (runner.kernels;
-    docs/design.md, "Compiled kernels", has the measurements): ``percepts``, the percepts taken
-    (decoded and from their frames), the hears and the Sarsa learner's kernels; ``decisions``, the think
-    (from a ``think`` decoded and from its frame, on a model that may have seen nothing: numba compiles
-    for the arguments' types, not their values) and the decisions that Python calls outside it."""
+    from its cache) before a server waits for this player's answers. In two halves, so that two processes
+    compile them side by side (runner.kernels; docs/design.md, "Compiled kernels", has the measurements):
+    ``percepts``, the percepts taken (decoded and from their frames), the hears and the Sarsa learner's
+    kernels; ``decisions``, the think (from a ``think`` decoded and from its frame, on a model that may
+    have seen nothing: numba compiles for the arguments' types, not their values) and the decisions that
+    Python calls outside it."""
     from protocol.codec import encode
     from protocol.landmarks import to_wire
     from protocol.params import parameter_set

@@ -950,11 +950,11 @@ def close_intercept(bel: Belief, r: int, kp, cfg) -> tuple:
     return False, CMD_DASH, 0.0
 
 
-UNKNOWN_FIRST = np.int64(-1)
+UNKNOWN_FIRST = -1
 """``known_first`` of :func:`interception_point` and :func:`intercept` when my first reachable cycle is not
-known. An int64, not the literal -1 nor a default: numba compiles a kernel again for each literal type it
-is given and for an omitted argument, so the takers' calls, which pass this, and the keepers', which pass
-a computed cycle, share one compiled ``intercept`` (docs/design.md, "Row 0 as an int64")."""
+known. Passed, not a default: numba compiles a kernel again for an omitted argument, so the takers' calls
+and the keepers', which pass a computed cycle, share one compiled ``intercept`` (docs/design.md, "One
+version per type")."""
 
 
 @borrowing

@@ -21,7 +21,7 @@ from agents.command_wire import write_command
 from agents.keeper import GETOPEN_DECISION, NO_PASS_DECISION, keeper_decide
 from agents.say import Talk, hear_row, say_row
 from agents.taker import taker_decide
-from agents.worldmodel import ROW_0, ModelState, write_belief_row
+from agents.worldmodel import ModelState, write_belief_row
 from core.jit import borrowing
 
 NOT_WRITTEN = -1
@@ -64,8 +64,8 @@ def finish_row(cycle: int, model: ModelState, talk: Talk, n_keepers: int, kp, cf
     ``cycle`` into ``buf`` with the GetOpen note ``note[:noted]``. Returns the frame's length."""
     main = np.int64(out_main[0])
     a1, a2, neck = out_a1[0], out_a2[0], out_neck[0]
-    commit_row(ROW_0, model, main, a1, a2, neck, n_keepers, kp, cfg, talk)
-    return write_command(buf, cycle, main, a1, a2, neck, talk, ROW_0, note, noted)
+    commit_row(0, model, main, a1, a2, neck, n_keepers, kp, cfg, talk)
+    return write_command(buf, cycle, main, a1, a2, neck, talk, 0, note, noted)
 
 
 @borrowing
@@ -77,12 +77,12 @@ def think(cycle: int, hear: bool, model: ModelState, talk: Talk, bel: Belief, me
     decision if ``finish`` is false (the caller adds a note), a Pass decision point if ``finish_pass`` is
     false (an outside decision or a learner in Python), and the GetOpen decision of GETOPEN_EXTERNAL.
     Returns (decision, the frame's length or NOT_WRITTEN)."""
-    decision = decide_row(ROW_0, hear, model, talk, bel, ROW_0, mem, theta, sums, kp, cfg, is_keeper, out_main,
+    decision = decide_row(0, hear, model, talk, bel, 0, mem, theta, sums, kp, cfg, is_keeper, out_main,
                           out_a1, out_a2, out_neck, out_states)
     if not finish or decision == GETOPEN_DECISION or (decision != NO_PASS_DECISION and not finish_pass):
         return decision, NOT_WRITTEN
     return decision, finish_row(cycle, model, talk, bel.n_keepers, kp, cfg, out_main, out_a1, out_a2, out_neck,
-                                buf, note, np.int64(0))  # no note, counted as an int64 as Python counts it
+                                buf, note, 0)  # no note
 
 
 __all__ = ["NOT_WRITTEN", "commit_row", "decide_row", "finish_row", "think"]

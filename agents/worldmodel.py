@@ -110,13 +110,6 @@ def whole_degree_table() -> np.ndarray:
 _WHOLE_DEGREES = whole_degree_table()
 
 
-ROW_0 = np.int64(0)
-"""A player's own row of its model and belief, for the per-process kernels to pass down, as a plain int64:
-numba types a literal ``0`` as ``Literal[int](0)`` and compiles every kernel it reaches again for that
-type, apart from the batched mode's, whose rows are int64 variables; with ``ROW_0`` both share one
-compiled version (docs/design.md, "Row 0 as an int64")."""
-
-
 class ModelState(NamedTuple):
     """The world model of ``B`` players (a row each), updated in place by the kernels."""
 
@@ -842,9 +835,9 @@ def frame_row(buf, end: int, s: ModelState, see: SeeBuffer, flag_pos: np.ndarray
     kind, cycle = decode_frame(buf, end, 0, see, flag_pos.shape[0], values)
     if cycle != exact_cycle:
         if kind == SEE:
-            see_row(ROW_0, s, see, flag_pos, n_keepers, kp, cfg)
+            see_row(0, s, see, flag_pos, n_keepers, kp, cfg)
         elif kind == SENSE_BODY:
-            sense_body_row(ROW_0, s, cycle, values[SPEED_AMOUNT], values[SPEED_DIRECTION], int(values[HEAD_ANGLE]),
+            sense_body_row(0, s, cycle, values[SPEED_AMOUNT], values[SPEED_DIRECTION], int(values[HEAD_ANGLE]),
                            values[STAMINA], values[EFFORT], n_keepers, kp, cfg)
     return kind, cycle
 

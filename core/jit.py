@@ -32,7 +32,8 @@ import numba
 import numba.core.config
 import numpy as np
 from llvmlite import binding as llvm_binding
-from numba import njit as numba_njit
+from numba.core.registry import CPUDispatcher
+from numba.core.types import unliteral
 from numba.core.typing.typeof import Purpose, typeof
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -130,12 +131,43 @@ def mark_warm(kernel_set: str, seconds: float) -> None:
     _marker(kernel_set).write_text(f"{seconds:.1f} s compile, {time.strftime('%Y-%m-%d %H:%M:%S')}\n")
 
 
+class Kernel(CPUDispatcher):
+    """numba's dispatcher, except that a call from another kernel is typed with the arguments' plain types.
+
+    numba types a constant argument (``0``, ``True``, a module's int constant) as a literal, a type of
+    its own, and compiles the callee, and every kernel it calls with that argument, once more for it:
+    the server's kernels called with arena 0, a player's with row 0 or with a flag. Typed as plain ints
+    and bools, such calls share the version that variables and Python's own calls use (docs/design.md,
+    "Compiled kernels"). A kernel that needs a constant argument's value at compile time (to index a
+    heterogeneous tuple, say) cannot be one of these; none here does. An omitted optional argument is
+    still a type of its own (numba's ``Omitted``): callers pass every argument."""
+
+    def get_call_template(self, args, kws):
+        return super().get_call_template(tuple(unliteral(a) for a in args),
+                                         {k: unliteral(v) for k, v in kws.items()})
+
+
+def _kernel(function, options: dict, cache: bool):
+    """``function`` as a :class:`Kernel` in numba's nopython mode (as ``numba.njit`` sets one up), with no
+    C-callable wrapper (``no_cfunc_wrapper``): nothing takes a kernel's address, and writing and
+    optimising one for every kernel is a part of every cold compile."""
+    options = {"no_cfunc_wrapper": True, **options, "nopython": True, "boundscheck": None}
+
+    def make(f):
+        kernel = Kernel(py_func=f, locals={}, targetoptions=options)
+        if cache:
+            kernel.enable_caching()
+        return kernel
+
+    return make if function is None else make(function)
+
+
 def njit(function=None, **options):
-    """numba's ``njit`` with its reference counting (NRT) on, stated rather than inherited: numba compiles
-    a kernel that does not state it with the setting of the caller that first needs it, so a kernel that
-    allocates would fail to compile under a :func:`borrowing` caller."""
-    options = {"_nrt": True, **options}
-    return numba_njit(**options) if function is None else numba_njit(**options)(function)
+    """A :class:`Kernel` (``numba.njit``'s options) with its reference counting (NRT) on, stated rather than
+    inherited: numba compiles a kernel that does not state it with the setting of the caller that first
+    needs it, so a kernel that allocates would fail to compile under a :func:`borrowing` caller."""
+    cache = options.pop("cache", False)
+    return _kernel(function, {"_nrt": True, **options}, cache)
 
 
 def borrowing(function=None, **options):
@@ -151,8 +183,8 @@ def borrowing(function=None, **options):
     first at compile time, the second would leak. The kernels that allocate scratch arrays, and their
     direct callers when they return one, stay :func:`njit`. Results are the same to the last bit: only
     the bookkeeping goes."""
-    options = {"cache": True, **options, "_nrt": False}
-    return numba_njit(**options) if function is None else numba_njit(**options)(function)
+    cache = options.pop("cache", True)
+    return _kernel(function, {**options, "_nrt": False}, cache)
 
 
 # Argument types that a SteadyCall checks by type (numba types every value of one of these alike: a bytes
@@ -233,5 +265,5 @@ def _call_code(n: int, by_type: tuple[bool, ...]) -> CodeType:
 
 configure_cache()
 
-__all__ = ["SteadyCall", "borrowing", "cache_dir", "cache_key", "configure_cache", "is_warm", "mark_warm",
+__all__ = ["Kernel", "SteadyCall", "borrowing", "cache_dir", "cache_key", "configure_cache", "is_warm", "mark_warm",
            "njit", "source_digest"]

@@ -265,7 +265,7 @@ def perceive(b: int, obs: int, row: int, w: World, with_see: bool, episode_messa
     cycle = w.time[b]
     sense_body_arena(b, w, obs, body_out)
     # an int64 head angle, as a player process passes it: one compiled sense_body_row for both (numba compiles
-    # a kernel again for each new argument type; docs/design.md, "Row 0 as an int64")
+    # a kernel again for each new argument type; docs/design.md, "One version per type")
     sense_body_row(row, pl.model, cycle, body_out.speed[b, p], float(body_out.speed_dir[b, p]),
                    np.int64(body_out.head_angle[b, p]), body_out.stamina[b, p], body_out.effort[b, p], w.n_keepers,
                    kp, cfg)

@@ -28,7 +28,8 @@ import numpy as np
 from runner.launch import die_with_parent, keepaway_argv
 
 # The players' kernels are two sets, their percepts' and their decisions' (agents.player.compile_kernels'
-# halves), which share few kernels: compiled in two processes, they take about half the time.
+# halves): compiled side by side, the decisions' process loads most of the kernels the two share (the frame
+# reader and the world model under it) from the cache once the percepts' process has written them.
 SERVER, PERCEPTS, DECISIONS, BATCHED = "server", "percepts", "decisions", "batched"
 PLAYER_SETS = (PERCEPTS, DECISIONS)
 KERNEL_SETS = (SERVER, *PLAYER_SETS, BATCHED)
@@ -37,9 +38,9 @@ KERNEL_SETS = (SERVER, *PLAYER_SETS, BATCHED)
 STAGES = ((SERVER, *PLAYER_SETS), (BATCHED,))
 # Seconds each set takes to compile on the project's 2-core machine: the four compiled one after another in
 # one process on 2026-11-29, each loading what the sets before it had compiled (a fresh `keepaway compile`
-# that hour, the first three side by side: 120 s, then the batched set 23 s). The machine's speed varies by
+# that hour, the first three side by side: 86 s, then the batched set 19 s). The machine's speed varies by
 # half, so these are only for telling the user roughly how long the first run waits.
-COMPILE_S = {SERVER: 72.0, PERCEPTS: 56.0, DECISIONS: 82.0, BATCHED: 22.0}
+COMPILE_S = {SERVER: 52.0, PERCEPTS: 46.0, DECISIONS: 60.0, BATCHED: 19.0}
 
 
 class CompileError(RuntimeError):
@@ -86,9 +87,12 @@ def _compile_batched() -> None:
 
 
 def kernel_sets(mode: str) -> tuple[str, ...]:
-    """The kernel sets that the arenas of ``mode`` use where they run: the batched loop, or the server's
-    and the players' (in their processes or, embedded, in this one)."""
-    return (BATCHED,) if mode == "batched" else (SERVER, *PLAYER_SETS)
+    """The kernel sets that the arenas of ``mode`` use where they run: the server's and the players' (in
+    their processes or, embedded, in this one), and for the batched mode the batched loop as well. The
+    loop calls most of the server's and the players' kernels: compiled first, side by side, they leave it
+    little of its own (a cold compile on 2026-11-29: every set by stages 110 s, the batched set alone in
+    one process 133 s)."""
+    return KERNEL_SETS if mode == "batched" else (SERVER, *PLAYER_SETS)
 
 
 def missing(kernel_sets: Sequence[str]) -> list[str]:
@@ -99,18 +103,21 @@ def missing(kernel_sets: Sequence[str]) -> list[str]:
 
 def estimate_s(kernel_sets: Sequence[str]) -> float:
     """Rough wall-clock seconds to compile ``kernel_sets`` as :func:`ensure_compiled` does: a stage's
-    processes share the cores, and none ends before its own set is compiled."""
+    processes share the cores (while they outnumber the cores, each has a share of one), and none ends
+    before its own set is compiled."""
     cores = os.cpu_count() or 1
     total = 0.0
     for stage in STAGES:
         costs = [COMPILE_S[s] for s in stage if s in kernel_sets]
         if costs:
-            total += max(max(costs), sum(costs) / cores)
+            total += max(max(costs) * max(1.0, len(costs) / cores), sum(costs) / cores)
     return total
 
 
 def _describe(seconds: float) -> str:
-    return f"about {round(seconds / 60)} min" if seconds >= 90 else "about a minute"
+    """``seconds`` to the nearest half minute, at least a minute."""
+    halves = max(2, round(seconds / 30))
+    return "about a minute" if halves == 2 else f"about {halves / 2:g} min"
 
 
 @contextmanager

@@ -87,7 +87,7 @@ _HEX = _text("0123456789abcdef")
 _SPACE, _MINUS, _PLUS, _DOT, _ZERO, _E, _X, _CLOSE = (ord(c) for c in " -+.0ex)")
 
 
-@borrowing
+@borrowing(inline="always")
 def _put(out, at, text, start=0, end=-1) -> int:
     """``text[start:end]`` (end -1: to its end) at ``out[at:]``; its end."""
     if end < 0:

@@ -4,7 +4,9 @@ and compiled once per source before the processes that load it start (``runner.k
 from __future__ import annotations
 
 import ast
+import importlib
 import os
+import pkgutil
 import re
 import subprocess
 import sys
@@ -16,7 +18,7 @@ import numpy as np
 
 from conftest import REPO, keepaway_command
 
-from core.jit import KERNEL_SOURCES, ROOT, borrowing, njit, source_digest, source_files
+from core.jit import KERNEL_SOURCES, ROOT, Kernel, borrowing, configure_cache, njit, source_digest, source_files
 
 # Runs pkg.a.f() with numba's cache in CACHE_ROOT/numba-<digest of pkg's source>, as core.jit does.
 RUN_KERNEL = textwrap.dedent("""
@@ -181,37 +183,59 @@ def test_a_borrowing_kernel_counts_no_references_and_may_call_an_allocating_one(
     assert "NRT_incref" not in borrowed_ir and "NRT_decref" not in borrowed_ir
 
 
-# The decision tree below a player's think, which the batched mode's loop calls too: each compiled once.
-SHARED_KERNELS = ("agents.keeper.keeper_decide", "agents.taker.taker_decide", "agents.skills.intercept",
-                  "agents.skills.interception_point", "agents.say.say_row", "agents.say.hear_row",
-                  "agents.worldmodel.sense_body_row", "agents.worldmodel.see_row",
-                  "agents.worldmodel.write_belief_row", "agents.think.finish_row",
-                  "agents.command_wire.write_command", "agents.sarsa.step", "agents.sarsa.end_episode")
+def _step_of(x, up):
+    return x + 1 if up else x - 1
 
 
-def cached_signatures(dotted: str) -> list[tuple]:
-    """The argument types of every machine-code version of kernel ``dotted`` in this source's cache."""
-    import importlib
+def test_a_kernel_called_with_constants_is_compiled_for_their_plain_types():
+    """``core.jit.Kernel`` types a call from another kernel with the arguments' plain types: a callee
+    given the constants 0 and True by one call and variables by another is compiled once, where numba's
+    own ``njit`` compiles it twice (once for ``Literal[int](0)`` and ``Literal[bool](True)``)."""
+    import numba
 
-    from core.jit import configure_cache
+    for make, versions in ((njit(cache=False), 1), (numba.njit, 2)):
+        callee = make(_step_of)
 
-    configure_cache()
-    module, name = dotted.rsplit(".", 1)
-    kernel = getattr(importlib.import_module(module), name)
+        def both(n):
+            return callee(0, True) + callee(n, n > 2)
+
+        assert make(both)(5) == 1 + 6
+        assert len(callee.signatures) == versions, callee.signatures
+
+
+def project_kernels() -> dict[str, Kernel]:
+    """Every kernel defined in the kernel sources' modules, by dotted name."""
+    modules = []
+    for entry in KERNEL_SOURCES:
+        name = entry.removesuffix(".py").replace("/", ".")
+        module = importlib.import_module(name)
+        modules.append(module)
+        if hasattr(module, "__path__"):
+            modules.extend(importlib.import_module(info.name)
+                           for info in pkgutil.walk_packages(module.__path__, name + "."))
+    return {f"{module.__name__}.{attr}": value for module in modules for attr, value in vars(module).items()
+            if isinstance(value, Kernel) and value.py_func.__module__ == module.__name__}
+
+
+def cached_signatures(kernel: Kernel) -> list[tuple]:
+    """The argument types of every machine-code version of ``kernel`` in this source's cache."""
     return [key[0] for key in kernel._cache._cache_file._load_index()]  # numba's index: (signature, ...) keys
 
 
-def test_the_players_kernels_are_compiled_for_no_literal_argument():
-    """A constant passed from one kernel to another (a player's row 0, an omitted optional argument) is a
-    type of its own to numba, and compiling a kernel for it compiles every kernel below it again, apart from
-    the batched mode's int64 rows (docs/design.md, "Row 0 as an int64": a fresh compile took 3 min 50 s
-    where it now takes 2 min 24 s). After the session's compile (conftest) no version of the shared
-    kernels takes a literal or an omitted argument; Python's own calls never make either."""
+def test_no_kernel_is_compiled_for_a_literal_or_omitted_argument():
+    """A constant passed from one kernel to another (an arena's or a player's row 0, a flag) would be a type
+    of its own to numba, and compiling a kernel for it compiles every kernel below it again: the players'
+    decision tree was compiled twice, and a fifth of a cold compile went to such versions (docs/design.md,
+    "One version per type"). After the session's compile (conftest) no cached version of any kernel takes
+    a literal argument (:class:`core.jit.Kernel` types them plainly) or an omitted one (callers pass
+    every argument); Python's own calls never make either."""
     import numba
 
-    for dotted in SHARED_KERNELS:
-        signatures = cached_signatures(dotted)
-        assert signatures, f"{dotted} is not in the cache"
+    configure_cache()
+    cached = {name: cached_signatures(kernel) for name, kernel in project_kernels().items()
+              if getattr(kernel._cache, "_cache_file", None) is not None}
+    assert sum(1 for signatures in cached.values() if signatures) > 150  # the compile's kernels, read
+    for name, signatures in cached.items():
         for signature in signatures:
             odd = [str(t) for t in signature if isinstance(t, (numba.types.Literal, numba.types.Omitted))]
-            assert not odd, f"{dotted} compiled for {', '.join(odd)}"
+            assert not odd, f"{name} compiled for {', '.join(odd)}"
