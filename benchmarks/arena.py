@@ -2,9 +2,11 @@
 P:HC-GO:HC in the distributed mode (server, coach and five player processes over ZeroMQ), the embedded
 mode (one process, no sockets; the baseline) and the batched mode (many arenas in one process), and the
 cycles per second of a bare ZeroMQ loop that exchanges a cycle's messages with five minimal client
-processes and simulates nothing (``benchmarks/server.py``'s transport ceiling), all in one invocation. The
-bare loop runs first, just before the embedded mode, and is also printed as a multiple of it: no
-distributed run can beat the exchange of its own messages, so that multiple bounds the distributed mode's.
+processes and simulates nothing (``benchmarks/server.py``'s baseline), all in one invocation. The bare
+loop runs first, just before the embedded mode, and is also printed as a multiple of it: no distributed
+run whose server and players handle their messages in Python can beat the exchange of its own messages,
+so that multiple bounds the distributed mode's. The same loop in C (``benchmarks/bare_loop.c``, libzmq
+alone; if a C compiler is there) shows how much of it is Python's per-message path rather than ZeroMQ.
 
 Run: ``python benchmarks/arena.py [--episodes N] [--batch B] [--batched-episodes M]``. Rates exclude
 start-up and compilation where the mode allows (distributed: between the first and last episode end).
@@ -44,6 +46,7 @@ def main() -> None:
     print(f"P:HC-GO:HC, 3v2 on 20 m, classic parameters, seed {opts.seed}")
     server = load("server")  # the bare loop first, beside the modes it bounds: the machine's speed swings by the hour
     bare = server.sync_cycles_per_second([sys.executable, "-c", server.NULL_SERVER, "5", str(opts.bare_cycles)])
+    in_c = server.c_loop(opts.bare_cycles)
     rows = [
         ("embedded (baseline)", measure("embedded", opts.episodes, 1, opts.seed)),
         ("distributed, 7 processes", measure("distributed", opts.episodes, 1, opts.seed)),
@@ -55,10 +58,16 @@ def main() -> None:
               f"({s['episodes_per_s'] / base:6.1f}x)  mean hold {s['mean_hold_time_s']:.2f} s over "
               f"{len(s['episodes'])} episodes")
     embedded, distributed = rows[0][1]["cycles_per_s"], rows[1][1]["cycles_per_s"]
-    # the transport alone, beside the embedded mode: the distributed mode cannot run faster than its
-    # messages can be exchanged, so where this falls below 0.9x the distributed target is out of reach
+    # the transport alone, beside the embedded mode: the distributed mode, its processes in Python, cannot run
+    # faster than its messages can be exchanged; the C loop is libzmq's own ceiling
     print(f"  bare ZeroMQ loop, no simulation {bare:21,.0f} cycles/s  (distributed: {distributed / bare:.2f}x of it; "
           f"it: {bare / embedded:.2f}x embedded)")
+    if isinstance(in_c, str):
+        print(f"  the same loop in C (libzmq)     {in_c}")
+    else:
+        rate, cpu_ms = in_c
+        print(f"  the same loop in C (libzmq)     {rate:21,.0f} cycles/s  ({rate / bare:.1f}x the Python loop, "
+              f"{rate / embedded:.2f}x embedded; {cpu_ms:.2f} ms CPU a cycle in all)")
     print("  targets (issue 11): batched >= 300 episodes/s and >= 150x embedded; distributed >= 0.9x embedded and "
           ">= 5 episodes/s (>= 750 cycles/s)")
 

@@ -7,7 +7,9 @@
     the server delivers the hears.)
 (b) synchronous-mode cycles per second of the real ``keepaway server`` process with five minimal client
     processes that answer every think with one dash; baseline in the same invocation: a bare ZeroMQ
-    ROUTER loop doing the same message exchange with no simulation (the transport's ceiling).
+    ROUTER loop doing the same message exchange with no simulation (the ceiling of a server and clients
+    in Python), and the same loop in C (``benchmarks/bare_loop.c``: libzmq alone, the ceiling of any
+    design over ZeroMQ on this machine; built with the C compiler if there is one).
 
 Run: ``python benchmarks/server.py [--cycles N] [--seconds S]``. Prints figures; asserts nothing.
 """
@@ -15,9 +17,12 @@ Run: ``python benchmarks/server.py [--cycles N] [--seconds S]``. Prints figures;
 from __future__ import annotations
 
 import argparse
+import ctypes.util
 import os
+import shutil
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -163,6 +168,44 @@ def sync_cycles_per_second(server_args: list[str], n_players: int = 5) -> float:
                 proc.wait()
 
 
+def _libzmq_link_args() -> list[str] | None:
+    """How to link the libzmq pyzmq uses: its wheel's bundled copy (by path, found again at run time), else
+    the system's; None if there is neither."""
+    import zmq
+
+    bundled = sorted((Path(zmq.__file__).resolve().parent.parent / "pyzmq.libs").glob("libzmq*.so*"))
+    if bundled:
+        return [str(bundled[0]), f"-Wl,-rpath,{bundled[0].parent}"]
+    return ["-lzmq"] if ctypes.util.find_library("zmq") else None
+
+
+def c_loop(cycles: int) -> tuple[float, float] | str:
+    """(cycles per second, CPU ms per cycle of the server and its clients) of ``bare_loop.c``, built in a
+    temporary directory; or, in one line, why it could not run."""
+    compiler = shutil.which("cc") or shutil.which("gcc")
+    link = _libzmq_link_args()
+    if compiler is None or link is None:
+        return "skipped: no C compiler" if compiler is None else "skipped: no libzmq to link"
+    with tempfile.TemporaryDirectory() as tmp:
+        binary = Path(tmp) / "bare_loop"
+        build = subprocess.run([compiler, "-O2", "-o", str(binary), str(REPO / "benchmarks" / "bare_loop.c"), *link],
+                               capture_output=True, text=True)
+        if build.returncode != 0:
+            return f"skipped: the build failed ({(build.stderr.strip().splitlines() or ['?'])[-1]})"
+        out = subprocess.run([str(binary), str(cycles)], capture_output=True, text=True, timeout=600, check=True)
+    rate, cpu_ms = map(float, out.stdout.split())
+    return rate, cpu_ms
+
+
+def c_loop_line(cycles: int, python_loop: float) -> str:
+    """The C loop's figures beside the Python loop's ``python_loop`` cycles/s, in one line."""
+    result = c_loop(cycles)
+    if isinstance(result, str):
+        return result
+    rate, cpu_ms = result
+    return f"{rate:,.0f} cycles/s ({rate / python_loop:.1f}x the Python loop; {cpu_ms:.2f} ms CPU a cycle in all)"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--cycles", type=int, default=3000, help="cycles per synchronous-mode run")
@@ -176,7 +219,8 @@ def main() -> None:
     print(f"    batch 1024: {big:12,.0f}   ({big / base:.1f}x baseline; target >= 100,000)")
     print("(b) synchronous mode, 5 minimal client processes answering every think with one dash (cycles/s)")
     null = sync_cycles_per_second([sys.executable, "-c", NULL_SERVER, "5", str(opts.cycles)])
-    print(f"    bare ZeroMQ loop, no simulation: {null:8,.0f}   (baseline: transport ceiling)")
+    print(f"    bare ZeroMQ loop, no simulation: {null:8,.0f}   (baseline: the ceiling of Python processes)")
+    print(f"    the same loop in C (libzmq):     {c_loop_line(opts.cycles, null)}")
     real = sync_cycles_per_second([sys.executable, "-m", "keepaway", "server", "--players-port", "0",
                                    "--coach-port", "0", "--monitor-port", "0", "--max-cycles",
                                    str(opts.cycles)])
