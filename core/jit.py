@@ -138,7 +138,7 @@ class Kernel(CPUDispatcher):
     its own, and compiles the callee, and every kernel it calls with that argument, once more for it:
     the server's kernels called with arena 0, a player's with row 0 or with a flag. Typed as plain ints
     and bools, such calls share the version that variables and Python's own calls use (docs/design.md,
-    "Compiled kernels"). A kernel that needs a constant argument's value at compile time (to index a
+    "One version per type"). A kernel that needs a constant argument's value at compile time (to index a
     heterogeneous tuple, say) cannot be one of these; none here does. An omitted optional argument is
     still a type of its own (numba's ``Omitted``): callers pass every argument."""
 
