@@ -264,7 +264,7 @@ def pytest_sessionstart(session: pytest.Session) -> None:
     compile``; a no-op when this source's cache is already warm, as it is in every xdist worker, which the
     controller starts after this). Here and not in a fixture: a fixture's setup counts against the first
     test's timeout (pyproject's ``timeout``), and a clean checkout's cold compile takes minutes on the
-    2-core machine (2.5 now, 5 at a slow hour before the kernels stopped being compiled twice: a fresh
+    2-core machine (about 2 now, 5 at a slow hour before the kernels stopped being compiled twice: a fresh
     clone's CI run then had every test fail with the compile cut off at 300 s)."""
     if session.config.option.collectonly:
         return
