@@ -20,6 +20,7 @@ import argparse
 import ctypes.util
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -192,8 +193,17 @@ def c_loop(cycles: int) -> tuple[float, float] | str:
                                capture_output=True, text=True)
         if build.returncode != 0:
             return f"skipped: the build failed ({(build.stderr.strip().splitlines() or ['?'])[-1]})"
-        out = subprocess.run([str(binary), str(cycles)], capture_output=True, text=True, timeout=600, check=True)
-    rate, cpu_ms = map(float, out.stdout.split())
+        loop = subprocess.Popen([str(binary), str(cycles)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                                start_new_session=True)  # its clients in its process group
+        try:
+            out, err = loop.communicate(timeout=600)
+        except subprocess.TimeoutExpired:
+            os.killpg(loop.pid, signal.SIGKILL)
+            loop.wait()
+            return "skipped: no answer from its clients in 600 s"
+    if loop.returncode != 0:
+        return f"skipped: it failed ({(err.strip().splitlines() or ['?'])[-1]})"
+    rate, cpu_ms = map(float, out.split())
     return rate, cpu_ms
 
 
