@@ -77,8 +77,8 @@ def think(cycle: int, hear: bool, model: ModelState, talk: Talk, bel: Belief, me
     decision if ``finish`` is false (the caller adds a note), a Pass decision point if ``finish_pass`` is
     false (an outside decision or a learner in Python), and the GetOpen decision of GETOPEN_EXTERNAL.
     Returns (decision, the frame's length or NOT_WRITTEN)."""
-    decision = decide_row(0, hear, model, talk, bel, 0, mem, theta, sums, kp, cfg, is_keeper, out_main,
-                          out_a1, out_a2, out_neck, out_states)
+    decision = decide_row(0, hear, model, talk, bel, 0, mem, theta, sums, kp, cfg, is_keeper, out_main, out_a1,
+                          out_a2, out_neck, out_states)
     if not finish or decision == GETOPEN_DECISION or (decision != NO_PASS_DECISION and not finish_pass):
         return decision, NOT_WRITTEN
     return decision, finish_row(cycle, model, talk, bel.n_keepers, kp, cfg, out_main, out_a1, out_a2, out_neck,

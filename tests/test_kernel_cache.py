@@ -6,7 +6,6 @@ from __future__ import annotations
 import ast
 import importlib
 import os
-import pkgutil
 import re
 import subprocess
 import sys
@@ -204,15 +203,9 @@ def test_a_kernel_called_with_constants_is_compiled_for_their_plain_types():
 
 
 def project_kernels() -> dict[str, Kernel]:
-    """Every kernel defined in the kernel sources' modules, by dotted name."""
-    modules = []
-    for entry in KERNEL_SOURCES:
-        name = entry.removesuffix(".py").replace("/", ".")
-        module = importlib.import_module(name)
-        modules.append(module)
-        if hasattr(module, "__path__"):
-            modules.extend(importlib.import_module(info.name)
-                           for info in pkgutil.walk_packages(module.__path__, name + "."))
+    """Every kernel defined in the kernel sources (the files the cache's key covers), by dotted name."""
+    modules = [importlib.import_module(".".join(path.relative_to(ROOT).with_suffix("").parts).removesuffix(".__init__"))
+               for path in source_files(ROOT, KERNEL_SOURCES)]
     return {f"{module.__name__}.{attr}": value for module in modules for attr, value in vars(module).items()
             if isinstance(value, Kernel) and value.py_func.__module__ == module.__name__}
 
