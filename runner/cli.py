@@ -52,6 +52,14 @@ def game_options(command: Command) -> Command:
     return with_options(options, command)
 
 
+# Where distributed arenas are started, for every command that plays (run's one arena, the others' many).
+BACKEND_OPTION = click.option("--backend", type=click.Choice(["local", "ray"]), default="local", show_default=True,
+                              help="distributed: start the arenas on this machine, or on a Ray cluster (pip install "
+                                   "'keepaway[ray]'; see --ray-address).")
+RAY_ADDRESS_OPTION = click.option("--ray-address", default=None,
+                                  help="Ray cluster to join [RAY_ADDRESS, or a local Ray].")
+
+
 def placement_options(command: Command) -> Command:
     """Where the arenas of ``keepaway train``, ``evaluate`` and ``experiment`` run (``runner.backends``);
     :func:`placement` checks them."""
@@ -63,10 +71,8 @@ def placement_options(command: Command) -> Command:
         click.option("--arena", "attach", multiple=True, metavar="ENDPOINT",
                      help="distributed: drive this running arena (a coach's arena endpoint, e.g. tcp://host:6003) "
                           "instead of starting arenas; repeat for more."),
-        click.option("--backend", type=click.Choice(["local", "ray"]), default="local", show_default=True,
-                     help="distributed: start the arenas on this machine, or on a Ray cluster (pip install "
-                          "'keepaway[ray]'; see --ray-address)."),
-        click.option("--ray-address", default=None, help="Ray cluster to join [RAY_ADDRESS, or a local Ray]."),
+        BACKEND_OPTION,
+        RAY_ADDRESS_OPTION,
         click.option("--threads", type=COUNT_TYPE, default=None,
                      help="Threads stepping batched arenas [numba's thread count]."),
         keys_option,
@@ -150,11 +156,14 @@ def arena_count(mode: str, attach: tuple[str, ...], arenas: int | None) -> int:
                    "[values with --view, else none].")
 @click.option("--json", "as_json", is_flag=True, help="Print a machine-readable summary instead of the table.")
 @click.option("--no-progress", is_flag=True, help="No progress bar.")
+@BACKEND_OPTION
+@RAY_ADDRESS_OPTION
 @keys_option
 def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str, policy_path: Path | None,
                 keepers: int, takers: int, field_size: float, parameter_set: str, mode: str, batch: int,
                 realtime: bool, out: Path, no_game_log: bool, game_log_arenas: str, view: bool,
-                getopen_notes: str | None, as_json: bool, no_progress: bool, keys: Path | None) -> None:
+                getopen_notes: str | None, as_json: bool, no_progress: bool, backend: str, ray_address: str | None,
+                keys: Path | None) -> None:
     """Play Keepaway: a whole arena (server, coach, keepers, takers) for --episodes episodes."""
     from agents.policy_file import PolicyFileError, load_policy
     from protocol.params import parameter_set as make_params
@@ -172,6 +181,20 @@ def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str,
     keys_for_distributed(keys, mode)
     if view and mode != "distributed":
         raise click.UsageError("--view follows an arena's monitor port: it needs --mode distributed")
+    elsewhere = None
+    if backend == "ray":
+        if mode != "distributed":
+            raise click.UsageError(f"--backend ray places the distributed mode's arena; the {mode} mode plays in "
+                                   "this process: add --mode distributed or leave --backend out")
+        if view:
+            raise click.UsageError("--view serves a viewer of an arena on this machine; with --backend ray the "
+                                   "arena runs on a Ray node: leave one out")
+        from runner.ray_backend import ray_run
+
+        try:
+            elsewhere = ray_run(ray_address)
+        except RuntimeError as exc:
+            raise click.UsageError(str(exc)) from None
     if getopen_notes is None:
         getopen_notes = "values" if view else "none"
     elif getopen_notes != "none" and mode == "batched":
@@ -194,7 +217,7 @@ def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str,
     interrupt_on_sigterm()
     show = (lambda result: click.echo(dump_json(result.summary()) if as_json else summary_table(result.summary())))
     try:
-        result = run(opts, progress=not no_progress and not as_json, announce=announce)
+        result = run(opts, progress=not no_progress and not as_json, announce=announce, elsewhere=elsewhere)
     except RunStopped as stop:
         if stop.result.episodes:
             show(stop.result)

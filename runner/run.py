@@ -3,13 +3,14 @@
 All three modes yield the same thing, a stream of ended episodes, which this module turns into a
 progress bar, a summary table, the logs and the machine-readable summary of the issue:
 ``{"mode", "seed", "episodes": [...], "mean_hold_time_s", "stderr_hold_time_s", "cycles_per_s",
-"episodes_per_s"}``.
+"episodes_per_s"}``. The distributed mode's arena runs on this machine, or wherever a caller's
+``elsewhere`` plays it (``runner.ray_backend.ray_run``: on a Ray node).
 """
 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Generator, Iterator
 from itertools import islice
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -67,6 +68,15 @@ class ShortHanded:
                   for name in sorted(self.missing - missed.keys())]
         self.missing = set(missed)
         return lines
+
+
+# An ended episode as run() takes it: the record, the arena-cycles played so far, and when it was seen
+# ended (time.perf_counter of the machine that played it: the rates need no clock shared with this one).
+Ended = tuple[EpisodeRecord, int, float]
+# Plays a distributed run's arena somewhere else (``runner.ray_backend.ray_run``): the options and a
+# one-line announcer in, the ended episodes out; it raises ArenaFailure in one line if a process of the
+# arena dies, and leaves the arena's logs in ``opts.out`` when it ends or is closed.
+Elsewhere = Callable[["RunOptions", Callable[[str], None] | None], Iterator[Ended]]
 
 
 # -- modes ------------------------------------------------------------------------------------------
@@ -197,6 +207,15 @@ class BatchedGameLogs:
             log.close()
 
 
+def timed(stream: Generator[tuple[EpisodeRecord, int], None, None]) -> Iterator[Ended]:
+    """``stream``'s episodes with the time each came here (closing this closes ``stream``)."""
+    try:
+        for record, cycles in stream:
+            yield record, cycles, time.perf_counter()
+    finally:
+        stream.close()
+
+
 class RunStopped(Exception):
     """A run that stopped before its last episode: a process died (``cause`` is the ArenaFailure) or it
     was interrupted (KeyboardInterrupt). ``result`` holds the episodes that did finish."""
@@ -207,17 +226,23 @@ class RunStopped(Exception):
         self.cause = cause
 
 
-def run(opts: RunOptions, progress: bool = True, announce: Callable[[str], None] | None = None) -> RunResult:
-    """Play ``opts.episodes`` episodes in ``opts.mode``; write the logs; return the result.
+def run(opts: RunOptions, progress: bool = True, announce: Callable[[str], None] | None = None,
+        elsewhere: Elsewhere | None = None) -> RunResult:
+    """Play ``opts.episodes`` episodes in ``opts.mode``; write the logs; return the result. With
+    ``elsewhere`` (distributed mode only), the arena is played where it places it, which also compiles
+    the kernels there and brings the logs back into ``opts.out``.
 
     The kernels are compiled first, once (``announce`` is told so in one line). Raises RunStopped, with
     the result of the episodes that finished, if a process dies or the run is interrupted.
     """
     from tqdm import tqdm
 
+    if elsewhere is not None and opts.mode != "distributed":
+        raise ValueError(f"only the distributed mode's arena can be played elsewhere, not the {opts.mode} mode's")
     spec = opts.spec
     opts.out.mkdir(parents=True, exist_ok=True)
-    ensure_compiled(kernel_sets(opts.mode), announce, log_dir=opts.out / "processes")
+    if elsewhere is None:
+        ensure_compiled(kernel_sets(opts.mode), announce, log_dir=opts.out / "processes")
     records: list[EpisodeRecord] = []
     marks: list[int] = []  # the stream's cycle count when each record came (all arenas' in batched mode)
     held_s = 0.0  # the records' hold times, summed as they come (the bar's running mean)
@@ -228,26 +253,27 @@ def run(opts: RunOptions, progress: bool = True, announce: Callable[[str], None]
     first_cycle = last_cycle = 0
     start = time.perf_counter()
     processes = (ArenaProcesses(opts.out / "processes", batch_scheduled=not opts.realtime)
-                 if opts.mode == "distributed" else None)
+                 if opts.mode == "distributed" and elsewhere is None else None)
     viewer = ArenaProcesses(opts.out / "processes") if opts.view else None  # not one of the arena's
     stopped: BaseException | None = None
-    stream: Iterator[tuple[EpisodeRecord, int]] | None = None
+    stream: Iterator[Ended] | None = None
     try:
-        if opts.mode == "distributed":
+        if elsewhere is not None:
+            stream = elsewhere(opts, announce)
+        elif opts.mode == "distributed":
             assert processes is not None
             processes.__enter__()
-            stream = distributed_episodes(opts, processes, viewer, announce)
+            stream = timed(distributed_episodes(opts, processes, viewer, announce))
         elif opts.mode == "embedded":
-            stream = embedded_episodes(spec, opts.out / f"keepaway{RCG_SUFFIX}" if opts.game_log else None,
-                                       opts.getopen_notes)
+            stream = timed(embedded_episodes(spec, opts.out / f"keepaway{RCG_SUFFIX}" if opts.game_log else None,
+                                             opts.getopen_notes))
         else:
-            stream = batched_episodes(opts)
+            stream = timed(batched_episodes(opts))
         # the distributed stream ends by itself (and then checks every process's exit); the others
         # are cut at the wanted number of episodes
-        for record, cycles in stream if opts.mode == "distributed" else islice(stream, opts.episodes):
+        for record, cycles, now in stream if opts.mode == "distributed" else islice(stream, opts.episodes):
             records.append(record)
             marks.append(cycles)
-            now = time.perf_counter()
             if first_at is None:
                 first_at, first_cycle = now, cycles
             if cycles > last_cycle:
@@ -264,7 +290,7 @@ def run(opts: RunOptions, progress: bool = True, announce: Callable[[str], None]
     finally:
         bar.close()
         if stream is not None:
-            stream.close()  # closes the game logs of the in-process modes
+            stream.close()  # closes the game logs of the in-process modes; brings an arena's from elsewhere
         for group in (processes, viewer):
             if group is not None:
                 group.stop()
@@ -300,4 +326,5 @@ def _write_logs(opts: RunOptions, records: list[EpisodeRecord]) -> None:
         jsonl.close()
 
 
-__all__ = ["RunOptions", "RunStopped", "ShortHanded", "logged_episodes", "run"]
+__all__ = ["Elsewhere", "Ended", "RunOptions", "RunStopped", "ShortHanded", "distributed_episodes", "logged_episodes",
+           "run", "timed"]

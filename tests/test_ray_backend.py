@@ -1,16 +1,20 @@
-"""`keepaway train --backend ray`: arenas placed by Ray (a local Ray here), driven like any other.
+"""`keepaway train --backend ray` and `keepaway run --backend ray`: arenas placed by Ray (a local Ray
+here), driven like any other, playing the games a local arena plays.
 
 Ray is an optional extra (`pip install 'keepaway[ray]'`): without it this module is skipped, and the
-CLI test checks the one-line error instead.
+CLI tests check the one-line error instead.
 """
 
 from __future__ import annotations
 
 import importlib.util
+import json
+import subprocess
 
 import pytest
 from click.testing import CliRunner
 
+from conftest import keepaway_command
 from keepaway.cli import main
 from runner.job import Behaviours
 from trainer.train import TrainConfig
@@ -19,10 +23,35 @@ HAVE_RAY = importlib.util.find_spec("ray") is not None
 
 
 @pytest.mark.skipif(HAVE_RAY, reason="checks the message shown when Ray is missing")
-def test_without_ray_the_backend_is_refused_in_one_line(tmp_path):
-    done = CliRunner().invoke(main, ["train", "--mode", "distributed", "--backend", "ray", "--out", str(tmp_path / "t")])
+@pytest.mark.parametrize("command", ["train", "run"])
+def test_without_ray_the_backend_is_refused_in_one_line(tmp_path, command):
+    done = CliRunner().invoke(main, [command, "--mode", "distributed", "--backend", "ray", "--out", str(tmp_path / "t")])
     assert done.exit_code == 2
     assert "pip install 'keepaway[ray]'" in done.output
+
+
+@pytest.mark.skipif(not HAVE_RAY, reason="Ray is not installed (pip install 'keepaway[ray]')")
+@pytest.mark.timeout(600)
+def test_a_run_on_ray_plays_the_games_of_a_local_run_and_brings_its_logs_back(processes, tmp_path):
+    def run(out, *backend):
+        proc = processes.popen(keepaway_command("run", "--json", "--episodes", "4", "--seed", "5", "--out", str(out),
+                                                *backend), stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+        stdout, stderr = proc.communicate(timeout=500)
+        assert proc.returncode == 0, stderr.decode()[-2000:]
+        return json.loads(stdout), stderr.decode()
+
+    on_ray, said = run(tmp_path / "ray", "--backend", "ray")
+    here, _ = run(tmp_path / "here")
+    assert "the arena plays on the Ray node" in said
+    key = lambda summary: [(e["episode"], e["start_cycle"], e["end_cycle"], e["end"]) for e in summary["episodes"]]
+    assert len(key(on_ray)) == 4 and key(on_ray) == key(here)
+    assert on_ray["cycles_per_s"] > 0  # measured on the node, between its first and last episode end
+    for log in ("ray", "here"):
+        assert {p.name for p in (tmp_path / log / "processes").glob("*.log")} >= {"server.log", "coach.log", "taker_2.log"}
+    assert (tmp_path / "ray" / "keepaway.kwy").read_bytes() == (tmp_path / "here" / "keepaway.kwy").read_bytes()
+    # every cycle of the game log, but the result line, which carries the time of day
+    game_log = lambda out: [l for l in (out / "keepaway.rcg").read_text().splitlines() if "(result " not in l]
+    assert len(game_log(tmp_path / "ray")) > 100 and game_log(tmp_path / "ray") == game_log(tmp_path / "here")
 
 
 @pytest.mark.skipif(not HAVE_RAY, reason="Ray is not installed (pip install 'keepaway[ray]')")

@@ -125,6 +125,8 @@ def test_bad_options_are_one_line_errors(processes, tmp_path):
         (["--game-log-arenas", "0"], "--game-log-arenas needs --mode batched"),
         (["--mode", "embedded", "--view"], "--view follows an arena's monitor port: it needs --mode distributed"),
         (["--mode", "batched", "--game-log-arenas", "1,x"], "expected arena numbers separated by commas"),
+        (["--mode", "embedded", "--backend", "ray"], "--backend ray places the distributed mode's arena"),
+        (["--backend", "ray", "--view"], "--view serves a viewer of an arena on this machine"),
     ]:
         proc = processes.popen(keepaway_command("run", *args, "--out", str(tmp_path)),
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE)
