@@ -837,6 +837,7 @@ def compile_kernels(percepts: bool = True, decisions: bool = True) -> None:
                 agent.on_message(msg)
             for msg in (see, body, heard):
                 agent.take_frame(encode(msg))
+            agent.wm.on_own_commands(CMD_DASH, 0.0, 0.0)  # as a seed advice's replay feeds them (_fresh_world_model)
         if not decisions:
             continue
         agent.on_message(m.Think(cycle=0))

@@ -21,7 +21,7 @@ from agents.command_wire import write_command
 from agents.keeper import GETOPEN_DECISION, NO_PASS_DECISION, keeper_decide
 from agents.say import Talk, hear_row, say_row
 from agents.taker import taker_decide
-from agents.worldmodel import ModelState, write_belief_row
+from agents.worldmodel import ModelState, sent_row, write_belief_row
 from core.jit import borrowing
 
 NOT_WRITTEN = -1
@@ -49,11 +49,8 @@ def decide_row(r: int, hear: bool, model: ModelState, talk: Talk, bel: Belief, r
 def commit_row(r: int, model: ModelState, main: int, a1: float, a2: float, neck: float, n_keepers: int, kp, cfg,
                talk: Talk) -> None:
     """The commands model row ``r`` sends (main command ``main`` with its arguments ``a1``, ``a2``; turn_neck
-    ``neck``), as ``WorldModel.on_own_commands`` records them, and its say of this cycle."""
-    model.cmd_main[r] = main
-    model.cmd_args[r, 0] = a1
-    model.cmd_args[r, 1] = a2
-    model.cmd_args[r, 2] = neck
+    ``neck``), told to its world model (``sent_row``), and its say of this cycle."""
+    sent_row(r, model, main, a1, a2, neck)
     say_row(r, model, main, a1, a2, n_keepers, kp, cfg, talk)
 
 

@@ -790,6 +790,16 @@ def see_row(r: int, s: ModelState, see: SeeBuffer, flag_pos: np.ndarray, n_keepe
     update_ball_row(r, s, see, n_keepers, kp, cfg)
 
 
+@borrowing(inline="always")
+def sent_row(r: int, s: ModelState, main: int, a1: float, a2: float, neck: float) -> None:
+    """The commands row ``r`` sent this cycle (a CMD_* code of ``core/objects.py`` with its two arguments, and
+    the turn_neck moment, 0 for none): the next step's prediction applies them (``predict_row``)."""
+    s.cmd_main[r] = main
+    s.cmd_args[r, 0] = a1
+    s.cmd_args[r, 1] = a2
+    s.cmd_args[r, 2] = neck
+
+
 @borrowing
 def forget_row(r: int, s: ModelState) -> None:
     """Episode boundary (`training Keepaway 1`, spec `keepaway-agents.md` 1): every object but me is
@@ -964,10 +974,8 @@ class WorldModel:
         self._hold_exact_ball_row(0, s, self.n_keepers, self.kp, self.cfg)
 
     def on_own_commands(self, main: int, a1: float, a2: float, neck: float = 0.0) -> None:
-        """The commands I sent this cycle (CMD_* code of `core/objects.py`, its two arguments, the
-        turn_neck moment, 0 for none); they act in the next step."""
-        self.state.cmd_main[0] = main
-        self.state.cmd_args[0] = (a1, a2, neck)
+        """The commands I sent this cycle (:func:`sent_row`)."""
+        sent_row(0, self.state, int(main), float(a1), float(a2), float(neck))
 
     def forget(self) -> None:
         """Episode boundary: forget every object but me."""
@@ -995,6 +1003,7 @@ __all__ = [
     "predict_row",
     "see_row",
     "sense_body_row",
+    "sent_row",
     "update_ball_row",
     "update_players_row",
     "whole_degree_table",

@@ -11,7 +11,7 @@ distributed server's synchronous order (``server/app.py`` ``_run_sync``, ``serve
    the world model's :class:`SeeBuffer` row (:func:`see_to_model_row`, the same numbers the wire carries);
 2. the decision (``keeper_decide`` / ``taker_decide``) on the player's belief row;
 3. its commands into the server's :class:`Commands` (with the server's slot rule for kicks out of reach)
-   and into the world model as the commands it sent (``WorldModel.on_own_commands``);
+   and into the world model as the commands it sent (``agents.worldmodel.sent_row``);
 4. the step (``server.simulation.step_arena``).
 
 Python runs only between chunks of cycles, to collect the episodes that ended. Randomness: arena ``b``
@@ -111,12 +111,12 @@ from server.perception import (
     see_arena,
     sense_body_arena,
 )
-from server.command_slots import take_main, take_neck
+from server.command_slots import take_main, take_neck, take_say
 from server.referee import END_NONE, RefereeState, new_referee_state, start_game
 from core.rng import seed_streams
 from server.simulation import step_arena
 from core.objects import BALL, CMD_KICK, CMD_NONE
-from server.world import COUNT_SAY, Commands, World, new_world, player_unum
+from server.world import Commands, World, new_world, player_unum
 from runner.job import BATCHED_SARSA, EpisodeTable
 
 # The learner memory of arenas without Pass learning: no rows (kernels never touch it).
@@ -312,7 +312,7 @@ def decide(b: int, obs: int, row: int, w: World, c: Commands, theta: np.ndarray,
     the main command and always a turn_neck) into the server's slots by the server's rules
     (``server.command_slots``: a kick that cannot reach the ball does not take the main slot unless
     ``failed_kick_uses_slot``) and
-    remembered by its world model as sent (``WorldModel.on_own_commands``): the steps of a player process's
+    remembered by its world model as sent (``agents.worldmodel.sent_row``): the steps of a player process's
     think (``agents.think``: ``decide_row``, ``commit_row``) around the slots. With PASS_EXTERNAL the
     keeper's Pass decisions come from its Sarsa row (:func:`learn_pass`; ``learner``: the arena's
     keeper 1's)."""
@@ -330,7 +330,7 @@ def decide(b: int, obs: int, row: int, w: World, c: Commands, theta: np.ndarray,
     take_neck(b, c, obs, out.neck[row])
     commit_row(row, pl.model, code, out.arg1[row], out.arg2[row], out.neck[row], w.n_keepers, kp, cfg, pl.talk)
     if pl.talk.said_len[row] > 0:
-        w.counts[b, obs, COUNT_SAY] += 1
+        take_say(b, obs, w)
 
 
 @borrowing

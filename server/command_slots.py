@@ -88,6 +88,13 @@ def take_neck(b: int, c, obj: int, moment: float) -> None:
         c.neck[b, obj] = moment
 
 
+@borrowing(inline="always")
+def take_say(b: int, obj: int, w) -> None:
+    """Player ``obj``'s say counted in arena ``b`` (sense_body's say count: every say the server takes,
+    heard or not)."""
+    w.counts[b, obj, COUNT_SAY] += 1
+
+
 @borrowing
 def take_commands(out, count: int, c, obj: int, w, kp) -> int:
     """The first ``count`` commands of ``out`` (a ``CommandBuffer``), player ``obj``'s, into the slots of
@@ -104,7 +111,7 @@ def take_commands(out, count: int, c, obj: int, w, kp) -> int:
         elif code == _TURN_NECK:
             take_neck(0, c, obj, out.args[i, 0])
         elif code == SAY:
-            w.counts[0, obj, COUNT_SAY] += 1
+            take_say(0, obj, w)
             says += 1
     return says
 
@@ -134,4 +141,4 @@ def take_command_frame(buf: np.ndarray, end: int, out, now: int, c, obj: int, w,
 
 
 __all__ = ["COMMAND_CODES", "DROPPED_SAY", "MAIN_SLOT", "SAY_ALPHABET", "put_command", "say_allowed",
-           "take_command_frame", "take_commands", "take_main", "take_neck"]
+           "take_command_frame", "take_commands", "take_main", "take_neck", "take_say"]
