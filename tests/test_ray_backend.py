@@ -9,12 +9,14 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import signal
 import subprocess
+import time
 
 import pytest
 from click.testing import CliRunner
 
-from conftest import keepaway_command
+from conftest import keepaway_command, process_tree, running
 from keepaway.cli import main
 from runner.job import Behaviours
 from trainer.train import TrainConfig
@@ -76,3 +78,33 @@ def test_ray_places_arenas_that_play_like_local_ones(tmp_path):
         here = local.play(job, 21, 4, "greedy")[0]
     assert [(e.end_cycle - e.start_cycle, e.end) for e in on_ray.episodes] == \
         [(e.end_cycle - e.start_cycle, e.end) for e in here.episodes]
+
+
+@pytest.mark.skipif(not HAVE_RAY, reason="Ray is not installed (pip install 'keepaway[ray]')")
+@pytest.mark.timeout(600)
+def test_sigterm_stops_a_run_on_ray_with_its_summary_and_logs(processes, tmp_path):
+    """A Ray driver exits at once on SIGTERM unless ``keepaway run`` keeps its own handler: the arena on the
+    node stopped, its logs brought back, the summary of what finished, exit 130, nothing left running."""
+    proc = processes.popen(keepaway_command("run", "--backend", "ray", "--episodes", "100000", "--no-progress",
+                                            "--out", str(tmp_path)), stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    arena = lambda tree: {pid for pid, name in tree.items()
+                          if name.startswith(("keeper ", "taker ")) or " keepaway server " in f" {name} "
+                          or " keepaway coach " in f" {name} "}
+    deadline = time.monotonic() + 300
+    tree: dict[int, str] = {}
+    while time.monotonic() < deadline and len(arena(tree)) < 7:
+        tree = process_tree(proc.pid)  # a local Ray's processes are the run's, the arena's theirs
+        time.sleep(0.2)
+    assert len(arena(tree)) == 7, tree
+    time.sleep(8.0)  # some episodes
+    tree = process_tree(proc.pid)
+    proc.send_signal(signal.SIGTERM)
+    out, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err.decode()[-2000:]
+    message = err.decode().strip().splitlines()[-1]
+    logged = len((tmp_path / "keepaway.jsonl").read_text().splitlines()) - 1  # its header, then the episodes
+    assert logged >= 1
+    assert message == (f"keepaway run: interrupted; every process was stopped; the summary covers the {logged} of "
+                       "100000 episodes that finished")
+    assert f"episodes        {logged}\n" in out.decode()
+    assert not running(tree, timeout_s=30.0)
