@@ -4,9 +4,10 @@ numba's own ``cache=True`` checks only the timestamp of the file that defines a 
 to a file the kernel calls into (``agents/geometry.py`` under ``agents/skills.py``, say) it would load
 stale machine code. So every kernel module imports :func:`njit` from here, which first points numba's
 cache at a directory named after a digest of the kernel packages' source (content, size and mtime of
-every ``.py`` file of ``protocol``, ``core``, ``server``, ``agents`` and ``runner/batched.py``) and of
-the numba, llvmlite and Python versions and the CPU. Any change there selects a fresh directory, so
-stale code can never run; the few most recently used directories are kept, older ones deleted.
+every ``.py`` file of ``protocol``, ``core``, ``server``, ``agents``, ``runner/batched.py`` and the
+``runner`` modules it imports) and of the numba, llvmlite and Python versions and the CPU. Any change
+there selects a fresh directory, so stale code can never run; the few most recently used directories
+are kept, older ones deleted.
 
 The directory lives under ``$NUMBA_CACHE_DIR`` if set, else ``$XDG_CACHE_HOME/keepaway`` (default
 ``~/.cache/keepaway``). It also holds one marker per kernel set that ``keepaway compile`` has warmed
@@ -37,8 +38,9 @@ from numba.core.types import unliteral
 from numba.core.typing.typeof import Purpose, typeof
 
 ROOT = Path(__file__).resolve().parent.parent
-# Every file a kernel is defined in or calls into (kernels are compiled from these sources).
-KERNEL_SOURCES = ("protocol", "core", "server", "agents", "runner/batched.py")
+# Every file a kernel is defined in, calls into or reads a module-level value of: the kernel modules and
+# every module they import, directly or through others (tests/test_kernel_cache.py checks it).
+KERNEL_SOURCES = ("protocol", "core", "server", "agents", "runner/__init__.py", "runner/job.py", "runner/batched.py")
 KEEP_DIRECTORIES = 5  # the most recently used cache directories kept (a developer switching branches)
 LAST_USED = "last-used"
 

@@ -17,6 +17,7 @@ import numpy as np
 
 from conftest import REPO, keepaway_command
 
+from test_imports import MODULES, PROJECT, imported_names
 from core.jit import KERNEL_SOURCES, ROOT, Kernel, borrowing, configure_cache, njit, source_digest, source_files
 
 # Runs pkg.a.f() with numba's cache in CACHE_ROOT/numba-<digest of pkg's source>, as core.jit does.
@@ -93,13 +94,30 @@ def test_every_cached_kernel_goes_through_core_jit_and_is_in_the_key():
     """A kernel decorated with numba's own njit would use numba's stale-prone cache; a kernel module
     outside KERNEL_SOURCES would not change the key when edited."""
     keyed = set(source_files(ROOT, KERNEL_SOURCES))
-    for package in ("protocol", "core", "server", "agents", "coach", "trainer", "keepaway"):
+    for package in PROJECT:
         for path in sorted((ROOT / package).rglob("*.py")):
             tree = ast.parse(path.read_text())
             if path.name != "jit.py":
                 assert not imports_numba_njit(tree), f"{path}: import njit from core.jit"
             if imports_njit(tree, "core.jit"):
                 assert path in keyed, f"{path} defines kernels but is not in core.jit.KERNEL_SOURCES"
+
+
+def test_every_module_a_kernel_module_imports_is_in_the_key():
+    """A kernel is compiled with the module-level values it reads (a constant, a table) of any module its
+    own module imports, directly or through others: an edit there must select a fresh cache as well."""
+    keyed = {path.resolve() for path in source_files(ROOT, KERNEL_SOURCES)}
+    kernel_modules = [name for name, path in MODULES.items() if imports_njit(ast.parse(path.read_text()), "core.jit")]
+    assert "server.physics" in kernel_modules and "runner.batched" in kernel_modules
+    reached: set[str] = set()
+    todo = list(kernel_modules)
+    while todo:
+        name = todo.pop()
+        if name not in reached:
+            reached.add(name)
+            todo.extend(imported_names(MODULES[name]) & set(MODULES))
+    unkeyed = sorted(str(MODULES[name].relative_to(ROOT)) for name in reached if MODULES[name].resolve() not in keyed)
+    assert not unkeyed, f"kernel modules import these, which core.jit.KERNEL_SOURCES leaves out: {unkeyed}"
 
 
 def test_a_warm_cache_is_loaded_not_compiled_again(processes, tmp_path):
