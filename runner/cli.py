@@ -60,6 +60,12 @@ RAY_ADDRESS_OPTION = click.option("--ray-address", default=None,
                                   help="Ray cluster to join [RAY_ADDRESS, or a local Ray].")
 
 
+def check_ray_address(backend: str, ray_address: str | None) -> None:
+    """A usage error in one line for ``--ray-address`` without ``--backend ray``, which would ignore it."""
+    if ray_address is not None and backend != "ray":
+        raise click.UsageError("--ray-address names the Ray cluster of --backend ray: add --backend ray or leave it out")
+
+
 def placement_options(command: Command) -> Command:
     """Where the arenas of ``keepaway train``, ``evaluate`` and ``experiment`` run (``runner.backends``);
     :func:`placement` checks them."""
@@ -86,6 +92,7 @@ def placement(mode: str, attach: tuple[str, ...], backend: str, ray_address: str
     e.g. "training", if it is one); a usage error in one line for options that do not go together."""
     from runner.backends import Placement
 
+    check_ray_address(backend, ray_address)
     if (attach or backend != "local") and mode != "distributed":
         fix = f"this {stored_as} is {mode}" if stored_as else "add --mode distributed"
         raise click.UsageError(f"--arena and --backend choose where distributed arenas run; {fix}")
@@ -181,6 +188,7 @@ def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str,
     keys_for_distributed(keys, mode)
     if view and mode != "distributed":
         raise click.UsageError("--view follows an arena's monitor port: it needs --mode distributed")
+    check_ray_address(backend, ray_address)
     elsewhere = None
     if backend == "ray":
         if mode != "distributed":

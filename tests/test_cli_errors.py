@@ -102,6 +102,13 @@ def test_a_directory_given_as_a_policy_file_is_refused(processes, tmp_path):
         f"Error: {empty}: no policy files (trial_*/policy.npz or *.npz)")
 
 
+@pytest.mark.parametrize("command", ["run", "train"])
+def test_a_ray_address_without_the_ray_backend_is_refused_not_ignored(processes, tmp_path, command):
+    line = refused(processes, command, "--mode", "distributed", "--ray-address", "auto", "--out", str(tmp_path / "o"))
+    assert line == "Error: --ray-address names the Ray cluster of --backend ray: add --backend ray or leave it out"
+    assert not (tmp_path / "o").exists()
+
+
 # -- keepaway server: flags, parameters and TOML files ---------------------------------------------
 @pytest.mark.parametrize("args, problem", [
     (["--seed", "-1"], "Invalid value for '--seed': -1 is not in the range 0<=x<=9223372036854775807."),

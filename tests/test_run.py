@@ -127,6 +127,7 @@ def test_bad_options_are_one_line_errors(processes, tmp_path):
         (["--mode", "batched", "--game-log-arenas", "1,x"], "expected arena numbers separated by commas"),
         (["--mode", "embedded", "--backend", "ray"], "--backend ray places the distributed mode's arena"),
         (["--backend", "ray", "--view"], "--view serves a viewer of an arena on this machine"),
+        (["--ray-address", "auto"], "--ray-address names the Ray cluster of --backend ray"),
     ]:
         proc = processes.popen(keepaway_command("run", *args, "--out", str(tmp_path)),
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE)
