@@ -5,9 +5,10 @@ to a file the kernel calls into (``agents/geometry.py`` under ``agents/skills.py
 stale machine code. So every kernel module imports :func:`njit` from here, which first points numba's
 cache at a directory named after a digest of the kernel packages' source (content, size and mtime of
 every ``.py`` file of ``protocol``, ``core``, ``server``, ``agents``, ``runner/batched.py`` and the
-``runner`` modules it imports) and of the numba, llvmlite and Python versions and the CPU. Any change
-there selects a fresh directory, so stale code can never run; the few most recently used directories
-are kept, older ones deleted.
+``runner`` modules it imports, but the few that no kernel module imports, such as the server's socket
+loop) and of the numba, llvmlite and Python versions and the CPU. Any change there selects a fresh
+directory, so stale code can never run; the few most recently used directories are kept, older ones
+deleted.
 
 The directory lives under ``$NUMBA_CACHE_DIR`` if set, else ``$XDG_CACHE_HOME/keepaway`` (default
 ``~/.cache/keepaway``). It also holds one marker per kernel set that ``keepaway compile`` has warmed
@@ -39,29 +40,37 @@ from numba.core.typing.typeof import Purpose, typeof
 
 ROOT = Path(__file__).resolve().parent.parent
 # Every file a kernel is defined in, calls into or reads a module-level value of: the kernel modules and
-# every module they import, directly or through others (tests/test_kernel_cache.py checks it).
+# every module they import, directly or through others (tests/test_kernel_cache.py checks it) ...
 KERNEL_SOURCES = ("protocol", "core", "server", "agents", "runner/__init__.py", "runner/job.py", "runner/batched.py")
+# ... but these files of those packages, which no kernel module imports (socket loops, command lines,
+# configuration, security): an edit there leaves the compiled kernels as they are. (The files that list
+# the kernels a set compiles, server/game_log.py and agents/player.py, stay in: a new kernel call there
+# warms the set anew.)
+NOT_KERNEL_SOURCES = ("agents/cli.py", "core/exits.py", "core/log_limit.py", "protocol/arena.py", "protocol/security.py",
+                      "server/app.py", "server/cli.py", "server/config.py", "server/intake.py", "server/trace_replay.py")
 KEEP_DIRECTORIES = 5  # the most recently used cache directories kept (a developer switching branches)
 LAST_USED = "last-used"
 
 
-def source_files(root: Path, entries: tuple[str, ...]) -> list[Path]:
-    """The ``.py`` files of ``entries`` (packages or single files) under ``root``, in a fixed order."""
+def source_files(root: Path, entries: tuple[str, ...], excluded: tuple[str, ...] = ()) -> list[Path]:
+    """The ``.py`` files of ``entries`` (packages or single files) under ``root`` but the ``excluded``
+    ones, in a fixed order."""
     files: list[Path] = []
     for entry in entries:
         path = root / entry
         files.extend(sorted(path.rglob("*.py")) if path.is_dir() else [path])
-    return files
+    skip = {root / name for name in excluded}
+    return [path for path in files if path not in skip]
 
 
-def source_digest(root: Path, entries: tuple[str, ...]) -> str:
-    """A digest of the source files of ``entries`` (path, size, mtime and content of each) and of the
-    compiler and machine that compile them."""
+def source_digest(root: Path, entries: tuple[str, ...], excluded: tuple[str, ...] = ()) -> str:
+    """A digest of the source files of ``entries`` but the ``excluded`` (path, size, mtime and content of
+    each) and of the compiler and machine that compile them."""
     digest = hashlib.sha256()
     for item in (numba.__version__, llvmlite.__version__, sys.version, platform.machine(),
                  llvm_binding.get_host_cpu_name()):
         digest.update(item.encode() + b"\0")
-    for path in source_files(root, entries):
+    for path in source_files(root, entries, excluded):
         stat = path.stat()
         digest.update(f"{path.relative_to(root)}\0{stat.st_size}\0{stat.st_mtime_ns}\0".encode())
         digest.update(path.read_bytes())
@@ -70,8 +79,8 @@ def source_digest(root: Path, entries: tuple[str, ...]) -> str:
 
 @lru_cache(maxsize=1)
 def cache_key() -> str:
-    """The digest of this installation's kernel sources (:data:`KERNEL_SOURCES`)."""
-    return source_digest(ROOT, KERNEL_SOURCES)
+    """The digest of this installation's kernel sources (:data:`KERNEL_SOURCES`, :data:`NOT_KERNEL_SOURCES`)."""
+    return source_digest(ROOT, KERNEL_SOURCES, NOT_KERNEL_SOURCES)
 
 
 def cache_root() -> Path:

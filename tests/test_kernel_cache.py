@@ -18,7 +18,7 @@ import numpy as np
 from conftest import REPO, keepaway_command
 
 from test_imports import MODULES, PROJECT, imported_names
-from core.jit import KERNEL_SOURCES, ROOT, Kernel, borrowing, configure_cache, njit, source_digest, source_files
+from core.jit import KERNEL_SOURCES, NOT_KERNEL_SOURCES, ROOT, Kernel, borrowing, configure_cache, njit, source_digest, source_files
 
 # Runs pkg.a.f() with numba's cache in CACHE_ROOT/numba-<digest of pkg's source>, as core.jit does.
 RUN_KERNEL = textwrap.dedent("""
@@ -93,7 +93,7 @@ def imports_numba_njit(tree: ast.AST) -> bool:
 def test_every_cached_kernel_goes_through_core_jit_and_is_in_the_key():
     """A kernel decorated with numba's own njit would use numba's stale-prone cache; a kernel module
     outside KERNEL_SOURCES would not change the key when edited."""
-    keyed = set(source_files(ROOT, KERNEL_SOURCES))
+    keyed = set(source_files(ROOT, KERNEL_SOURCES, NOT_KERNEL_SOURCES))
     for package in PROJECT:
         for path in sorted((ROOT / package).rglob("*.py")):
             tree = ast.parse(path.read_text())
@@ -106,7 +106,8 @@ def test_every_cached_kernel_goes_through_core_jit_and_is_in_the_key():
 def test_every_module_a_kernel_module_imports_is_in_the_key():
     """A kernel is compiled with the module-level values it reads (a constant, a table) of any module its
     own module imports, directly or through others: an edit there must select a fresh cache as well."""
-    keyed = {path.resolve() for path in source_files(ROOT, KERNEL_SOURCES)}
+    assert all((ROOT / name).is_file() for name in NOT_KERNEL_SOURCES)
+    keyed = {path.resolve() for path in source_files(ROOT, KERNEL_SOURCES, NOT_KERNEL_SOURCES)}
     kernel_modules = [name for name, path in MODULES.items() if imports_njit(ast.parse(path.read_text()), "core.jit")]
     assert "server.physics" in kernel_modules and "runner.batched" in kernel_modules
     reached: set[str] = set()
