@@ -167,11 +167,11 @@ class RunHost:
         self.processes.stop()
         self.thread.join()
 
-    def node(self) -> str:
-        """The address of the node the arena plays on."""
+    def where(self) -> str:
+        """The node the arena plays on and the directory of its logs there."""
         import ray
 
-        return ray.util.get_node_ip_address()
+        return f"{ray.util.get_node_ip_address()}:{self.opts.out}"
 
     def log_names(self) -> list[str]:
         """The files the run wrote (its logs and its processes' logs), relative to its ``--out``."""
@@ -207,9 +207,9 @@ def ray_run(address: str | None = None) -> Elsewhere:
         host = ray.remote(num_cpus=ARENA_CPUS)(RunHost).remote(replace(opts, out=Path("."), policy_path=None),
                                                               policy)
         try:
-            node = ray.get(host.node.remote())
+            where = ray.get(host.where.remote())
             if announce is not None:
-                announce(f"the arena plays on the Ray node {node}; its logs come to {opts.out} when it ends")
+                announce(f"the arena plays on a Ray node, its logs in {where}; they come to {opts.out} when it ends")
             seen, finished = 0, False
             while not finished:
                 news, finished, failure = ray.get(host.news_since.remote(seen))
