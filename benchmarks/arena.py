@@ -62,12 +62,7 @@ def main() -> None:
     # faster than its messages can be exchanged; the C loop is libzmq's own ceiling
     print(f"  bare ZeroMQ loop, no simulation {bare:21,.0f} cycles/s  (distributed: {distributed / bare:.2f}x of it; "
           f"it: {bare / embedded:.2f}x embedded)")
-    if isinstance(in_c, str):
-        print(f"  the same loop in C (libzmq)     {in_c}")
-    else:
-        rate, cpu_ms = in_c
-        print(f"  the same loop in C (libzmq)     {rate:21,.0f} cycles/s  ({rate / bare:.1f}x the Python loop, "
-              f"{rate / embedded:.2f}x embedded; {cpu_ms:.2f} ms CPU a cycle in all)")
+    print(f"  the same loop in C (libzmq)     {server.c_loop_line(in_c, bare, embedded)}")
     print("  targets (issue 11): batched >= 300 episodes/s and >= 150x embedded; distributed >= 0.9x embedded and "
           ">= 5 episodes/s (>= 750 cycles/s)")
 

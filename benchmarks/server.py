@@ -207,13 +207,15 @@ def c_loop(cycles: int) -> tuple[float, float] | str:
     return rate, cpu_ms
 
 
-def c_loop_line(cycles: int, python_loop: float) -> str:
-    """The C loop's figures beside the Python loop's ``python_loop`` cycles/s, in one line."""
-    result = c_loop(cycles)
+def c_loop_line(result: tuple[float, float] | str, python_loop: float, embedded: float | None = None) -> str:
+    """A :func:`c_loop` result beside the Python loop's ``python_loop`` cycles/s (and the embedded mode's
+    ``embedded``, if given), in one line."""
     if isinstance(result, str):
         return result
     rate, cpu_ms = result
-    return f"{rate:,.0f} cycles/s ({rate / python_loop:.1f}x the Python loop; {cpu_ms:.2f} ms CPU a cycle in all)"
+    beside_embedded = f", {rate / embedded:.2f}x embedded" if embedded is not None else ""
+    return (f"{rate:,.0f} cycles/s ({rate / python_loop:.1f}x the Python loop{beside_embedded}; "
+            f"{cpu_ms:.2f} ms CPU a cycle in all)")
 
 
 def main() -> None:
@@ -230,7 +232,7 @@ def main() -> None:
     print("(b) synchronous mode, 5 minimal client processes answering every think with one dash (cycles/s)")
     null = sync_cycles_per_second([sys.executable, "-c", NULL_SERVER, "5", str(opts.cycles)])
     print(f"    bare ZeroMQ loop, no simulation: {null:8,.0f}   (baseline: the ceiling of Python processes)")
-    print(f"    the same loop in C (libzmq):     {c_loop_line(opts.cycles, null)}")
+    print(f"    the same loop in C (libzmq):     {c_loop_line(c_loop(opts.cycles), null)}")
     real = sync_cycles_per_second([sys.executable, "-m", "keepaway", "server", "--players-port", "0",
                                    "--coach-port", "0", "--monitor-port", "0", "--max-cycles",
                                    str(opts.cycles)])

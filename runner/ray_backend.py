@@ -120,7 +120,7 @@ class RunHost:
             policy_path.write_bytes(policy)
         self.opts = replace(opts, out=work / "out", policy_path=policy_path, view=False)
         self.opts.out.mkdir()
-        self.news: list[tuple[str, Ended | None]] = []  # ("ended", episode) or (a note, None)
+        self.news: list[Ended | str] = []  # an ended episode, or a one-line note
         self.finished = False
         self.failure: str | None = None
         self.stopping = False
@@ -131,7 +131,7 @@ class RunHost:
 
     def _note(self, line: str) -> None:
         with self.changed:
-            self.news.append((line, None))
+            self.news.append(line)
             self.changed.notify_all()
 
     def _play(self) -> None:
@@ -141,7 +141,7 @@ class RunHost:
             with self.processes:
                 for record, cycles in distributed_episodes(self.opts, self.processes):
                     with self.changed:
-                        self.news.append(("ended", (record, cycles, time.perf_counter())))
+                        self.news.append((record, cycles, time.perf_counter()))
                         self.changed.notify_all()
         except (ArenaFailure, CompileError) as exc:
             failure = str(exc)
@@ -153,7 +153,7 @@ class RunHost:
                 self.failure = None if self.stopping else failure
                 self.changed.notify_all()
 
-    def news_since(self, seen: int) -> tuple[list[tuple[str, Ended | None]], bool, str | None]:
+    def news_since(self, seen: int) -> tuple[list[Ended | str], bool, str | None]:
         """The news after the first ``seen``, waiting up to NEWS_WAIT_S for some; whether the run is
         over; why it failed (None: it did not)."""
         with self.changed:
@@ -214,11 +214,11 @@ def ray_run(address: str | None = None) -> Elsewhere:
             while not finished:
                 news, finished, failure = ray.get(host.news_since.remote(seen))
                 seen += len(news)
-                for note, ended in news:
-                    if ended is not None:
-                        yield ended
+                for item in news:
+                    if not isinstance(item, str):
+                        yield item
                     elif announce is not None:
-                        announce(f"on the Ray node: {note}")
+                        announce(f"on the Ray node: {item}")
                 if failure is not None:
                     raise ArenaFailure(f"on the Ray node: {failure}")
         finally:

@@ -224,7 +224,7 @@ def test_a_kernel_called_with_constants_is_compiled_for_their_plain_types():
 def project_kernels() -> dict[str, Kernel]:
     """Every kernel defined in the kernel sources (the files the cache's key covers), by dotted name."""
     modules = [importlib.import_module(".".join(path.relative_to(ROOT).with_suffix("").parts).removesuffix(".__init__"))
-               for path in source_files(ROOT, KERNEL_SOURCES)]
+               for path in source_files(ROOT, KERNEL_SOURCES, NOT_KERNEL_SOURCES)]
     return {f"{module.__name__}.{attr}": value for module in modules for attr, value in vars(module).items()
             if isinstance(value, Kernel) and value.py_func.__module__ == module.__name__}
 
