@@ -104,7 +104,7 @@ def placement(mode: str, attach: tuple[str, ...], backend: str, ray_address: str
         from runner.ray_backend import ray_launcher
 
         try:
-            launcher = ray_launcher(ray_address, keys)
+            launcher = ray_launcher(ray_address, keys, announce)
         except RuntimeError as exc:
             raise click.UsageError(str(exc)) from None
     return Placement(threads, attach, launcher, keys)

@@ -10,8 +10,12 @@ needs no Ray; this module imports it only when asked.
 
 ``keepaway run``'s arena is an actor too (:class:`RunHost`), which plays the run on its node as ``keepaway
 run`` plays it here (``runner.run.distributed_episodes``): the same processes, seed and logs, so the
-same games. Nothing of it listens beyond the node's loopback; the episodes, one-line notes and at the
-end the logs come back through Ray (:func:`ray_run`), into the run's ``--out``.
+same games. Nothing of it listens beyond the node's loopback; the episodes, one-line notes and the logs
+as they grow come back through Ray (:func:`ray_run`), into the run's ``--out`` (:class:`LogMirror`).
+
+Every actor's constructor only keeps its arguments (a run's starts its thread), so an actor is ready as
+soon as Ray has placed it; a cluster with no free CPU leaves it waiting, which the command says in one
+line instead of falling silent (:func:`wait_placed`).
 """
 
 from __future__ import annotations
@@ -23,12 +27,14 @@ import time
 from collections.abc import Callable, Iterator
 from dataclasses import replace
 from pathlib import Path
+from typing import NamedTuple
 
 from runner.distributed import ARENA_PLAYER_ARGS, DistributedBackend, arena_server_args
 from runner.job import Game
 from runner.kernels import CompileError, ensure_compiled, kernel_sets
 from runner.launch import ArenaFailure, ArenaProcesses
 from runner.run import Elsewhere, Ended, RunOptions, distributed_episodes
+from server.episode_log import set_aside
 
 ARENA_CPUS = 1.0  # a synchronous arena's seven processes mostly wait for one another
 
@@ -37,49 +43,88 @@ class ArenaHost:
     """The actor behind one arena: starts its processes on the node it lands on and stops them."""
 
     def __init__(self, game: Game, parameter_set: str, index: int, keys: Path | None = None) -> None:
+        self.game, self.parameter_set, self.keys = game, parameter_set, keys
+        self.log_dir = Path(tempfile.mkdtemp(prefix=f"keepaway-arena-{index:02d}-"))
+        self.processes = ArenaProcesses(self.log_dir, batch_scheduled=True)  # a synchronous arena
+
+    def start(self) -> str:
+        """Start the arena's processes; its coach's arena endpoint, bound on the node's address."""
         import ray
 
-        log_dir = Path(tempfile.mkdtemp(prefix=f"keepaway-arena-{index:02d}-"))
-        self.processes = ArenaProcesses(log_dir, batch_scheduled=True).__enter__()  # a synchronous arena
+        game = self.game
+        self.processes.__enter__()
         try:
-            endpoints = self.processes.start_arena(arena_server_args(game, parameter_set, log_dir),
-                                                   list(ARENA_PLAYER_ARGS),
-                                                   game.keepers, game.takers,
-                                                   arena_host=ray.util.get_node_ip_address(), keys=keys)
+            endpoints = self.processes.start_arena(arena_server_args(game, self.parameter_set, self.log_dir),
+                                                   list(ARENA_PLAYER_ARGS), game.keepers, game.takers,
+                                                   arena_host=ray.util.get_node_ip_address(), keys=self.keys)
         except BaseException:
             self.processes.stop()
             raise
-        self.arena_endpoint = endpoints.arena
-
-    def endpoint(self) -> str:
-        return self.arena_endpoint
+        return endpoints.arena
 
     def stop(self) -> None:
         self.processes.stop()
 
 
+# After how long without every actor placed the command says it is waiting for the cluster (s).
+PLACEMENT_NOTICE_S = 10.0
+
+
+def wait_placed(ray, ready: list, what: str, announce: Callable[[str], None] | None) -> None:
+    """Wait until Ray has placed the actors whose ``__ray_ready__`` answers are ``ready`` (``what`` names
+    one of them in the notices: "arena"). If some are still waiting after PLACEMENT_NOTICE_S (a cluster without ARENA_CPUS
+    free for each), ``announce`` says so in one line with the cluster's CPUs, and again once they are
+    placed; it waits however long that takes (Ctrl-C gives up). Raises Ray's error if an actor could not
+    be created."""
+    start = time.monotonic()
+    _, waiting = ray.wait(ready, num_returns=len(ready), timeout=PLACEMENT_NOTICE_S)
+    them = f"the {what}" if len(ready) == 1 else f"the {len(ready)} {what}s"
+    if waiting and announce is not None:
+        cpus, free = ray.cluster_resources().get("CPU", 0.0), ray.available_resources().get("CPU", 0.0)
+        some = them if len(waiting) == len(ready) else f"{len(waiting)} of {them}"
+        announce(f"the Ray cluster has not placed {some} after {PLACEMENT_NOTICE_S:g} s: each {what} needs "
+                 f"{ARENA_CPUS:g} CPU, the cluster has {cpus:g} ({free:g} free); waiting (Ctrl-C gives up)")
+    ray.get(ready)
+    if waiting and announce is not None:
+        announce(f"the Ray cluster placed {them} after {time.monotonic() - start:.0f} s")
+
+
+def stop_actors(ray, hosts: list, ready: list) -> None:
+    """Stop the actors of ``hosts`` that Ray placed (``ready``: their ``__ray_ready__`` answers), waiting
+    for their ``stop``, then end every one: an actor still waiting for a CPU is only cancelled (asking it
+    to stop would wait for its placement), and one that failed is not waited for."""
+    placed = set(ray.wait(ready, num_returns=len(ready), timeout=0)[0])
+    stops = [host.stop.remote() for host, answer in zip(hosts, ready) if answer in placed]
+    if stops:
+        ray.wait(stops, num_returns=len(stops))
+    for host in hosts:
+        ray.kill(host)
+
+
 Launcher = Callable[[Game, str, int, int], DistributedBackend]
 
 
-def ray_launcher(address: str | None = None, keys: Path | None = None) -> Launcher:
+def ray_launcher(address: str | None = None, keys: Path | None = None,
+                 announce: Callable[[str], None] | None = None) -> Launcher:
     """A ``launcher`` for ``runner.backends.open_backend``: joins the Ray cluster at ``address`` (None:
     ``RAY_ADDRESS`` or a new local Ray); ``launch(game, parameter_set, arenas, chunk_episodes)`` places that
-    many arenas of ``game`` on it (jobs cut into chunks of ``chunk_episodes``), with ``keys`` (a keys directory at that path on every node) over CURVE. Raises
-    RuntimeError in one line when Ray is not installed."""
+    many arenas of ``game`` on it (jobs cut into chunks of ``chunk_episodes``), with ``keys`` (a keys
+    directory at that path on every node) over CURVE, telling ``announce`` in one line while the cluster
+    has no CPU for some (:func:`wait_placed`). Raises RuntimeError in one line when Ray is not installed."""
     ray = _import_ray()
 
     def launch(game: Game, parameter_set: str, arenas: int, chunk_episodes: int) -> DistributedBackend:
-        ray.init(address=address, ignore_reinit_error=True, log_to_driver=False)
+        _init_keeping_sigterm(ray, address)
         actor = ray.remote(num_cpus=ARENA_CPUS)(ArenaHost)
         hosts = [actor.remote(game, parameter_set, i, keys) for i in range(arenas)]
+        ready = [host.__ray_ready__.remote() for host in hosts]
 
         def stop_hosts() -> None:
-            ray.get([host.stop.remote() for host in hosts])
-            for host in hosts:
-                ray.kill(host)
+            stop_actors(ray, hosts, ready)
 
         try:
-            endpoints = ray.get([host.endpoint.remote() for host in hosts])
+            wait_placed(ray, ready, "arena", announce)
+            endpoints = ray.get([host.start.remote() for host in hosts])
         except BaseException:
             stop_hosts()
             raise
@@ -102,15 +147,24 @@ def _import_ray():
 # How long a driver's request for news waits on the node before it answers with none (s): episodes
 # reach the progress bar this soon, and a Ctrl-C on the driver is seen at least this often.
 NEWS_WAIT_S = 0.5
-LOG_PIECE = 1 << 23  # bytes of a log brought back from the node at a time
+LOG_PIECE = 1 << 23  # bytes of the logs brought back from the node at a time
+LOG_COPY_EVERY_S = 1.0  # how often the driver copies what the logs on the node have grown by
 POLICY_NAME = "policy.npz"  # the run's policy file, as the node's players read it (beside, not in, its logs)
+
+
+class LogPiece(NamedTuple):
+    """Bytes of a run's file on its node, from ``offset``."""
+
+    name: str  # relative to the run's --out
+    offset: int
+    data: bytes
 
 
 class RunHost:
     """The actor behind ``keepaway run --backend ray``: plays the run's arena on the node it lands on
     (module docstring) in a thread of its own, compiling the kernels there first if the node lacks
     them, and keeps what the driver asks for: the episodes as they end, with the node's time of each,
-    one-line notes, whether the run is over and why it failed, and at the end the logs."""
+    one-line notes, whether the run is over and why it failed, and its logs as they grow."""
 
     def __init__(self, opts: RunOptions, policy: bytes | None) -> None:
         work = Path(tempfile.mkdtemp(prefix="keepaway-run-"))
@@ -173,20 +227,54 @@ class RunHost:
 
         return f"{ray.util.get_node_ip_address()}:{self.opts.out}"
 
-    def log_names(self) -> list[str]:
-        """The files the run wrote (its logs and its processes' logs), relative to its ``--out``."""
-        return sorted(str(path.relative_to(self.opts.out)) for path in self.opts.out.rglob("*") if path.is_file())
+    def logs_since(self, sizes: dict[str, int]) -> list[LogPiece]:
+        """What the run's files (its logs and its processes' logs, named relative to its ``--out``) hold
+        beyond ``sizes`` (a file not named there: from its start, even empty), up to LOG_PIECE bytes in
+        all (a game log can be gigabytes)."""
+        pieces, budget = [], LOG_PIECE
+        for path in sorted(path for path in self.opts.out.rglob("*") if path.is_file()):
+            name = str(path.relative_to(self.opts.out))
+            if name in sizes and path.stat().st_size <= sizes[name]:
+                continue
+            with open(path, "rb") as f:
+                f.seek(sizes.get(name, 0))
+                data = f.read(budget)
+            pieces.append(LogPiece(name, sizes.get(name, 0), data))
+            budget -= len(data)
+            if budget <= 0:
+                break
+        return pieces
 
-    def log(self, name: str, offset: int) -> bytes:
-        """Up to LOG_PIECE bytes of the file ``name`` from ``offset`` (a game log can be gigabytes)."""
-        with open(self.opts.out / name, "rb") as f:
-            f.seek(offset)
-            return f.read(LOG_PIECE)
+
+class LogMirror:
+    """The node's run files as they grow, copied into the driver's ``--out`` as a local run keeps them:
+    a log of the same name already there (an earlier run's ``keepaway.kwy``, ``.jsonl``, ``.rcg``) is set
+    aside first, never overwritten (``server.episode_log.set_aside``, the server's rule); a process's log
+    under ``processes/`` is appended to, as a resumed local run's."""
+
+    def __init__(self, out: Path) -> None:
+        self.out = out
+        self.sizes: dict[str, int] = {}  # how much of each node file is copied
+
+    def take(self, pieces: list[LogPiece]) -> bool:
+        """Copy ``pieces`` (``RunHost.logs_since(self.sizes)``); whether there were any."""
+        for name, offset, data in pieces:
+            assert offset == self.sizes.get(name, 0), (name, offset)
+            path = self.out / name
+            if name not in self.sizes:
+                path.parent.mkdir(parents=True, exist_ok=True)
+                if path.parent == self.out:
+                    set_aside(path)
+            with open(path, "ab") as f:
+                f.write(data)
+            self.sizes[name] = offset + len(data)
+        return bool(pieces)
 
 
 def _init_keeping_sigterm(ray, address: str | None) -> None:
     """Join Ray, keeping this process's SIGTERM handler: a Ray driver otherwise exits on SIGTERM at once,
-    where ``keepaway run`` stops its arena, keeps its logs and prints the summary of what finished
+    where ``keepaway run`` stops its arena, keeps its logs and prints the summary of what finished, and
+    ``train``, ``evaluate`` and ``experiment`` stop their arenas and keep their checkpoints
     (``runner.launch.interrupt_on_sigterm``). Only the main thread can set a handler."""
     main = threading.current_thread() is threading.main_thread()
     before = signal.getsignal(signal.SIGTERM) if main else None
@@ -206,11 +294,14 @@ def ray_run(address: str | None = None) -> Elsewhere:
         _init_keeping_sigterm(ray, address)
         host = ray.remote(num_cpus=ARENA_CPUS)(RunHost).remote(replace(opts, out=Path("."), policy_path=None),
                                                               policy)
+        ready = [host.__ray_ready__.remote()]
+        mirror = LogMirror(opts.out)
         try:
+            wait_placed(ray, ready, "arena", announce)
             where = ray.get(host.where.remote())
             if announce is not None:
-                announce(f"the arena plays on a Ray node, its logs in {where}; they come to {opts.out} when it ends")
-            seen, finished = 0, False
+                announce(f"the arena plays on a Ray node, its logs in {where}, copied into {opts.out} as they grow")
+            seen, finished, copied_at = 0, False, time.monotonic()
             while not finished:
                 news, finished, failure = ray.get(host.news_since.remote(seen))
                 seen += len(news)
@@ -221,19 +312,20 @@ def ray_run(address: str | None = None) -> Elsewhere:
                         announce(f"on the Ray node: {item}")
                 if failure is not None:
                     raise ArenaFailure(f"on the Ray node: {failure}")
+                if time.monotonic() - copied_at >= LOG_COPY_EVERY_S:
+                    mirror.take(ray.get(host.logs_since.remote(mirror.sizes)))
+                    copied_at = time.monotonic()
         finally:
             try:
-                ray.get(host.stop.remote())
-                for name in ray.get(host.log_names.remote()):
-                    path = opts.out / name
-                    path.parent.mkdir(parents=True, exist_ok=True)
-                    with open(path, "wb") as f:
-                        while piece := ray.get(host.log.remote(name, f.tell())):
-                            f.write(piece)
+                if ray.wait(ready, timeout=0)[0]:  # placed: stop its arena, then copy the rest of its logs
+                    ray.get(host.stop.remote())
+                    while mirror.take(ray.get(host.logs_since.remote(mirror.sizes))):
+                        pass
             finally:
                 ray.kill(host)
 
     return play
 
 
-__all__ = ["ARENA_CPUS", "ArenaHost", "Launcher", "RunHost", "ray_launcher", "ray_run"]
+__all__ = ["ARENA_CPUS", "ArenaHost", "Launcher", "LogMirror", "LogPiece", "RunHost", "ray_launcher", "ray_run",
+           "stop_actors", "wait_placed"]

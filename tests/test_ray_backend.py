@@ -11,7 +11,9 @@ import importlib.util
 import json
 import signal
 import subprocess
+import threading
 import time
+from types import SimpleNamespace
 
 import pytest
 from click.testing import CliRunner
@@ -19,6 +21,7 @@ from click.testing import CliRunner
 from conftest import keepaway_command, process_tree, running
 from keepaway.cli import main
 from runner.job import Behaviours
+from runner.ray_backend import LogMirror, LogPiece, RunHost
 from trainer.train import TrainConfig
 
 HAVE_RAY = importlib.util.find_spec("ray") is not None
@@ -96,7 +99,11 @@ def test_sigterm_stops_a_run_on_ray_with_its_summary_and_logs(processes, tmp_pat
         tree = process_tree(proc.pid)  # a local Ray's processes are the run's, the arena's theirs
         time.sleep(0.2)
     assert len(arena(tree)) == 7, tree
-    time.sleep(8.0)  # some episodes
+    # the logs come as they grow, not only at the end: episodes in the local copy of the JSON-lines log
+    copied = lambda: len(path.read_text().splitlines()) - 1 if (path := tmp_path / "keepaway.jsonl").exists() else 0
+    while time.monotonic() < deadline and copied() < 3:
+        time.sleep(0.2)
+    assert copied() >= 3
     tree = process_tree(proc.pid)
     proc.send_signal(signal.SIGTERM)
     out, err = proc.communicate(timeout=120)
@@ -107,4 +114,109 @@ def test_sigterm_stops_a_run_on_ray_with_its_summary_and_logs(processes, tmp_pat
     assert message == (f"keepaway run: interrupted; every process was stopped; the summary covers the {logged} of "
                        "100000 episodes that finished")
     assert f"episodes        {logged}\n" in out.decode()
+    assert not running(tree, timeout_s=30.0)
+
+
+def test_the_logs_of_a_run_elsewhere_are_copied_as_they_grow_and_never_overwrite_earlier_ones(tmp_path, monkeypatch):
+    """``RunHost.logs_since`` (on the node) and ``LogMirror`` (in the driver's --out), without Ray: pieces of a
+    few bytes at a time give byte-for-byte copies, an earlier run's log of the same name is set aside as the
+    server does, a process's log is appended to as a resumed local run's."""
+    import runner.ray_backend
+
+    monkeypatch.setattr(runner.ray_backend, "LOG_PIECE", 5)
+    node, out = tmp_path / "node", tmp_path / "out"
+    (node / "processes").mkdir(parents=True)
+    (out / "processes").mkdir(parents=True)
+    (out / "keepaway.kwy").write_bytes(b"an earlier run's log\n")
+    (out / "processes" / "server.log").write_bytes(b"an earlier run\n")
+    host = SimpleNamespace(opts=SimpleNamespace(out=node))
+    mirror = LogMirror(out)
+    logs_since = lambda: RunHost.logs_since(host, mirror.sizes)  # type: ignore[arg-type]
+
+    (node / "keepaway.kwy").write_bytes(b"0\t1\t")
+    (node / "processes" / "server.log").write_bytes(b"listening\n")
+    (node / "processes" / "taker_1.log").write_bytes(b"")
+    while mirror.take(logs_since()):
+        pass
+    assert (out / "keepaway.kwy").read_bytes() == b"0\t1\t"
+    assert (out / "keepaway.1.kwy").read_bytes() == b"an earlier run's log\n"
+    assert (out / "processes" / "server.log").read_bytes() == b"an earlier run\nlistening\n"
+    assert (out / "processes" / "taker_1.log").read_bytes() == b""
+
+    with open(node / "keepaway.kwy", "ab") as f:  # the log grows; a new one appears
+        f.write(b"37\t2\n1\t38\t90\t52\t3\n")
+    (node / "keepaway.jsonl").write_bytes(b'{"seed": 5}\n')
+    pieces = logs_since()
+    assert sum(len(piece.data) for piece in pieces) == 5 and pieces[0] == LogPiece("keepaway.jsonl", 0, b'{"see')
+    mirror.take(pieces)
+    while mirror.take(logs_since()):
+        pass
+    for name in ("keepaway.kwy", "keepaway.jsonl", "processes/taker_1.log"):
+        assert (out / name).read_bytes() == (node / name).read_bytes()
+    assert sorted(p.name for p in out.iterdir()) == ["keepaway.1.kwy", "keepaway.jsonl", "keepaway.kwy", "processes"]
+
+
+@pytest.mark.skipif(not HAVE_RAY, reason="Ray is not installed (pip install 'keepaway[ray]')")
+@pytest.mark.timeout(600)
+def test_arenas_waiting_for_a_cpu_on_ray_are_announced_and_then_placed(monkeypatch):
+    """A cluster without a free CPU leaves an arena's actor waiting: the command says so in one line (with the
+    cluster's CPUs) instead of falling silent, and again once the arena is placed and started."""
+    import ray
+
+    import runner.ray_backend
+    from runner.ray_backend import ray_launcher
+
+    monkeypatch.setattr(runner.ray_backend, "PLACEMENT_NOTICE_S", 1.0)
+    config = TrainConfig(mode="distributed", arenas=1)
+    said: list[str] = []
+    launched = []
+    ray.init(num_cpus=1, log_to_driver=False)
+    try:
+        blocker = ray.remote(num_cpus=1)(type("Blocker", (), {})).remote()  # holds the cluster's one CPU
+        ray.get(blocker.__ray_ready__.remote())
+        launch = ray_launcher(None, announce=said.append)
+        thread = threading.Thread(target=lambda: launched.append(
+            launch(config.game(), config.parameter_set, 1, config.chunk_episodes)), daemon=True)
+        thread.start()
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and not said:
+            time.sleep(0.1)
+        assert said == ["the Ray cluster has not placed the arena after 1 s: each arena needs 1 CPU, the cluster "
+                        "has 1 (0 free); waiting (Ctrl-C gives up)"]
+        assert thread.is_alive()
+        ray.kill(blocker)
+        thread.join(timeout=300)
+        assert launched, said
+        backend = launched[0]
+        try:
+            episodes = backend.play(Behaviours("handcoded", "handcoded"), 3, 2, "greedy")[0].episodes
+        finally:
+            backend.close()
+        assert len(episodes) == 2
+        assert said[1].startswith("the Ray cluster placed the arena after ") and len(said) == 2
+    finally:
+        ray.shutdown()
+
+
+@pytest.mark.skipif(not HAVE_RAY, reason="Ray is not installed (pip install 'keepaway[ray]')")
+@pytest.mark.timeout(600)
+def test_sigterm_stops_training_on_ray_as_it_stops_a_local_training(processes, tmp_path):
+    """Ray's driver would exit on SIGTERM at once (SIGABRT, no checkpoint kept): ``keepaway train`` keeps its
+    own handler, stops its arenas, says how to continue and exits 130, leaving nothing running."""
+    out = tmp_path / "t"
+    proc = processes.popen(keepaway_command("train", "--mode", "distributed", "--backend", "ray", "--arenas", "1",
+                                            "--pass", "learned", "--getopen", "handcoded", "--episodes", "100000",
+                                            "--schedule", "pass:100000", "--no-progress", "--out", str(out)),
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 300
+    tree: dict[int, str] = {}
+    while time.monotonic() < deadline and not any(name.startswith("keeper ") for name in tree.values()):
+        tree = process_tree(proc.pid)
+        time.sleep(0.2)
+    time.sleep(3.0)  # the arena plays
+    tree = process_tree(proc.pid)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err.decode()[-2000:]
+    assert err.decode().strip().splitlines()[-1] == f"keepaway train: interrupted; continue with --resume {out}"
     assert not running(tree, timeout_s=30.0)
