@@ -189,7 +189,6 @@ def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str,
     if view and mode != "distributed":
         raise click.UsageError("--view follows an arena's monitor port: it needs --mode distributed")
     check_ray_address(backend, ray_address)
-    elsewhere = None
     if backend == "ray":
         if mode != "distributed":
             raise click.UsageError(f"--backend ray places the distributed mode's arena; the {mode} mode plays in "
@@ -197,12 +196,6 @@ def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str,
         if view:
             raise click.UsageError("--view serves a viewer of an arena on this machine; with --backend ray the "
                                    "arena runs on a Ray node: leave one out")
-        from runner.ray_backend import ray_run
-
-        try:
-            elsewhere = ray_run(ray_address)
-        except RuntimeError as exc:
-            raise click.UsageError(str(exc)) from None
     if getopen_notes is None:
         getopen_notes = "values" if view else "none"
     elif getopen_notes != "none" and mode == "batched":
@@ -222,6 +215,14 @@ def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str,
     opts = RunOptions(spec, episodes, mode, batch, realtime, out, policy_path, parameter_set, keys,
                       game_log=not no_game_log, game_log_arenas=logged_arenas, view=view,
                       getopen_notes=getopen_notes)
+    elsewhere = None
+    if backend == "ray":  # joins the cluster: after every other check
+        from runner.ray_backend import ray_run
+
+        try:
+            elsewhere = ray_run(ray_address)
+        except RuntimeError as exc:
+            raise click.UsageError(str(exc)) from None
     interrupt_on_sigterm()
     show = (lambda result: click.echo(dump_json(result.summary()) if as_json else summary_table(result.summary())))
     try:

@@ -20,7 +20,9 @@ line instead of falling silent (:func:`wait_placed`).
 
 from __future__ import annotations
 
+import os
 import signal
+import socket
 import tempfile
 import threading
 import time
@@ -110,11 +112,11 @@ def ray_launcher(address: str | None = None, keys: Path | None = None,
     ``RAY_ADDRESS`` or a new local Ray); ``launch(game, parameter_set, arenas, chunk_episodes)`` places that
     many arenas of ``game`` on it (jobs cut into chunks of ``chunk_episodes``), with ``keys`` (a keys
     directory at that path on every node) over CURVE, telling ``announce`` in one line while the cluster
-    has no CPU for some (:func:`wait_placed`). Raises RuntimeError in one line when Ray is not installed."""
-    ray = _import_ray()
+    has no CPU for some (:func:`wait_placed`). Raises RuntimeError in one line when Ray is not installed
+    or the cluster cannot be joined (:func:`join_ray`)."""
+    ray = join_ray(address)
 
     def launch(game: Game, parameter_set: str, arenas: int, chunk_episodes: int) -> DistributedBackend:
-        _init_keeping_sigterm(ray, address)
         actor = ray.remote(num_cpus=ARENA_CPUS)(ArenaHost)
         hosts = [actor.remote(game, parameter_set, i, keys) for i in range(arenas)]
         ready = [host.__ray_ready__.remote() for host in hosts]
@@ -271,27 +273,51 @@ class LogMirror:
         return bool(pieces)
 
 
-def _init_keeping_sigterm(ray, address: str | None) -> None:
-    """Join Ray, keeping this process's SIGTERM handler: a Ray driver otherwise exits on SIGTERM at once,
-    where ``keepaway run`` stops its arena, keeps its logs and prints the summary of what finished, and
-    ``train``, ``evaluate`` and ``experiment`` stop their arenas and keep their checkpoints
-    (``runner.launch.interrupt_on_sigterm``). Only the main thread can set a handler."""
+# How long joining a cluster at an address may wait for its port to answer (s): Ray itself retries an
+# address where nothing listens for minutes, printing a warning every few seconds.
+CONNECT_TIMEOUT_S = 10.0
+
+
+def join_ray(address: str | None):
+    """Join the Ray cluster at ``address`` (None: ``RAY_ADDRESS``, else a new local Ray; ``auto``: the
+    one running on this machine) and return the ray module. Raises RuntimeError in one line when Ray is
+    not installed, when nothing answers at a ``HOST:PORT`` address within CONNECT_TIMEOUT_S, or when Ray
+    cannot join.
+
+    This process keeps its SIGTERM handler: a Ray driver otherwise exits on SIGTERM at once (a SIGABRT
+    report), where ``keepaway run`` stops its arena, keeps its logs and prints the summary of what
+    finished, and ``train``, ``evaluate`` and ``experiment`` stop their arenas and keep their checkpoints
+    (``runner.launch.interrupt_on_sigterm``, set before or after this). Only the main thread can set one."""
+    ray = _import_ray()
+    where = address or os.environ.get("RAY_ADDRESS")
+    host, _, port = (where or "").removeprefix("ray://").rpartition(":")
+    if host and port.isdigit():
+        try:
+            socket.create_connection((host, int(port)), timeout=CONNECT_TIMEOUT_S).close()
+        except OSError as exc:
+            raise RuntimeError(f"no Ray cluster answers at {where}: {exc.strerror or exc}; start one there "
+                               "(ray start --head) or give another --ray-address") from None
     main = threading.current_thread() is threading.main_thread()
     before = signal.getsignal(signal.SIGTERM) if main else None
-    ray.init(address=address, ignore_reinit_error=True, log_to_driver=False)
+    try:
+        ray.init(address=address, ignore_reinit_error=True, log_to_driver=False)
+    except ConnectionError as exc:
+        raise RuntimeError(f"cannot join {f'the Ray cluster at {where}' if where else 'a new local Ray'}: "
+                           f"{exc}") from None
     if main and before is not None:
         signal.signal(signal.SIGTERM, before)
+    return ray
 
 
 def ray_run(address: str | None = None) -> Elsewhere:
     """``keepaway run``'s ``elsewhere`` for a Ray cluster (``runner.run.run``): joins the cluster at
     ``address`` (None: ``RAY_ADDRESS`` or a new local Ray) and plays the run's arena in a
-    :class:`RunHost` on one of its nodes. Raises RuntimeError in one line when Ray is not installed."""
-    ray = _import_ray()
+    :class:`RunHost` on one of its nodes. Raises RuntimeError in one line when Ray is not installed or the
+    cluster cannot be joined (:func:`join_ray`)."""
+    ray = join_ray(address)
 
     def play(opts: RunOptions, announce: Callable[[str], None] | None) -> Iterator[Ended]:
         policy = opts.policy_path.read_bytes() if opts.policy_path is not None else None
-        _init_keeping_sigterm(ray, address)
         host = ray.remote(num_cpus=ARENA_CPUS)(RunHost).remote(replace(opts, out=Path("."), policy_path=None),
                                                               policy)
         ready = [host.__ray_ready__.remote()]
@@ -327,5 +353,5 @@ def ray_run(address: str | None = None) -> Elsewhere:
     return play
 
 
-__all__ = ["ARENA_CPUS", "ArenaHost", "Launcher", "LogMirror", "LogPiece", "RunHost", "ray_launcher", "ray_run",
-           "stop_actors", "wait_placed"]
+__all__ = ["ARENA_CPUS", "ArenaHost", "Launcher", "LogMirror", "LogPiece", "RunHost", "join_ray", "ray_launcher",
+           "ray_run", "stop_actors", "wait_placed"]

@@ -10,6 +10,7 @@ from __future__ import annotations
 import importlib.util
 import json
 import signal
+import socket
 import subprocess
 import threading
 import time
@@ -33,6 +34,21 @@ def test_without_ray_the_backend_is_refused_in_one_line(tmp_path, command):
     done = CliRunner().invoke(main, [command, "--mode", "distributed", "--backend", "ray", "--out", str(tmp_path / "t")])
     assert done.exit_code == 2
     assert "pip install 'keepaway[ray]'" in done.output
+
+
+@pytest.mark.skipif(not HAVE_RAY, reason="Ray is not installed (pip install 'keepaway[ray]')")
+@pytest.mark.parametrize("command", ["train", "run"])
+def test_a_ray_address_where_nothing_answers_is_refused_in_one_line_at_once(tmp_path, command):
+    """Ray retries such an address for minutes, printing warnings; the command checks the port first."""
+    with socket.socket() as s:  # a loopback port nobody listens on
+        s.bind(("127.0.0.1", 0))
+        address = f"127.0.0.1:{s.getsockname()[1]}"
+    done = CliRunner().invoke(main, [command, "--mode", "distributed", "--backend", "ray", "--ray-address", address,
+                                     "--out", str(tmp_path / "t")])
+    assert done.exit_code == 2
+    assert done.output.splitlines()[-1] == (f"Error: no Ray cluster answers at {address}: Connection refused; start "
+                                            "one there (ray start --head) or give another --ray-address")
+    assert not (tmp_path / "t").exists()
 
 
 @pytest.mark.skipif(not HAVE_RAY, reason="Ray is not installed (pip install 'keepaway[ray]')")
