@@ -32,27 +32,36 @@ ARENA_CYCLE_TIMEOUT_S = 60.0
 # An arena this trainer did not start cannot be watched for dead processes: one that has not answered a
 # chunk after this long is given up (a chunk takes seconds to a minute).
 ATTACHED_TIMEOUT_S = 900.0
+# How often a busy arena whose processes can be watched is asked whether one died (s): a look at its
+# processes here, a Ray call to the actor of an arena placed by Ray.
+WATCH_EVERY_S = 0.5
 STOP_TIMEOUT_S = 10.0
 
 
 @dataclass
 class Arena:
-    """One arena the trainer drives: its coach's arena endpoint and, if the trainer started it, its
-    processes (checked for deaths while a request runs)."""
+    """One arena the trainer drives: its coach's arena endpoint; if the trainer started it, its processes;
+    and if its processes can be watched (started here, or placed by Ray: ``runner.ray_backend``), how to
+    learn of one that died (``watch``: the death in one line, or None), asked while a request runs."""
 
     name: str
     endpoint: str
     socket: zmq.Socket
     processes: ArenaProcesses | None = None
+    watch: Callable[[], str | None] | None = None
+    watched_at: float = 0.0  # time.monotonic() of the last watch
 
-    def check(self, waited_s: float) -> None:
-        """Raise ArenaFailure naming the first dead process of an arena this trainer started, or for an
-        attached arena that has not answered for :data:`ATTACHED_TIMEOUT_S`."""
-        if self.processes is not None:
-            dead = self.processes.first_death(run_finished=arena_never_finishes)
+    def check(self, waited_s: float, at_once: bool = False) -> None:
+        """Raise ArenaFailure naming the first dead process of a watched arena (asked at most every
+        :data:`WATCH_EVERY_S` unless ``at_once``), or for an arena this trainer did not start that has
+        not answered for :data:`ATTACHED_TIMEOUT_S`."""
+        now = time.monotonic()
+        if self.watch is not None and (at_once or now - self.watched_at >= WATCH_EVERY_S):
+            self.watched_at = now
+            dead = self.watch()
             if dead is not None:
-                raise ArenaFailure(f"{self.name}: {dead.describe_exit()}; logs in {self.processes.log_dir}")
-        elif waited_s > ATTACHED_TIMEOUT_S:
+                raise ArenaFailure(f"{self.name}: {dead}")
+        if self.processes is None and waited_s > ATTACHED_TIMEOUT_S:
             raise ArenaFailure(f"{self.name}: no answer for {waited_s:.0f} s; is its coach still running, and "
                                f"is this trainer's key authorised there (--keys)?")
 
@@ -60,6 +69,13 @@ class Arena:
 def arena_never_finishes() -> bool:
     """A training arena plays until the trainer stops it: any exit while a request runs is a death."""
     return False
+
+
+def dead_process(processes: ArenaProcesses, node: str = "") -> str | None:
+    """The first process of a training arena that died, named in one line with where its logs are
+    (``node``: the machine they are on, for an arena placed elsewhere), or None."""
+    dead = processes.first_death(run_finished=arena_never_finishes)
+    return None if dead is None else f"{dead.describe_exit()}; logs in {node}{processes.log_dir}"
 
 
 class DistributedBackend(CoachedBackend):
@@ -88,7 +104,8 @@ class DistributedBackend(CoachedBackend):
             for i in range(count):
                 where = log_dir / f"arena_{i:02d}"
                 processes = ArenaProcesses(where, batch_scheduled=True).__enter__()  # synchronous arenas
-                arenas.append(Arena(f"arena {i}", "", _socket(ctx, key_dir), processes))
+                arenas.append(Arena(f"arena {i}", "", _socket(ctx, key_dir), processes,
+                                    watch=lambda processes=processes: dead_process(processes)))
                 endpoints = processes.start_arena(arena_server_args(game, parameter_set, where),
                                                   list(ARENA_PLAYER_ARGS), game.keepers, game.takers,
                                                   arena_host="127.0.0.1", keys=keys)
@@ -156,7 +173,11 @@ class DistributedBackend(CoachedBackend):
             for a, arena in enumerate(arenas):
                 if a in busy and a not in unsent and arena.socket in events:
                     index = busy.pop(a)
-                    answers[index] = self._answer(arena, arena.socket.recv(), chunks[index])
+                    try:
+                        answers[index] = self._answer(arena, arena.socket.recv(), chunks[index])
+                    except ArenaFailure:
+                        arena.check(0.0, at_once=True)  # a dead process that explains it is the better line
+                        raise
                     if progress is not None:
                         progress(chunks[index].episodes)
                 elif a in busy:
@@ -204,4 +225,4 @@ def _socket(ctx: zmq.Context, keys: KeyDir | None) -> zmq.Socket:
     return sock
 
 
-__all__ = ["ARENA_PLAYER_ARGS", "Arena", "DistributedBackend", "arena_server_args"]
+__all__ = ["ARENA_PLAYER_ARGS", "Arena", "DistributedBackend", "arena_server_args", "dead_process"]

@@ -31,7 +31,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import NamedTuple
 
-from runner.distributed import ARENA_PLAYER_ARGS, DistributedBackend, arena_server_args
+from runner.distributed import ARENA_PLAYER_ARGS, DistributedBackend, arena_server_args, dead_process
 from runner.job import Game
 from runner.kernels import CompileError, ensure_compiled, kernel_sets
 from runner.launch import ArenaFailure, ArenaProcesses
@@ -64,8 +64,28 @@ class ArenaHost:
             raise
         return endpoints.arena
 
+    def death(self) -> str | None:
+        """The first of the arena's processes that died, in one line with the node and directory of its
+        logs (``runner.distributed.dead_process``), or None."""
+        import ray
+
+        return dead_process(self.processes, f"{ray.util.get_node_ip_address()}:")
+
     def stop(self) -> None:
         self.processes.stop()
+
+
+def watcher(ray, host) -> Callable[[], str | None]:
+    """An ``Arena.watch`` for the arena of the actor ``host``: whether one of its processes died
+    (``ArenaHost.death``), or the actor itself (its node gone, say)."""
+
+    def watch() -> str | None:
+        try:
+            return ray.get(host.death.remote())
+        except ray.exceptions.RayActorError as exc:
+            return f"the Ray actor that started it died: {str(exc).splitlines()[0]}"
+
+    return watch
 
 
 # After how long without every actor placed the command says it is waiting for the cluster (s).
@@ -131,6 +151,8 @@ def ray_launcher(address: str | None = None, keys: Path | None = None,
             stop_hosts()
             raise
         backend = DistributedBackend.attach(game, endpoints, chunk_episodes, keys=keys)
+        for arena, host in zip(backend.arenas, hosts):
+            arena.watch = watcher(ray, host)
         backend.on_close = stop_hosts
         return backend
 
@@ -354,4 +376,4 @@ def ray_run(address: str | None = None) -> Elsewhere:
 
 
 __all__ = ["ARENA_CPUS", "ArenaHost", "Launcher", "LogMirror", "LogPiece", "RunHost", "join_ray", "ray_launcher",
-           "ray_run", "stop_actors", "wait_placed"]
+           "ray_run", "stop_actors", "wait_placed", "watcher"]

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import os
+import re
 import signal
 import socket
 import subprocess
@@ -97,6 +99,38 @@ def test_ray_places_arenas_that_play_like_local_ones(tmp_path):
         here = local.play(job, 21, 4, "greedy")[0]
     assert [(e.end_cycle - e.start_cycle, e.end) for e in on_ray.episodes] == \
         [(e.end_cycle - e.start_cycle, e.end) for e in here.episodes]
+
+
+@pytest.mark.skipif(not HAVE_RAY, reason="Ray is not installed (pip install 'keepaway[ray]')")
+@pytest.mark.timeout(600)
+def test_a_process_dying_in_an_arena_on_ray_is_named_with_where_its_logs_are():
+    """The trainer watches the arenas Ray placed as it watches its own: a dead player is named at once (not
+    after the server's 60 s cycle timeout, nor, for a dead coach, the 900 s an attached arena is given)."""
+    import ray
+
+    from runner.launch import ArenaFailure
+    from runner.ray_backend import ray_launcher
+
+    config = TrainConfig(mode="distributed", arenas=1)
+    try:
+        backend = ray_launcher(None)(config.game(), config.parameter_set, 1, config.chunk_episodes)
+        try:
+            # a local Ray's processes are this process's descendants, the arena's theirs; a forked player
+            # takes its name soon after it starts
+            deadline, takers = time.monotonic() + 60, []
+            while time.monotonic() < deadline and not takers:
+                takers = [pid for pid, name in process_tree(os.getpid()).items() if name == "taker 2"]
+                time.sleep(0.1)
+            assert len(takers) == 1
+            os.kill(takers[0], signal.SIGKILL)
+            with pytest.raises(ArenaFailure) as failure:
+                backend.play(Behaviours("handcoded", "handcoded"), 3, 100, "greedy")
+        finally:
+            backend.close()
+    finally:
+        ray.shutdown()
+    assert re.fullmatch(rf"arena 0 \(tcp://\S+\): taker 2 \(pid {takers[0]}\) was killed by SIGKILL; "
+                        r"logs in \S+:/\S+/keepaway-arena-00-\S+", str(failure.value)), str(failure.value)
 
 
 @pytest.mark.skipif(not HAVE_RAY, reason="Ray is not installed (pip install 'keepaway[ray]')")

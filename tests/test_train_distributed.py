@@ -93,6 +93,36 @@ def test_a_refused_run_is_named_with_the_coach_error(fake_coach):
         backend.close()
 
 
+def test_a_watched_arena_names_its_dead_process_while_a_run_waits_and_before_the_coach_error(fake_coach):
+    """An arena whose processes can be watched (started here, or by a Ray actor: ``Arena.watch``) names the
+    process that died: while its run waits (instead of the 900 s an attached arena is given) and in place
+    of the coach's refusal that the death caused."""
+    sock, endpoint = fake_coach
+    backend = DistributedBackend.attach(TrainConfig().game(), [endpoint])
+    death = "taker 2 (pid 9) was killed by SIGKILL; logs in 10.0.0.6:/tmp/keepaway-arena-00-x"
+    deaths: list[str | None] = [None, None, death]  # what the watch says, call by call (then the last again)
+    backend.arenas[0].watch = lambda: deaths.pop(0) if len(deaths) > 1 else deaths[0]
+    try:
+        with pytest.raises(ArenaFailure) as failure:
+            backend.play(Behaviours("handcoded", "handcoded"), 1, 3, "greedy")  # the fake coach never answers
+        assert str(failure.value) == f"arena 0 ({endpoint}): {death}"
+        sock.recv_multipart()  # that run's request
+
+        def refuse():
+            ident, _ = sock.recv_multipart()
+            sock.send_multipart([ident, encode(m.Error(cycle=0, code="arena_stopped", message="taker 2 is gone"))])
+
+        thread = threading.Thread(target=refuse)
+        thread.start()
+        backend.arenas[0].watched_at = time.monotonic() + 3600  # only the refusal asks the watch now
+        with pytest.raises(ArenaFailure) as failure:
+            backend.play(Behaviours("handcoded", "handcoded"), 1, 3, "greedy")
+        thread.join()
+        assert str(failure.value) == f"arena 0 ({endpoint}): {death}"
+    finally:
+        backend.close()
+
+
 @pytest.mark.slow
 def test_a_chunk_plays_the_same_in_any_arena_whatever_it_played_before(tmp_path):
     # Random Pass and GetOpen draw from the players' own streams, so this checks the players' reseeding
