@@ -31,6 +31,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import NamedTuple
 
+from protocol.endpoints import parse_endpoint
 from runner.distributed import ARENA_PLAYER_ARGS, DistributedBackend, arena_server_args, dead_process
 from runner.job import Game
 from runner.kernels import CompileError, ensure_compiled, kernel_sets
@@ -147,6 +148,10 @@ def ray_launcher(address: str | None = None, keys: Path | None = None,
         try:
             wait_placed(ray, ready, "arena", announce)
             endpoints = ray.get([host.start.remote() for host in hosts])
+            for i, endpoint in enumerate(endpoints):  # else each request would wait ATTACHED_TIMEOUT_S
+                if (why := unreachable(*parse_endpoint(endpoint))) is not None:
+                    raise ArenaFailure(f"arena {i} ({endpoint}): this machine cannot reach its port: {why}; the "
+                                       "trainer must reach the ports of every Ray node (a firewall between them?)")
         except BaseException:
             stop_hosts()
             raise
@@ -295,9 +300,20 @@ class LogMirror:
         return bool(pieces)
 
 
-# How long joining a cluster at an address may wait for its port to answer (s): Ray itself retries an
-# address where nothing listens for minutes, printing a warning every few seconds.
+# How long a cluster's address, or an arena's port on a node, may take to answer a connection from here
+# (s): Ray itself retries an address where nothing listens for minutes, printing a warning every few
+# seconds, and a trainer would wait ATTACHED_TIMEOUT_S for an arena it cannot reach.
 CONNECT_TIMEOUT_S = 10.0
+
+
+def unreachable(host: str, port: int) -> str | None:
+    """Why a TCP connection from here to ``host:port`` is not made within CONNECT_TIMEOUT_S (one line),
+    or None when it is."""
+    try:
+        socket.create_connection((host, port), timeout=CONNECT_TIMEOUT_S).close()
+    except OSError as exc:
+        return exc.strerror or str(exc)
+    return None
 
 
 def join_ray(address: str | None):
@@ -313,12 +329,9 @@ def join_ray(address: str | None):
     ray = _import_ray()
     where = address or os.environ.get("RAY_ADDRESS")
     host, _, port = (where or "").removeprefix("ray://").rpartition(":")
-    if host and port.isdigit():
-        try:
-            socket.create_connection((host, int(port)), timeout=CONNECT_TIMEOUT_S).close()
-        except OSError as exc:
-            raise RuntimeError(f"no Ray cluster answers at {where}: {exc.strerror or exc}; start one there "
-                               "(ray start --head) or give another --ray-address") from None
+    if host and port.isdigit() and (why := unreachable(host, int(port))) is not None:
+        raise RuntimeError(f"no Ray cluster answers at {where}: {why}; start one there (ray start --head) or "
+                           "give another --ray-address")
     main = threading.current_thread() is threading.main_thread()
     before = signal.getsignal(signal.SIGTERM) if main else None
     try:
@@ -376,4 +389,4 @@ def ray_run(address: str | None = None) -> Elsewhere:
 
 
 __all__ = ["ARENA_CPUS", "ArenaHost", "Launcher", "LogMirror", "LogPiece", "RunHost", "join_ray", "ray_launcher",
-           "ray_run", "stop_actors", "wait_placed", "watcher"]
+           "ray_run", "stop_actors", "unreachable", "wait_placed", "watcher"]

@@ -135,6 +135,49 @@ def test_a_process_dying_in_an_arena_on_ray_is_named_with_where_its_logs_are():
 
 @pytest.mark.skipif(not HAVE_RAY, reason="Ray is not installed (pip install 'keepaway[ray]')")
 @pytest.mark.timeout(600)
+def test_an_arena_whose_port_this_machine_cannot_reach_is_refused_at_once_and_stopped(monkeypatch):
+    """A trainer that cannot reach a node's ports (a firewall, a driver outside the cluster) learns it when
+    the arenas start, in one line, instead of after each request's 900 s; the arenas are stopped."""
+    import ray
+
+    import runner.ray_backend
+    from runner.launch import ArenaFailure
+    from runner.ray_backend import ray_launcher
+
+    arena: set[int] = set()  # the arena's server and coach (a local Ray's processes are this one's descendants)
+
+    def unreachable(host: str, port: int) -> str:
+        arena.update(pid for pid, name in process_tree(os.getpid()).items()
+                     if " keepaway server " in f" {name} " or " keepaway coach " in f" {name} ")
+        return "No route to host"
+
+    monkeypatch.setattr(runner.ray_backend, "unreachable", unreachable)
+    config = TrainConfig(mode="distributed", arenas=1)
+    try:
+        with pytest.raises(ArenaFailure) as failure:
+            ray_launcher(None)(config.game(), config.parameter_set, 1, config.chunk_episodes)
+        assert len(arena) == 2 and not running(arena, timeout_s=30.0)
+    finally:
+        ray.shutdown()
+    assert re.fullmatch(r"arena 0 \(tcp://\S+\): this machine cannot reach its port: No route to host; the trainer "
+                        r"must reach the ports of every Ray node \(a firewall between them\?\)", str(failure.value))
+
+
+def test_unreachable_says_why_in_one_line():
+    from runner.ray_backend import unreachable
+
+    with socket.socket() as s:  # a loopback port nobody listens on
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    assert unreachable("127.0.0.1", port) == "Connection refused"
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        s.listen()
+        assert unreachable("127.0.0.1", s.getsockname()[1]) is None
+
+
+@pytest.mark.skipif(not HAVE_RAY, reason="Ray is not installed (pip install 'keepaway[ray]')")
+@pytest.mark.timeout(600)
 def test_sigterm_stops_a_run_on_ray_with_its_summary_and_logs(processes, tmp_path):
     """A Ray driver exits at once on SIGTERM unless ``keepaway run`` keeps its own handler: the arena on the
     node stopped, its logs brought back, the summary of what finished, exit 130, nothing left running."""
