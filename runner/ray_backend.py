@@ -97,8 +97,9 @@ def wait_placed(ray, ready: list, what: str, announce: Callable[[str], None] | N
     """Wait until Ray has placed the actors whose ``__ray_ready__`` answers are ``ready`` (``what`` names
     one of them in the notices: "arena"). If some are still waiting after PLACEMENT_NOTICE_S (a cluster without ARENA_CPUS
     free for each), ``announce`` says so in one line with the cluster's CPUs, and again once they are
-    placed; it waits however long that takes (Ctrl-C gives up). Raises Ray's error if an actor could not
-    be created."""
+    placed; it waits however long that takes (Ctrl-C gives up). Raises ArenaFailure in one line if an
+    actor could not be created (its error's last line: on a node without this package, the missing
+    module)."""
     start = time.monotonic()
     _, waiting = ray.wait(ready, num_returns=len(ready), timeout=PLACEMENT_NOTICE_S)
     them = f"the {what}" if len(ready) == 1 else f"the {len(ready)} {what}s"
@@ -107,7 +108,12 @@ def wait_placed(ray, ready: list, what: str, announce: Callable[[str], None] | N
         some = them if len(waiting) == len(ready) else f"{len(waiting)} of {them}"
         announce(f"the Ray cluster has not placed {some} after {PLACEMENT_NOTICE_S:g} s: each {what} needs "
                  f"{ARENA_CPUS:g} CPU, the cluster has {cpus:g} ({free:g} free); waiting (Ctrl-C gives up)")
-    ray.get(ready)
+    try:
+        ray.get(ready)
+    except ray.exceptions.RayActorError as exc:
+        cause = [line.strip() for line in str(exc).splitlines() if line.strip()] or [type(exc).__name__]
+        raise ArenaFailure(f"Ray could not create the {what} on its node: {cause[-1]}; every node needs this "
+                           "version of keepaway installed (pip install 'keepaway[ray]')") from None
     if waiting and announce is not None:
         announce(f"the Ray cluster placed {them} after {time.monotonic() - start:.0f} s")
 

@@ -23,6 +23,8 @@ from click.testing import CliRunner
 
 from conftest import keepaway_command, process_tree, running
 from keepaway.cli import main
+from protocol.params import parameter_set
+from runner.embedded import ArenaSpec
 from runner.job import Behaviours
 from runner.ray_backend import LogMirror, LogPiece, RunHost
 from trainer.train import TrainConfig
@@ -174,6 +176,30 @@ def test_unreachable_says_why_in_one_line():
         s.bind(("127.0.0.1", 0))
         s.listen()
         assert unreachable("127.0.0.1", s.getsockname()[1]) is None
+
+
+@pytest.mark.skipif(not HAVE_RAY, reason="Ray is not installed (pip install 'keepaway[ray]')")
+@pytest.mark.timeout(600)
+def test_an_actor_that_cannot_be_created_is_named_in_one_line(tmp_path):
+    """On a node without this package the actor's creation fails (ModuleNotFoundError); any failure of a
+    constructor reaches the command as its error's last line, not as Ray's traceback."""
+    import ray
+
+    from runner.launch import ArenaFailure
+    from runner.ray_backend import wait_placed
+    from runner.run import RunOptions
+
+    ray.init(num_cpus=1, log_to_driver=False)
+    try:
+        spec = ArenaSpec(parameter_set("classic"))
+        host = ray.remote(num_cpus=1)(RunHost).remote(RunOptions(spec, 1, out=tmp_path), 5)  # not a policy's bytes
+        with pytest.raises(ArenaFailure) as failure:
+            wait_placed(ray, [host.__ray_ready__.remote()], "arena", None)
+    finally:
+        ray.shutdown()
+    assert str(failure.value) == ("Ray could not create the arena on its node: TypeError: memoryview: a bytes-like "
+                                  "object is required, not 'int'; every node needs this version of keepaway installed "
+                                  "(pip install 'keepaway[ray]')")
 
 
 @pytest.mark.skipif(not HAVE_RAY, reason="Ray is not installed (pip install 'keepaway[ray]')")
