@@ -21,6 +21,7 @@ line instead of falling silent (:func:`wait_placed`).
 from __future__ import annotations
 
 import os
+import re
 import signal
 import socket
 import tempfile
@@ -84,9 +85,16 @@ def watcher(ray, host) -> Callable[[], str | None]:
         try:
             return ray.get(host.death.remote())
         except ray.exceptions.RayActorError as exc:
-            return f"the Ray actor that started it died: {str(exc).splitlines()[0]}"
+            return f"the Ray actor that started it died: {error_line(exc, last=False)}"
 
     return watch
+
+
+def error_line(exc: BaseException, last: bool) -> str:
+    """The first or ``last`` non-empty line of a Ray error (whose traceback text carries terminal colours),
+    without the colours."""
+    lines = [line.strip() for line in re.sub(r"\x1b\[[0-9;]*m", "", str(exc)).splitlines() if line.strip()]
+    return (lines[-1] if last else lines[0]) if lines else type(exc).__name__
 
 
 # After how long without every actor placed the command says it is waiting for the cluster (s).
@@ -95,11 +103,11 @@ PLACEMENT_NOTICE_S = 10.0
 
 def wait_placed(ray, ready: list, what: str, announce: Callable[[str], None] | None) -> None:
     """Wait until Ray has placed the actors whose ``__ray_ready__`` answers are ``ready`` (``what`` names
-    one of them in the notices: "arena"). If some are still waiting after PLACEMENT_NOTICE_S (a cluster without ARENA_CPUS
-    free for each), ``announce`` says so in one line with the cluster's CPUs, and again once they are
-    placed; it waits however long that takes (Ctrl-C gives up). Raises ArenaFailure in one line if an
-    actor could not be created (its error's last line: on a node without this package, the missing
-    module)."""
+    one of them in the notices: "arena"). If some are still waiting after PLACEMENT_NOTICE_S (a cluster
+    without ARENA_CPUS free for each), ``announce`` says so in one line with the cluster's CPUs, and again
+    once they are placed; it waits however long that takes (Ctrl-C gives up). Raises ArenaFailure in one
+    line if an actor could not be created (its error's last line: on a node without this package, the
+    missing module)."""
     start = time.monotonic()
     _, waiting = ray.wait(ready, num_returns=len(ready), timeout=PLACEMENT_NOTICE_S)
     them = f"the {what}" if len(ready) == 1 else f"the {len(ready)} {what}s"
@@ -111,9 +119,8 @@ def wait_placed(ray, ready: list, what: str, announce: Callable[[str], None] | N
     try:
         ray.get(ready)
     except ray.exceptions.RayActorError as exc:
-        cause = [line.strip() for line in str(exc).splitlines() if line.strip()] or [type(exc).__name__]
-        raise ArenaFailure(f"Ray could not create the {what} on its node: {cause[-1]}; every node needs this "
-                           "version of keepaway installed (pip install 'keepaway[ray]')") from None
+        raise ArenaFailure(f"Ray could not create the {what} on its node: {error_line(exc, last=True)}; every "
+                           "node needs this version of keepaway installed (pip install 'keepaway[ray]')") from None
     if waiting and announce is not None:
         announce(f"the Ray cluster placed {them} after {time.monotonic() - start:.0f} s")
 
@@ -394,5 +401,5 @@ def ray_run(address: str | None = None) -> Elsewhere:
     return play
 
 
-__all__ = ["ARENA_CPUS", "ArenaHost", "Launcher", "LogMirror", "LogPiece", "RunHost", "join_ray", "ray_launcher",
-           "ray_run", "stop_actors", "unreachable", "wait_placed", "watcher"]
+__all__ = ["ARENA_CPUS", "ArenaHost", "Launcher", "LogMirror", "LogPiece", "RunHost", "error_line", "join_ray",
+           "ray_launcher", "ray_run", "stop_actors", "unreachable", "wait_placed", "watcher"]

@@ -165,6 +165,18 @@ def test_an_arena_whose_port_this_machine_cannot_reach_is_refused_at_once_and_st
                         r"must reach the ports of every Ray node \(a firewall between them\?\)", str(failure.value))
 
 
+def test_a_ray_error_is_told_by_one_of_its_lines_without_terminal_colours():
+    from runner.ray_backend import error_line
+
+    died = RuntimeError("The actor died because of an error raised in its creation task, \x1b[36mray::ArenaHost."
+                        "__init__()\x1b[39m (pid=7, ip=10.0.0.6)\n  File \"x.py\", line 1\n\nModuleNotFoundError: "
+                        "No module named 'runner'\n")
+    assert error_line(died, last=False) == ("The actor died because of an error raised in its creation task, "
+                                            "ray::ArenaHost.__init__() (pid=7, ip=10.0.0.6)")
+    assert error_line(died, last=True) == "ModuleNotFoundError: No module named 'runner'"
+    assert error_line(RuntimeError(""), last=True) == "RuntimeError"
+
+
 def test_unreachable_says_why_in_one_line():
     from runner.ray_backend import unreachable
 
