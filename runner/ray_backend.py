@@ -392,9 +392,12 @@ def ray_run(address: str | None = None) -> Elsewhere:
         finally:
             try:
                 if ray.wait(ready, timeout=0)[0]:  # placed: stop its arena, then copy the rest of its logs
-                    ray.get(host.stop.remote())
-                    while mirror.take(ray.get(host.logs_since.remote(mirror.sizes))):
-                        pass
+                    try:
+                        ray.get(host.stop.remote())
+                        while mirror.take(ray.get(host.logs_since.remote(mirror.sizes))):
+                            pass
+                    except ray.exceptions.RayActorError:
+                        pass  # it was never created, or died with its node: nothing to stop or bring back
             finally:
                 ray.kill(host)
 

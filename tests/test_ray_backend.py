@@ -190,28 +190,33 @@ def test_unreachable_says_why_in_one_line():
         assert unreachable("127.0.0.1", s.getsockname()[1]) is None
 
 
+class Unimportable(RunHost):
+    """A RunHost defined in this test module, which a Ray worker cannot import: as a node without keepaway
+    installed cannot import the package."""
+
+
 @pytest.mark.skipif(not HAVE_RAY, reason="Ray is not installed (pip install 'keepaway[ray]')")
 @pytest.mark.timeout(600)
-def test_an_actor_that_cannot_be_created_is_named_in_one_line(tmp_path):
-    """On a node without this package the actor's creation fails (ModuleNotFoundError); any failure of a
-    constructor reaches the command as its error's last line, not as Ray's traceback."""
+def test_an_actor_that_cannot_be_created_is_named_in_one_line(tmp_path, monkeypatch):
+    """Its error's last line reaches the command, not Ray's traceback, nor the error of stopping an actor
+    that does not exist."""
     import ray
 
+    import runner.ray_backend
     from runner.launch import ArenaFailure
-    from runner.ray_backend import wait_placed
+    from runner.ray_backend import ray_run
     from runner.run import RunOptions
 
+    monkeypatch.setattr(runner.ray_backend, "RunHost", Unimportable)
     ray.init(num_cpus=1, log_to_driver=False)
     try:
-        spec = ArenaSpec(parameter_set("classic"))
-        host = ray.remote(num_cpus=1)(RunHost).remote(RunOptions(spec, 1, out=tmp_path), 5)  # not a policy's bytes
         with pytest.raises(ArenaFailure) as failure:
-            wait_placed(ray, [host.__ray_ready__.remote()], "arena", None)
+            list(ray_run(None)(RunOptions(ArenaSpec(parameter_set("classic")), 1, out=tmp_path), None))
     finally:
         ray.shutdown()
-    assert str(failure.value) == ("Ray could not create the arena on its node: TypeError: memoryview: a bytes-like "
-                                  "object is required, not 'int'; every node needs this version of keepaway installed "
-                                  "(pip install 'keepaway[ray]')")
+    assert str(failure.value) == ("Ray could not create the arena on its node: ModuleNotFoundError: No module named "
+                                  "'test_ray_backend'; every node needs this version of keepaway installed (pip "
+                                  "install 'keepaway[ray]')")
 
 
 @pytest.mark.skipif(not HAVE_RAY, reason="Ray is not installed (pip install 'keepaway[ray]')")
