@@ -220,7 +220,7 @@ def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str,
         from runner.ray_backend import ray_run
 
         try:
-            elsewhere = ray_run(ray_address)
+            elsewhere = ray_run(ray_address, announce)
         except RuntimeError as exc:
             raise click.UsageError(str(exc)) from None
     interrupt_on_sigterm()

@@ -20,6 +20,7 @@ line instead of falling silent (:func:`wait_placed`).
 
 from __future__ import annotations
 
+import logging
 import os
 import re
 import signal
@@ -148,7 +149,7 @@ def ray_launcher(address: str | None = None, keys: Path | None = None,
     directory at that path on every node) over CURVE, telling ``announce`` in one line while the cluster
     has no CPU for some (:func:`wait_placed`). Raises RuntimeError in one line when Ray is not installed
     or the cluster cannot be joined (:func:`join_ray`)."""
-    ray = join_ray(address)
+    ray = join_ray(address, announce)
 
     def launch(game: Game, parameter_set: str, arenas: int, chunk_episodes: int) -> DistributedBackend:
         actor = ray.remote(num_cpus=ARENA_CPUS)(ArenaHost)
@@ -329,11 +330,12 @@ def unreachable(host: str, port: int) -> str | None:
     return None
 
 
-def join_ray(address: str | None):
+def join_ray(address: str | None, announce: Callable[[str], None] | None = None):
     """Join the Ray cluster at ``address`` (None: ``RAY_ADDRESS``, else a new local Ray; ``auto``: the
-    one running on this machine) and return the ray module. Raises RuntimeError in one line when Ray is
-    not installed, when nothing answers at a ``HOST:PORT`` address within CONNECT_TIMEOUT_S, or when Ray
-    cannot join.
+    one running on this machine), tell ``announce`` in one line what was joined, and return the ray
+    module. Raises RuntimeError in one line when Ray is not installed, when nothing answers at a
+    ``HOST:PORT`` address within CONNECT_TIMEOUT_S, or when Ray cannot join. Ray's own start-up lines (its
+    INFO and WARNING logs: the dashboard's address, token authentication) are left out; its errors show.
 
     This process keeps its SIGTERM handler: a Ray driver otherwise exits on SIGTERM at once (a SIGABRT
     report), where ``keepaway run`` stops its arena, keeps its logs and prints the summary of what
@@ -347,22 +349,26 @@ def join_ray(address: str | None):
                            "give another --ray-address")
     main = threading.current_thread() is threading.main_thread()
     before = signal.getsignal(signal.SIGTERM) if main else None
+    joined = f"the Ray cluster at {where}" if where else "a new local Ray"
+    already = ray.is_initialized()  # by this process (a test, a notebook): nothing to tell
     try:
-        ray.init(address=address, ignore_reinit_error=True, log_to_driver=False)
+        ray.init(address=address, ignore_reinit_error=True, log_to_driver=False, logging_level=logging.ERROR)
     except ConnectionError as exc:
-        raise RuntimeError(f"cannot join {f'the Ray cluster at {where}' if where else 'a new local Ray'}: "
-                           f"{exc}") from None
+        raise RuntimeError(f"cannot join {joined}: {exc}") from None
     if main and before is not None:
         signal.signal(signal.SIGTERM, before)
+    if announce is not None and not already:
+        nodes = sum(1 for node in ray.nodes() if node["Alive"])
+        announce(f"joined {joined}: {nodes} node{'s' * (nodes != 1)}, {ray.cluster_resources().get('CPU', 0.0):g} CPUs")
     return ray
 
 
-def ray_run(address: str | None = None) -> Elsewhere:
+def ray_run(address: str | None = None, announce: Callable[[str], None] | None = None) -> Elsewhere:
     """``keepaway run``'s ``elsewhere`` for a Ray cluster (``runner.run.run``): joins the cluster at
-    ``address`` (None: ``RAY_ADDRESS`` or a new local Ray) and plays the run's arena in a
-    :class:`RunHost` on one of its nodes. Raises RuntimeError in one line when Ray is not installed or the
-    cluster cannot be joined (:func:`join_ray`)."""
-    ray = join_ray(address)
+    ``address`` (None: ``RAY_ADDRESS`` or a new local Ray; ``announce`` is told what it joined) and plays
+    the run's arena in a :class:`RunHost` on one of its nodes. Raises RuntimeError in one line when Ray is
+    not installed or the cluster cannot be joined (:func:`join_ray`)."""
+    ray = join_ray(address, announce)
 
     def play(opts: RunOptions, announce: Callable[[str], None] | None) -> Iterator[Ended]:
         policy = opts.policy_path.read_bytes() if opts.policy_path is not None else None

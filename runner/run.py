@@ -247,6 +247,13 @@ def run(opts: RunOptions, progress: bool = True, announce: Callable[[str], None]
     marks: list[int] = []  # the stream's cycle count when each record came (all arenas' in batched mode)
     held_s = 0.0  # the records' hold times, summed as they come (the bar's running mean)
     bar = tqdm(total=opts.episodes, unit="ep", disable=not progress, dynamic_ncols=True)
+
+    def note(line: str) -> None:  # a line above the progress bar, not through it
+        assert announce is not None
+        with tqdm.external_write_mode():
+            announce(line)
+
+    said = note if announce is not None else None
     short_handed = ShortHanded()
     first_at: float | None = None
     last_at = 0.0
@@ -259,11 +266,11 @@ def run(opts: RunOptions, progress: bool = True, announce: Callable[[str], None]
     stream: Iterator[Ended] | None = None
     try:
         if elsewhere is not None:
-            stream = elsewhere(opts, announce)
+            stream = elsewhere(opts, said)
         elif opts.mode == "distributed":
             assert processes is not None
             processes.__enter__()
-            stream = timed(distributed_episodes(opts, processes, viewer, announce))
+            stream = timed(distributed_episodes(opts, processes, viewer, said))
         elif opts.mode == "embedded":
             stream = timed(embedded_episodes(spec, opts.out / f"keepaway{RCG_SUFFIX}" if opts.game_log else None,
                                              opts.getopen_notes))
@@ -279,10 +286,9 @@ def run(opts: RunOptions, progress: bool = True, announce: Callable[[str], None]
             if cycles > last_cycle:
                 last_at, last_cycle = now, cycles
             held_s += record.hold_time_s
-            if announce is not None:
+            if said is not None:
                 for line in short_handed.update(record):
-                    with tqdm.external_write_mode():
-                        announce(line)
+                    said(line)
             bar.update(1)
             bar.set_postfix(mean_hold_s=f"{held_s / len(records):.2f}")
     except (ArenaFailure, KeyboardInterrupt) as exc:

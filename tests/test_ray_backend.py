@@ -67,7 +67,8 @@ def test_a_run_on_ray_plays_the_games_of_a_local_run_and_brings_its_logs_back(pr
 
     on_ray, said = run(tmp_path / "ray", "--backend", "ray")
     here, _ = run(tmp_path / "here")
-    assert "the arena plays on a Ray node, its logs in " in said
+    assert said.startswith("keepaway: joined a new local Ray: 1 node, ")  # and none of Ray's own start-up lines
+    assert said.splitlines()[1].startswith("keepaway: the arena plays on a Ray node, its logs in ")
     key = lambda summary: [(e["episode"], e["start_cycle"], e["end_cycle"], e["end"]) for e in summary["episodes"]]
     assert len(key(on_ray)) == 4 and key(on_ray) == key(here)
     assert on_ray["cycles_per_s"] > 0  # measured on the node, between its first and last episode end
