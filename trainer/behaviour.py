@@ -73,7 +73,8 @@ TOLERANCE_SHARE = 0.10
 # by benchmarks/side_by_side.py --reference; seeds 51-53 likewise, with the statistics the first lack).
 REFERENCE_CAMPAIGNS = {"hold": ("hold", "hold12", "hold31", "hold51", "hold52", "hold53"),
                        "random": ("rand", "rand21", "rand31", "rand51", "rand52", "rand53"),
-                       "handcoded": ("hand", "hand14", "hand31", "hand51", "hand52", "hand53")}
+                       "handcoded": ("hand", "hand14", "hand31", "hand51", "hand52", "hand53", "hand51b", "hand52b",
+                                     "hand53b")}
 
 
 @dataclass(frozen=True, eq=False)
