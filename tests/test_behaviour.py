@@ -50,7 +50,7 @@ KEEPER_1, KEEPER_2, TAKER_1 = 1, 2, K + 1
 STEP_S = 0.1
 # Hold times of the reference stack over its measurement campaigns: every campaign of the data file
 # (tests/data/rcss-behaviour/README.md), and hand-coded Pass's earlier campaign that the file lacks (the
-# issue's 10.50 s): always hold 2.77-2.98 s, random 5.21-5.34 s, hand-coded 10.39-12.15 s.
+# issue's 10.50 s): always hold 2.77-2.98 s, random 5.09-5.34 s, hand-coded 10.39-12.15 s.
 EARLIER_CAMPAIGNS_S = {"hold": (), "random": (), "handcoded": (10.50,)}
 
 
@@ -234,7 +234,7 @@ def test_tolerance_is_three_standard_errors_or_ten_percent_whichever_is_larger()
 
 def test_the_reference_file_reads_into_the_same_statistics():
     live = [f"{policy}{seed}" for policy in ("hand", "hold", "rand") for seed in (31, 51, 52, 53)]
-    again = ["hand51b", "hand52b", "hand53b"]  # the same server seeds played again (the data's README)
+    again = [f"{c}b" for c in live if not c.endswith("31")]  # the same server seeds played again (the data's README)
     assert sorted(REFERENCE) == sorted(["hand", "hand14", "hold", "hold12", "rand", "rand21", *live, *again])
     assert sorted(c for campaigns in REFERENCE_CAMPAIGNS.values() for c in campaigns) == sorted(REFERENCE)
     assert REFERENCE["rand21"].episodes == 1006 and REFERENCE["rand21"].hold_s.value == pytest.approx(5.21, abs=0.005)
@@ -244,7 +244,7 @@ def test_the_reference_file_reads_into_the_same_statistics():
     assert all(row.difference == 0 for row in compare(hold, hold))
     assert REFERENCE["rand31"].episodes == 1000 and REFERENCE["rand31"].hold_s.value == pytest.approx(5.32, abs=0.005)
     assert {p: tuple(round(x, 2) for x in r) for p, r in REFERENCE_HOLD_S.items()} == {
-        "hold": (2.77, 2.98), "random": (5.21, 5.34), "handcoded": (10.39, 12.15)}
+        "hold": (2.77, 2.98), "random": (5.09, 5.34), "handcoded": (10.39, 12.15)}
     # the later live campaigns carry every statistic, and each episode's length
     hand53 = REFERENCE["hand53"]
     assert len(hand53.scalars()) == 19 and hand53.hold_sd_s.se > 0 and hand53.taker_dash_share_near_held.se > 0

@@ -71,10 +71,11 @@ TOLERANCE_SHARE = 0.10
 # Our Pass policies and the reference file's campaigns of the same policy (the first recorded; the later
 # ones named by their server seed: "hand14", "hold12", "rand21"; "hold31", "rand31", "hand31" played live
 # by benchmarks/side_by_side.py --reference; seeds 51-53 likewise, with the statistics the first lack).
-REFERENCE_CAMPAIGNS = {"hold": ("hold", "hold12", "hold31", "hold51", "hold52", "hold53"),
-                       "random": ("rand", "rand21", "rand31", "rand51", "rand52", "rand53"),
-                       "handcoded": ("hand", "hand14", "hand31", "hand51", "hand52", "hand53", "hand51b", "hand52b",
-                                     "hand53b")}
+REFERENCE_CAMPAIGNS = {
+    "hold": ("hold", "hold12", "hold31", "hold51", "hold52", "hold53", "hold51b", "hold52b", "hold53b"),
+    "random": ("rand", "rand21", "rand31", "rand51", "rand52", "rand53", "rand51b", "rand52b", "rand53b"),
+    "handcoded": ("hand", "hand14", "hand31", "hand51", "hand52", "hand53", "hand51b", "hand52b", "hand53b"),
+}
 
 
 @dataclass(frozen=True, eq=False)
