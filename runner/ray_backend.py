@@ -277,12 +277,13 @@ class RunHost:
         pieces, budget = [], LOG_PIECE
         for path in sorted(path for path in self.opts.out.rglob("*") if path.is_file()):
             name = str(path.relative_to(self.opts.out))
-            if name in sizes and path.stat().st_size <= sizes[name]:
+            offset = sizes.get(name, 0)
+            if name in sizes and path.stat().st_size <= offset:
                 continue
             with open(path, "rb") as f:
-                f.seek(sizes.get(name, 0))
+                f.seek(offset)
                 data = f.read(budget)
-            pieces.append(LogPiece(name, sizes.get(name, 0), data))
+            pieces.append(LogPiece(name, offset, data))
             budget -= len(data)
             if budget <= 0:
                 break

@@ -248,12 +248,11 @@ def run(opts: RunOptions, progress: bool = True, announce: Callable[[str], None]
     held_s = 0.0  # the records' hold times, summed as they come (the bar's running mean)
     bar = tqdm(total=opts.episodes, unit="ep", disable=not progress, dynamic_ncols=True)
 
-    def note(line: str) -> None:  # a line above the progress bar, not through it
-        assert announce is not None
-        with tqdm.external_write_mode():
-            announce(line)
+    def said(line: str) -> None:  # ``announce``, a line above the progress bar, not through it
+        if announce is not None:
+            with tqdm.external_write_mode():
+                announce(line)
 
-    said = note if announce is not None else None
     short_handed = ShortHanded()
     first_at: float | None = None
     last_at = 0.0
@@ -286,9 +285,8 @@ def run(opts: RunOptions, progress: bool = True, announce: Callable[[str], None]
             if cycles > last_cycle:
                 last_at, last_cycle = now, cycles
             held_s += record.hold_time_s
-            if said is not None:
-                for line in short_handed.update(record):
-                    said(line)
+            for line in short_handed.update(record):
+                said(line)
             bar.update(1)
             bar.set_postfix(mean_hold_s=f"{held_s / len(records):.2f}")
     except (ArenaFailure, KeyboardInterrupt) as exc:
