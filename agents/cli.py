@@ -6,8 +6,10 @@ frame decoded by ``protocol`` before the agent sees it. Exit codes: 0 when the s
 SIGTERM/SIGINT (after saying ``bye``), 2 when the player cannot start (bad policy file, no server within
 ``--connect-timeout``, ``init`` refused, ``reconnect`` refused for that long), 4 when a joined player's
 server has sent nothing for ``--server-silence`` seconds (it sends a ``waiting`` every second while no
-cycle is played, so only a dead or frozen server is silent that long). Expected conditions end with one line on
-stderr, never a traceback. With ``--reconnect UNUM`` the player takes back the seat of a player of its
+cycle is played, so only a dead or frozen server is silent that long). That silence is the time the player
+waited in receives that found nothing, not the time on the clock: a player that was itself frozen (SIGSTOP,
+then SIGCONT) first reads what waits for it, and its own sleep never counts as the server's silence.
+Expected conditions end with one line on stderr, never a traceback. With ``--reconnect UNUM`` the player takes back the seat of a player of its
 team that is gone (crashed, killed, or given up by the server) instead of joining anew
 (docs/protocol.md 12 "Rejoin"). A seat whose old client the server still waits for (a hung process it
 has not yet given up after ``max_missed_cycles``, a crash it has not yet noticed) is refused with
@@ -34,6 +36,9 @@ EXIT_OK = 0
 EXIT_START_FAILED = 2
 EXIT_SERVER_SILENT = 4
 POLL_MS = 100  # longest wait between checks of the stop flag and the connect deadline (receive timeout)
+# The most one empty receive adds to the server's silence: a receive that took longer was held up by the
+# player's own process (frozen by SIGSTOP, starved of CPU), not by the server.
+MAX_SILENT_WAIT_S = 2 * POLL_MS / 1000
 # Sockets have LINGER 0, except after a bye: closing then waits this long for the bye to leave, so it
 # is not discarded unsent (and never longer, should the server be gone).
 BYE_LINGER_MS = 1000
@@ -126,7 +131,7 @@ def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop
         join()
         joining = "init" if reconnect is None else "reconnect"
         deadline = time.monotonic() + connect_timeout_s
-        last_heard = time.monotonic()  # of the last message from the server
+        silent_s = 0.0  # the server's silence: time waited in receives that found nothing (module docstring)
         retry_at: float | None = None  # when to ask for the seat again after a cannot_reconnect
         refused: str | None = None  # the last cannot_reconnect, for the message should time run out
         while True:
@@ -143,14 +148,16 @@ def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop
             if retry_at is not None and time.monotonic() >= retry_at:
                 retry_at = None
                 join()
-            if agent.ready and time.monotonic() - last_heard > silence_s:
+            if agent.ready and silent_s > silence_s:
                 raise PlayerExit(EXIT_SERVER_SILENT, f"the server at {endpoint} has sent nothing for "
                                                      f"{silence_s:g} s; giving it up")
+            waited_from = time.monotonic()
             try:
                 data = sock.recv()
             except zmq.Again:  # nothing within POLL_MS
+                silent_s += min(time.monotonic() - waited_from, MAX_SILENT_WAIT_S)
                 continue
-            last_heard = time.monotonic()
+            silent_s = 0.0
             taken, command = agent.take_frame(data)  # a percept or think of every cycle, without a message
             if taken:
                 if command is not None:
@@ -225,7 +232,8 @@ def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop
                    "(exit 2).")
 @click.option("--server-silence", "silence_s", type=click.FloatRange(min=0.0, min_open=True),
               default=SERVER_SILENCE_S, show_default=True,
-              help="Seconds without any message from the server after which a joined player gives it up "
+              help="Seconds spent waiting for a message from the server, in vain, after which a joined player "
+                   "gives it up "
                    "(exit 4); a live server sends something at least every second.")
 @keys_option
 @click.option("-v", "--verbose", count=True, help="More log output (-v info, -vv debug).")

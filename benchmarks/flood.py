@@ -6,7 +6,11 @@ flood and while one client floods it with small messages:
 * an unseated client (connected, never sent ``init``) sending 3,000 and 30,000 ``command`` messages a
   second (each answered ``not_initialised`` within its budget, the rest dropped and counted);
 * a seated player (one of the five) sending 3,000 and 30,000 extra ``command`` messages a second besides
-  its answers.
+  its answers;
+* a coach (joined with ``coach_init`` on the coach port) sending 40,000 ``look`` messages a second; a
+  ``look`` within the coach's budget is answered with the whole true state, so the server's answers cost
+  more than the players port's refusals. After each window the coach's flood stops and the benchmark
+  measures how long a single ``look`` then waits for its answer (the backlog the flood left).
 
 Each run measures the cycles the first client sees in ``--seconds`` after ``--warm-up`` seconds of play,
 on loopback, ports 0. The flooder is a process of its own and competes for the same cores as the server
@@ -26,6 +30,7 @@ import statistics
 import subprocess
 import sys
 from pathlib import Path
+from typing import NamedTuple
 
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))  # the repository, before benchmarks/
@@ -90,6 +95,34 @@ while True:
         sock.recv()
 '''
 
+# A coach: joins, then sends ``rate`` looks a second (bursts every 10 ms), reading every answer, until its
+# stdin gets a line; then it stops flooding and prints for how many seconds answers still came (the
+# backlog the flood left: the last answer's time after the stop, once none came for a second; at most 60).
+COACH_FLOODER = r'''
+import select, sys, time, msgpack, zmq
+endpoint, rate = sys.argv[1], float(sys.argv[2])
+sock = zmq.Context().socket(zmq.DEALER); sock.setsockopt(zmq.LINGER, 0); sock.connect(endpoint)
+pack = msgpack.packb
+sock.send(pack({"type": "coach_init", "version": 1, "client": "flood"}))
+sock.recv()
+look = pack({"type": "look"})
+burst = max(1, round(rate / 100)); period = burst / rate; next_burst = time.monotonic()
+while not select.select([sys.stdin], [], [], 0)[0]:
+    for _ in range(burst):
+        try:
+            sock.send(look, zmq.NOBLOCK)
+        except zmq.Again:
+            break
+    next_burst += period
+    while sock.poll(max(0, int((next_burst - time.monotonic()) * 1000))):
+        sock.recv()
+stopped = last = time.monotonic()
+while sock.poll(1000) and last - stopped < 60:
+    sock.recv()
+    last = time.monotonic()
+print(f"{last - stopped:.2f}", flush=True)
+'''
+
 TEAMS = ["keepers"] * 3 + ["takers"] * 2
 START_TIMEOUT_S = 120.0  # from the server's start to the reporting player's first think
 
@@ -109,10 +142,19 @@ def cpu_seconds(pid: int) -> float:
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
-def cycles_per_second(unseated_rate: float, seated_rate: float, seconds: float, warm: float,
-                      repo: Path = REPO) -> tuple[float, float]:
-    """Cycles per second seen by the first player in the measurement window, and the server's CPU time
-    per cycle in it (ms); the server is ``repo``'s."""
+class Scenario(NamedTuple):
+    label: str
+    unseated: float = 0.0  # msg/s of a client that never joins (players port)
+    seated: float = 0.0  # extra msg/s of the last taker
+    coach: float = 0.0  # look/s of a coach (coach port)
+    target: float | None = None  # the speed to keep, as a ratio of no flood
+
+
+def cycles_per_second(flood: Scenario, seconds: float, warm: float,
+                      repo: Path = REPO) -> tuple[float, float, float | None]:
+    """Cycles per second seen by the first player in the measurement window, the server's CPU time per
+    cycle in it (ms) and, with a coach flood, for how long answers came after it stopped (s); the server
+    is ``repo``'s."""
     server = subprocess.Popen([sys.executable, "-m", "keepaway", "server", "--players-port", "0",
                                "--coach-port", "0", "--monitor-port", "0"],
                               stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, cwd=repo, start_new_session=True)
@@ -122,21 +164,33 @@ def cycles_per_second(unseated_rate: float, seated_rate: float, seconds: float, 
         match = LISTEN_RE.search(line)
         if not match:
             raise RuntimeError(f"server did not start: {line!r}")
-        endpoint = match.group(1)
-        if unseated_rate:
-            others.append(subprocess.Popen([sys.executable, "-c", FLOODER, endpoint, str(unseated_rate)], cwd=REPO))
+        endpoint, coach_endpoint = match.group(1), match.group(2)
+        if flood.unseated:
+            others.append(subprocess.Popen([sys.executable, "-c", FLOODER, endpoint, str(flood.unseated)], cwd=REPO))
+        coach = None
+        if flood.coach:
+            coach = subprocess.Popen([sys.executable, "-c", COACH_FLOODER, coach_endpoint, str(flood.coach)],
+                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE, cwd=REPO)
+            others.append(coach)
+        players = []
         for i, team in enumerate(TEAMS):
-            flood = seated_rate if i == len(TEAMS) - 1 else 0.0  # the last taker floods
-            others.append(subprocess.Popen([sys.executable, "-c", PLAYER, endpoint, team, str(flood), str(warm),
-                                            str(seconds), "1" if i == 0 else "0"],
-                                           stdout=subprocess.PIPE if i == 0 else subprocess.DEVNULL, cwd=REPO))
-        reporter = others[1 if unseated_rate else 0]
+            rate = flood.seated if i == len(TEAMS) - 1 else 0.0  # the last taker floods
+            players.append(subprocess.Popen([sys.executable, "-c", PLAYER, endpoint, team, str(rate), str(warm),
+                                             str(seconds), "1" if i == 0 else "0"],
+                                            stdout=subprocess.PIPE if i == 0 else subprocess.DEVNULL, cwd=REPO))
+        others += players
+        reporter = players[0]
         if line_within(reporter.stdout, START_TIMEOUT_S + warm) != b"start":
-            return 0.0, float("nan")  # the game never got going
+            return 0.0, float("nan"), None  # the game never got going
         cpu = cpu_seconds(server.pid)
         cycles, elapsed = map(float, line_within(reporter.stdout, seconds + 30.0).split())
         ms = (cpu_seconds(server.pid) - cpu) * 1000.0 / cycles if cycles else float("nan")
-        return cycles / elapsed, ms
+        backlog = None
+        if coach is not None:
+            coach.stdin.write(b"stop\n")
+            coach.stdin.flush()
+            backlog = float(line_within(coach.stdout, 90.0) or "nan")
+        return cycles / elapsed, ms, backlog
     finally:
         if server.poll() is None:
             server.send_signal(signal.SIGTERM)
@@ -150,12 +204,13 @@ def cycles_per_second(unseated_rate: float, seated_rate: float, seconds: float, 
             proc.wait()
 
 
-SCENARIOS = [  # label, unseated flood rate, seated flood rate, target ratio to no flood
-    ("no flood", 0, 0, None),
-    ("unseated client,  3,000 msg/s", 3000, 0, 0.5),
-    ("unseated client, 30,000 msg/s", 30000, 0, 0.5),
-    ("seated player,    3,000 msg/s", 0, 3000, 0.8),
-    ("seated player,   30,000 msg/s", 0, 30000, 0.8),
+SCENARIOS = [
+    Scenario("no flood"),
+    Scenario("unseated client,  3,000 msg/s", unseated=3000, target=0.5),
+    Scenario("unseated client, 30,000 msg/s", unseated=30000, target=0.5),
+    Scenario("seated player,    3,000 msg/s", seated=3000, target=0.8),
+    Scenario("seated player,   30,000 msg/s", seated=30000, target=0.8),
+    Scenario("coach, 40,000 look/s", coach=40000, target=0.5),
 ]
 
 
@@ -168,21 +223,27 @@ def main() -> None:
     parser.add_argument("--repo", type=Path, default=REPO,
                         help="the checkout whose server is measured (e.g. an older one, to compare)")
     opts = parser.parse_args()
-    rates: dict[str, list[float]] = {label: [] for label, *_ in SCENARIOS}
-    cpu: dict[str, list[float]] = {label: [] for label, *_ in SCENARIOS}
+    rates: dict[str, list[float]] = {s.label: [] for s in SCENARIOS}
+    cpu: dict[str, list[float]] = {s.label: [] for s in SCENARIOS}
+    backlog: dict[str, list[float]] = {s.label: [] for s in SCENARIOS}
     for _ in range(opts.repeats):
-        for label, unseated, seated, _target in SCENARIOS:
-            rate, ms = cycles_per_second(unseated, seated, opts.seconds, opts.warm_up, opts.repo)
-            rates[label].append(rate)
-            cpu[label].append(ms)
+        for scenario in SCENARIOS:
+            rate, ms, left = cycles_per_second(scenario, opts.seconds, opts.warm_up, opts.repo)
+            rates[scenario.label].append(rate)
+            cpu[scenario.label].append(ms)
+            if left is not None:
+                backlog[scenario.label].append(left)
     print("synchronous mode, 5 minimal players answering every think with one dash: cycles/s (median of "
           f"{opts.repeats} runs, all in brackets) and the server's CPU time per cycle (median)")
     base = statistics.median(rates["no flood"])
-    for label, _unseated, _seated, target in SCENARIOS:
+    for scenario in SCENARIOS:
+        label, target = scenario.label, scenario.target
         rate = statistics.median(rates[label])
         runs = ", ".join(f"{r:,.0f}" for r in rates[label])
         ratio = "" if target is None else f"{rate / base:4.0%} of no flood (target >= {target:.0%})"
-        print(f"    {label:30s} {rate:7,.0f}  {statistics.median(cpu[label]):5.2f} ms/cycle  {ratio:34s} [{runs}]")
+        left = (f"; answers kept coming {statistics.median(backlog[label]):.2f} s after the flood stopped"
+                if backlog[label] else "")
+        print(f"    {label:30s} {rate:7,.0f}  {statistics.median(cpu[label]):5.2f} ms/cycle  {ratio:34s} [{runs}]{left}")
 
 
 if __name__ == "__main__":

@@ -27,7 +27,7 @@ from coach.core import SERVER, CoachCore, Outgoing, coach_init, log
 from core.log_limit import RepeatLimit
 from protocol import Message, ProtocolError, configure, encode
 from protocol import messages as m
-from protocol.arena import ARENA_MAX_MESSAGE_BYTES, decode_from_trainer
+from protocol.arena import ARENA_MAX_MESSAGE_BYTES, ARENA_REQUEST_MAX_BYTES, decode_from_trainer
 from protocol.messages import decode_for_coach
 from protocol.security import KeyDir, PortGuard, no_answer, secure_client
 
@@ -86,7 +86,7 @@ class Coach:
         self._send(self.core.joined(reply))
         if self.arena_port is not None:
             self.arena = self.ctx.socket(zmq.ROUTER)
-            configure(self.arena, ARENA_MAX_MESSAGE_BYTES)
+            configure(self.arena, ARENA_REQUEST_MAX_BYTES)  # anyone may connect: a larger frame is never read
             self.guard = PortGuard(self.ctx, self.keys, log)
             self.bound_arena_port = self.guard.bind(self.arena, self.host, self.arena_port)
         return reply

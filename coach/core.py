@@ -53,6 +53,8 @@ LOOK_INTERVAL_S = 0.1
 # How often at least the coach looks at the server while a run is under way (module docstring).
 HEARTBEAT_S = 1.0
 COACH_CLIENT = "keepaway-coach"
+# The acknowledgement of a trainer's stop_arena (a ``shutdown``), sent before the coach stops the server.
+STOPPING = "stopping the arena: a trainer sent stop_arena"
 
 SERVER = "server"
 """The destination of a message for the server's coach port; any other is a trainer's identity (bytes)."""
@@ -148,7 +150,7 @@ class CoachCore:
             return [(identity, m.Error(cycle=0, code=msg.code, message=msg.message))]
         if isinstance(msg, StopArena):
             self.stop_requested = True
-            return [(SERVER, m.EpisodeControl(action="stop"))]
+            return [(identity, m.Shutdown(cycle=0, reason=STOPPING)), (SERVER, m.EpisodeControl(action="stop"))]
         if not isinstance(msg, RunEpisodes):
             return []
         if self.pending is not None:
@@ -304,5 +306,5 @@ class CoachCore:
                              for e, s, t, c in self.episodes]}
 
 
-__all__ = ["HEARTBEAT_S", "LOOK_INTERVAL_S", "REPORT_TIMEOUT_S", "SERVER", "CoachCore", "Outgoing", "PendingRun",
+__all__ = ["HEARTBEAT_S", "LOOK_INTERVAL_S", "REPORT_TIMEOUT_S", "SERVER", "STOPPING", "CoachCore", "Outgoing", "PendingRun",
            "coach_init"]

@@ -15,7 +15,8 @@ from collections.abc import Mapping
 from typing import ClassVar
 
 from protocol.advice import REPORTS, advice_value, report_value
-from protocol.codec import Message, choice, decode, fixed, integer, message, optional, sequence, wire
+from protocol.codec import Message, choice, decode, encode, fixed, integer, message, optional, sequence, wire
+from protocol.errors import ProtocolError
 from protocol.messages import (
     CYCLE,
     EPISODE_ENDS,
@@ -34,8 +35,13 @@ MAX_RECORDS = 1_000_000
 EPISODE_RECORD = fixed(integer(1, MAX_CYCLE), CYCLE, CYCLE, choice(*EPISODE_ENDS))
 MAX_ADVICE = 1024
 # The arena port carries whole Pass policies one way and every keeper's reports the other: its frames
-# may be far larger than a player's (the trainer is trusted; ZeroMQ still enforces this bound).
+# may be far larger than a player's. What the coach answers (reports of every keeper) may take up to
+# ARENA_MAX_MESSAGE_BYTES (a trainer takes it from a coach it started or chose); what it reads from
+# whoever connects is bounded by ARENA_REQUEST_MAX_BYTES, which ZeroMQ enforces before reading the frame,
+# so a huge frame costs the coach no memory. A request holds advice that each must fit one of the
+# server's frames, at most MAX_MESSAGE_BYTES_LIMIT.
 ARENA_MAX_MESSAGE_BYTES = 1 << 28
+ARENA_REQUEST_MAX_BYTES = 1 << 26
 
 
 @message
@@ -76,7 +82,17 @@ TRAINER_TO_COACH: Mapping[str, type[Message]] = _by_type(RunEpisodes, StopArena)
 COACH_TO_TRAINER: Mapping[str, type[Message]] = _by_type(EpisodesDone, Error, Shutdown)
 
 
-def decode_from_trainer(data: bytes, max_bytes: int = ARENA_MAX_MESSAGE_BYTES) -> Message:
+def encode_request(msg: Message) -> bytes:
+    """A trainer's request as the arena port carries it; ``too_large`` for one above
+    :data:`ARENA_REQUEST_MAX_BYTES`, which the coach's ZeroMQ would drop unread with the connection."""
+    data = encode(msg)
+    if len(data) > ARENA_REQUEST_MAX_BYTES:
+        raise ProtocolError("too_large", f"a {msg.TYPE} of {len(data)} bytes exceeds the arena port's limit "
+                                         f"of {ARENA_REQUEST_MAX_BYTES} bytes")
+    return data
+
+
+def decode_from_trainer(data: bytes, max_bytes: int = ARENA_REQUEST_MAX_BYTES) -> Message:
     return decode(data, TRAINER_TO_COACH, max_bytes)
 
 

@@ -14,6 +14,11 @@ DEFAULT_PORTS: dict[str, int] = {"players": 6000, "coach": 6001, "monitor": 6002
 DEFAULT_MAX_MESSAGE_BYTES = 4 * 1024 * 1024
 """Largest frame a socket accepts (ZMQ_MAXMSGSIZE); bounds ``report`` payloads such as weight snapshots."""
 
+MAX_MESSAGE_BYTES_LIMIT = 64 * 1024 * 1024
+"""The largest ``max_message_bytes`` a server takes: its ports then hold at most 4 x 64 MiB of one frame
+before ZeroMQ closes the sender's connection, and a coach's advice fits a trainer's request
+(``protocol.arena.ARENA_REQUEST_MAX_BYTES``)."""
+
 MONITOR_FRAME_TOPIC = b"frame"
 """Monitor PUB topic: one ``frame`` message (the true state) per cycle."""
 

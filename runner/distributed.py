@@ -16,9 +16,10 @@ from pathlib import Path
 
 import zmq
 
-from protocol import configure, encode
+from protocol import configure
 from protocol import messages as m
-from protocol.arena import ARENA_MAX_MESSAGE_BYTES, EpisodesDone, StopArena, decode_for_trainer
+from protocol.arena import ARENA_MAX_MESSAGE_BYTES, EpisodesDone, StopArena, decode_for_trainer, encode_request
+from protocol.errors import ProtocolError
 from protocol.security import KeyDir, open_keys, secure_client
 from runner.coached import Chunk, CoachedBackend
 from runner.job import CHUNK_EPISODES, Game, Progress
@@ -141,7 +142,7 @@ class DistributedBackend(CoachedBackend):
         for arena in arenas:
             if arena.processes is not None and stop:
                 try:
-                    arena.socket.send(encode(StopArena()), zmq.NOBLOCK)
+                    arena.socket.send(encode_request(StopArena()), zmq.NOBLOCK)
                 except zmq.ZMQError:
                     pass
                 arena.processes.wait_all(timeout_s=STOP_TIMEOUT_S)
@@ -166,7 +167,10 @@ class DistributedBackend(CoachedBackend):
                 if a not in busy and queue:
                     busy[a] = queue.pop(0)
                     since[a] = time.monotonic()
-                    unsent[a] = encode(chunks[busy[a]].request())
+                    try:
+                        unsent[a] = encode_request(chunks[busy[a]].request())
+                    except ProtocolError as exc:
+                        raise ArenaFailure(f"{arena.name}: {exc.code}: {exc.message}") from None
                 if a in unsent and _send_now(arena.socket, unsent[a]):
                     del unsent[a]
             events = dict(poller.poll(POLL_MS))

@@ -109,7 +109,7 @@ class Server:
     on_ready: Callable[[BoundPorts], None] | None = None
     arena: Arena = field(init=False)
     conns: dict[bytes, Connection] = field(init=False, default_factory=dict)
-    coaches: set[bytes] = field(init=False, default_factory=set)
+    coaches: dict[bytes, str] = field(init=False, default_factory=dict)  # identity -> the coach's client name
     episodes_done: int = field(init=False, default=0)
     stop_reason: str | None = field(init=False, default=None)
     exit_code: int = field(init=False, default=0)
@@ -135,11 +135,12 @@ class Server:
         self.next_see: dict[bytes, float] = {}  # real-time mode: each player's next see (monotonic s)
         self.next_waiting = 0.0  # when the next ``waiting`` is due while no cycle is played (monotonic s)
         self.intakes = {self.players: Intake(cfg.player_budget, cfg.unseated_budget),
-                        self.coach: Intake(None, cfg.unseated_budget)}
+                        self.coach: Intake(cfg.coach_budget, cfg.unseated_budget)}
         self.window_opened = time.monotonic()  # of the wall-time budget window (server/intake.py)
         self.percepts_cycle = -1  # the last cycle whose percepts went out
         self.absent: dict[int, int] = {}  # object -> cycles of this episode stepped without its command
         self.show_due = False  # the game log's show of the last step is still to be written (_write_show)
+        self.look_answer: tuple[tuple[int, bool], bytes] | None = None  # the last look's answer (_look_ok)
         self._t0 = time.monotonic()
 
     # -- lifecycle -----------------------------------------------------------------------------------
@@ -204,9 +205,9 @@ class Server:
         self._close_budget_windows(seated=True)
         self._close_budget_windows(seated=False)
         shutdown = encode(m.Shutdown(cycle=self.arena.cycle, reason=reason))
-        for ident in list(self.conns) + list(self.coaches):
-            sock = self.coach if ident in self.coaches else self.players
-            self._send_raw(sock, ident, shutdown)
+        for ident in list(self.conns):
+            self._send_raw(self.players, ident, shutdown)
+        self._to_coaches(shutdown)
         for logger in (self.kwy, self.jsonl, self.rcg):
             if logger is not None:
                 logger.close()
@@ -329,6 +330,7 @@ class Server:
         return self.arena.started
 
     def _start_game(self) -> None:
+        self.look_answer = None
         self.arena.start()
         if self.rcg is not None:
             self.rcg.start_game()
@@ -363,6 +365,7 @@ class Server:
 
     # -- the cycle -----------------------------------------------------------------------------------
     def _step(self) -> None:
+        self.look_answer = None
         self._count_absent()
         record = self.arena.step()
         self._close_budget_windows(seated=True)
@@ -408,8 +411,7 @@ class Server:
                 logger.write(record)
         end = m.EpisodeEnd(cycle=self.arena.cycle, episode=record.episode, start_cycle=record.start_cycle,
                            end_cycle=record.end_cycle, end=record.end, missed=record.missed)
-        for ident in self.coaches:
-            self._send_raw(self.coach, ident, encode(end))
+        self._to_coaches(encode(end))
         if self._subscribed(MONITOR_EPISODE_TOPIC):
             self._publish(MONITOR_EPISODE_TOPIC, end)
         if self.episodes_left is not None:
@@ -492,13 +494,20 @@ class Server:
         for sock, intake in self.intakes.items():
             budget = intake.budget(seated)
             for ident, count in intake.close_window(seated).items():
-                conn = self.conns.get(ident) if sock is self.players else None
-                who = conn.name if conn is not None else f"client {ident.hex()[:10]}"
+                who = self._peer_name(sock, ident)
                 log.warning("%s: over_budget: dropped %d messages beyond its budget of %d per %s",
                             who, count, budget, window)
                 self._send_raw(sock, ident, encode(m.Error(
                     cycle=self.arena.cycle, code="over_budget",
                     message=f"dropped {count} messages beyond your budget of {budget} per {window}")))
+
+    def _peer_name(self, sock: zmq.Socket, ident: bytes) -> str:
+        """How the log names a peer: a player's seat, a coach's client name, else its identity."""
+        conn = self.conns.get(ident) if sock is self.players else None
+        if conn is not None:
+            return conn.name
+        coach = self.coaches.get(ident) if sock is self.coach else None
+        return f"coach {coach!r}" if coach is not None else f"client {ident.hex()[:10]}"
 
     def _drain_monitor(self) -> None:
         """Count the monitor's (un)subscriptions per topic prefix: at most ROUND_MESSAGES a round, like
@@ -533,11 +542,25 @@ class Server:
             if exc.errno != zmq.EHOSTUNREACH:
                 return
             if sock is self.coach:
-                self.coaches.discard(ident)
+                self._coach_gone(ident)
                 return
             conn = self.conns.get(ident)
             if conn is not None and not conn.hung:
                 self._give_up_on(conn, f"{conn.name} is unreachable (disconnected?)")
+
+    def _to_coaches(self, data: bytes) -> None:
+        """Send ``data`` to every coach. A send can find a coach gone and drop it from the map, so the
+        loop runs over a copy."""
+        for ident in list(self.coaches):
+            self._send_raw(self.coach, ident, data)
+
+    def _coach_gone(self, ident: bytes) -> None:
+        """A coach's connection is gone without ``coach_bye`` (killed, closed, or re-made by ZeroMQ under
+        a new identity): forget it in one line; the game goes on without it."""
+        name = self.coaches.pop(ident, None)
+        if name is not None:
+            log.warning("coach %r (%s) is gone without coach_bye; the game goes on without it", name,
+                        ident.hex()[:10], extra={KIND_ATTR: ("coach", "gone")})
 
     def _error_raw(self, sock: zmq.Socket, ident: bytes, code: str, message: str) -> None:
         """Answer a refused message; the log line's kind is the client and the code, whatever the
@@ -554,6 +577,7 @@ class Server:
 
     # -- players port --------------------------------------------------------------------------------
     def _on_player(self, ident: bytes, data: bytes) -> None:
+        self.look_answer = None  # a player that joins or leaves changes the true state
         conn = self.conns.get(ident)
         if conn is not None and len(data) <= self.config.max_message_bytes:
             # a command frame read and taken by the kernel (``Arena.submit_frame``); any other in full
@@ -573,10 +597,8 @@ class Server:
         elif isinstance(msg, m.Command):
             self._answered(conn, msg.cycle, self.arena.submit_command(conn.slot.obj, msg))
         elif isinstance(msg, m.Report):
-            player_report = encode(m.PlayerReport(cycle=self.arena.cycle, side=conn.slot.side,
-                                                  unum=conn.slot.unum, payload=msg.payload))
-            for coach in self.coaches:
-                self._send_raw(self.coach, coach, player_report)
+            self._to_coaches(encode(m.PlayerReport(cycle=self.arena.cycle, side=conn.slot.side,
+                                                   unum=conn.slot.unum, payload=msg.payload)))
         elif isinstance(msg, m.Bye):
             log.info("%s said bye", conn.name)
             self.arena.disconnect(conn.slot.obj)
@@ -651,6 +673,16 @@ class Server:
         return (time.monotonic() - self._t0) * 1000.0
 
     # -- coach port ----------------------------------------------------------------------------------
+    def _look_ok(self) -> bytes:
+        """The encoded answer to a ``look``, made once for all the looks of one state: the true state
+        changes only by a step, a start, or a message that is served (a player's, a coach's other than a
+        look), and each of those clears it; a pause or resume is in the key."""
+        key = (self.arena.cycle, self.standing_still)
+        if self.look_answer is None or self.look_answer[0] != key:
+            self.look_answer = key, encode(m.LookOk(cycle=self.arena.cycle, state=truth_state(self.arena),
+                                                    paused=self.standing_still))
+        return self.look_answer[1]
+
     def _on_coach(self, ident: bytes, data: bytes) -> None:
         try:
             msg = decode_from_coach(data, self.config.max_message_bytes)
@@ -658,7 +690,7 @@ class Server:
             self._error_raw(self.coach, ident, exc.code, exc.message)
             return
         if isinstance(msg, m.CoachInit):
-            self.coaches.add(ident)
+            self.coaches[ident] = msg.client
             log.info("coach %r connected", msg.client)
             self._send_raw(self.coach, ident, encode(m.CoachInitOk(
                 cycle=self.arena.cycle, version=PROTOCOL_VERSION, params=self.config.params.to_dict(),
@@ -668,13 +700,14 @@ class Server:
         if ident not in self.coaches:
             self._error_raw(self.coach, ident, "not_initialised", "send init first")
             return
+        if not isinstance(msg, m.Look):
+            self.look_answer = None  # a reset, a start or advice may change the true state
         if isinstance(msg, m.Start):
             if not self.arena.started:
                 log.info("coach started the game")
                 self.arena.start()
         elif isinstance(msg, m.Look):
-            self._send_raw(self.coach, ident, encode(m.LookOk(cycle=self.arena.cycle, state=truth_state(self.arena),
-                                                              paused=self.standing_still)))
+            self._send_raw(self.coach, ident, self._look_ok())
         elif isinstance(msg, m.Advice):
             size = len(encode(advice_hear(msg.payload, self.arena.cycle)))
             if size > self.config.max_message_bytes:
@@ -686,7 +719,7 @@ class Server:
         elif isinstance(msg, m.EpisodeControl):
             self._on_episode_control(ident, msg)
         elif isinstance(msg, m.CoachBye):
-            self.coaches.discard(ident)
+            log.info("coach %r said bye", self.coaches.pop(ident))
 
     def _on_episode_control(self, ident: bytes, msg: m.EpisodeControl) -> None:
         if msg.action == "stop":

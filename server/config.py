@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from protocol.endpoints import MAX_MESSAGE_BYTES_LIMIT
 from protocol.messages import GETOPEN_NOTE_MODES, MAX_SEED
 from protocol.params import (
     PARAMETER_SETS,
@@ -54,6 +55,7 @@ class ServerConfig:
     game_log: bool = True  # with log_dir: also write the game log (<kwy_name>.rcg, server/game_log.py)
     max_message_bytes: int = 4 * 1024 * 1024
     player_budget: int = 8  # messages of a seated player served per cycle (docs/protocol.md 1 "Budgets")
+    coach_budget: int = 16  # messages of a coach served per cycle (docs/protocol.md 1 "Budgets")
     unseated_budget: int = 16  # messages per 0.1 s of a client that is not (yet) a player or a coach
     # what keepers note with their commands, for the game log and the monitor (docs/protocol.md
     # "command"): none (the default: nothing extra on the wire), their GetOpen target, or target and values
@@ -90,8 +92,9 @@ SETTING_RANGES: dict[str, Range | OneOf] = {
     "keepers": TEAM_SIZE, "takers": TEAM_SIZE,
     "mode": OneOf(TIMING_MODES), "on_hang": OneOf(HANG_POLICIES), "start_on": OneOf(START_ON),
     "seed": SEED, "cycle_timeout_s": POSITIVE, "max_missed_cycles": AT_LEAST_ONE,
-    "episodes": AT_LEAST_ONE, "max_cycles": AT_LEAST_ONE, "max_message_bytes": Range(1024, high_open=True),
-    "player_budget": AT_LEAST_ONE, "unseated_budget": AT_LEAST_ONE, "getopen_notes": OneOf(GETOPEN_NOTE_MODES),
+    "episodes": AT_LEAST_ONE, "max_cycles": AT_LEAST_ONE, "max_message_bytes": Range(1024, MAX_MESSAGE_BYTES_LIMIT),
+    "player_budget": AT_LEAST_ONE, "coach_budget": AT_LEAST_ONE, "unseated_budget": AT_LEAST_ONE,
+    "getopen_notes": OneOf(GETOPEN_NOTE_MODES),
 }
 # Each setting's type, from the annotations of ServerConfig (the parameter table is checked by itself).
 SETTING_TYPES: dict[str, Any] = {

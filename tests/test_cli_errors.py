@@ -140,6 +140,9 @@ def test_server_refuses_nonsensical_values_instead_of_starting(processes, args, 
     ("[params]\nwarp = 1", "[params] unknown server parameter 'warp'"),
     ("[params]\nname = 4", "[params] name: choose the set with parameter_set at the top level"),
     ('parameter_set = "old"', "parameter_set = 'old' is not one of classic, current"),
+    ("max_message_bytes = 1099511627776",
+     "max_message_bytes = 1099511627776 is out of range: allowed [1024, 67108864]"),
+    ("coach_budget = 0", "coach_budget = 0 is out of range: allowed [1, inf)"),
 ])
 def test_a_toml_value_of_the_wrong_type_or_range_names_the_file_key_and_value(processes, tmp_path, toml, problem):
     config = tmp_path / "server.toml"
@@ -151,7 +154,7 @@ def test_unknown_toml_settings_are_named_with_the_known_ones(processes, tmp_path
     config = tmp_path / "server.toml"
     config.write_text("warp = 1\n")
     line = refused(processes, "server", *FREE_PORTS, "--config", str(config))
-    assert line.startswith(f"Error: {config}: unknown setting(s) warp; known: coach_port, ") and "seed" in line
+    assert line.startswith(f"Error: {config}: unknown setting(s) warp; known: coach_budget, coach_port, ") and "seed" in line
 
 
 # -- keepaway player and coach ---------------------------------------------------------------------

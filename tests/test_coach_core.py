@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from coach.core import HEARTBEAT_S, LOOK_INTERVAL_S, REPORT_TIMEOUT_S, SERVER, CoachCore
+from coach.core import HEARTBEAT_S, LOOK_INTERVAL_S, REPORT_TIMEOUT_S, SERVER, STOPPING, CoachCore
 from protocol import PROTOCOL_VERSION, ProtocolError, parameter_set
 from protocol import messages as m
 from protocol.advice import (
@@ -191,7 +191,8 @@ def test_a_session_lost_while_the_run_is_under_way_is_reported_and_a_stop_is_sen
     core.from_server(m.Error(cycle=0, code="not_initialised", message="send init first"), 1.0)
     ((dest, lost),) = core.from_server(init_ok(cycle=40), 1.1)
     assert (dest, lost.code, lost.cycle) == (TRAINER, "session_lost", 40) and core.pending is None
-    assert control(core.from_trainer(TRAINER, StopArena(), 2.0)) == ["stop"]
+    ack, stop = core.from_trainer(TRAINER, StopArena(), 2.0)
+    assert ack == (TRAINER, m.Shutdown(cycle=0, reason=STOPPING)) and control([stop]) == ["stop"]
     core.from_server(m.Error(cycle=0, code="not_initialised", message="send init first"), 2.1)
     assert control(core.from_server(init_ok(cycle=41), 2.2)) == ["stop"]
 
