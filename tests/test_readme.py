@@ -1,5 +1,6 @@
-"""The README matches the repository: the paths it names exist, its command table lists every command,
-and every option of every command has a help text."""
+"""The README is a front door that matches the repository: short, the paths it names exist, its command
+table lists every command; every option of every command has a help text and is described in docs/cli.md,
+where the table's details live."""
 
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ from keepaway.cli import main
 
 REPO = Path(__file__).resolve().parent.parent
 README = (REPO / "README.md").read_text()
+CLI_DOC = (REPO / "docs" / "cli.md").read_text()
 # `code` spans that name a path: letters, digits and ./_- with at least one slash (not options such as
 # `--a/--b`, URLs, globs or placeholders).
 PATH_RE = re.compile(r"`([A-Za-z0-9_.][A-Za-z0-9_.\-/]*/[A-Za-z0-9_.\-/]*)`")
@@ -21,6 +23,14 @@ ELSEWHERE = ("~/", "/")
 
 def named_paths(text: str) -> list[str]:
     return [token.rstrip("/") for token in PATH_RE.findall(text) if not token.startswith(ELSEWHERE)]
+
+
+def test_the_readme_is_short():
+    lines = README.splitlines()
+    assert len(lines) <= 250
+    assert len(README) <= 20_000
+    long_lines = [n for n, line in enumerate(lines, 1) if len(line) > 200]
+    assert not long_lines, f"README lines over 200 characters: {long_lines}"
 
 
 def test_every_repository_path_the_readme_names_exists():
@@ -48,3 +58,26 @@ def test_every_option_of_every_command_has_a_help_text():
     missing = [f"{name} {param.opts[0]}" for name, command in all_commands(main) for param in command.params
                if isinstance(param, click.Option) and not param.help]
     assert not missing, f"options without help: {missing}"
+
+
+def doc_sections(text: str) -> dict[str, str]:
+    """The text under each heading of a Markdown page, up to the next heading, by the heading's words
+    (code marks dropped)."""
+    sections: dict[str, str] = {}
+    heading = ""
+    for line in text.splitlines():
+        if line.startswith("#"):
+            heading = line.lstrip("#").strip().replace("`", "")
+            sections[heading] = ""
+        else:
+            sections[heading] = sections.get(heading, "") + line + "\n"
+    return sections
+
+
+def test_docs_cli_describes_every_option_of_every_command():
+    sections = doc_sections(CLI_DOC)
+    missing = [name for name, _ in all_commands(main) if name not in sections]
+    assert not missing, f"docs/cli.md has no section for: {missing}"
+    undescribed = [f"{name} {param.opts[0]}" for name, command in all_commands(main) for param in command.params
+                   if isinstance(param, click.Option) and not any(opt in sections[name] for opt in param.opts)]
+    assert not undescribed, f"options docs/cli.md does not describe under their command: {undescribed}"
