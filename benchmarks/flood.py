@@ -151,10 +151,11 @@ class Scenario(NamedTuple):
 
 
 def cycles_per_second(flood: Scenario, seconds: float, warm: float,
-                      repo: Path = REPO) -> tuple[float, float, float | None]:
+                      repo: Path = REPO) -> tuple[float, float, float, float | None]:
     """Cycles per second seen by the first player in the measurement window, the server's CPU time per
-    cycle in it (ms) and, with a coach flood, for how long answers came after it stopped (s); the server
-    is ``repo``'s."""
+    cycle in it (ms), the flooding process's CPU time in it (cores: it competes with the game for the
+    machine's) and, with a coach flood, for how long answers came after it stopped (s); the server is
+    ``repo``'s."""
     server = subprocess.Popen([sys.executable, "-m", "keepaway", "server", "--players-port", "0",
                                "--coach-port", "0", "--monitor-port", "0"],
                               stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, cwd=repo, start_new_session=True)
@@ -181,16 +182,19 @@ def cycles_per_second(flood: Scenario, seconds: float, warm: float,
         others += players
         reporter = players[0]
         if line_within(reporter.stdout, START_TIMEOUT_S + warm) != b"start":
-            return 0.0, float("nan"), None  # the game never got going
+            return 0.0, float("nan"), 0.0, None  # the game never got going
+        flooders = others[:len(others) - len(players)] + ([players[-1]] if flood.seated else [])
         cpu = cpu_seconds(server.pid)
+        flood_cpu = sum(cpu_seconds(p.pid) for p in flooders)
         cycles, elapsed = map(float, line_within(reporter.stdout, seconds + 30.0).split())
         ms = (cpu_seconds(server.pid) - cpu) * 1000.0 / cycles if cycles else float("nan")
+        share = (sum(cpu_seconds(p.pid) for p in flooders) - flood_cpu) / elapsed
         backlog = None
         if coach is not None:
             coach.stdin.write(b"stop\n")
             coach.stdin.flush()
             backlog = float(line_within(coach.stdout, 90.0) or "nan")
-        return cycles / elapsed, ms, backlog
+        return cycles / elapsed, ms, share, backlog
     finally:
         if server.poll() is None:
             server.send_signal(signal.SIGTERM)
@@ -226,15 +230,18 @@ def main() -> None:
     rates: dict[str, list[float]] = {s.label: [] for s in SCENARIOS}
     cpu: dict[str, list[float]] = {s.label: [] for s in SCENARIOS}
     backlog: dict[str, list[float]] = {s.label: [] for s in SCENARIOS}
+    shares: dict[str, list[float]] = {s.label: [] for s in SCENARIOS}
     for _ in range(opts.repeats):
         for scenario in SCENARIOS:
-            rate, ms, left = cycles_per_second(scenario, opts.seconds, opts.warm_up, opts.repo)
+            rate, ms, share, left = cycles_per_second(scenario, opts.seconds, opts.warm_up, opts.repo)
+            shares[scenario.label].append(share)
             rates[scenario.label].append(rate)
             cpu[scenario.label].append(ms)
             if left is not None:
                 backlog[scenario.label].append(left)
     print("synchronous mode, 5 minimal players answering every think with one dash: cycles/s (median of "
-          f"{opts.repeats} runs, all in brackets) and the server's CPU time per cycle (median)")
+          f"{opts.repeats} runs, all in brackets), the server's CPU time per cycle and the flooding process's "
+          "CPU (medians)")
     base = statistics.median(rates["no flood"])
     for scenario in SCENARIOS:
         label, target = scenario.label, scenario.target
@@ -243,7 +250,9 @@ def main() -> None:
         ratio = "" if target is None else f"{rate / base:4.0%} of no flood (target >= {target:.0%})"
         left = (f"; answers kept coming {statistics.median(backlog[label]):.2f} s after the flood stopped"
                 if backlog[label] else "")
-        print(f"    {label:30s} {rate:7,.0f}  {statistics.median(cpu[label]):5.2f} ms/cycle  {ratio:34s} [{runs}]{left}")
+        flooder = f"flooder {statistics.median(shares[label]):4.0%} of a core" if label != "no flood" else ""
+        print(f"    {label:30s} {rate:7,.0f}  {statistics.median(cpu[label]):5.2f} ms/cycle  {flooder:25s} {ratio:34s} "
+              f"[{runs}]{left}")
 
 
 if __name__ == "__main__":

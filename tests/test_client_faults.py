@@ -126,7 +126,7 @@ def test_a_keepaway_coach_killed_mid_episode_leaves_the_server_playing(processes
 
 
 def test_a_coach_flooding_looks_is_held_to_its_budget_and_leaves_no_backlog(processes, tmp_path):
-    flood_cycles, per_cycle, budget = 20, 300, 16
+    flood_cycles, per_cycle, budget = 20, 300, 8
     srv = processes.start_server(tmp_path, "--cycle-timeout", "60")
     coach = ScriptedCoach(srv.coach_endpoint)
     coach.init()
@@ -141,10 +141,10 @@ def test_a_coach_flooding_looks_is_held_to_its_budget_and_leaves_no_backlog(proc
             except zmq.Again:  # its queue is full: the server reads it no faster than it serves the game
                 break
         answer_cycle(players, cycle, ("dash", 100.0))
-    for cycle in range(flood_cycles, flood_cycles + 6):  # the backlog (at most 64) is served in 4 cycles
+    for cycle in range(flood_cycles, flood_cycles + 10):  # the backlog (at most 64) is served in 8 cycles
         answer_cycle(players, cycle, ("dash", 100.0))
     bodies = [p.recv_until(m.SenseBody) for p in players]
-    assert [b.counts["dash"] for b in bodies] == [flood_cycles + 6] * 5  # every seated command acted
+    assert [b.counts["dash"] for b in bodies] == [flood_cycles + 10] * 5  # every seated command acted
     # every look is answered or dropped and counted by now: nothing is left for later
     answered = dropped = 0
     for msg in coach.until_barrier():
@@ -152,10 +152,10 @@ def test_a_coach_flooding_looks_is_held_to_its_budget_and_leaves_no_backlog(proc
         if isinstance(msg, m.Error) and msg.code == "over_budget":
             dropped += int(DROPPED_RE.search(msg.message).group(1))
     assert answered + dropped == sent and dropped > 0
-    assert answered <= (flood_cycles + 6) * budget + 64
+    assert answered <= (flood_cycles + 10) * budget + 64
     srv.proc.send_signal(signal.SIGTERM)
     assert srv.wait(30) == 0
-    assert re.search(r"coach 'test-coach': over_budget: dropped \d+ messages beyond its budget of 16 per cycle",
+    assert re.search(r"coach 'test-coach': over_budget: dropped \d+ messages beyond its budget of 8 per cycle",
                      srv.stderr_text())
 
 
