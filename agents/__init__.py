@@ -2,7 +2,7 @@
 
 ``PlayerAgent`` (`agents/player.py`) is the transport-free player that ``keepaway player``
 (`agents/cli.py`) connects to a server; the numba kernels below it take a batch dimension so the batched
-mode can run many players at once (spec `architecture.md`, Embedded and batched execution).
+mode can run many players at once.
 
 Names are imported on first use (PEP 562), so loading the command line (``agents.cli``) does not import
 numba or the kernels.

@@ -1,10 +1,9 @@
 """What a deciding player believes about its arena: the input of every skill and policy kernel.
 
-The world model (`agents/worldmodel.py`) turns noisy percepts into one row of a ``Belief``; the batched
-mode stacks the rows of all players of all arenas (spec `architecture.md`, Embedded and batched
-execution). Object indexing is the server's (`core/objects.py`): 0 ball, 1..K keepers, K+1..K+T takers.
-Confidence follows the keepaway world model: conf = 1 - (cycles since seen)/100, 1 for myself
-(spec `keepaway-agents.md` 1).
+The world model (`agents/worldmodel.py`) turns noisy percepts into one row of a ``Belief``; the batched mode
+stacks the rows of all players of all arenas. Object indexing is the server's (`core/objects.py`): 0 ball,
+1..K keepers, K+1..K+T takers. Confidence follows the keepaway world model: conf = 1 - (cycles since
+seen)/100, 1 for myself (docs/players.md §4.1).
 """
 
 from __future__ import annotations
@@ -100,15 +99,15 @@ class AgentMemory(NamedTuple):
     """What each deciding player remembers of its own past decisions, one row per belief row.
 
     Kept apart from the belief because the world model never touches it; the caller clears a row at an
-    episode boundary with ``forget_episode`` (spec `keepaway-agents.md` 1 step 1)."""
+    episode boundary with ``forget_episode`` (docs/players.md §2 step 1)."""
 
-    last_action: np.ndarray  # (B,) int64 last Pass action, -1 none (spec 1 step 3c)
+    last_action: np.ndarray  # (B,) int64 last Pass action, -1 none (docs/players.md §2 step 3c)
     t_last: np.ndarray  # (B,) int64 cycle of the last Pass decision or kick, -1 none
-    intercept_point: np.ndarray  # (B, 2) float64 last chosen interception point (spec 2.1 step 2)
+    intercept_point: np.ndarray  # (B, 2) float64 last chosen interception point (docs/players.md §5.2 step 2)
     intercept_time: np.ndarray  # (B,) int64 cycle it was chosen, -1 none
-    target: np.ndarray  # (B, 2) float64 committed GetOpen point of GO:R (spec 2.6)
+    target: np.ndarray  # (B, 2) float64 committed GetOpen point of GO:R (docs/players.md §7.3)
     has_target: np.ndarray  # (B,) bool
-    search_sign: np.ndarray  # (B,) float64 +1/-1 turning side of the ball search (spec 1 step 2)
+    search_sign: np.ndarray  # (B,) float64 +1/-1 turning side of the ball search (docs/players.md §5.6)
     search_time: np.ndarray  # (B,) int64 cycle of the last search turn, -1 none
     rng: np.ndarray  # (B,) uint64 per-agent random stream (`core/rng.py`)
     getopen_point: np.ndarray  # (B, 2) float64 the point the last GetOpen decision moved towards
@@ -138,7 +137,7 @@ def new_memory(batch: int, seeds: np.ndarray) -> AgentMemory:
 @borrowing
 def forget_episode(mem: AgentMemory, r: int) -> None:
     """Episode boundary for row ``r``: no last action, no decision time, no committed targets
-    (spec `keepaway-agents.md` 1 step 1; the learner's endEpisode is the caller's)."""
+    (docs/players.md §2 step 1; the learner's endEpisode is the caller's)."""
     mem.last_action[r] = -1
     mem.t_last[r] = -1
     mem.intercept_time[r] = -1

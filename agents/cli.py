@@ -1,6 +1,6 @@
-"""``keepaway player``: one keeper or taker process over ZeroMQ (architecture, "Processes").
+"""``keepaway player``: one keeper or taker process over ZeroMQ (docs/design.md, "Processes and sockets").
 
-The socket edge of :class:`agents.player.PlayerAgent` (style guide, "Sockets at the edge"): one DEALER
+The socket edge of :class:`agents.player.PlayerAgent` (the server's socket edge has the same shape): one DEALER
 socket (LINGER 0 but for a bounded wait after ``bye``, the protocol's size limit), one poll loop, every
 frame decoded by ``protocol`` before the agent sees it. Exit codes: 0 when the server shuts down or on
 SIGTERM/SIGINT (after saying ``bye``), 2 when the player cannot start (bad policy file, no server within
@@ -11,7 +11,7 @@ waited in receives that found nothing, not the time on the clock: a player that 
 then SIGCONT) first reads what waits for it, and its own sleep never counts as the server's silence.
 Expected conditions end with one line on stderr, never a traceback. With ``--reconnect UNUM`` the player takes back the seat of a player of its
 team that is gone (crashed, killed, or given up by the server) instead of joining anew
-(docs/protocol.md 12 "Rejoin"). A seat whose old client the server still waits for (a hung process it
+(docs/protocol.md §12, "Rejoin"). A seat whose old client the server still waits for (a hung process it
 has not yet given up after ``max_missed_cycles``, a crash it has not yet noticed) is refused with
 ``cannot_reconnect``; the player asks again every :data:`RECONNECT_RETRY_S` until ``--connect-timeout``,
 so a replacement can be started as soon as the old process is found dead or stuck.

@@ -5,7 +5,7 @@ Every cycle a player gets a sense_body, a think, about three hears (its own say,
 opponents') and on two cycles of three a see. Through the full decoder each goes msgpack -> dict and
 lists -> validated message (``protocol.messages.decode_for_player``) -> what the agent takes from it,
 Python all the way: the largest share of a player process's time in the distributed and embedded modes
-(``py-spy``, docs/design.md "Processes and sockets"). :func:`decode_frame` reads the same bytes once, in
+(``py-spy``, docs/design.md, "Processes and sockets"). :func:`decode_frame` reads the same bytes once, in
 a kernel: a see into the rows ``WorldModel.on_see`` would write, the other kinds into the values their
 handlers take (:data:`SPEED_AMOUNT` ..., :data:`SENDER` ...).
 

@@ -1,5 +1,5 @@
-"""Geometry and one-step motion prediction shared by every skill (spec `keepaway-agents.md` 2, "Shared
-geometry"; physics as in `server-physics.md` 2-3).
+"""Geometry and one-step motion prediction shared by every skill (docs/players.md §5.1;
+physics as in docs/rules.md §1, §2).
 
 Angles are degrees in the rcssserver frame (+y down, direction = atan2(y, x)). All functions are numba
 kernels on scalars so skills can call them inside their own per-row loops.
@@ -72,7 +72,7 @@ def distance(ax: float, ay: float, bx: float, by: float) -> float:
 @borrowing
 def vertex_angle(ax: float, ay: float, bx: float, by: float, cx: float, cy: float) -> float:
     """ang(A, B, C): unsigned angle at vertex B between rays B->A and B->C, in [0, 180]
-    (spec `keepaway-task.md` 3). A degenerate ray (A or C on B) gives 0: nothing separates them."""
+    (docs/players.md §1). A degenerate ray (A or C on B) gives 0: nothing separates them."""
     ux, uy = ax - bx, ay - by
     vx, vy = cx - bx, cy - by
     return ray_angle(ux, uy, math.hypot(ux, uy), vx, vy, math.hypot(vx, vy))
@@ -144,7 +144,7 @@ def geometric_sum(decay: float, n: float) -> float:
 
 @borrowing
 def rolled_out(px: float, py: float, vx: float, vy: float, n: float, decay: float) -> tuple:
-    """Position after n cycles without acceleration: pos + vel (1 - d^n)/(1 - d) (spec 2, shared geometry;
+    """Position after n cycles without acceleration: pos + vel (1 - d^n)/(1 - d) (docs/players.md §4.3;
     velocities are the stored post-decay ones, so the next position is pos + vel)."""
     f = geometric_sum(decay, n)
     return px + vx * f, py + vy * f
@@ -152,7 +152,7 @@ def rolled_out(px: float, py: float, vx: float, vy: float, n: float, decay: floa
 
 @borrowing
 def final_position(px: float, py: float, vx: float, vy: float, decay: float) -> tuple:
-    """Position once the current velocity has died out: pos + vel / (1 - d) (spec 2.4, reference position)."""
+    """Position once the current velocity has died out: pos + vel / (1 - d) (docs/players.md §5.1)."""
     f = 1.0 / (1.0 - decay)
     return px + vx * f, py + vy * f
 
@@ -161,7 +161,7 @@ def final_position(px: float, py: float, vx: float, vy: float, decay: float) -> 
 def kick_rate(px: float, py: float, body: float, bx: float, by: float, kp) -> float:
     """Effective kick power rate for a ball at (bx, by) and a player at (px, py) with ``body``:
     kick_power_rate (1 - 0.25 |dir|/180 - 0.25 (dist - player_size - ball_size)/kickable_margin)
-    (`server-physics.md` 3, kick)."""
+    (docs/rules.md §2, "kick")."""
     dir_diff = abs(normalize_angle(direction(bx - px, by - py) - body))
     dist_ball = distance(px, py, bx, by) - kp.player_size - kp.ball_size
     return kp.kick_power_rate * (1.0 - 0.25 * dir_diff / 180.0 - 0.25 * dist_ball / kp.kickable_margin)
@@ -170,14 +170,14 @@ def kick_rate(px: float, py: float, body: float, bx: float, by: float, kp) -> fl
 @borrowing
 def turn_moment(angle: float, speed: float, kp) -> float:
     """Moment to send so that a player moving at ``speed`` turns by ``angle``: angle (1 + inertia v),
-    clipped to the moment range (spec 2, turn inertia)."""
+    clipped to the moment range (docs/players.md §5.1)."""
     m = angle * (1.0 + kp.inertia_moment * speed)
     return min(kp.max_moment, max(kp.min_moment, m))
 
 
 @borrowing
 def turn_effect(moment: float, speed: float, kp) -> float:
-    """Body rotation produced by ``moment`` at ``speed`` (noise-free `server-physics.md` 3, turn)."""
+    """Body rotation produced by ``moment`` at ``speed`` (noise-free docs/rules.md §2, "turn")."""
     m = min(kp.max_moment, max(kp.min_moment, moment))
     return m / (1.0 + kp.inertia_moment * speed)
 
@@ -186,7 +186,7 @@ def turn_effect(moment: float, speed: float, kp) -> float:
 def dash_power_for(
     dx: float, dy: float, body: float, vx: float, vy: float, effort: float, cycles: float, kp
 ) -> float:
-    """Dash power to cover the forward component of (dx, dy) in ``cycles`` cycles (spec 2.4): first-cycle
+    """Dash power to cover the forward component of (dx, dy) in ``cycles`` cycles (docs/players.md §5.5): first-cycle
     speed d (1 - decay)/(1 - decay^n), capped at player_speed_max, minus the current forward speed, over
     dash_power_rate * effort, clipped to the power range."""
     rad = math.radians(body)
@@ -224,7 +224,7 @@ def dash_power_along(
 def dash_velocity(vx: float, vy: float, cs: float, sn: float, effort: float, power: float, kp) -> tuple:
     """Velocity after a dash of ``power`` along the body (cosine ``cs``, sine ``sn``), before the move:
     effort * power * dash_power_rate capped at player_accel_max, the speed at player_speed_max
-    (`server-physics.md` 3, dash, noise-free), the power as the players believe it (``believed_dash_power``)."""
+    (docs/rules.md §2, "dash", noise-free), the power as the players believe it (``believed_dash_power``)."""
     power = believed_dash_power(power, kp)
     acc = effort * power * kp.dash_power_rate
     acc = min(acc, kp.player_accel_max) if acc > 0.0 else max(acc, -kp.player_accel_max)
@@ -241,7 +241,7 @@ def dash_velocity(vx: float, vy: float, cs: float, sn: float, effort: float, pow
 def player_step(
     px: float, py: float, vx: float, vy: float, body: float, effort: float, cmd: int, a1: float, kp
 ) -> tuple:
-    """Noise-free player state after one command (`server-physics.md` 2-3): dash adds effort * power *
+    """Noise-free player state after one command (docs/rules.md §1, §2): dash adds effort * power *
     dash_power_rate along the body (capped at accel/speed max), turn rotates with inertia, then the
     player moves and decays. ``cmd`` is a CMD_* code of `core/objects.py`; anything but a dash or a turn
     leaves the player coasting. Returns (x, y, vx, vy, body)."""
@@ -260,7 +260,7 @@ def ball_after_kick(
     bx: float, by: float, bvx: float, bvy: float, rate: float, power: float, kick_dir: float, body: float, kp
 ) -> tuple:
     """Ball position and stored velocity one cycle after a kick of ``power`` at ``kick_dir`` relative to
-    ``body`` with effective ``rate`` (noise-free `server-physics.md` 3, kick). Returns (x, y, vx, vy)."""
+    ``body`` with effective ``rate`` (noise-free docs/rules.md §2, "kick"). Returns (x, y, vx, vy)."""
     acc = min(rate * power, kp.ball_accel_max)
     rad = math.radians(body + kick_dir)
     vx = bvx + acc * math.cos(rad)
@@ -276,7 +276,7 @@ def ball_after_kick(
 def in_cone(ox: float, oy: float, tx: float, ty: float, qx: float, qy: float, ratio: float) -> bool:
     """Whether q lies in the cone from o towards t of half-width ``ratio`` (perpendicular distance <
     ratio * distance along the line), projected between o and t and closer to o than t is
-    (spec `keepaway-agents.md` 2.5 step 4, 3 step 3)."""
+    (docs/players.md §7.2, §3 step 3)."""
     lx, ly = tx - ox, ty - oy
     length = math.hypot(lx, ly)
     if length == 0.0:

@@ -1,11 +1,10 @@
-"""GetOpen: where a keeper without the ball should stand (spec `keepaway-task.md` 4,
-`keepaway-agents.md` 2.5-2.7).
+"""GetOpen: where a keeper without the ball should stand (docs/players.md §7).
 
 Candidate targets are a grid over the region. The policies differ only in how a target is chosen:
 GO:R keeps a random grid point until reached, GO:HC takes the least congested point whose passing lane
 from predictedBallPos is open (the paper's 18.4 deg rule, or the framework's cone as an option), GO:L
 takes the argmax of a 10-5-5-1 net over each point's state variables, seen through the policy's input
-scaling (:class:`InputScaling`, by default :class:`GetOpenScaling`; docs/design.md, GetOpen inputs), and
+scaling (:class:`InputScaling`, by default :class:`GetOpenScaling`; docs/design.md, "Learning options"), and
 breaks exact ties towards the point nearest the keeper. The movement is shared.
 """
 
@@ -43,8 +42,8 @@ from agents.state_vars import (
 )
 from core.rng import randint
 
-NET_HIDDEN = 5  # keepaway-task.md 4: two hidden layers of 5 units
-SCALED_TANH_A = 1.7159  # keepaway-task.md 4: Haykin's scaled tanh a tanh(b x)
+NET_HIDDEN = 5  # docs/players.md §7.4: two hidden layers of 5 units
+SCALED_TANH_A = 1.7159  # docs/players.md §7.4: Haykin's scaled tanh a tanh(b x)
 SCALED_TANH_B = 2.0 / 3.0
 
 
@@ -55,7 +54,7 @@ def net_size(n_inputs: int = 10) -> int:
 
 @njit(cache=True)
 def net_value(theta, x) -> float:
-    """The GO:L value f_theta(x) (spec `keepaway-task.md` 4). Layout of ``theta``: W1 (5 x n, row-major,
+    """The GO:L value f_theta(x) (docs/players.md §7.4). Layout of ``theta``: W1 (5 x n, row-major,
     row = hidden unit), b1 (5), W2 (5 x 5, row-major), b2 (5), W3 (1 x 5), b3 (1); hidden units
     1.7159 tanh(2z/3), linear output."""
     return net_value_into(theta, x, np.empty(NET_HIDDEN))
@@ -116,9 +115,9 @@ def _upper_layers(theta, n: int, h1, estimate: bool) -> float:
     return out
 
 
-# GO:L decides on estimates where it is sure (docs/design.md, "Estimates that decide only where they are
-# sure"): tanh by its [7/6] Pade approximant, +-1 beyond TANH_ESTIMATE_CLAMP, off by at most 9.65e-5
-# (measured on a grid of 1e-6 over [0, 12]; odd on both sides); the bound used is twice that.
+# GO:L decides on estimates where it is sure (docs/design.md, "Compiled kernels"): tanh by its [7/6] Pade
+# approximant, +-1 beyond TANH_ESTIMATE_CLAMP, off by at most 9.65e-5 (measured on a grid of 1e-6 over [0,
+# 12]; odd on both sides); the bound used is twice that.
 TANH_ESTIMATE_CLAMP = 4.97
 TANH_ESTIMATE_ERROR = 2e-4
 
@@ -176,7 +175,7 @@ def net_estimate_error(theta, n: int, input_error: float, input_size: float) -> 
 class InputScaling:
     """The affine scaling of a GO:L net's inputs, part of the policy: the net sees (x - mean) / scale for
     the raw state variables x (metres, degrees). A policy file stores it with the net's parameters, so a
-    saved policy plays as trained; the identity is the paper's unscaled net (docs/design.md)."""
+    saved policy plays as trained; the identity is the paper's unscaled net (docs/design.md, "Learning options")."""
 
     mean: tuple[float, ...]
     scale: tuple[float, ...]
@@ -206,8 +205,8 @@ class InputScaling:
     def fold(self, theta: np.ndarray) -> np.ndarray:
         """The parameters of the same net on the raw variables, the form :func:`net_value` and every kernel
         take: W1' = W1 / scale (per input), b1' = b1 - W1 (mean / scale); the rest unchanged. So
-        ``net_value(fold(theta), x) == net_value(theta, standardise(x))`` up to rounding (docs/design.md
-        has the measured error); the identity returns ``theta`` bit for bit."""
+        ``net_value(fold(theta), x) == net_value(theta, standardise(x))`` up to rounding (docs/design.md,
+        "Learning options", has the measured error); the identity returns ``theta`` bit for bit."""
         theta = np.asarray(theta, dtype=np.float64)
         n = self.n_inputs
         if theta.shape != (net_size(n),):
@@ -237,7 +236,7 @@ class InputScaling:
 
 @dataclass(frozen=True)
 class GetOpenScaling:
-    """The rule that scales GO:L's inputs (ours: the paper states none; docs/design.md, GetOpen inputs).
+    """The rule that scales GO:L's inputs (ours: the paper states none; docs/design.md, "Learning options").
     Each kind of variable (``agents.state_vars.GETOPEN_KINDS``) has a (mean, standard deviation): for
     distances as fractions of the region's side, for angles in degrees, so every K, T and field size gets
     a scaling (:meth:`inputs`). The defaults are the pooled means and standard deviations, per kind, of
@@ -286,7 +285,7 @@ def grid_size(cfg) -> int:
 @borrowing
 def grid_point(k: int, kp, cfg) -> tuple:
     """Grid point ``k`` (x outer, y inner, both ascending): x = xmin + 0.15 L + i 0.175 L for a 5 x 5 grid
-    with 15 % margins (spec `keepaway-agents.md` 2.5 step 2; 20 m: -7, -3.5, 0, 3.5, 7)."""
+    with 15 % margins (docs/players.md §7.1; 20 m: -7, -3.5, 0, 3.5, 7)."""
     n = int(cfg.grid_points)
     i, j = k // n, k % n
     span = (1.0 - 2.0 * cfg.grid_margin) / (n - 1)
@@ -300,14 +299,14 @@ def grid_point(k: int, kp, cfg) -> tuple:
 def predicted_ball_pos(bel: Belief, r: int, cycles: int, kp, cfg) -> tuple:
     """predictedBallPos: the ball after ``cycles``, the fastest keeper's interception time from
     ``fastest_to_ball`` (0 if a keeper has it; capped at the horizon if nobody reaches it)
-    (spec `keepaway-agents.md` 2.5 step 1)."""
+    (docs/players.md §7.1)."""
     return ball_in(bel, r, min(cycles, int(cfg.intercept_horizon)), kp)
 
 
 @borrowing
 def congestion(bel: Belief, r: int, px: float, py: float, cfg) -> float:
-    """Sum over the other usable players not exactly at P of 1 / dist(player, P) (spec
-    `keepaway-agents.md` 2.5 step 3; -value(P) of GO:HC, `keepaway-task.md` 4)."""
+    """Sum over the other usable players not exactly at P of 1 / dist(player, P)
+    (docs/players.md §7.2; -value(P) of GO:HC)."""
     total = 0.0
     for j in range(1, bel.n_keepers + bel.n_takers + 1):
         if j == bel.me[r] or bel.conf[r, j] < cfg.player_conf_threshold:
@@ -347,8 +346,8 @@ def safety_cosine(cfg) -> float:
 def lane_open(bel: Belief, r: int, px: float, py: float, bx: float, by: float, cone: bool, cos_limit: float,
               cfg) -> bool:
     """Whether the lane from predictedBallPos B to P is open: the paper's min_j ang(P, B, Tj) >= 18.4 deg
-    (`keepaway-task.md` 4), or with ``cone`` no taker in the framework's cone of half-width 0.3
-    (`keepaway-agents.md` 2.5 step 4). Takers with conf < 0.88 are ignored. ``cos_limit``: the cosine of
+    (docs/players.md §7.2), or with ``cone`` no taker in the framework's cone of half-width 0.3
+    (same section). Takers with conf < 0.88 are ignored. ``cos_limit``: the cosine of
     the safety angle (``safety_cosine``), computed once for all grid points."""
     for j in range(bel.n_keepers + 1, bel.n_keepers + bel.n_takers + 1):
         if bel.conf[r, j] < cfg.player_conf_threshold:
@@ -365,7 +364,7 @@ def lane_open(bel: Belief, r: int, px: float, py: float, bx: float, by: float, c
 @borrowing
 def handcoded_target(bel: Belief, r: int, ball_cycles: int, cone: bool, kp, cfg) -> tuple:
     """GO:HC: the admissible grid point with the lowest congestion (strict <, scan order wins ties);
-    the region centre if none is admissible (spec `keepaway-agents.md` 2.5 steps 4-5).
+    the region centre if none is admissible (docs/players.md §7.2).
     ``ball_cycles``: the fastest keeper's interception time (``fastest_to_ball``).
 
     Points are compared on congestion estimates (one sqrt a player) wherever these differ by more than
@@ -399,8 +398,8 @@ def handcoded_target(bel: Belief, r: int, ball_cycles: int, cone: bool, kp, cfg)
 
 @borrowing
 def lane_origin(bel: Belief, r: int, ball_cycles: int, kp, cfg) -> tuple:
-    """Where GO:L's variables 9-10 measure the pass from: the keeper now closest to the ball (K1, spec
-    `keepaway-task.md` 4; myself if no keeper is usable), or with
+    """Where GO:L's variables 9-10 measure the pass from: the keeper now closest to the ball (K1,
+    docs/players.md §7.4; myself if no keeper is usable), or with
     ``cfg.getopen_lane_from_predicted_ball`` predictedBallPos, as GO:HC's lane test."""
     if cfg.getopen_lane_from_predicted_ball:
         return predicted_ball_pos(bel, r, ball_cycles, kp, cfg)
@@ -412,10 +411,10 @@ def lane_origin(bel: Belief, r: int, ball_cycles: int, kp, cfg) -> tuple:
 
 @njit(cache=True)
 def learned_target(bel: Belief, r: int, theta, ball_cycles: int, kp, cfg) -> tuple:
-    """GO:L: the grid point with the highest net value of its GetOpen state (spec `keepaway-task.md` 4).
+    """GO:L: the grid point with the highest net value of its GetOpen state (docs/players.md §7.4).
     Exact ties (a saturated net gives many points the very same value) go to the tied point nearest to
     me, not to the first in scan order (a corner): a keeper heading for that point stays nearest to it,
-    so re-evaluating every cycle does not make it switch targets (docs/design.md, GetOpen inputs).
+    so re-evaluating every cycle does not make it switch targets (docs/design.md, "Learning options").
     ``theta`` takes the raw state variables (a scaling folded in: ``InputScaling.fold``);
     ``ball_cycles``: the fastest keeper's interception time (``fastest_to_ball``).
 
@@ -482,7 +481,7 @@ def grid_states(bel: Belief, r: int, sums, kp, cfg, out) -> None:
 @borrowing
 def random_target(bel: Belief, r: int, mem: AgentMemory, kp, cfg) -> tuple:
     """GO:R: a uniformly drawn grid point, kept until I am within the arrival radius of it
-    (spec `keepaway-agents.md` 2.6)."""
+    (docs/players.md §7.3)."""
     me = bel.me[r]
     if (not mem.has_target[r]) or compared_hypot(
         mem.target[r, 0] - bel.pos[r, me, 0], mem.target[r, 1] - bel.pos[r, me, 1], cfg.arrival_radius
@@ -497,7 +496,7 @@ def random_target(bel: Belief, r: int, mem: AgentMemory, kp, cfg) -> tuple:
 @borrowing
 def move_to_spot(bel: Belief, r: int, px: float, py: float, kp, cfg) -> tuple:
     """Within the arrival radius turn the body to the ball and stand; else GoToPoint(P, 7 deg)
-    (spec `keepaway-agents.md` 2.5 step 6)."""
+    (docs/players.md §7.5)."""
     me = bel.me[r]
     if compared_hypot(px - bel.pos[r, me, 0], py - bel.pos[r, me, 1], cfg.arrival_radius) < cfg.arrival_radius:
         return turn_to_point(bel, r, bel.pos[r, 0, 0], bel.pos[r, 0, 1], 1.0, kp)
@@ -506,8 +505,8 @@ def move_to_spot(bel: Belief, r: int, px: float, py: float, kp, cfg) -> tuple:
 
 @borrowing
 def getopen(bel: Belief, r: int, mem: AgentMemory, theta, ball_cycles: int, kp, cfg) -> tuple:
-    """GetOpen with the policy ``cfg.getopen_policy``, re-evaluated every cycle (spec
-    `keepaway-agents.md` 2.5 step 7); ``theta`` is this row's net parameters (used by GO:L only),
+    """GetOpen with the policy ``cfg.getopen_policy``, re-evaluated every cycle
+    (docs/players.md §7); ``theta`` is this row's net parameters (used by GO:L only),
     ``ball_cycles`` the fastest keeper's interception time."""
     policy = int(cfg.getopen_policy)
     if policy == GETOPEN_RANDOM:
@@ -522,8 +521,8 @@ def getopen(bel: Belief, r: int, mem: AgentMemory, theta, ball_cycles: int, kp, 
 
 @borrowing
 def note_getopen(bel: Belief, r: int, mem: AgentMemory, px: float, py: float) -> None:
-    """Remember this cycle's GetOpen point: what a keeper's GetOpen note reports (docs/protocol.md,
-    ``command``); nothing decides on it."""
+    """Remember this cycle's GetOpen point: what a keeper's GetOpen note reports (docs/protocol.md §5,
+    "command"); nothing decides on it."""
     mem.getopen_point[r, 0] = px
     mem.getopen_point[r, 1] = py
     mem.getopen_time[r] = bel.time[r]
@@ -534,7 +533,7 @@ def grid_values(bel: Belief, r: int, theta, sums, kp, cfg, out) -> int:
     """How the keeper's GetOpen policy rates each grid point, higher better, as rows ``(x, y, value)`` of
     ``out`` (at least grid-size rows); returns the number of rows. GO:HC: minus the congestion of each
     admissible point (the others are no candidates and get no row); GO:L: the net's value; GO:R: no rows.
-    For the notes a viewer draws (docs/protocol.md, ``command``), computed only when asked for: the
+    For the notes a viewer draws (docs/protocol.md §5, "command"), computed only when asked for: the
     decision itself (:func:`getopen`) never fills them."""
     policy = int(cfg.getopen_policy)
     if policy != GETOPEN_LEARNED and policy != GETOPEN_HANDCODED and policy != GETOPEN_HANDCODED_CONE:

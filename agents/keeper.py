@@ -1,4 +1,4 @@
-"""The keeper's per-cycle decision (spec `keepaway-agents.md` 1, `keepaway-task.md` 2-3).
+"""The keeper's per-cycle decision (docs/players.md §2, §6).
 
 ``keeper_decide`` runs one row: ball lost -> search; ball kickable -> the Pass decision with its macro-
 action persistence; fastest keeper to the ball -> intercept; else GetOpen. The episode boundary
@@ -46,7 +46,7 @@ GETOPEN_DECISION = 3  # GETOPEN_EXTERNAL: the caller picks a grid point (execute
 
 @borrowing
 def handcoded_pass(state, n_keepers: int, n_takers: int, cfg) -> int:
-    """P:HC (spec `keepaway-task.md` 3): hold if dist(K1, T1) > C1; else val_i = C2 min_j ang(Ki, K1, Tj)
+    """P:HC (docs/players.md §6.2): hold if dist(K1, T1) > C1; else val_i = C2 min_j ang(Ki, K1, Tj)
     + min_j dist(Ki, Tj) for i >= 2, pass to the best if above C3 (first wins ties), else hold.
     Action k >= 1 passes to K(k+1)."""
     k, t = n_keepers, n_takers
@@ -67,7 +67,7 @@ def execute_pass_action(
     bel: Belief, r: int, mem: AgentMemory, action: int, kp, cfg, out_main, out_a1, out_a2, out_neck
 ) -> None:
     """Record and execute Pass action ``action`` (0 = HoldBall, k = PassBall to the k-th nearest
-    teammate), neck to the ball (spec `keepaway-agents.md` 1 steps 3c-3d)."""
+    teammate), neck to the ball (docs/players.md §2 steps 3c-3d)."""
     mem.last_action[r] = action
     mem.t_last[r] = bel.time[r]
     if action == 0:
@@ -82,7 +82,7 @@ def execute_getopen_action(
     bel: Belief, r: int, mem: AgentMemory, point: int, kp, cfg, out_main, out_a1, out_a2, out_neck
 ) -> None:
     """Move towards grid point ``point`` (``agents.getopen.grid_point``) as every GetOpen policy does,
-    neck to the region centre (spec `keepaway-agents.md` 2.5 steps 6-7)."""
+    neck to the region centre (docs/players.md §7.5)."""
     px, py = grid_point(point, kp, cfg)
     note_getopen(bel, r, mem, px, py)
     code, a1, a2 = move_to_spot(bel, r, px, py, kp, cfg)
@@ -93,7 +93,7 @@ def execute_getopen_action(
 def keeper_decide(
     bel: Belief, r: int, mem: AgentMemory, theta, sums, kp, cfg, out_main, out_a1, out_a2, out_neck, out_state
 ) -> int:
-    """One keeper decision for row ``r`` (spec `keepaway-agents.md` 1 steps 2-5). ``theta`` is the row's
+    """One keeper decision for row ``r`` (docs/players.md §2 steps 2-5). ``theta`` is the row's
     GetOpen net parameters, ``sums`` the players' ``agents.skills.decay_sums``, ``out_state`` its Pass
     state row. Returns NO_PASS_DECISION, PASS_DECISION_START, PASS_DECISION_STEP or GETOPEN_DECISION
     (module docstring)."""

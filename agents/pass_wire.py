@@ -4,11 +4,11 @@ Two directions share one chunking mechanism (:func:`chunked`): the player's repo
 transitions, snapshots) and the coach's ``pass_load`` advice to a player, each chunk a message of
 ``protocol.advice``, which declares and checks them. Arrays travel as little-endian ``bin`` fields; a
 message holds at most :data:`REPORT_BYTES` of per-entry array bytes, well below the 4 MiB message limit
-(docs/protocol.md 1), so longer data is sent as ``chunks`` messages numbered ``chunk`` 0, 1, ..., each
+(docs/protocol.md §1), so longer data is sent as ``chunks`` messages numbered ``chunk`` 0, 1, ..., each
 carrying the same head fields and the entries ``first`` .. ``first + count - 1``.
 
 The sparse Pass policy (:func:`sparse_pass_chunks`) is one keeper's SMDP Sarsa state as
-``agents.sarsa.policy_arrays`` gives it (spec `keepaway-agents.md` 5: the weights and the collision table
+``agents.sarsa.policy_arrays`` gives it (docs/players.md §6.3: the weights and the collision table
 that maps tiles to them; the C++ weights file holds the same): only the table's occupied slots (and any
 slot with a non-zero weight) travel, as (``index``, ``check``, ``value``) triples in slot order, so the
 dense arrays, and with them the exact learner, are rebuilt by :func:`pass_arrays_from_chunks`.

@@ -1,12 +1,12 @@
 """The player agent without sockets: decoded protocol messages in, one ``command`` per cycle out.
 
 ``PlayerAgent`` is what a ``keepaway player`` process runs between its socket loop (``agents/cli.py``)
-and the decision kernels, and what the embedded mode drives directly (spec `architecture.md`, Embedded
-and batched execution). Per message (docs/protocol.md 6, 9):
+and the decision kernels, and what the embedded mode drives directly (docs/design.md,
+"Processes and sockets"). Per message (docs/protocol.md §6, §9):
 
 * ``init_ok`` sets up the world model from the server's parameters, landmarks and arena config;
 * ``sense_body`` / ``see`` / ``fullstate`` update the world model;
-* ``hear`` from the referee ``training Keepaway 1`` is an episode boundary (spec `keepaway-agents.md` 1
+* ``hear`` from the referee ``training Keepaway 1`` is an episode boundary (docs/players.md §2
   step 1): the Pass learner ends its episode (only if it decided in it, so several boundaries in a row,
   as a paused server delivers them, are harmless), the coach's advice takes effect (so an episode never
   changes policy midway), the world model forgets the objects and the decision memory is cleared;
@@ -21,8 +21,8 @@ atomic commands ``[main, turn_neck]``; the world model is told what was sent so 
 cycle. One kernel call (``agents.think.think``) hears, decides and writes the command's frame. The
 per-cycle arrays are allocated once, at ``init_ok``.
 
-With ``--pass learned`` the keeper's Pass decisions go to a :class:`PassLearner` (spec
-`keepaway-agents.md` 5: ``start``/``step``/``end``): by default an SMDP Sarsa learner
+With ``--pass learned`` the keeper's Pass decisions go to a :class:`PassLearner` (docs/players.md
+§6.3: ``start``/``step``/``end``): by default an SMDP Sarsa learner
 (:func:`sarsa_pass_factory`) starting from the policy file's Pass weights (keeper k's own
 ``pass_keeper<k>_*`` arrays when the file has them, else the plain ones), or from zeros without one, in
 greedy mode (the frozen policy of evaluations).
@@ -120,12 +120,12 @@ log = logging.getLogger("keepaway.player")
 
 TEAMS = ("keepers", "takers")
 TIMING_MODES = ("sync", "realtime")
-# Referee messages (spec `keepaway-agents.md` 1 step 1 and 6; docs/protocol.md 6 "hear").
+# Referee messages (docs/players.md §2 step 1; docs/protocol.md §6, "hear").
 EPISODE_MESSAGE = "training Keepaway 1"
 KICK_OFF_MESSAGE = "play_on"
 LEARNED = "learned"  # the Pass policy name of the external learner
-TEAMMATE = "our"  # the sender of a teammate's say (docs/protocol.md 6 "hear"), the only one taken in
-# Arena size when init_ok's config does not give it (spec `keepaway-task.md` 1: 3 keepers vs 2 takers).
+TEAMMATE = "our"  # the sender of a teammate's say (docs/protocol.md §6, "hear"), the only one taken in
+# Arena size when init_ok's config does not give it (docs/players.md §1: 3 keepers vs 2 takers).
 DEFAULT_KEEPERS = 3
 DEFAULT_TAKERS = 2
 # The decisions a keeper can leave to its caller (module docstring, "Decisions made outside").
@@ -157,7 +157,7 @@ _TAKEN = Taken(True, None)  # most frames call for no command; a NamedTuple cost
 
 
 class PassLearner(Protocol):
-    """A keeper's Pass decision maker (spec `keepaway-agents.md` 5). ``state`` is the Pass state vector
+    """A keeper's Pass decision maker (docs/players.md §6.3). ``state`` is the Pass state vector
     (4K + 2T - 3 floats); it is the agent's reused array, so copy it to keep it. Actions: 0 HoldBall,
     k >= 1 PassBall to the k-th nearest teammate. Rewards are in cycles."""
 
@@ -175,7 +175,7 @@ number."""
 
 def sarsa_config(policy: Policy) -> SarsaConfig:
     """The tile-coding configuration a policy file's Pass weights were learned with (its header's
-    ``config.sarsa``; the defaults of spec `keepaway-agents.md` 5 when absent)."""
+    ``config.sarsa``; the defaults of docs/players.md §6.3 when absent)."""
     settings = policy.config.get("sarsa", {})
     try:
         return SarsaConfig(**settings)
@@ -206,8 +206,8 @@ def sarsa_pass_factory(
     n_keepers: int = DEFAULT_KEEPERS,
     n_takers: int = DEFAULT_TAKERS,
 ) -> PassLearnerFactory:
-    """The ``--pass learned`` learner of a player process: an SMDP Sarsa learner (spec
-    `keepaway-agents.md` 5) in ``mode`` starting from the policy file's Pass weights for its keeper (its
+    """The ``--pass learned`` learner of a player process: an SMDP Sarsa learner
+    (docs/players.md §6.3) in ``mode`` starting from the policy file's Pass weights for its keeper (its
     own ``pass_keeper<k>_*`` arrays, else the plain ones; the file's sizes and ``config.sarsa``), or
     without a file from zero weights for ``n_keepers`` vs ``n_takers`` with ``config`` (default
     ``SarsaConfig()``). Its exploration stream is seeded by :func:`learner_seed`. Raises
@@ -231,8 +231,8 @@ def sarsa_pass_factory(
 
 
 def greedy_pass_factory(policy: Policy | None) -> PassLearnerFactory:
-    """The policy file's SMDP Sarsa weights, frozen (greedy actions, no updates: spec
-    `keepaway-agents.md` 5, evaluation mode); a file with Pass weights is required."""
+    """The policy file's SMDP Sarsa weights, frozen (greedy actions, no updates:
+    docs/players.md §6.3, evaluation); a file with Pass weights is required."""
     if policy is None:
         raise PolicyFileError("--pass learned needs a policy file with Pass weights (--policy FILE)")
     return sarsa_pass_factory(policy, MODE_GREEDY)
@@ -252,7 +252,7 @@ class _Fields:
 
 def agent_seed_sequence(seed: int, side_code: int, unum: int) -> np.random.SeedSequence:
     """A player's own randomness, derived from the run seed, its side and its uniform number, so which
-    process connects first does not matter (architecture, Determinism); every mode derives it here."""
+    process connects first does not matter (docs/advice.md §2, "seed"); every mode derives it here."""
     return np.random.SeedSequence([int(seed), side_code, unum])
 
 
@@ -560,7 +560,7 @@ class PlayerAgent:
 
     # -- episodes and advice -----------------------------------------------------------------------
     def _episode_boundary(self, cycle: int) -> None:
-        """Spec `keepaway-agents.md` 1 step 1: end the learner's episode with reward now - t_last (only if
+        """End the learner's episode with reward now - t_last (docs/players.md §2 step 1; only if
         it decided in this episode), take up the advice, forget the objects, clear the decision memory."""
         t_last = int(self.memory.t_last[0])
         if self.learner is not None and t_last >= 0:
@@ -609,7 +609,7 @@ class PlayerAgent:
     def _reseed(self, seed: int) -> None:
         """Restart every random stream as if the agent had been started with ``seed``, with a fresh
         decision memory and world model, nothing heard, and this cycle as its cycle 0 for talking
-        (docs/advice.md, seed): teammates' says of the old episode may arrive as bare hears while the
+        (docs/advice.md §2, "seed"): teammates' says of the old episode may arrive as bare hears while the
         server is paused, before this advice, and a fresh player says nothing in its first cycle."""
         self.seed = seed
         self.memory = self._new_memory()

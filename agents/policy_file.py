@@ -7,15 +7,15 @@ One ``.npz`` archive holds a JSON header and the parameter arrays:
   (version 1 is read too); ``config`` is a free map in which ``keepers`` and ``takers`` (default 3 and 2;
   2-11 and 1-11) size the nets;
 * ``getopen_theta`` (optional): the GO:L net parameters, ``net_size(3K + T - 1)`` floats (91 for 3v2;
-  spec `keepaway-task.md` 4, layout in ``agents.getopen.net_value``), of the net on the inputs scaled by
+  docs/players.md §7.4, layout in ``agents.getopen.net_value``), of the net on the inputs scaled by
   the header's ``getopen_inputs`` (version 2: ``{"mean": [...], "scale": [...]}``, one per input, the net
   sees (x - mean) / scale; ``agents.getopen.InputScaling``). A version 1 file has none: its net is on the
   raw variables (the identity), and plays as it did. :attr:`Policy.getopen_net` is the net with the
   scaling folded in, the form the kernels and the coach's advice take;
 * ``pass_weights`` (optional): the Pass learner's weights, and any further ``pass_*`` arrays of its
-  state (e.g. a hash table's bookkeeping); their shapes belong to the Sarsa learner (spec
-  `keepaway-agents.md` 5), so they are only checked to be finite real numbers here. Each keeper learns
-  its own Pass policy (spec `keepaway-agents.md` 5): keeper 1's arrays have the plain names, keeper k's
+  state (e.g. a hash table's bookkeeping); their shapes belong to the Sarsa learner
+  (docs/players.md §6.3), so they are only checked to be finite real numbers here. Each keeper learns
+  its own Pass policy (docs/players.md §6.3): keeper 1's arrays have the plain names, keeper k's
   (k >= 2) the names ``pass_keeper<k>_*`` (:func:`pack_pass_arrays`); a keeper without its own arrays uses
   the plain ones (:func:`keeper_pass_arrays`).
 

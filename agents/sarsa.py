@@ -1,5 +1,4 @@
-"""SMDP Sarsa(lambda) over 1-D tile codings: the Pass learner (spec `keepaway-agents.md` 5,
-`keepaway-task.md` 5).
+"""SMDP Sarsa(lambda) over 1-D tile codings: the Pass learner (docs/players.md §6.3).
 
 A re-creation of the keepaway player's `LinearSarsaAgent.cc` and `tiles2.cc`. Each state variable gets
 32 offset 1-D tilings per action, so a (state, action) pair activates 32 tiles per variable (416 for the
@@ -12,7 +11,7 @@ the original's.
 Every learning keeper is one row of a ``SarsaMemory``: its own eligibility traces, cached Q values,
 exploration stream, mode and a ring buffer of its SMDP transitions, and a weight table (weights and
 collision table) of its own, or, with the hive mind (``SarsaConfig.hive_mind``, tjpalmer's
-LinearSarsaAgent option: `keepaway-agents.md` 5), one table shared by the keepers of a team, each
+LinearSarsaAgent option, docs/players.md §6.3), one table shared by the keepers of a team, each
 updating it through its own traces. Kernels take the row index ``r`` so a batched loop can drive many
 learners inside one njit loop (``runner.batched.learn_pass``); ``SarsaLearner`` wraps one row for a keeper
 process.
@@ -33,7 +32,7 @@ from core.jit import borrowing
 from core.rng import randint, seed_streams, uniform
 from protocol.advice import PASS_MODES
 
-# Modes, switchable between episodes (spec `keepaway-agents.md` 5, evaluation mode).
+# Modes, switchable between episodes (docs/players.md §6.3, evaluation).
 MODE_LEARN = 0  # epsilon-greedy actions, weight updates (player -e 1)
 MODE_GREEDY = 1  # greedy actions, no updates: the frozen policy of evaluations (player -e 0)
 MODE_EXPLORE = 2  # epsilon-greedy actions, no updates: training behaviour with frozen weights
@@ -66,19 +65,19 @@ GLIBC_DISCARD = 310  # results dropped by srandom_r (10 * degree) after the 3 co
 class SarsaConfig:
     """The learner's constants, each with its source."""
 
-    alpha: float = 0.125  # LinearSarsaAgent.cc; keepaway-agents.md 5
-    epsilon: float = 0.01  # LinearSarsaAgent.cc; keepaway-task.md 5
+    alpha: float = 0.125  # LinearSarsaAgent.cc; docs/players.md §6.3
+    epsilon: float = 0.01  # LinearSarsaAgent.cc; docs/players.md §6.3
     gamma: float = 1.0  # LinearSarsaAgent.cc: the SMDP update assumes no discounting
-    trace_decay: float = 0.0  # lambda, LinearSarsaAgent.cc (keepaway-agents.md 5: UNCONFIRMED in papers)
+    trace_decay: float = 0.0  # lambda, LinearSarsaAgent.cc (docs/players.md §6.3; the papers do not give it)
     min_trace: float = 0.01  # LinearSarsaAgent.cc minimumTrace
     tilings: int = 32  # LinearSarsaAgent::loadTiles tilingsPerGroup
-    distance_width: float = 3.0  # keepaway-task.md 5 / AB05: every distance, m
-    angle_width: float = 10.0  # keepaway-task.md 5 / AB05 and the code: angles, deg
-    code_widths: bool = False  # the code's per-variable widths instead (keepaway-agents.md 4)
+    distance_width: float = 3.0  # docs/players.md §6.3, after Stone et al. 2005: every distance, m
+    angle_width: float = 10.0  # docs/players.md §6.3 and the code: angles, deg
+    code_widths: bool = False  # the code's per-variable widths instead (docs/players.md §6.1)
     table_size: int = 1 << 20  # LinearSarsaAgent.h RL_MEMORY_SIZE
     max_traces: int = 100_000  # LinearSarsaAgent.h RL_MAX_NONZERO_TRACES
     transition_log_size: int = 4096  # ours: SMDP transitions kept per row for reporting
-    # tjpalmer's LinearSarsaAgent hive mind (keepaway-agents.md 5), off in the original and the paper: the
+    # tjpalmer's LinearSarsaAgent hive mind (docs/players.md §6.3), off in the original and the paper: the
     # keepers of a team read and update one weight table, each through its own traces (new_memory's team)
     hive_mind: bool = False
 
@@ -140,7 +139,7 @@ class SarsaMemory(NamedTuple):
 def code_variable_order(n_keepers: int, n_takers: int) -> np.ndarray:
     """For each variable index of the C++ state vector (`WorldModelKeepaway.cc` keeperStateVars:
     dist(K1, C), dist(K1, Ki), dist(K1, Tj), dist(Ki, C), dist(Tj, C), min dist, min angle), its index in
-    ``agents.state_vars.pass_state`` (`keepaway-task.md` 3 order). 3v2: [0, 5, 6, 7, 8, 1, 2, 3, 4, 9,
+    ``agents.state_vars.pass_state`` (the paper's order, docs/players.md §6.1). 3v2: [0, 5, 6, 7, 8, 1, 2, 3, 4, 9,
     10, 11, 12]."""
     k, t = n_keepers - 1, n_takers
     centre_keepers, centre_takers = 1, 1 + k
@@ -162,7 +161,7 @@ def _c_div(a: int, b: int) -> int:
 
 def tile_widths(config: SarsaConfig, n_keepers: int, n_takers: int) -> np.ndarray:
     """Tile width of each Pass variable in ``pass_state`` order: 3.0 m for distances and 10 deg for the
-    K - 1 angles (`keepaway-task.md` 5), or with ``code_widths`` the C++ player's
+    K - 1 angles (docs/players.md §6.3), or with ``code_widths`` the C++ player's
     ``keeperStateRangesAndResolutions`` (integer arithmetic included: 2.0 m for dist(K1, T1) in 3v2)."""
     n = 4 * n_keepers + 2 * n_takers - 3
     angles = n_keepers - 1
@@ -250,14 +249,14 @@ def tile_index(hash_check, hash_counts, r: int, index_words: int, check_words: i
 @borrowing
 def quantize(value: float, width: float, tilings: int) -> int:
     """q = floor(tilings * x), x = value / width rounded to float32 as the C++ ``float`` argument of
-    GetTiles is (spec `keepaway-agents.md` 5)."""
+    GetTiles is (docs/players.md §6.3)."""
     return int(math.floor(np.float64(np.float32(value / width)) * tilings))
 
 
 @borrowing
 def tiling_coordinate(q: int, tiling: int, tilings: int) -> int:
     """Coordinate of the tile of tiling j holding quantised value q: q - ((q - j) mod tilings)
-    (tilings offset by 1/tilings of a tile each; spec `keepaway-agents.md` 5)."""
+    (tilings offset by 1/tilings of a tile each; docs/players.md §6.3)."""
     return q - (q - tiling) % tilings
 
 
@@ -431,7 +430,7 @@ def _log_transition(mem: SarsaMemory, r: int, reward: float, next_action: int, t
 @borrowing
 def start_episode(mem: SarsaMemory, r: int, state, sp: SarsaParams) -> int:
     """startEpisode(s): clear all traces, compute Q(s, .), choose a (epsilon-greedy unless greedy mode),
-    set a's traces to 1 (spec `keepaway-agents.md` 5)."""
+    set a's traces to 1 (docs/players.md §6.3)."""
     decay_traces(mem, r, 0.0)
     load_tiles(mem, r, state)
     load_action_values(mem, r)
@@ -444,7 +443,7 @@ def start_episode(mem: SarsaMemory, r: int, state, sp: SarsaParams) -> int:
 
 @borrowing
 def step(mem: SarsaMemory, r: int, reward: float, state, sp: SarsaParams) -> int:
-    """step(r, s') (spec `keepaway-agents.md` 5): delta = r - Q(s, a) with Q(s, a) cached after the
+    """step(r, s') (docs/players.md §6.3): delta = r - Q(s, a) with Q(s, a) cached after the
     previous update; compute Q(s', .) and choose a'. Learning only: delta += Q(s', a'); w += (alpha / n)
     delta e; recompute Q(s', a'); decay traces by gamma lambda; clear the traces of the other actions'
     tiles in s' and set a''s to 1. A step with no open decision this episode starts the episode."""
@@ -474,7 +473,7 @@ def step(mem: SarsaMemory, r: int, reward: float, state, sp: SarsaParams) -> int
 
 @borrowing
 def end_episode(mem: SarsaMemory, r: int, reward: float, sp: SarsaParams) -> None:
-    """endEpisode(r) (spec `keepaway-agents.md` 5): if a decision was made this episode, log the terminal
+    """endEpisode(r) (docs/players.md §6.3): if a decision was made this episode, log the terminal
     transition and, when learning, w += (alpha / n) (r - Q(s, a)) e with no bootstrap; then forget it."""
     a = mem.last_action[r]
     if a == NO_ACTION:
@@ -628,7 +627,7 @@ class SarsaLearner:
 
     @mode.setter
     def mode(self, mode: int) -> None:
-        """Switch learn / greedy / explore; only between episodes (spec `keepaway-agents.md` 5)."""
+        """Switch learn / greedy / explore; only between episodes (docs/players.md §6.3)."""
         if mode not in (MODE_LEARN, MODE_GREEDY, MODE_EXPLORE):
             raise ValueError(f"unknown Sarsa mode {mode}")
         if self.memory.last_action[0] != NO_ACTION:

@@ -1,4 +1,4 @@
-"""Say and hear as the keepaway-0.6 C++ players do them (spec `keepaway-agents.md` 1, "Say messages").
+"""Say and hear as the keepaway-0.6 C++ players do them (docs/players.md §4.5).
 
 What a player says (tjpalmer/keepaway ``player/KeepawayPlayer.cc``, ``makeSayMessage``): every
 hear_decay cycles from its cycle 1 (:func:`new_talk`), right after deciding, at most 10 characters of the saymsglib code
@@ -95,7 +95,7 @@ class Talk(NamedTuple):
 
 def new_talk(rows: int, start: int = 0) -> Talk:
     """Nothing said or heard yet, by players whose cycle 0 is ``start``: a player process reseeded by
-    the coach starts afresh at the cycle of its reseed (docs/advice.md, seed), as a fresh player at 0."""
+    the coach starts afresh at the cycle of its reseed (docs/advice.md §2, "seed"), as a fresh player at 0."""
     return Talk(said=np.zeros((rows, MAX_CHARS), dtype=np.int64), said_len=np.zeros(rows, dtype=np.int64),
                 start=np.full(rows, start, dtype=np.int64), last_say=np.full(rows, start + NEVER_SAID, dtype=np.int64),
                 heard=np.zeros((rows, MAX_CHARS), dtype=np.int64), heard_len=np.zeros(rows, dtype=np.int64),

@@ -1,11 +1,11 @@
 """The players' skills: intercept, HoldBall, kicks, PassBall, GoToPoint, ball search, travel time.
 
-A re-creation of the UvA Trilearn / keepaway-framework skills as described in `keepaway-agents.md` 2
-(section numbers below refer to it). Every skill is a numba kernel on one row ``r`` of a ``Belief``
-and returns a command triple ``(code, arg1, arg2)`` with the CMD_* codes of `core/objects.py`
-(dash: power; turn: moment; kick: power, direction relative to the body). The neck is chosen separately
-(``neck_to_point``/``neck_with_body``) by the decision loops. Constants come from the server parameter
-record ``kp`` and from ``AgentConfig.kernel()`` (``cfg``).
+A re-creation of the UvA Trilearn / keepaway-framework skills (docs/players.md §5; keepaway-0.6
+player/BasicPlayer.cc); the section numbers below are those of docs/players.md. Every skill is a numba kernel
+on one row ``r`` of a ``Belief`` and returns a command triple ``(code, arg1, arg2)`` with the CMD_* codes of
+`core/objects.py` (dash: power; turn: moment; kick: power, direction relative to the body). The neck is chosen
+separately (``neck_to_point``/``neck_with_body``) by the decision loops. Constants come from the server
+parameter record ``kp`` and from ``AgentConfig.kernel()`` (``cfg``).
 """
 
 from __future__ import annotations
@@ -42,12 +42,12 @@ from agents.geometry import (
 from core.objects import CMD_DASH, CMD_KICK, CMD_TURN
 from protocol.advice import GETOPEN_POLICY_NAMES, PASS_POLICY_NAMES
 
-# Pass policies (spec `keepaway-task.md` 3); EXTERNAL: the caller's learner picks the action.
+# Pass policies (docs/players.md §6.2); EXTERNAL: the caller's learner picks the action.
 PASS_RANDOM = 0
 PASS_HANDCODED = 1
 PASS_EXTERNAL = 2
 PASS_HOLD = 3
-# GetOpen policies (spec `keepaway-task.md` 4; HANDCODED_CONE: the framework variant, agents.md 2.5).
+# GetOpen policies (docs/players.md §7; HANDCODED_CONE: the framework variant, docs/players.md §7.2).
 GETOPEN_RANDOM = 0
 GETOPEN_HANDCODED = 1
 GETOPEN_HANDCODED_CONE = 2
@@ -62,35 +62,36 @@ GETOPEN_POLICIES = dict(zip(GETOPEN_POLICY_NAMES,
 
 @dataclass(frozen=True)
 class AgentConfig:
-    """The players' own constants (not the server's), each with the spec section it comes from."""
+    """The players' own constants (not the server's), each with the section of docs/players.md or the C++
+    function it comes from."""
 
-    pass_policy: int = PASS_HANDCODED  # keepaway-task.md 3
-    getopen_policy: int = GETOPEN_HANDCODED  # keepaway-task.md 4
-    ball_conf_threshold: float = 0.90  # agents.md 1: ball "known"
-    player_conf_threshold: float = 0.88  # agents.md 1: player usable
-    pass_end_speed: float = 1.2  # agents.md 2.3: PlayerSettings default
-    hold_ratio_keeper: float = 0.7  # agents.md 2.2
-    hold_ratio_taker: float = 0.3  # agents.md 2.2
-    hold_opponent_radius: float = 5.0  # agents.md 2.2 step 1
-    hold_escape_angle: float = 45.0  # agents.md 2.2 step 1
-    hold_ball_tolerance: float = 0.3  # agents.md 2.2 step 2
-    hold_turn_safety: float = 0.85  # agents.md 2.2 step 2 (x kickable distance)
-    still_ball_speed: float = 0.1  # agents.md 2.2 step 3
-    freeze_keep_ratio: float = 0.8  # agents.md 2.2 step 3 (x kickable distance)
-    freeze_target_ratio: float = 0.7  # agents.md 2.2 step 3 (x kickable distance)
-    freeze_inset: float = 0.1  # BasicPlayer::freezeBall, agents.md 2.2 step 3
-    pitch_pullback: float = 0.2  # BasicPlayer::kickBallCloseToBody, agents.md 2.2 step 3
+    pass_policy: int = PASS_HANDCODED  # docs/players.md §6
+    getopen_policy: int = GETOPEN_HANDCODED  # docs/players.md §7
+    ball_conf_threshold: float = 0.90  # docs/players.md §4.1: ball "known"
+    player_conf_threshold: float = 0.88  # docs/players.md §4.1: player usable
+    pass_end_speed: float = 1.2  # docs/players.md §5.4: PlayerSettings default
+    hold_ratio_keeper: float = 0.7  # docs/players.md §5.3
+    hold_ratio_taker: float = 0.3  # docs/players.md §5.3
+    hold_opponent_radius: float = 5.0  # docs/players.md §5.3 step 1
+    hold_escape_angle: float = 45.0  # docs/players.md §5.3 step 1
+    hold_ball_tolerance: float = 0.3  # docs/players.md §5.3 step 2
+    hold_turn_safety: float = 0.85  # docs/players.md §5.3 step 2 (x kickable distance)
+    still_ball_speed: float = 0.1  # docs/players.md §5.3 step 3
+    freeze_keep_ratio: float = 0.8  # docs/players.md §5.3 step 3 (x kickable distance)
+    freeze_target_ratio: float = 0.7  # docs/players.md §5.3 step 3 (x kickable distance)
+    freeze_inset: float = 0.1  # BasicPlayer::freezeBall, docs/players.md §5.3 step 3
+    pitch_pullback: float = 0.2  # BasicPlayer::kickBallCloseToBody, docs/players.md §5.3 step 3
     pass_speed_ratio: float = 0.85  # BasicPlayer::kickTo, PlayerWhenToKick (x ball_accel_max)
-    pass_kick_rate_ratio: float = 0.85  # agents.md 2.3 (x kick_power_rate)
-    reposition_ratio: float = 0.16  # agents.md 2.3
-    pass_power_ok: float = 105.0  # agents.md 2.3
-    pass_power_pressed: float = 130.0  # agents.md 2.3
-    pass_pressure_radius: float = 2.0  # agents.md 2.3
-    turn_threshold: float = 7.0  # agents.md 2.4 (GetOpen's moveToPos angle)
-    max_sim_turns: float = 5.0  # agents.md 2.4
-    max_direct_turns: float = 2.0  # agents.md 2.4: 1-2 turns -> turn, 3+ -> brake
-    turn_aim_cycles: float = 2.0  # agents.md 2.4: turn aimed at my position 2 cycles ahead
-    intercept_horizon: float = 30.0  # agents.md 1 step 4, 2.1 step 2
+    pass_kick_rate_ratio: float = 0.85  # docs/players.md §5.4 (x kick_power_rate)
+    reposition_ratio: float = 0.16  # docs/players.md §5.4
+    pass_power_ok: float = 105.0  # docs/players.md §5.4
+    pass_power_pressed: float = 130.0  # docs/players.md §5.4
+    pass_pressure_radius: float = 2.0  # docs/players.md §5.4
+    turn_threshold: float = 7.0  # docs/players.md §5.5 (GetOpen's moveToPos angle)
+    max_sim_turns: float = 5.0  # docs/players.md §5.5
+    max_direct_turns: float = 2.0  # docs/players.md §5.5: 1-2 turns -> turn, 3+ -> brake
+    turn_aim_cycles: float = 2.0  # docs/players.md §5.5: turn aimed at my position 2 cycles ahead
+    intercept_horizon: float = 30.0  # docs/players.md §4.3, §5.2 step 2
     no_intercept_cycles: float = 100.0  # predictCommandToInterceptBall: no point reachable -> the ball 100 ahead
     intercept_roll_cycles: float = 4.0  # WorldModel::predictCommandTurnTowards: position min(i, 4) ahead
     intercept_back_distance: float = 2.5  # WorldModel::predictCommandToMoveToPos default dDistBack
@@ -99,7 +100,7 @@ class AgentConfig:
     turn_ratio_far: float = 3.0  # same (> 20 m)
     turn_mid_distance: float = 10.0  # same
     turn_far_distance: float = 20.0  # same
-    close_radius_margin: float = 1.0 / 6.0  # agents.md 2.1 step 1 (x kickable_margin)
+    close_radius_margin: float = 1.0 / 6.0  # docs/players.md §5.2 step 1 (x kickable_margin)
     close_margin: float = 0.95  # BasicPlayer::interceptClose: one dash succeeds (x kickable distance)
     close_turn_margin: float = 0.8  # same: a turn (or a stopping dash) keeps the ball (x kickable distance)
     close_near_margin: float = 0.7  # same, ball beyond close range: ball already at my feet (x kickable)
@@ -108,31 +109,32 @@ class AgentConfig:
     close_range_dash_cycles: float = 3.0  # same: close range 3 player_speed_max + (1 + ball_decay)
     back_turn_margin: float = 0.9  # WorldModel::predictCommandTurnTowards: turn with the back (x kickable)
     back_turn_max_cycles: float = 4.0  # same: only when arriving in fewer cycles
-    close_max_cycle: float = 3.0  # agents.md 2.1 step 3
-    stability_radius: float = 1.0  # agents.md 2.1 step 2
-    stability_margin: float = 0.7  # agents.md 2.1 step 2 (x kickable distance)
-    stability_ball_speed: float = 0.6  # agents.md 2.1 step 2
-    stability_window: float = 2.0  # agents.md 2.1 step 2 (cycles)
-    intercept_stay_radius: float = 0.5  # agents.md 2.1 step 3
-    # Not in the framework (a deviation, docs/design.md): a player that has sent this many backward dashes
-    # while standing still, since it last moved, turns to its interception point instead of the next one.
+    close_max_cycle: float = 3.0  # docs/players.md §5.2 step 3
+    stability_radius: float = 1.0  # docs/players.md §5.2 step 2
+    stability_margin: float = 0.7  # docs/players.md §5.2 step 2 (x kickable distance)
+    stability_ball_speed: float = 0.6  # docs/players.md §5.2 step 2
+    stability_window: float = 2.0  # docs/players.md §5.2 step 2 (cycles)
+    intercept_stay_radius: float = 0.5  # docs/players.md §5.2 step 3
+    # Not in the framework (a deviation, docs/design.md, "The players' skills"): a player that has sent this
+    # many backward dashes while standing still, since it last moved, turns to its interception point instead
+    # of the next one.
     stuck_dash_limit: float = 30.0
     still_speed: float = 0.01  # standing still: sensed speed below this (m/cycle)
-    search_turn: float = 60.0  # agents.md 1 step 2
+    search_turn: float = 60.0  # docs/players.md §5.6
     search_memory: float = 3.0  # BasicPlayer::searchBall: side kept for 3 cycles
-    hc_hold_distance: float = 5.0  # keepaway-task.md 3, P:HC C1
-    hc_angle_weight: float = 0.25  # keepaway-task.md 3, P:HC C2
-    hc_pass_threshold: float = 22.5  # keepaway-task.md 3, P:HC C3
-    go_safety_angle: float = 18.4  # keepaway-task.md 4, GO:HC
-    go_cone_ratio: float = 0.3  # agents.md 2.5 step 4
-    grid_points: float = 5.0  # agents.md 2.5 step 2 (per side)
-    grid_margin: float = 0.15  # agents.md 2.5 step 2
-    arrival_radius: float = 1.5  # agents.md 2.5 step 6, 2.6
-    mark_distance: float = 4.0  # agents.md 3 step 3
-    mark_cone_ratio: float = 0.3  # agents.md 3 step 3
-    # Not in the spec (an option, off by default): GO:L's variables 9-10 measured from predictedBallPos
-    # (as GO:HC's lane test) instead of from the keeper now closest to the ball (keepaway-task.md 4);
-    # the measurements that kept the paper's definition are in docs/design.md.
+    hc_hold_distance: float = 5.0  # docs/players.md §6.2, P:HC C1
+    hc_angle_weight: float = 0.25  # docs/players.md §6.2, P:HC C2
+    hc_pass_threshold: float = 22.5  # docs/players.md §6.2, P:HC C3
+    go_safety_angle: float = 18.4  # docs/players.md §7.2, GO:HC
+    go_cone_ratio: float = 0.3  # docs/players.md §7.2
+    grid_points: float = 5.0  # docs/players.md §7.1 (per side)
+    grid_margin: float = 0.15  # docs/players.md §7.1
+    arrival_radius: float = 1.5  # docs/players.md §7.5, §7.3
+    mark_distance: float = 4.0  # docs/players.md §3 step 3
+    mark_cone_ratio: float = 0.3  # docs/players.md §3 step 3
+    # Not in the paper (an option, off by default): GO:L's variables 9-10 measured from predictedBallPos
+    # (as GO:HC's lane test) instead of from the keeper now closest to the ball (docs/players.md §7);
+    # the measurements that kept the paper's definition: docs/design.md, "Learning options".
     getopen_lane_from_predicted_ball: bool = False
     # Say and hear (agents/say.py; KeepawayPlayer::makeSayMessage, WorldModelSayMsgTypes.cc). Off: silent
     # players that hear nothing, to measure what talking changes.
@@ -155,13 +157,13 @@ AgentKernel.__module__ = __name__
 
 @borrowing
 def kickable_distance(kp) -> float:
-    """player_size + kickable_margin + ball_size = 1.085 m (spec header)."""
+    """player_size + kickable_margin + ball_size = 1.085 m (docs/players.md §1)."""
     return kp.player_size + kp.kickable_margin + kp.ball_size
 
 
 @borrowing
 def ball_in(bel: Belief, r: int, n: float, kp) -> tuple:
-    """The believed ball position after ``n`` cycles (spec 2, shared geometry)."""
+    """The believed ball position after ``n`` cycles (docs/players.md §4.3)."""
     return rolled_out(
         bel.pos[r, 0, 0], bel.pos[r, 0, 1], bel.vel[r, 0, 0], bel.vel[r, 0, 1], n, kp.ball_decay
     )
@@ -169,7 +171,7 @@ def ball_in(bel: Belief, r: int, n: float, kp) -> tuple:
 
 @borrowing
 def ball_kickable(bel: Belief, r: int, obj: int, kp) -> bool:
-    """Whether player ``obj`` can kick the ball (centre distance < kickable distance, spec 1 step 3)."""
+    """Whether player ``obj`` can kick the ball (centre distance < kickable distance, docs/players.md §1)."""
     kickable = kickable_distance(kp)
     return compared_hypot(bel.pos[r, 0, 0] - bel.pos[r, obj, 0], bel.pos[r, 0, 1] - bel.pos[r, obj, 1],
                           kickable) < kickable
@@ -278,7 +280,7 @@ def neck_to_ball(bel: Belief, r: int, cmd: int, a1: float, kp) -> float:
 
 @borrowing
 def neck_with_body(bel: Belief, r: int) -> float:
-    """turn_neck moment that aligns the neck with the body (spec 1 step 2)."""
+    """turn_neck moment that aligns the neck with the body (docs/players.md §5.6)."""
     return -bel.neck[r, bel.me[r]]
 
 
@@ -299,7 +301,7 @@ def write_action(
 @borrowing
 def turn_to_point(bel: Belief, r: int, tx: float, ty: float, cycles: float, kp) -> tuple:
     """Turn the body towards (tx, ty) as seen from my position ``cycles`` ahead, compensating inertia
-    (BasicPlayer::turnBodyToPoint, spec 2 turn inertia)."""
+    (BasicPlayer::turnBodyToPoint; turn inertia, docs/players.md §5.1)."""
     me = bel.me[r]
     vx, vy = bel.vel[r, me, 0], bel.vel[r, me, 1]
     px, py = rolled_out(bel.pos[r, me, 0], bel.pos[r, me, 1], vx, vy, cycles, kp.player_decay)
@@ -312,7 +314,7 @@ def move_command(
     px: float, py: float, vx: float, vy: float, body: float, effort: float,
     tx: float, ty: float, cycles: float, kp, cfg,
 ) -> tuple:
-    """GoToPoint for any player state (spec 2.4): from the rolled-out reference position dash if the
+    """GoToPoint for any player state (docs/players.md §5.5): from the rolled-out reference position dash if the
     target is within the 7 deg threshold of the body direction, else count the turns needed (up to 5):
     1-2 -> turn (aimed from my position 2 cycles ahead), 3+ -> brake with a dash to stand still.
     Dash power covers the forward distance in ``cycles`` cycles. Returns (code, arg1)."""
@@ -338,7 +340,7 @@ def move_command(
 
 @borrowing
 def go_to_point(bel: Belief, r: int, tx: float, ty: float, kp, cfg) -> tuple:
-    """GoToPoint(target, 7 deg) for row ``r`` (spec 2.4)."""
+    """GoToPoint(target, 7 deg) for row ``r`` (docs/players.md §5.5)."""
     me = bel.me[r]
     code, a1 = move_command(
         bel.pos[r, me, 0], bel.pos[r, me, 1], bel.vel[r, me, 0], bel.vel[r, me, 1], bel.body[r, me],
@@ -425,14 +427,14 @@ def intercept_move(
     px: float, py: float, vx: float, vy: float, body: float, effort: float,
     tx: float, ty: float, cycles: float, kp, cfg,
 ) -> tuple:
-    """One move towards an interception point to be reached in ``cycles`` cycles, as the framework's
-    intercept and travel-time code moves (WorldModel::predictCommandToMoveToPos with back distance 2.5;
-    spec 2.1 steps 2-3 name the GoToPoint rule, the code uses this one): from my position rolled out
-    min(cycles, 4) cycles, turn towards the point only if it lies more than ratio x kickable distance
-    off my body line (ratio 0.9 within 10 m, 2 within 20 m, 3 beyond) or behind me beyond 2.5 m, or turn
-    my back to a close point (``_intercept_turns``); else dash (backwards if it is behind) with the power
-    that covers the distance in ``cycles``. (The code's angle threshold never applies there: an
-    operator-precedence slip makes it 180.) Returns (code, arg1)."""
+    """One move towards an interception point to be reached in ``cycles`` cycles, as the framework's intercept
+    and travel-time code moves (WorldModel::predictCommandToMoveToPos with back distance 2.5; docs/players.md
+    §5.2 steps 2-3 describe it as the GoToPoint rule, the code uses this one): from my position rolled out
+    min(cycles, 4) cycles, turn towards the point only if it lies more than ratio x kickable distance off my
+    body line (ratio 0.9 within 10 m, 2 within 20 m, 3 beyond) or behind me beyond 2.5 m, or turn my back to a
+    close point (``_intercept_turns``); else dash (backwards if it is behind) with the power that covers the
+    distance in ``cycles``. (The code's angle threshold never applies there: an operator-precedence slip makes
+    it 180.) Returns (code, arg1)."""
     roll = geometric_sum(kp.player_decay, min(cycles, cfg.intercept_roll_cycles))
     turn, angle = _intercept_turns(
         px, py, vx, vy, body, tx, ty, distance(px, py, tx, ty), roll, cycles, kp, cfg
@@ -501,8 +503,8 @@ def travel(
     px: float, py: float, vx: float, vy: float, body: float, effort: float,
     tx: float, ty: float, radius: float, n: int, need_end: bool, sums, kp, cfg,
 ) -> tuple:
-    """Simulate ``n`` intercept moves towards (tx, ty), paced to arrive after n cycles (spec 1 step 4,
-    2.1 step 2). Returns (first cycle at which the player is within ``radius``, or n + 1; distance after
+    """Simulate ``n`` intercept moves towards (tx, ty), paced to arrive after n cycles (docs/players.md
+    §4.3, §5.2 step 2). Returns (first cycle at which the player is within ``radius``, or n + 1; distance after
     n commands). Turns and dashes are counted alike; 0 if already within ``radius``.
 
     The moves are ``intercept_move`` then ``player_step``, fused: the decay sums come from ``sums``
@@ -574,7 +576,7 @@ def player_travel(bel: Belief, r: int, obj: int, tx: float, ty: float, n: int, n
 @borrowing
 def fastest_to_ball(bel: Belief, r: int, first: int, last: int, sums, kp, cfg) -> tuple:
     """(player, cycles): among usable players first..last, the one that reaches the predicted ball first
-    (spec 1 step 4): the smallest i <= horizon for which some travel time to the ball after i cycles is
+    (docs/players.md §4.3): the smallest i <= horizon for which some travel time to the ball after i cycles is
     <= i; ties go to the shorter travel time, then the lower index. (-1, horizon + 1) if nobody can.
     ``sums``: the players' ``decay_sums``."""
     horizon = int(cfg.intercept_horizon)
@@ -595,7 +597,7 @@ def fastest_to_ball(bel: Belief, r: int, first: int, last: int, sums, kp, cfg) -
 @borrowing
 def search_ball(bel: Belief, r: int, mem: AgentMemory, kp, cfg) -> tuple:
     """Turn 60 deg towards the side where the ball was last seen; the side is re-chosen only after
-    3 cycles without searching (spec 1 step 2, BasicPlayer::searchBall)."""
+    3 cycles without searching (docs/players.md §5.6, BasicPlayer::searchBall)."""
     me = bel.me[r]
     now = bel.time[r]
     px, py, body = bel.pos[r, me, 0], bel.pos[r, me, 1], bel.body[r, me]
@@ -620,14 +622,14 @@ def _my_kick_rate(bel: Belief, r: int, kp) -> float:
 
 @borrowing
 def _power_for_speed(speed: float, rate: float) -> float:
-    """Kick power giving a velocity change ``speed`` at effective ``rate`` (spec 2, shared geometry)."""
+    """Kick power giving a velocity change ``speed`` at effective ``rate`` (docs/players.md §5.1)."""
     return speed / rate if rate > 0.0 else math.inf
 
 
 @borrowing
 def accelerate_ball_to(bel: Belief, r: int, wx: float, wy: float, kp) -> tuple:
     """Kick that gives the ball velocity (wx, wy); if one kick cannot, a full-power kick that aligns the
-    ball's new velocity with it (BasicPlayer::accelerateBallToVelocity, spec 2.3)."""
+    ball's new velocity with it (BasicPlayer::accelerateBallToVelocity, docs/players.md §5.4)."""
     me = bel.me[r]
     body = bel.body[r, me]
     bvx, bvy = bel.vel[r, 0, 0], bel.vel[r, 0, 1]
@@ -650,7 +652,7 @@ def accelerate_ball_to(bel: Belief, r: int, wx: float, wy: float, kp) -> tuple:
 @borrowing
 def freeze_ball(bel: Belief, r: int, kp, cfg) -> tuple:
     """Stop the ball: kick against its velocity; if that would leave it beyond 0.8 x kickable distance of
-    my next position, kick it towards a point inside 0.7 x kickable distance instead (spec 2.2 step 3)."""
+    my next position, kick it towards a point inside 0.7 x kickable distance instead (docs/players.md §5.3 step 3)."""
     me = bel.me[r]
     body = bel.body[r, me]
     bx, by = bel.pos[r, 0, 0], bel.pos[r, 0, 1]
@@ -672,7 +674,7 @@ def freeze_ball(bel: Belief, r: int, kp, cfg) -> tuple:
 def kick_close_to_body(bel: Belief, r: int, angle: float, ratio: float, kp, cfg) -> tuple:
     """Kick the ball to my next position + (player_size + ball_size + kickable_margin * ratio) at
     ``angle`` relative to my body, pulled back inside the pitch; freeze if one kick cannot compensate a
-    moving ball, kick at full power if the ball is still (spec 2.2 step 3)."""
+    moving ball, kick at full power if the ball is still (docs/players.md §5.3 step 3)."""
     me = bel.me[r]
     body = bel.body[r, me]
     nx, ny = bel.pos[r, me, 0] + bel.vel[r, me, 0], bel.pos[r, me, 1] + bel.vel[r, me, 1]
@@ -697,7 +699,7 @@ def kick_close_to_body(bel: Belief, r: int, angle: float, ratio: float, kp, cfg)
 
 @borrowing
 def hold_ball(bel: Belief, r: int, ratio: float, kp, cfg) -> tuple:
-    """HoldBall (spec 2.2): keep the ball ``ratio`` x kickable_margin from the body, away from the
+    """HoldBall (docs/players.md §5.3): keep the ball ``ratio`` x kickable_margin from the body, away from the
     opponent closest to the ball (rotated 45 deg against its heading) when it is within 5 m; if the ball
     already sits there, turn towards the opponent goal as long as the ball stays controllable."""
     me = bel.me[r]
@@ -711,7 +713,7 @@ def hold_ball(bel: Belief, r: int, ratio: float, kp, cfg) -> tuple:
             phi = direction(px - ox, py - oy)
             side = -1.0 if normalize_angle(bel.body[r, opp] - phi) > 0.0 else 1.0
             desired = normalize_angle(phi + cfg.hold_escape_angle * side - body)
-    # The framework tests the relative angle as if it were global (a quirk kept, spec 2.2 step 2).
+    # The framework tests the relative angle as if it were global (a quirk kept, docs/players.md §5.3 step 2).
     spot_x = px + ratio * math.cos(math.radians(desired))
     spot_y = py + ratio * math.sin(math.radians(desired))
     if distance(spot_x, spot_y, bel.pos[r, 0, 0], bel.pos[r, 0, 1]) < cfg.hold_ball_tolerance:
@@ -729,7 +731,7 @@ def hold_ball(bel: Belief, r: int, ratio: float, kp, cfg) -> tuple:
 @borrowing
 def pass_initial_speed(dist: float, end_speed: float, decay: float) -> tuple:
     """(n, v0): cycles and initial speed for a ball to arrive after ``dist`` with ``end_speed``:
-    n = round(log(dist (1/d - 1)/end + 1) / log(1/d)), v0 = end (1/d)^n (spec 2.3)."""
+    n = round(log(dist (1/d - 1)/end + 1) / log(1/d)), v0 = end (1/d)^n (docs/players.md §5.4)."""
     inv = 1.0 / decay
     n = math.floor(math.log(dist * (inv - 1.0) / end_speed + 1.0) / math.log(inv) + 0.5)
     return n, end_speed * inv**n
@@ -748,7 +750,7 @@ def _full_kick_speed(bvx: float, bvy: float, ux: float, uy: float, kick_speed: f
 
 @borrowing
 def kick_to(bel: Belief, r: int, tx: float, ty: float, end_speed: float, kp, cfg) -> tuple:
-    """kickTo(target, end speed) (spec 2.3): the initial speed that makes the ball arrive at ``end_speed``;
+    """kickTo(target, end speed) (docs/players.md §5.4): the initial speed that makes the ball arrive at ``end_speed``;
     if the ball's first step would end on my next position, it is shortened/extended to end 0.385 m
     before/after my projection on its line (BasicPlayer::kickTo); too fast -> full-power kick, freeze or
     reposition; too much power -> reposition in front (kick next cycle)."""
@@ -789,7 +791,7 @@ def kick_to(bel: Belief, r: int, tx: float, ty: float, end_speed: float, kp, cfg
 
 @njit(cache=True)
 def pass_ball(bel: Belief, r: int, k: int, kp, cfg) -> tuple:
-    """PassBall-k (spec 1 step 3d, 2.3): kickTo the k-th nearest keeper from me (k = 1 nearest teammate),
+    """PassBall-k (docs/players.md §2 step 3d, §5.4): kickTo the k-th nearest keeper from me (k = 1 nearest teammate),
     resolved from the current positions, at the pass end speed."""
     me = bel.me[r]
     order = np.empty(bel.n_keepers, dtype=np.int64)
@@ -854,8 +856,8 @@ def _opponent_within(bel: Belief, r: int, radius: float, cfg) -> bool:
 
 @borrowing
 def close_intercept(bel: Belief, r: int, kp, cfg) -> tuple:
-    """(ok, code, arg1): the close interception, as BasicPlayer::interceptClose does it (its doc comment,
-    which spec 2.1 step 1 follows, describes turn+dash and dash+dash searches the code does not make).
+    """(ok, code, arg1): the close interception, as BasicPlayer::interceptClose does it (its doc comment
+    describes turn+dash and dash+dash searches the code does not make; docs/design.md, "The players' skills").
 
     The one dash: to where my body line (from my position next cycle) meets the circle of radius
     player_size + ball_size + kickable_margin/6 around the next ball position, the meeting point further
@@ -959,7 +961,7 @@ version per type")."""
 
 @borrowing
 def interception_point(bel: Belief, r: int, mem: AgentMemory, sums, kp, cfg, known_first: int) -> tuple:
-    """(i, x, y): the cycle and ball position at which I intercept (spec 2.1 step 2); (-1, the ball's
+    """(i, x, y): the cycle and ball position at which I intercept (docs/players.md §5.2 step 2); (-1, the ball's
     position ``no_intercept_cycles`` ahead) if none within the horizon. First reachable i by default; the
     stability rule prefers a reachable i (at most 2 cycles after the first) whose ball position is within
     1 m of the point chosen last cycle, with margin and a ball still moving, if I intercepted during the
@@ -1022,12 +1024,12 @@ def interception_point(bel: Belief, r: int, mem: AgentMemory, sums, kp, cfg, kno
 
 @borrowing
 def intercept(bel: Belief, r: int, mem: AgentMemory, sums, kp, cfg, known_first: int) -> tuple:
-    """Intercept / GoToBall (spec 2.1 step 3): the close intercept when the chosen point is < 3 cycles
+    """Intercept / GoToBall (docs/players.md §5.2 step 3): the close intercept when the chosen point is < 3 cycles
     away and one exists; no move when my position rolled out min(i, 4) cycles is already within 0.5 m of
     the point (the framework then turns to its global 0 deg, ``forward_angle``, a quirk kept); else move
     to the point, sized to arrive in i cycles (``intercept_move``). With no reachable point, move towards
     the ball's position 100 cycles ahead, paced to arrive in 100 cycles, as the C++ code does
-    (``predictCommandToInterceptBall``: iFirstBall stays 100; the spec's comment says the ball's current
+    (``predictCommandToInterceptBall``: iFirstBall stays 100; its doc comment says the ball's current
     position).
     ``known_first``: as in ``interception_point``."""
     me = bel.me[r]
@@ -1052,11 +1054,11 @@ def intercept(bel: Belief, r: int, mem: AgentMemory, sums, kp, cfg, known_first:
 
 @borrowing
 def _unstuck(bel: Belief, r: int, mem: AgentMemory, code: int, a1: float, x: float, y: float, kp, cfg) -> tuple:
-    """The intercept's command (code, a1), unless it is one backward dash too many: a player believes,
-    as the C++ players do, that it can dash backwards, and rcssserver 17 on (min_dash_power 0) ignores
-    such dashes; two takers doing so to a ball held behind them never get it (docs/design.md). So after
-    ``stuck_dash_limit`` backward dashes sent standing still since it last moved, a player turns to the
-    interception point (x, y) instead. Returns (code, arg1, arg2)."""
+    """The intercept's command (code, a1), unless it is one backward dash too many: a player believes, as the
+    C++ players do, that it can dash backwards, and rcssserver 17 on (min_dash_power 0) ignores such dashes;
+    two takers doing so to a ball held behind them never get it (docs/design.md, "The players' skills"). So
+    after ``stuck_dash_limit`` backward dashes sent standing still since it last moved, a player turns to
+    the interception point (x, y) instead. Returns (code, arg1, arg2)."""
     me = bel.me[r]
     if math.hypot(bel.vel[r, me, 0], bel.vel[r, me, 1]) >= cfg.still_speed:
         mem.stuck_dashes[r] = 0

@@ -1,10 +1,10 @@
-"""State variables of the Pass and GetOpen decisions (spec `keepaway-task.md` 3-4,
-`keepaway-agents.md` 4).
+"""State variables of the Pass and GetOpen decisions (docs/players.md §6.1,
+§7.4).
 
 Both share one block computed around a vertex V (K1 for Pass, the imagined position P for GetOpen):
 distances from V to the other keepers, distances from V to the takers, each other keeper's distance to
 its nearest taker and each other keeper's smallest angle ang(Ki, V, Tj). Pass prepends the distances to
-the region centre C = (0, 0) (the region is centred on the origin, spec `keepaway-agents.md` header);
+the region centre C = (0, 0) (the region is centred on the origin, docs/players.md §1);
 GetOpen appends the two lane variables. For K keepers and T takers the Pass vector has 4K + 2T - 3
 entries (3v2: 13, 4v3: 19) and the GetOpen vector 3K + T - 1 (3v2: 10).
 """
@@ -24,13 +24,13 @@ from agents.skills import closest_to_ball, distances_from, sort_by_distance
 
 @borrowing
 def pass_state_size(n_keepers: int, n_takers: int) -> int:
-    """4K + 2T - 3 (spec `keepaway-agents.md` 4, generalisation)."""
+    """4K + 2T - 3 (docs/players.md §6.1)."""
     return 4 * n_keepers + 2 * n_takers - 3
 
 
 @borrowing
 def getopen_state_size(n_keepers: int, n_takers: int) -> int:
-    """3K + T - 1 (spec `keepaway-task.md` 4 generalised like the Pass variables)."""
+    """3K + T - 1 (docs/players.md §7.4, generalised like the Pass variables)."""
     return 3 * n_keepers + n_takers - 1
 
 
@@ -43,7 +43,7 @@ GETOPEN_KINDS = ("teammate_distance", "taker_distance", "teammate_taker_distance
 def getopen_state_kinds(n_keepers: int, n_takers: int) -> tuple[str, ...]:
     """The kind of each GetOpen variable (:data:`GETOPEN_KINDS`): dist(K1', Ki') and min_j dist(Ki', Tj')
     and min_j ang(Ki', K1', Tj') for the K - 1 other keepers, dist(K1', Tj') for the T takers, then the
-    pass distance and the lane angle (3v2: `keepaway-task.md` 4 variables 1-2, 3-4, 5-6, 7-8, 9, 10)."""
+    pass distance and the lane angle (3v2: docs/players.md §7.4, variables 1-2, 3-4, 5-6, 7-8, 9, 10)."""
     others = n_keepers - 1
     return (("teammate_distance",) * others + ("taker_distance",) * n_takers
             + ("teammate_taker_distance",) * others + ("teammate_taker_angle",) * others
@@ -147,11 +147,11 @@ def _sort_around(bel: Belief, r: int, vx: float, vy: float, skip: int, s: Vertex
 
 @njit(cache=True)
 def pass_state(bel: Belief, r: int, cfg, out) -> bool:
-    """The Pass variables of row ``r`` into ``out`` (length 4K + 2T - 3), in `keepaway-task.md` 3 order:
+    """The Pass variables of row ``r`` into ``out`` (length 4K + 2T - 3), in the paper's order (docs/players.md §6.1):
     dist(K1, C), dist(Ki, C) i >= 2, dist(Tj, C), dist(K1, Ki), dist(K1, Tj), min_j dist(Ki, Tj),
     min_j ang(Ki, K1, Tj). K1 = keeper closest to the ball; the others and the takers sorted by distance
     from K1. Returns False (``out`` then undefined) when some player is not usable (conf < 0.88) or no
-    keeper can be K1 (spec `keepaway-agents.md` 1 step 3a)."""
+    keeper can be K1 (docs/players.md §2 step 3a)."""
     k, t = bel.n_keepers, bel.n_takers
     for j in range(1, k + t + 1):
         if j != bel.me[r] and bel.conf[r, j] < cfg.player_conf_threshold:
@@ -245,7 +245,7 @@ def getopen_point_estimate(bel: Belief, r: int, px: float, py: float, ox: float,
 @njit(cache=True)
 def getopen_state(bel: Belief, r: int, px: float, py: float, ox: float, oy: float, out) -> None:
     """The GetOpen variables of point P = (px, py) for the deciding keeper of row ``r`` into ``out``
-    (length 3K + T - 1), `keepaway-task.md` 4 order: I imagine myself K1' at P; the other keepers and the
+    (length 3K + T - 1), in the order of docs/players.md §7.4: I imagine myself K1' at P; the other keepers and the
     takers (positions unchanged) sorted by distance from P; then dist(O, P) and min_j ang(P, O, Tj), where
     the lane origin O = (ox, oy) is the position of K1, the current keeper closest to the ball (the
     paper's variables 9-10), or another point the pass would start from (``agents.getopen.lane_origin``).

@@ -1,4 +1,4 @@
-"""The hand-coded taker (spec `keepaway-agents.md` 3).
+"""The hand-coded taker (docs/players.md §3).
 
 Per cycle: ball lost -> search; ball kickable and I am the taker closest to it -> HoldBall (ratio 0.3);
 with more than two takers, the third and further takers mark the least covered keeper; if another taker
@@ -34,7 +34,7 @@ from agents.skills import (
     write_action,
 )
 
-# The chasers: the closest and the second-closest taker to the ball never mark (spec 3 step 3).
+# The chasers: the closest and the second-closest taker to the ball never mark (docs/players.md §3 step 3).
 CHASING_TAKERS = 2
 
 
@@ -56,7 +56,7 @@ def takers_closer_to_ball(bel: Belief, r: int, cfg) -> int:
 
 @borrowing
 def mark_point(bel: Belief, r: int, sums, kp, cfg) -> tuple:
-    """Where to mark (spec 3 step 3): for each keeper on the pitch count the takers in the cone (half-width
+    """Where to mark (docs/players.md §3 step 3): for each keeper on the pitch count the takers in the cone (half-width
     0.3) from the keeper fastest to the ball towards it; take the keeper with the fewest (first on ties,
     the ball holder included: a framework quirk) and stand 4 m from it on its line to the ball."""
     k, t = bel.n_keepers, bel.n_takers
@@ -90,7 +90,7 @@ def mark_point(bel: Belief, r: int, sums, kp, cfg) -> tuple:
 
 @borrowing
 def taker_decide(bel: Belief, r: int, mem: AgentMemory, sums, kp, cfg, out_main, out_a1, out_a2, out_neck) -> None:
-    """One taker decision for row ``r`` (spec `keepaway-agents.md` 3 steps 1-5); ``sums``: the players'
+    """One taker decision for row ``r`` (docs/players.md §3 steps 1-5); ``sums``: the players'
     ``agents.skills.decay_sums``."""
     me = bel.me[r]
     if bel.conf[r, 0] < cfg.ball_conf_threshold:

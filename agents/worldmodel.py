@@ -1,11 +1,11 @@
 """The players' world model: localisation and tracking from noisy percepts.
 
-A player only sees quantised, partial percepts (spec `server-physics.md` 4). This module keeps, per
+A player only sees quantised, partial percepts (docs/rules.md §5). This module keeps, per
 deciding player (one row of a batch), an estimate of every object and writes it as one row of a
 :class:`agents.belief.Belief`:
 
 * **prediction** (every cycle): my own motion from the commands I sent, with the server's model (dash
-  acceleration with effort along the body, turn with inertia, neck, decay; spec 2-3) and no noise, but
+  acceleration with effort along the body, turn with inertia, neck, decay; docs/rules.md §1, §2) and no noise, but
   with the C++ players' belief that a negative dash power moves me backwards
   (``geometry.believed_dash_power``); my kick changes the ball's velocity; the ball and the other players
   roll out their velocities with decay;
@@ -14,12 +14,12 @@ deciding player (one row of a batch), an estimate of every object and writes it 
   the sensed speed from where I was a cycle ago, unless I guessed a collision (then as predicted);
 * **see**: self-localisation from the flags, a weighted 2-D rigid fit (Procrustes) of the flags' relative
   positions onto their global positions, which gives my head direction and position without a prior; the
-  players, then the ball, from their polar observations, velocities from dist_chg/dir_chg (spec 4
-  "Changes"), unnamed players associated with the nearest compatible predicted player;
-* **confidence** conf = 1 - (cycles since seen)/100, 1 for myself (spec `keepaway-agents.md` 1).
+  players, then the ball, from their polar observations, velocities from dist_chg/dir_chg (docs/rules.md
+  §5.2), unnamed players associated with the nearest compatible predicted player;
+* **confidence** conf = 1 - (cycles since seen)/100, 1 for myself (docs/players.md §4.1).
 
 The ball follows the rules of the keepaway-0.6 C++ players' world model (tjpalmer/keepaway
-`player/WorldModelUpdate.cc`, docs/design.md "The ball in the players' world model"), which keepers and
+`player/WorldModelUpdate.cc`; docs/design.md, "The ball in the players' world model"), which keepers and
 takers share: a ball that an opponent can kick is believed to stand still (in the prediction and after a
 see), a seen velocity is averaged with the predicted one when they agree, a velocity from position
 differences is refused where a player could have kicked the ball or I collided, and a guessed collision
@@ -69,11 +69,11 @@ from agents.skills import AgentConfig, kickable_distance, opponent_range
 from protocol.params import ServerParams
 from core.objects import BALL, CMD_DASH, CMD_KICK, CMD_NONE, CMD_TURN, COLLISION_VEL_FACTOR
 
-# Confidence falls to 0 after this many unseen cycles (spec `keepaway-agents.md` 1).
+# Confidence falls to 0 after this many unseen cycles (docs/players.md §4.1).
 CONF_HORIZON_CYCLES = 100.0
-# Percept directions are whole degrees (spec `server-physics.md` 4 "Content").
+# Percept directions are whole degrees (docs/rules.md §5.2).
 DIR_STEP_DEG = 1.0
-# The outer quantisation of every seen distance, Q(exp(Q(ln d, q)), 0.1) (spec 4 "Distance").
+# The outer quantisation of every seen distance, Q(exp(Q(ln d, q)), 0.1) (docs/rules.md §5.2).
 DIST_PRINT_STEP = 0.1
 # WorldModel::calculateStateBall (WorldModelUpdate.cc): a velocity from two ball positions seen 2 cycles
 # apart is refused if I collided within this many cycles (1 cycle apart: if the last sense showed one).
@@ -95,7 +95,7 @@ COLLISION_BALL_DISTANCE = 0.2
 FRAME_BYTES = 8192
 # seen/obs time of an object never seen since the last forget.
 NEVER = -(1 << 40)
-# Association tiers (spec: nearest compatible predicted player): a player within its reach beats a never
+# Association tiers (the nearest compatible predicted player first): a player within its reach beats a never
 # seen one, which beats one that could not have moved there.
 _UNSEEN_COST = 1.0e6
 
@@ -216,7 +216,7 @@ def _clamp(x, lo, hi):
 
 @njit(cache=True, inline="always")
 def _truncated_centre(v):
-    """Centre of the values that C truncation maps to the integer ``v`` (spec 4 sense_body)."""
+    """Centre of the values that C truncation maps to the integer ``v`` (docs/rules.md §5.3)."""
     if v > 0.0:
         return v + 0.5 * DIR_STEP_DEG
     if v < 0.0:
@@ -226,7 +226,7 @@ def _truncated_centre(v):
 
 @njit(cache=True, inline="always")
 def _observation_bounds(dist, q):
-    """Worst-case error of a point seen at quantised distance ``dist`` with log-step ``q`` (spec 4):
+    """Worst-case error of a point seen at quantised distance ``dist`` with log-step ``q`` (docs/rules.md §5.2):
     radial, e^(q/2) - 1 relative plus the 0.05 m print rounding; lateral, half a degree."""
     radial = dist * (math.exp(0.5 * q) - 1.0) + 0.5 * DIST_PRINT_STEP
     return radial, dist * math.radians(0.5 * DIR_STEP_DEG)
@@ -235,14 +235,14 @@ def _observation_bounds(dist, q):
 @njit(cache=True, inline="always")
 def _flag_weight(dist, kp):
     """Inverse variance of a flag's relative position: uniform quantisation of ln d (step
-    quantize_step_l), of the direction (1 deg) and of the printed distance (0.1 m), spec 4."""
+    quantize_step_l), of the direction (1 deg) and of the printed distance (0.1 m), docs/rules.md §5.2."""
     rel = (kp.quantize_step_l ** 2 + math.radians(DIR_STEP_DEG) ** 2) / 12.0
     return 1.0 / (dist * dist * rel + DIST_PRINT_STEP ** 2 / 12.0)
 
 
 @borrowing
 def confidence(r: int, s: ModelState, obj: int) -> float:
-    """conf = 1 - (cycles since seen)/100 in [0, 1], 1 for me (spec `keepaway-agents.md` 1)."""
+    """conf = 1 - (cycles since seen)/100 in [0, 1], 1 for me (docs/players.md §4.1)."""
     if obj == s.me[r]:
         return 1.0
     return _clamp(1.0 - float(s.time[r] - s.seen[r, obj]) / CONF_HORIZON_CYCLES, 0.0, 1.0)
@@ -266,7 +266,7 @@ def _closest_player(r, s, x, y, lo, hi, skip, cfg):
 
 
 # ---------------------------------------------------------------------------------------------------
-# prediction (spec `server-physics.md` 2-3, without noise)
+# prediction (docs/rules.md §1, §2, without noise)
 
 
 @borrowing
@@ -280,7 +280,7 @@ def _ball_kickable_by_me(r, s, kp):
 
 @borrowing
 def _kick_acceleration(r, s, power, direction, kp):
-    """The acceleration my kick gives a kickable ball (spec 3 kick)."""
+    """The acceleration my kick gives a kickable ball (docs/rules.md §2, "kick")."""
     me = s.me[r]
     px, py = s.pos[r, me, 0], s.pos[r, me, 1]
     bx, by = s.pos[r, BALL, 0], s.pos[r, BALL, 1]
@@ -293,7 +293,7 @@ def _kick_acceleration(r, s, power, direction, kp):
 
 @borrowing
 def _dash_acceleration(r, s, power, kp):
-    """My dash acceleration along the body, limited by the stamina left (spec 3 dash), the power as I
+    """My dash acceleration along the body, limited by the stamina left (docs/rules.md §2, "dash"), the power as I
     believe it acts (``believed_dash_power``). The agents always dash straight ahead, so CURRENT's dash
     direction is not modelled."""
     power = believed_dash_power(power, kp)
@@ -308,7 +308,7 @@ def _dash_acceleration(r, s, power, kp):
 
 @njit(cache=True, inline="always")
 def _move(r, s, obj, ax, ay, accel_max, speed_max, decay):
-    """One step of an object (spec 2 step 1a and 1e, no noise)."""
+    """One step of an object (docs/rules.md §1 step 2, no noise)."""
     if ax != 0.0 or ay != 0.0:
         if compared_hypot(ax, ay, accel_max) > accel_max:  # the cap's own arithmetic takes the exact length
             a = math.hypot(ax, ay)
@@ -387,7 +387,7 @@ def advance_row(r: int, s: ModelState, cycle: int, n_keepers: int, kp, cfg) -> N
 
 
 # ---------------------------------------------------------------------------------------------------
-# sense_body (spec 4 "sense_body")
+# sense_body (docs/rules.md §5.3)
 
 
 @njit(cache=True, inline="always")
@@ -483,7 +483,7 @@ def sense_body_row(r: int, s: ModelState, cycle: int, speed_amount: float, speed
 
 
 # ---------------------------------------------------------------------------------------------------
-# see (spec 4)
+# see (docs/rules.md §5.2)
 
 
 @njit(cache=True, inline="always")
@@ -568,7 +568,7 @@ def _seen_point(r, s, dist, direction):
 
 @borrowing
 def _change_velocity(r, s, dist, ex, ey, dist_chg, dir_chg):
-    """Velocity from the change pair: v = v_me + dist_chg e + rad(dir_chg) d e_perp (spec 4 "Changes")."""
+    """Velocity from the change pair: v = v_me + dist_chg e + rad(dir_chg) d e_perp (docs/rules.md §5.2)."""
     me = s.me[r]
     tangential = math.radians(dir_chg) * dist
     return (s.vel[r, me, 0] + dist_chg * ex - tangential * ey,
@@ -626,9 +626,10 @@ def _opponent_controls_ball(r, s, px, py, my_dist, n_keepers, kp, cfg):
 
 @borrowing
 def hold_exact_ball_row(r: int, s: ModelState, n_keepers: int, kp, cfg) -> None:
-    """The rule of :func:`update_ball_row` on an exact (fullstate) ball: still if an opponent controls
-    it. Not in the C++, whose fullstate skips its see rules; without it takers with the exact state
-    chase every small kick of a keeper that holds the ball and turn for ever (docs/design.md)."""
+    """The rule of :func:`update_ball_row` on an exact (fullstate) ball: still if an opponent controls it. Not
+    in the C++, whose fullstate skips its see rules; without it takers with the exact state chase every small
+    kick of a keeper that holds the ball and turn for ever (docs/design.md, "The ball in the players' world
+    model")."""
     me = s.me[r]
     bx, by = s.pos[r, BALL, 0], s.pos[r, BALL, 1]
     if _opponent_controls_ball(r, s, bx, by, math.hypot(bx - s.pos[r, me, 0], by - s.pos[r, me, 1]),
@@ -639,7 +640,7 @@ def hold_exact_ball_row(r: int, s: ModelState, n_keepers: int, kp, cfg) -> None:
 
 @borrowing
 def update_ball_row(r: int, s: ModelState, see: SeeBuffer, n_keepers: int, kp, cfg) -> None:
-    """The ball from the see (spec 4), as the C++ ``WorldModel::calculateStateBall``: the velocity from
+    """The ball from the see (docs/rules.md §5.2), as the C++ ``WorldModel::calculateStateBall``: the velocity from
     the change pair, averaged with the predicted one if each component is within 2 ball_rand |v_pred| of
     it; without the pair, within visible_distance, from successive positions
     (:func:`_ball_velocity_from_positions`); else the predicted one. Then zero if a usable opponent is
@@ -802,7 +803,7 @@ def sent_row(r: int, s: ModelState, main: int, a1: float, a2: float, neck: float
 
 @borrowing
 def forget_row(r: int, s: ModelState) -> None:
-    """Episode boundary (`training Keepaway 1`, spec `keepaway-agents.md` 1): every object but me is
+    """Episode boundary (`training Keepaway 1`, docs/players.md §4.2): every object but me is
     unknown again."""
     me = s.me[r]
     for obj in range(s.pos.shape[1]):
@@ -857,7 +858,7 @@ class WorldModel:
     the commands sent, read :meth:`belief` before deciding.
 
     ``flags`` is the landmark table of ``init_ok`` (``[[name, x, y], ...]``): see flag ids index it.
-    Keepers are side 'l', takers side 'r' (spec `keepaway-task.md`); ``me`` follows `core/objects.py`.
+    Keepers are side 'l', takers side 'r' (docs/players.md §1); ``me`` follows `core/objects.py`.
     ``config``: the players' settings (default ``AgentConfig()``), of which the ball rules use
     ``player_conf_threshold``.
     """
@@ -895,7 +896,7 @@ class WorldModel:
         return int(msg["cycle"]) == self._exact_cycle
 
     def on_sense_body(self, msg: Mapping[str, Any]) -> None:
-        """A sense_body payload (spec 4): my neck, velocity, stamina and effort of its cycle."""
+        """A sense_body payload (docs/rules.md §5.3): my neck, velocity, stamina and effort of its cycle."""
         cycle = int(msg["cycle"])
         if cycle == self._exact_cycle:
             return
@@ -904,7 +905,7 @@ class WorldModel:
                              float(stamina[0]), float(stamina[1]), self.n_keepers, self.kp, self.cfg)
 
     def on_see(self, msg: Mapping[str, Any]) -> None:
-        """A see payload (spec 4): anonymous flags are skipped, and so are flags whose id lies beyond
+        """A see payload (docs/rules.md §5.2): anonymous flags are skipped, and so are flags whose id lies beyond
         init_ok's landmark table (the protocol allows ids up to 255: a server that sends one has no
         position for it); omitted fields become NaN."""
         if self._is_exact(msg):
@@ -949,7 +950,7 @@ class WorldModel:
                                self._exact_cycle, self.n_keepers, self.kp, self.cfg)
 
     def on_fullstate(self, msg: Mapping[str, Any]) -> None:
-        """Exact state (spec 4 fullstate): every object known exactly at the message's cycle; percepts
+        """Exact state (docs/rules.md §5.4): every object known exactly at the message's cycle; percepts
         of the same cycle are then ignored."""
         s = self.state
         cycle = int(msg["cycle"])

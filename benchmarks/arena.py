@@ -1,4 +1,4 @@
-"""Arena benchmarks (issue: keepers, takers and the coach as processes): episodes per second of
+"""Arena benchmarks (keepers, takers and the coach as processes): episodes per second of
 P:HC-GO:HC in the distributed mode (server, coach and five player processes over ZeroMQ), the embedded
 mode (one process, no sockets; the baseline) and the batched mode (many arenas in one process), and the
 cycles per second of a bare ZeroMQ loop that exchanges a cycle's messages with five minimal client
@@ -63,7 +63,7 @@ def main() -> None:
     print(f"  bare ZeroMQ loop, no simulation {bare:21,.0f} cycles/s  (distributed: {distributed / bare:.2f}x of it; "
           f"it: {bare / embedded:.2f}x embedded)")
     print(f"  the same loop in C (libzmq)     {server.c_loop_line(in_c, bare, embedded)}")
-    print("  targets (issue 11): batched >= 300 episodes/s and >= 150x embedded; distributed >= 0.9x embedded and "
+    print("  targets: batched >= 300 episodes/s and >= 150x embedded; distributed >= 0.9x embedded and "
           ">= 5 episodes/s (>= 750 cycles/s)")
 
 

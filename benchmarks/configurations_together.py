@@ -1,4 +1,4 @@
-"""An experiment's learning configurations three ways (issue 11, item 2), batched, in one invocation.
+"""An experiment's learning configurations three ways, batched, in one invocation.
 
 The five learning configurations of Figure 3 (short trainings of the same seeds, so the same results
 whichever way they run: ``tests/test_train.py``, ``tests/test_backends.py``) trained

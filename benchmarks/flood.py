@@ -1,6 +1,6 @@
-"""Flood benchmark (issue 12, "A hardened arena", item 1): synchronous-mode cycles per second of the real
-``keepaway server`` with five minimal client processes that answer every think with one dash, without a
-flood and while one client floods it with small messages:
+"""Flood benchmark (the server's fair input: docs/protocol.md §1, "Budgets"): synchronous-mode cycles per
+second of the real ``keepaway server`` with five minimal client processes that answer every think with one
+dash, without a flood and while one client floods it with small messages:
 
 * no flood (the baseline);
 * an unseated client (connected, never sent ``init``) sending 3,000 and 30,000 ``command`` messages a

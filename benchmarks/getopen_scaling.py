@@ -3,7 +3,7 @@
 ``python benchmarks/getopen_scaling.py [--keepers 3 --takers 2 --field-size 20 --episodes 1000]``
 
 Plays P:HC-GO:HC in the batched mode (classic parameters) and, every ``--every`` cycles, records the
-GetOpen state (`keepaway-task.md` 4, ``agents.state_vars.getopen_state``) of every grid point of every
+GetOpen state (docs/players.md §7.4, ``agents.state_vars.getopen_state``) of every grid point of every
 keeper that runs GetOpen in that cycle (ball known, not kickable by it, not the fastest to the ball: the
 branch ``agents.keeper.keeper_decide`` takes), on the keeper's own belief. Prints:
 

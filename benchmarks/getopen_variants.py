@@ -1,8 +1,8 @@
-"""Short P:HC-GO:L trainings that compare GO:L input variants (docs/design.md, GetOpen inputs).
+"""Short P:HC-GO:L trainings that compare GO:L input variants (docs/design.md, "Learning options").
 
 ``python benchmarks/getopen_variants.py [--trials 4 --generations 2 --variants scaled,raw,predicted-ball]``
 
-Each trial runs ``--generations`` CEM generations (the spec's 20 candidates x 125 episodes unless told
+Each trial runs ``--generations`` CEM generations (the paper's 20 candidates x 125 episodes unless told
 otherwise; batched mode, classic parameters, 3v2 on 20 m) from the trial's CEM seed, then plays the best
 candidate frozen for ``--eval-episodes`` episodes. The variants of one trial share every seed: the CEM's
 draws (so generation 0 is the same parameter vectors), the candidates' arenas and the evaluation's arenas;

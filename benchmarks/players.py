@@ -1,4 +1,4 @@
-"""What the players cost in the batched mode (issue 11, item 3): per arena-cycle, beside the server.
+"""What the players cost in the batched mode: per arena-cycle, beside the server.
 
 In one invocation, one thread, at batch 1 (the single arena Pass learning plays) and batch 1024:
 
@@ -8,9 +8,9 @@ In one invocation, one thread, at batch 1 (the single arena Pass learning plays)
 * the full game, P:HC-GO:HC with five noisy players (``benchmarks/arena_batched.py``'s game),
   arena-cycles/s;
 * the players' cost per arena-cycle, 1/full - 1/(physics + perception), in microseconds, and its ratio to
-  the cost of physics + perception (the issue's target: at most 2). The item's figure counts the hears'
-  delivery as the server's work, which it is (rcssserver's aural sensor); the figure that counts it as the
-  players', as this benchmark did until 2026-11-28, follows in the last column.
+  the cost of physics + perception (the target: at most 2). That figure counts the hears' delivery as
+  the server's work, which it is (rcssserver's aural sensor); the figure that counts it as the players'
+  follows in the last column.
 
 The three are measured in ``--rounds`` rounds of short runs, one right after the other (the full game's
 runs go on with the same arenas: the games' steady state, not their kick-offs). On this shared machine a

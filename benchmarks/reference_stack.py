@@ -1,12 +1,12 @@
 """The reference stack (rcssserver 19.0.0 + the keepaway-0.6 C++ players) played from Python, for the
 side-by-side harness (``benchmarks/side_by_side.py --reference BUILD``); not run in CI.
 
-``BUILD`` is the directory ``../shared/tools/build-rcss.sh`` builds into: ``BUILD/rcssserver/build/
-rcssserver`` and ``BUILD/keepaway/player/keepaway_player``. One campaign is the server and five players
-(3 keepers with the given Pass policy, 2 hand-coded takers, hand-coded GetOpen) in synchronous mode with
-the launch settings of keepaway-0.6's ``keepaway.sh`` (that script's header in build-rcss.sh), CURRENT
-parameters (rcssserver 19's defaults), 3v2 on 20 m, 360 deg vision, the server's ``random_seed`` (a
-patch of build-rcss.sh) set, game log version 5 and the episode log written to the log directory.
+``BUILD`` is the directory ``tools/build-reference-stack.sh`` builds into (its ``PREFIX``):
+``BUILD/rcssserver/build/rcssserver`` and ``BUILD/keepaway/player/keepaway_player``. One campaign is the
+server and five players (3 keepers with the given Pass policy, 2 hand-coded takers, hand-coded GetOpen)
+in synchronous mode with the launch settings of keepaway-0.6's ``keepaway.sh``, CURRENT parameters
+(rcssserver 19's defaults), 3v2 on 20 m, 360 deg vision, the server's ``random_seed`` (which the build
+script's patch makes settable) set, game log version 5 and the episode log written to the log directory.
 keepaway-0.6 parses the players' ``-x EPISODES`` but never stops, so the campaign stops when the
 ``.kwy`` lists one episode more than asked for (then every asked-for episode's last show, which carries
 its last step's kicks, is in the game log). The processes run through ``runner.launch.ArenaProcesses``:
@@ -61,7 +61,7 @@ class ReferenceStack:
         for binary in (self.server, self.player):
             if not binary.is_file():
                 raise ValueError(f"no reference stack at {self.build}: {binary} is missing "
-                                 "(build it with ../shared/tools/build-rcss.sh)")
+                                 "(build it with tools/build-reference-stack.sh)")
 
 
 def free_udp_ports(count: int = 3, host: str = "127.0.0.1") -> int:

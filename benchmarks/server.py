@@ -1,4 +1,4 @@
-"""Server benchmarks (issue: the simulation server and the protocol).
+"""Server benchmarks: the simulation server and the protocol.
 
 (a) batched physics + perception throughput, arena-cycles per second, batch 1 (baseline) and 1024, one
     core: every cycle every player dashes or turns, and each player gets a see on 2 of 3 cycles; cycles

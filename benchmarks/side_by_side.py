@@ -8,7 +8,7 @@ tolerances live in ``tests/test_behaviour.py``. Definitions: ``trainer/behaviour
 
 Without ``--reference`` the reference is the stored campaigns of each policy
 (``tests/data/rcss-behaviour/stats_real.json``, ``trainer.behaviour.REFERENCE_CAMPAIGNS``), a row each.
-With ``--reference BUILD`` (the directory ``../shared/tools/build-rcss.sh`` built) each policy is first
+With ``--reference BUILD`` (the directory ``tools/build-reference-stack.sh`` built) each policy is first
 played live on the reference stack with the same settings, ``--episodes`` episodes with server seed
 ``--seed`` (``benchmarks/reference_stack.py``; logs in ``--log-dir`` or a temporary directory), its
 statistics computed from its game log and episode log by the same code as ours
@@ -23,7 +23,8 @@ The first table weighs each statistic of ours against all the reference campaign
 between the campaigns' lowest and highest value.
 
     python benchmarks/side_by_side.py [--episodes 1000] [--seed 7] [--batch 100] [--policies random]
-    python benchmarks/side_by_side.py --reference /work/rcss-build/b --seed 31 [--save-reference 31]
+    tools/build-reference-stack.sh --sources DIR BUILD   # DIR: the two source archives
+    python benchmarks/side_by_side.py --reference BUILD --seed 31 [--save-reference 31]
     python benchmarks/side_by_side.py --reference-logs DIR --seed 31 --save-reference 31
 """
 
@@ -219,7 +220,8 @@ def main() -> None:
     parser.add_argument("--batch", type=int, default=100, help="arenas played side by side")
     parser.add_argument("--policies", nargs="+", choices=list(REFERENCE_CAMPAIGNS), default=list(REFERENCE_CAMPAIGNS))
     parser.add_argument("--reference", type=Path, metavar="BUILD",
-                        help="play the reference stack built in BUILD live (else: the stored campaigns)")
+                        help="play the reference stack tools/build-reference-stack.sh built in BUILD live "
+                             "(else: the stored campaigns)")
     parser.add_argument("--reference-logs", type=Path, metavar="DIR",
                         help="measure the reference logs an earlier --log-dir DIR kept (instead of --reference)")
     parser.add_argument("--log-dir", type=Path, help="keep the reference stack's logs here (per policy)")

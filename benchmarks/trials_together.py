@@ -1,4 +1,4 @@
-"""Trials trained together against one after another (issue 11, item 2), batched, in one invocation.
+"""Trials trained together against one after another, batched, in one invocation.
 
 The same short trainings (same seeds, so the same results: ``tests/test_train.py``) played two ways on
 a batched backend of ``--threads`` threads: each trial alone, one after another (the baseline: a Pass

@@ -1,5 +1,5 @@
-"""The arena's online coach process: a privileged client of the server's coach port (architecture,
-"Processes"), around the sans-IO :class:`coach.core.CoachCore`.
+"""The arena's online coach process: a privileged client of the server's coach port
+(docs/protocol.md §7), around the sans-IO :class:`coach.core.CoachCore`.
 
 :class:`Coach` owns the sockets: a DEALER to the server's coach port and, with an arena port, a ROUTER on
 which trainers send their requests (``protocol.arena``). One poller loop decodes every frame with
@@ -9,7 +9,7 @@ every poll round; it waits no longer than the core's next deadline. What the coa
 (``coach/core.py``): pausing the server, delivering a request's advice, the reports and their timeout,
 keeping the session.
 
-Frame limits agree end to end (docs/protocol.md 1): an answer to a trainer above the arena port's limit
+Frame limits agree end to end (docs/protocol.md §1): an answer to a trainer above the arena port's limit
 becomes a ``too_large`` error here, where it is encoded.
 """
 

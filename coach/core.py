@@ -22,7 +22,7 @@ is served in three steps:
 3. the keepers are asked for the reports wanted and the coach answers once every keeper has sent every
    chunk of each (or with ``reports_missing`` after :data:`REPORT_TIMEOUT_S`).
 
-Frame limits agree end to end (docs/protocol.md 1): a request's advice is forwarded only if each
+Frame limits agree end to end (docs/protocol.md §1): a request's advice is forwarded only if each
 ``hear`` it becomes fits the server's ``max_message_bytes`` (from ``coach_init_ok``'s config); else the
 trainer gets ``too_large``, one line. The coach keeps its session: while a run is under way it looks at
 the server at least every :data:`HEARTBEAT_S`; a ``not_initialised`` answer (the server no longer knows

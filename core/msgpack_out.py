@@ -5,7 +5,7 @@ The server writes each cycle's ``see`` and ``sense_body`` straight from the perc
 (``server/perception.py``), instead of building Python lists, a message object and a map for the packer
 every time: the message path that cost most of the server's time per cycle. Because the bytes are the
 packer's own (the smallest int form, every float a double, tested against ``msgpack.packb``), the wire
-and what the players decode stay exactly what they were (docs/protocol.md 1).
+and what the players decode stay exactly what they were (docs/protocol.md §1).
 
 Each writer puts one value at ``buf[n:]`` and returns the position after it; the caller sizes ``buf``
 for its largest message. Strings and other constant parts are packed once, in Python, by

@@ -1,8 +1,9 @@
 """Counter-based random numbers for the kernels: one splitmix64 stream per arena.
 
 All server randomness (movement/kick/turn noise, perception identity loss, reset placement, the object
-shuffle) flows from one seed (spec `architecture.md`, Determinism). Each arena of a batch owns one
-uint64 state, so a batch of arenas draws exactly what the same arenas would draw one at a time.
+shuffle) flows from one seed, so a reset with a seed replays a fresh arena (docs/protocol.md §12, "Coach").
+Each arena of a batch owns one uint64 state, so a batch of arenas draws exactly what the same arenas would
+draw one at a time.
 """
 
 from __future__ import annotations

@@ -8,7 +8,7 @@
 It joins as a taker (`init`), keeps the last ball it saw (`see`: distance and direction relative to its
 head) and its neck angle (`sense_body`), and answers every `think` with one `command`: turn towards the
 ball when it is more than 10 degrees off the body, dash at it otherwise, stand still next to it (the
-referee counts a taker within the kickable distance towards a take, docs/rules.md section 7), turn to look
+referee counts a taker within the kickable distance towards a take, docs/rules.md §7), turn to look
 for it when it has seen none. It ignores `hear`, `waiting` and any message type it does not know (the
 protocol's version rule), and exits 0 on `shutdown`. A template for an agent in any language: the same
 messages over a ZeroMQ DEALER socket, one msgpack map per frame.

@@ -1,4 +1,4 @@
-"""The contract between server, players, coach and trainer (architecture, "Processes"; docs/protocol.md).
+"""The contract between server, players, coach and trainer (docs/protocol.md).
 
 Message dataclasses, the msgpack codec with validation, the protocol version, ZeroMQ endpoint helpers
 and the server parameter table. Depends on no other package of the project.

@@ -135,7 +135,7 @@ def _sarsa_config(value: Any) -> dict:
 
 
 def _table_size(value: Any) -> int:
-    """A power of 2 the slot indices can address (collision_table, spec `keepaway-agents.md` 5)."""
+    """A power of 2 the slot indices can address (collision_table, docs/players.md §6.3)."""
     size = integer(2, MAX_TABLE_SIZE)(value)
     if size & (size - 1):
         raise Invalid("bad_value", f"{size} is not a power of 2")
@@ -177,7 +177,7 @@ class Payload(Message):
 @message(eq=False)
 class PolicyAdvice(Payload):
     """New GO:L parameters (on the raw state variables) and a switch of the Pass and GetOpen policies,
-    each optional (docs/advice.md 2, ``policy``)."""
+    each optional (docs/advice.md §2, "policy")."""
 
     TYPE: ClassVar[str] = "policy"
     getopen_theta: np.ndarray | None = wire(optional(_getopen_theta), default=None, omit_none=True,
@@ -189,7 +189,7 @@ class PolicyAdvice(Payload):
 
 @message(eq=False)
 class PassModeAdvice(Payload):
-    """The Sarsa learner's mode (docs/advice.md 2, ``pass_mode``)."""
+    """The Sarsa learner's mode (docs/advice.md §2, "pass_mode")."""
 
     TYPE: ClassVar[str] = "pass_mode"
     mode: str = wire(choice(*PASS_MODES))
@@ -197,7 +197,7 @@ class PassModeAdvice(Payload):
 
 @message(eq=False)
 class SeedAdvice(Payload):
-    """Restart every random stream of the player as if started with ``seed`` (docs/advice.md 2, ``seed``)."""
+    """Restart every random stream of the player as if started with ``seed`` (docs/advice.md §2, "seed")."""
 
     TYPE: ClassVar[str] = "seed"
     seed: int = wire(integer(0, MAX_SEED_VALUE))
@@ -214,7 +214,7 @@ class ReportRequest(Payload):
 @message(eq=False)
 class Chunk(Payload):
     """The position of one chunk of data cut into ``chunks`` messages: entries ``first`` ..
-    ``first + count - 1`` (docs/advice.md 1, "Chunks")."""
+    ``first + count - 1`` (docs/advice.md §1, "Chunks")."""
 
     chunk: int = wire(integer(0, MAX_CHUNKS - 1))
     chunks: int = wire(integer(1, MAX_CHUNKS))
@@ -228,7 +228,7 @@ class Chunk(Payload):
 
 @message(eq=False)
 class SparsePassChunk(Chunk):
-    """One chunk of a keeper's Pass policy in the sparse form (docs/advice.md 4): the learner's
+    """One chunk of a keeper's Pass policy in the sparse form (docs/advice.md §4): the learner's
     ``config``, ``table_size`` and ``hash_counts`` (the same in every chunk), and ``count`` occupied slots
     (``index``, collision ``check`` value, weight ``value``)."""
 
@@ -256,8 +256,8 @@ class SparsePassChunk(Chunk):
 
 @message(eq=False)
 class PassLoadAdvice(SparsePassChunk):
-    """One chunk of a keeper's whole Pass policy to play from the next boundary (docs/advice.md 2,
-    ``pass_load``)."""
+    """One chunk of a keeper's whole Pass policy to play from the next boundary (docs/advice.md §2,
+    "pass_load")."""
 
     TYPE: ClassVar[str] = "pass_load"
 
@@ -268,7 +268,7 @@ class PassLoadAdvice(SparsePassChunk):
 @message(eq=False)
 class PassSnapshotReport(SparsePassChunk):
     """A keeper's answer to a ``snapshot`` request: one chunk of its Pass policy, or with ``learner``
-    false (no Sarsa learner) one empty chunk (docs/advice.md 3)."""
+    false (no Sarsa learner) one empty chunk (docs/advice.md §3)."""
 
     TYPE: ClassVar[str] = "pass_snapshot"
     learner: bool = wire(boolean)
@@ -284,7 +284,7 @@ class PassSnapshotReport(SparsePassChunk):
 class PassTransitionsReport(Chunk):
     """A keeper's answer to a ``transitions`` request: the SMDP transitions ``first`` .. ``first + count
     - 1`` it logged since its previous such report (``dropped``: lost from its ring buffer meanwhile);
-    with ``learner`` false one empty chunk (docs/advice.md 3)."""
+    with ``learner`` false one empty chunk (docs/advice.md §3)."""
 
     TYPE: ClassVar[str] = "pass_transitions"
     learner: bool = wire(boolean)

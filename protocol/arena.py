@@ -1,4 +1,4 @@
-"""The arena port: a trainer's requests to one arena's coach (architecture, "Channels": arena port).
+"""The arena port: a trainer's requests to one arena's coach (docs/advice.md §6).
 
 A trainer (DEALER) asks a coach (ROUTER) to run episodes: the coach first delivers the request's advice
 (policies, Pass weights, a Sarsa mode, to keepers or to one keeper), restarts the episode (with a
@@ -6,7 +6,7 @@ A trainer (DEALER) asks a coach (ROUTER) to run episodes: the coach first delive
 server play exactly ``episodes`` episodes and pause at the boundary, asks the keepers for the
 ``reports`` wanted (SMDP transitions, weight snapshots) and answers with the ground-truth episode
 records and those reports. A request with a seed therefore plays the same whatever the arena played
-before (docs/advice.md, docs/design.md "Distributed training").
+before (docs/advice.md §6).
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@ dataclass whose fields are declared with :func:`wire`, naming the *loader* that 
 wire value and converts it to its Python form (ints to floats where floats are expected, arrays to
 tuples). Loaders are small hand-written closures, cheap enough to run on every command of every player
 in every cycle; :func:`decode` raises :class:`~protocol.errors.ProtocolError` and nothing else, whatever
-the bytes are (style guide, "Sockets at the edge").
+the bytes are (docs/protocol.md §10).
 """
 
 from __future__ import annotations

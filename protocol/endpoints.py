@@ -1,7 +1,7 @@
 """ZeroMQ endpoints and socket options shared by the server and every client.
 
-The ports mirror rcssserver's numbering (6000 players, 6001/6002 coach/monitor; spec `server-physics.md`
-6) plus the coach's arena port (architecture, "Channels"). Socket settings live here so both ends agree
+The ports mirror rcssserver's numbering (6000 players, 6001/6002 coach/monitor) plus
+the coach's arena port (docs/protocol.md §1). Socket settings live here so both ends agree
 on them: ``configure`` is called on every socket before it binds or connects.
 """
 

@@ -1,7 +1,7 @@
 """The one exception the protocol layer raises for bad input.
 
-Every byte string that arrives on a socket is untrusted until decoded and validated (style guide,
-"Sockets at the edge"); whatever is wrong with it, :func:`protocol.codec.decode` raises
+Every byte string that arrives on a socket is untrusted until decoded and validated
+(docs/protocol.md §10); whatever is wrong with it, :func:`protocol.codec.decode` raises
 :class:`ProtocolError` and nothing else, so the server's loop needs a single ``except`` to answer the
 sender with an ``error`` message carrying the same ``code`` and ``message``.
 """
@@ -38,7 +38,7 @@ REQUEST_ERROR_CODES: tuple[str, ...] = (
     "arena_stopped",  # arena port: the coach stopped with a run pending
     "session_lost",  # arena port: the coach lost its server session during the run
 )
-"""The codes of messages that were decoded but refused, or of warnings (docs/rules.md 10)."""
+"""The codes of messages that were decoded but refused, or of warnings (docs/rules.md §10)."""
 
 ERROR_CODES: tuple[str, ...] = CODEC_ERROR_CODES + REQUEST_ERROR_CODES
 """Every code an ``error`` message may carry."""

@@ -2,7 +2,7 @@
 
 rcssserver (11+) builds the same table from its default landmark file (``landmarkreader.cpp``) and sends
 flags in this order; the server sends the table to every client in ``init_ok``, so a flag id on the wire
-is an index into :data:`FLAGS`. Coordinates are rcssserver's global frame (spec `server-physics.md` 2):
+is an index into :data:`FLAGS`. Coordinates are rcssserver's global frame (docs/protocol.md §4):
 origin at the centre, +x towards the right goal, +y towards the *bottom* touch line, so the ``t`` flags
 lie at y = -39.
 """

@@ -1,10 +1,10 @@
-"""Every message of the players, coach and monitor ports (docs/protocol.md; architecture, "Channels").
+"""Every message of the players, coach and monitor ports (docs/protocol.md).
 
 One frozen dataclass per message type; ``TYPE`` is the wire ``"type"``. Messages the server sends carry
 ``cycle``, the server time when sent. Sequences are tuples in Python and arrays on the wire. Ranges are
 checked here only as far as they describe the *shape* of a message (an id, a uniform number, a finite
 number); clamping command arguments is the simulator's job, done exactly as rcssserver does
-(spec `server-physics.md` 3).
+(docs/rules.md §2).
 """
 
 from __future__ import annotations
@@ -47,7 +47,7 @@ from protocol.params import MAX_TEAM_SIZE, ServerParams
 # ------------------------------------------------------------------------------------------ vocabulary
 
 TEAMS = ("keepers", "takers")
-SIDES = ("l", "r")  # keepers play on the left side, takers on the right (spec 5, "Teams")
+SIDES = ("l", "r")  # keepers play on the left side, takers on the right (docs/protocol.md §4)
 PLAY_MODES = ("before_kick_off", "play_on")
 VIEW_WIDTHS = ("narrow", "normal", "wide")
 VIEW_QUALITIES = ("high", "low")
@@ -71,7 +71,7 @@ MAX_UNUM = MAX_TEAM_SIZE
 MAX_CYCLE = 2**31 - 1
 MAX_COMMANDS = 16
 MAX_CLIENT_CHARS = 64
-MAX_SAY_CHARS = 256  # the codec's bound; the server applies say_msg_size (spec 3, "say")
+MAX_SAY_CHARS = 256  # the codec's bound; the server applies say_msg_size (docs/rules.md §2)
 MAX_CODE_CHARS = 64
 MAX_TEXT_CHARS = 1024
 MAX_LANDMARK_NAME_CHARS = 32
@@ -84,7 +84,7 @@ PLAYER_NAME_CHARS = 16  # "keeper 11", "taker 11"
 CYCLE = integer(0, MAX_CYCLE)
 COUNT = integer(0, MAX_CYCLE)
 UNUM = integer(1, MAX_UNUM)
-DIRECTION = integer(-180, 180)  # integer degrees in percepts (spec 4)
+DIRECTION = integer(-180, 180)  # integer degrees in percepts (docs/rules.md §5.2)
 LANDMARK_ID = integer(0, MAX_LANDMARKS - 1)  # index into init_ok's landmark lists
 TEAM = choice(*TEAMS)
 SIDE = choice(*SIDES)
@@ -149,7 +149,7 @@ class AtomicCommand:
 
 
 COMMAND_ARGUMENTS: Mapping[str, tuple[tuple[Loader, ...], tuple[Loader, ...]]] = MappingProxyType({
-    # name: (required argument loaders, optional argument loaders); spec 3 and 6
+    # name: (required argument loaders, optional argument loaders); docs/protocol.md §5, "command"
     "dash": ((number,), (number,)),  # power[, direction]
     "turn": ((number,), ()),  # moment
     "kick": ((number, number), ()),  # power, direction
@@ -211,7 +211,7 @@ def _advice_target(value: Any) -> str | tuple[str, int]:
 
 @message
 class Init(Message):
-    """Join a team; answered by ``init_ok`` or ``error`` (rcssserver's ``(init ...)``, spec 6)."""
+    """Join a team; answered by ``init_ok`` or ``error`` (rcssserver's ``(init ...)``; docs/protocol.md §5, "init")."""
 
     TYPE: ClassVar[str] = "init"
     version: int = wire(protocol_version, default=PROTOCOL_VERSION, required=True)
@@ -224,7 +224,7 @@ class Init(Message):
 
 @message
 class Reconnect(Message):
-    """Take over uniform number ``unum`` of ``team`` again after a ``bye`` (spec 6)."""
+    """Take over uniform number ``unum`` of ``team`` again after a ``bye`` (docs/protocol.md §5, "reconnect")."""
 
     TYPE: ClassVar[str] = "reconnect"
     version: int = wire(protocol_version, default=PROTOCOL_VERSION, required=True)
@@ -307,7 +307,7 @@ class Error(Message):
 
 @message
 class SenseBody(Message):
-    """The player's own body, every cycle (rcssserver's ``sense_body``, spec 4)."""
+    """The player's own body, every cycle (rcssserver's ``sense_body``; docs/rules.md §5.3)."""
 
     TYPE: ClassVar[str] = "sense_body"
     cycle: int = wire(CYCLE)
@@ -356,7 +356,7 @@ def _seen_ball(row: Any) -> bool:
 
 @message
 class See(Message):
-    """A visual percept (rcssserver's ``see``, spec 4); directions relative to the head. Every row
+    """A visual percept (rcssserver's ``see``; docs/rules.md §5.2); directions relative to the head. Every row
     kind has a fast path (``protocol.codec.rows``): players decode a see every other cycle."""
 
     TYPE: ClassVar[str] = "see"
@@ -398,7 +398,7 @@ class Hear(Message):
 
 @message
 class Fullstate(Message):
-    """The exact state of the field, for players that asked for it in ``init`` (spec 4, "fullstate")."""
+    """The exact state of the field, for players that asked for it in ``init`` (docs/rules.md §5.4)."""
 
     TYPE: ClassVar[str] = "fullstate"
     cycle: int = wire(CYCLE)
@@ -477,7 +477,7 @@ class Advice(Message):
 def advice_hear(payload: Any, cycle: int = MAX_CYCLE) -> Hear:
     """The ``hear`` that delivers an ``advice`` payload to a player. Encoded with the default cycle it
     is the largest frame that payload can become: the coach checks it against the server's
-    ``max_message_bytes`` before forwarding a trainer's advice (docs/protocol.md 1)."""
+    ``max_message_bytes`` before forwarding a trainer's advice (docs/protocol.md §1)."""
     return Hear(cycle=cycle, sender="coach", direction=None, unum=None, message=payload)
 
 
@@ -493,7 +493,7 @@ COUNTDOWN_ACTIONS = ("stop", "pause")
 class EpisodeControl(Message):
     """Reset the field (reseeding the arena with ``seed`` if given), pause (now, or once
     ``episodes_left`` more episodes have ended), resume, or stop (now, or after ``episodes_left`` more
-    episodes). docs/protocol.md 7 and 12 "Coach"."""
+    episodes) (docs/protocol.md §7; docs/protocol.md §12, "Coach")."""
 
     TYPE: ClassVar[str] = "episode_control"
     action: str = wire(choice(*EPISODE_ACTIONS))
@@ -545,7 +545,8 @@ class LookOk(Message):
 
 @message
 class EpisodeEnd(Message):
-    """An episode ended (one line of rcssserver's kwy log, spec 5); also on the monitor port."""
+    """An episode ended (one line of rcssserver's kwy log; docs/protocol.md §12, "Episode logs"); also on the
+    monitor port."""
 
     TYPE: ClassVar[str] = "episode_end"
     cycle: int = wire(CYCLE)

@@ -1,7 +1,8 @@
 """The server/player parameter table, shared by the server and every client.
 
 One frozen dataclass holds every physical, perceptual and referee constant by name, as rcssserver's
-``server_param``/``player_param`` do (spec `server-physics.md`). Two named sets exist:
+``server_param``/``player_param`` do (docs/rules.md §9; rcssserver src/serverparam.cpp). Two named sets
+exist:
 
 * ``classic`` (default): rcssserver 11.1.1, the server generation the Keepaway experiments used;
 * ``current``: rcssserver 19.0.0 defaults (polar noise, kick noise, bipedal-era dash rates, capacity).
@@ -74,23 +75,23 @@ class ServerParams:
 
     name: str = "classic"
 
-    # timing (spec 1)
+    # timing (docs/rules.md §8)
     simulator_step_ms: float = 100.0
     sense_body_step_ms: float = 100.0
     send_step_ms: float = 150.0
 
-    # field (spec 2)
+    # field (docs/rules.md §6)
     pitch_length: float = 105.0
     pitch_width: float = 68.0
 
-    # ball (spec 2)
+    # ball (docs/rules.md §1)
     ball_size: float = 0.085
     ball_decay: float = 0.94
     ball_rand: float = 0.05
     ball_speed_max: float = 2.7
     ball_accel_max: float = 2.7
 
-    # player type 0 (spec 2)
+    # player type 0 (docs/rules.md §1)
     player_size: float = 0.3
     player_decay: float = 0.4
     player_rand: float = 0.1
@@ -100,7 +101,7 @@ class ServerParams:
     kickable_margin: float = 0.7
     movement_noise: float = NOISE_AXIS
 
-    # dash (spec 3)
+    # dash (docs/rules.md §2, "dash")
     dash_power_rate: float = 0.006
     min_dash_power: float = -100.0
     max_dash_power: float = 100.0
@@ -110,7 +111,7 @@ class ServerParams:
     side_dash_rate: float = 0.4
     back_dash_rate: float = 0.7
 
-    # turn / neck (spec 3)
+    # turn / neck (docs/rules.md §2, "turn")
     min_moment: float = -180.0
     max_moment: float = 180.0
     min_neck_moment: float = -180.0
@@ -118,7 +119,7 @@ class ServerParams:
     min_neck_angle: float = -90.0
     max_neck_angle: float = 90.0
 
-    # kick (spec 3)
+    # kick (docs/rules.md §2, "kick")
     min_power: float = -100.0
     max_power: float = 100.0
     kick_power_rate: float = 0.027
@@ -126,7 +127,7 @@ class ServerParams:
     kick_noise: float = NOISE_AXIS
     failed_kick_uses_slot: bool = False
 
-    # stamina (spec 3)
+    # stamina (docs/rules.md §4)
     stamina_max: float = 4000.0
     stamina_inc_max: float = 45.0
     extra_stamina: float = 0.0
@@ -144,10 +145,10 @@ class ServerParams:
     effort_init: float = 1.0
     effort_inc_uses_dec_thr: bool = True  # the CLASSIC bug: effort grows above effort_dec_thr
 
-    # tackle (spec 3; accepted, not used by the Keepaway agents)
+    # tackle (docs/rules.md §2; accepted, not used by the Keepaway agents)
     tackle_cycles: float = 10.0
 
-    # perception (spec 4)
+    # perception (docs/rules.md §5)
     visible_angle: float = 90.0
     visible_distance: float = 3.0
     quantize_step: float = 0.1
@@ -161,14 +162,14 @@ class ServerParams:
     team_loss_probabilistic: bool = False  # CURRENT: team dropped with p(40/60); CLASSIC: cut at 60
     see_behind_strict: bool = True  # |bearing| < cone/2 strictly, so an object exactly behind is unseen
 
-    # hearing (spec 4)
+    # hearing (docs/rules.md §5.5)
     audio_cut_dist: float = 50.0
     hear_max: float = 1.0
     hear_inc: float = 1.0
     hear_decay: float = 1.0
     say_msg_size: float = 10.0
 
-    # keepaway referee (spec 5)
+    # keepaway referee (docs/rules.md §7)
     keepaway_length: float = 20.0
     keepaway_width: float = 20.0
     take_cycles: float = 4.0
@@ -223,7 +224,7 @@ class ServerParams:
 
 NOISE_MODELS = OneOf((NOISE_AXIS, NOISE_POLAR))
 
-# The physically meaningful values of every parameter (spec `server-physics.md`): decays, rates and
+# The physically meaningful values of every parameter (docs/rules.md §9): decays, rates and
 # noise amplitudes are fractions; sizes, steps and speeds are positive; angles lie in [-180, 180].
 PARAMETER_RANGES: dict[str, Range | OneOf] = {
     # timing
@@ -329,11 +330,11 @@ CURRENT = ServerParams(
 
 PARAMETER_SETS: dict[str, ServerParams] = {"classic": CLASSIC, "current": CURRENT}
 
-# keepaway.sh launch settings (spec `server-physics.md`, "Standard Keepaway launch").
+# keepaway.sh launch settings (docs/rules.md §9; keepaway-0.6 keepaway.sh).
 KEEPAWAY_LAUNCH: dict[str, float] = {"stamina_inc_max": 3500.0, "visible_angle": 360.0}
 
 
-# Team sizes (spec `keepaway-task.md` 1): uniform numbers run from 1 to 11 on each side. A server
+# Team sizes (docs/players.md §1): uniform numbers run from 1 to 11 on each side. A server
 # simulates any such teams; the Keepaway task needs a keeper to pass to (Pass chooses HoldBall or
 # PassBall-k, k = 2..K) and a taker to end episodes.
 MAX_TEAM_SIZE = 11

@@ -1,4 +1,4 @@
-"""Optional CURVE authentication of every keepaway port (docs/protocol.md 14 "Security").
+"""Optional CURVE authentication of every keepaway port (docs/protocol.md §15).
 
 ZeroMQ's CURVE mechanism encrypts a connection and authenticates both ends by their public keys; the ZAP
 protocol lets the binding process decide which client keys it takes. Without keys every port is plain TCP

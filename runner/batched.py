@@ -1,8 +1,8 @@
 """The batched mode: many Keepaway arenas, each with five full noisy players, stepped in one process.
 
-Spec `architecture.md`, "Embedded and batched execution": the same simulator core and the same agent
-kernels as the distributed mode, composed in one numba loop over arenas. Per arena and cycle, in the
-distributed server's synchronous order (``server/app.py`` ``_run_sync``, ``server/arena.py``):
+The same simulator core and the same agent kernels as the distributed mode, composed in one numba loop
+over arenas. Per arena and cycle, in the distributed server's synchronous order (``server/app.py``
+``_run_sync``, ``server/arena.py``):
 
 1. percepts of every player, in object order: sense_body; the referee's episode message
    (`training Keepaway 1`, heard in the first cycle of a new episode) -> world-model forget and
@@ -23,15 +23,15 @@ of the embedded game (``tests/test_batched.py``).
 
 Every arena plays its own policies (:class:`ArenaPolicies`: its players' agent-config record, with its
 Pass and GetOpen policy codes, and its learners' step size and rows), so arenas of different
-configurations share a batch. Pass learning (``pass_policy="learned"``, spec `keepaway-agents.md` 5,
-`keepaway-task.md` 5): every keeper of every such arena owns one row of an ``agents.sarsa.SarsaMemory``
+configurations share a batch. Pass learning (``pass_policy="learned"``,
+docs/players.md §6.3): every keeper of every such arena owns one row of an ``agents.sarsa.SarsaMemory``
 (rows ``l * K .. l * K + K - 1`` for the keepers of the l-th learning arena: its own weights, as in the
 original, where each keeper process learns alone).
 At ``keeper_decide``'s external decision points (``PASS_EXTERNAL``, :class:`Decisions`
 ``decision``/``pass_state``) the row starts its episode or steps with reward = cycles since the keeper's
-last kicking cycle (``time - t_last``; spec agents 1 step 3b), and the keeper executes the action; when an
+last kicking cycle (``time - t_last``; docs/players.md §2 step 3b), and the keeper executes the action; when an
 episode ends, every keeper that decided in it gets the terminal update with reward = first cycle of the
-new episode - its ``t_last`` (the cycle in which a player process hears the referee; agents 5), keepers
+new episode - its ``t_last`` (the cycle in which a player process hears the referee; docs/players.md §6.3), keepers
 that never had the ball none. All of it runs inside the compiled chunk loop. A learner row draws its
 exploration from the stream a player process's learner gets (:func:`learner_seed`), so a learning arena
 of the batched mode learns the very weights of the embedded game with learning players
@@ -138,7 +138,7 @@ def arena_seed(seed: int, b: int) -> int:
 
 def agent_seed(seed: int, obj: int, n_keepers: int) -> np.uint64:
     """The random stream of player object ``obj`` of the arena seeded ``seed`` (its exploration and
-    random policies; spec `architecture.md`, Determinism): the player process's own derivation
+    random policies; docs/advice.md §2, "seed"): the player process's own derivation
     (``agents/player.py``, ``SeedSequence([seed, side, unum])``, side 0 keepers, 1 takers)."""
     side, unum = (_SIDE_KEEPERS, obj) if obj <= n_keepers else (_SIDE_TAKERS, obj - n_keepers)
     return agent_seed_sequence(seed, side, unum).generate_state(1, dtype=np.uint64)[0]
@@ -211,7 +211,7 @@ def see_to_model_row(out: SeeBuffers, b: int, obs: int, cycle: int, n_keepers: i
     """Observer ``obs``'s see of arena ``b`` as the world model's see row ``row``: what
     ``see_payload`` puts on the wire and ``WorldModel.on_see`` unpacks, without the wire. Flags with an
     id (PARTIAL, FULL) in slot order; the ball; every seen player in slot order, its side if PARTIAL or
-    FULL, its unum and facing if FULL; omitted fields NaN (spec `server-physics.md` 4 "Content")."""
+    FULL, its unum and facing if FULL; omitted fields NaN (docs/rules.md §5.2)."""
     p = obs - 1
     n_flags = 0
     for slot in range(N_FLAGS):
@@ -282,7 +282,7 @@ def perceive(b: int, obs: int, row: int, w: World, with_see: bool, episode_messa
 def learn_pass(learner: int, obs: int, row: int, kp, cfg, pl: Players, sarsa: SarsaMemory, sp) -> None:
     """Keeper ``obs``'s Pass decision point (``keeper_decide`` returned PASS_DECISION_*): its learner row
     (``learner``: its arena's keeper 1's row, :class:`ArenaPolicies`) starts its episode or steps with
-    reward = now - t_last (cycles since its last kicking cycle, spec `keepaway-agents.md` 1 step 3b), and
+    reward = now - t_last (cycles since its last kicking cycle, docs/players.md §2 step 3b), and
     the keeper executes the chosen action."""
     out = pl.out
     r = learner + obs - 1
@@ -298,8 +298,8 @@ def learn_pass(learner: int, obs: int, row: int, kp, cfg, pl: Players, sarsa: Sa
 def end_pass_episodes(b: int, learner: int, w: World, pl: Players, sarsa: SarsaMemory, sp) -> None:
     """The episode of arena ``b`` (its keepers' learner rows from ``learner`` on) ended: each keeper that
     decided in it gets its terminal update with reward = the new episode's first cycle (``w.time`` after
-    the step, when a player process hears the referee) - its last kicking cycle (spec
-    `keepaway-agents.md` 1 step 1, 5); ``end_episode`` skips keepers that never had the ball."""
+    the step, when a player process hears the referee) - its last kicking cycle
+    (docs/players.md §2 step 1, §6.3); ``end_episode`` skips keepers that never had the ball."""
     for p in range(w.n_keepers):
         row = b * (w.pos.shape[1] - 1) + p
         end_episode(sarsa, learner + p, float(w.time[b] - pl.memory.t_last[row]), sp)

@@ -12,7 +12,7 @@ exactly as an uninterrupted one.
 
 Pass learning is sequential: a Pass block's chunks run one after the other in one arena, the first
 loading every keeper's current Pass policy, each asking the keepers for their SMDP transitions since the
-last chunk, the last also for a snapshot of their weights (keepaway-task.md 5: each keeper learns its
+last chunk, the last also for a snapshot of their weights (docs/players.md §6.3: each keeper learns its
 own policy from its own experience, online). The snapshots become the block's result, the transitions
 its trace.
 

@@ -1,5 +1,5 @@
 """The distributed backend: arenas of separate processes (server, coach, keepers, takers) driven through
-their coaches' arena ports (architecture, "Channels"; ``protocol.arena``).
+their coaches' arena ports (docs/advice.md §6; ``protocol.arena``).
 
 A job is cut into chunks of requests (``runner.coached``). Frozen jobs spread their chunks over every
 free arena; a learning job's chunks run in order in the first arena. The arenas are started here

@@ -3,7 +3,7 @@
 The server's :class:`server.arena.Arena` and the players' :class:`agents.player.PlayerAgent` talk
 through encoded protocol messages exactly as in the distributed synchronous mode (each message is
 encoded and decoded, so the agents see the very values a socket would deliver). With the same seed the
-embedded and the distributed runs therefore produce the same episodes (architecture, "Determinism").
+embedded and the distributed runs therefore produce the same episodes.
 
 :class:`EmbeddedGame` is one such arena with its players, stepped a cycle at a time: ``keepaway run
 --mode embedded`` (:func:`embedded_episodes`), and the reference the batched mode's kernels are tested

@@ -13,8 +13,7 @@ evaluate`` and ``keepaway experiment`` ask for nothing else, so each runs on eve
 Every backend cuts a job into the same chunks of at most :data:`CHUNK_EPISODES` episodes, chunk j seeded
 ``derive_seed(seed, j)`` (:func:`chunk_seeds`), and plays each chunk as a fresh arena with that seed plays
 its first episodes; a learning job's chunks follow one another, the keepers' weights carried over. So
-every backend plays the same episodes and learns the same weights from one seed (docs/design.md, "Runner
-interface").
+every backend plays the same episodes and learns the same weights from one seed.
 
 A leaf of the runner: it imports no other module of ``runner`` (nor ``trainer``), so every backend and
 every learner can build on it.
@@ -39,7 +38,7 @@ from server.episode_log import EpisodeRecord
 from server.referee import END_OUT
 
 LEARN = "learn"  # Sarsa modes (agents.sarsa.MODE_NAMES): learning, ...
-GREEDY = "greedy"  # ... and the frozen Pass policy: greedy actions, no updates (keepaway-agents.md 5)
+GREEDY = "greedy"  # ... and the frozen Pass policy: greedy actions, no updates (docs/players.md §6.3)
 # The Sarsa sizes every backend's learners use by default: a 2^16 weight table per keeper, 4,096 live
 # traces (ample for lambda = 0: one action's 416 tiles at a time), a 64-transition log (the batched mode
 # reports none); the table size is argued in runner/batched.py's docstring.
@@ -129,7 +128,7 @@ class EpisodeTable:
 
     @property
     def hold_cycles(self) -> np.ndarray:
-        """Episode lengths in cycles (hold time, spec `keepaway-task.md` 1)."""
+        """Episode lengths in cycles (hold time, docs/players.md §1)."""
         return self.end_cycle - self.start_cycle
 
     @classmethod

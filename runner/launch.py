@@ -1,7 +1,7 @@
 """Starting a whole distributed arena (server, coach, keepers, takers) as separate processes.
 
 Every process gets its own session so the whole arena can be stopped at once; a process that dies is
-named in one line; nothing is left running whatever happens (architecture, "Processes"): on Linux each
+named in one line; nothing is left running whatever happens (docs/design.md, "Processes and sockets"): on Linux each
 process also gets SIGTERM when the process that started it dies, even by SIGKILL.
 
 A synchronous arena's processes run under Linux's ``SCHED_BATCH`` policy (docs/design.md, "Processes

@@ -1,7 +1,7 @@
 """``keepaway run``: play N episodes of one configuration in the distributed, embedded or batched mode.
 
 All three modes yield the same thing, a stream of ended episodes, which this module turns into a
-progress bar, a summary table, the logs and the machine-readable summary of the issue:
+progress bar, a summary table, the logs and a machine-readable summary:
 ``{"mode", "seed", "episodes": [...], "mean_hold_time_s", "stderr_hold_time_s", "cycles_per_s",
 "episodes_per_s"}``. The distributed mode's arena runs on this machine, or wherever a caller's
 ``elsewhere`` plays it (``runner.ray_backend.ray_run``: on a Ray node).

@@ -6,12 +6,12 @@ a one-line ``error`` reply and a (rate-limited, counted) log line; it never stop
 fairly and in bounded amounts (``server/intake.py``): no client, however fast it sends, holds the loop
 away from the game.
 
-Rejoin (docs/protocol.md 12): a player whose connection is gone (unreachable, or given up after
+Rejoin (docs/protocol.md §12, "Rejoin"): a player whose connection is gone (unreachable, or given up after
 ``max_missed_cycles``) loses its seat to a ``reconnect`` for its number; the body stays on the pitch as
 it was. The cycles of an episode stepped without a player's command are counted per player and logged
 with the episode (``EpisodeRecord.missed``), so short-handed episodes are marked.
 
-Pausing (docs/protocol.md 12 "Coach"): the clock stands still between cycles, before any percept of the
+Pausing (docs/protocol.md §12, "Coach"): the clock stands still between cycles, before any percept of the
 next cycle, so a pause that falls due at an episode's end (``pause`` with ``episodes_left``) holds the
 arena exactly at the boundary: no player sees or acts in the new episode before ``resume``. While paused
 the queued ``hear`` messages (the referee's episode message, the coach's advice) go out at once, bare, so
@@ -223,7 +223,7 @@ class Server:
     def _run_sync(self, poller: zmq.Poller) -> None:
         """Synchronous mode: percepts of cycle t + think, then wait until every connected, non-hung
         player has answered t (or cycle_timeout_s passes), then step. Sockets are read only while
-        waiting, so a command that arrives after the step acts one cycle later (spec 1)."""
+        waiting, so a command that arrives after the step acts one cycle later (docs/rules.md §8)."""
         cfg = self.config
         while self.stop_reason is None:
             self._hold_while_paused(poller)
@@ -244,7 +244,7 @@ class Server:
 
     def _run_realtime(self, poller: zmq.Poller) -> None:
         """Real-time mode: a step every simulator_step_ms of wall time; sense_body right after it; each
-        player's see on its own period from its connect time (asynchronous with the cycle, spec 1);
+        player's see on its own period from its connect time (asynchronous with the cycle, docs/rules.md §5.1);
         ``think``, the end-of-cycle marker, once no see of the player falls before the next step. A pause
         stops the step and see timers; they go on from where they stood on resume."""
         step_s = self.config.params.simulator_step_ms / 1000.0

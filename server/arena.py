@@ -3,7 +3,7 @@
 The distributed server (``server/app.py``) wraps it with ZeroMQ and timing; the embedded mode drives it
 directly. Everything here is deterministic given the seed and the commands submitted per cycle; the
 coach's ``reset`` with a seed (:meth:`Arena.reset_episode`) makes the rest of the game depend only on that
-seed and the commands that follow, whatever was played before (docs/protocol.md 12 "Coach").
+seed and the commands that follow, whatever was played before (docs/protocol.md §12, "Coach").
 """
 
 from __future__ import annotations
@@ -63,7 +63,7 @@ class ArenaError(Exception):
 
 @dataclass
 class PlayerSlot:
-    """Server-side state of one player connection (spec 1, 3, 4)."""
+    """Server-side state of one player connection (docs/rules.md §2, §4, §5)."""
 
     obj: int
     side: str
@@ -76,7 +76,7 @@ class PlayerSlot:
     hears: list[QueuedHear] = field(default_factory=list)
 
     def see_period_ms(self, send_step_ms: float) -> float:
-        """Asynchronous see period: send_step x width factor (spec 4; high quality only)."""
+        """Asynchronous see period: send_step x width factor (docs/rules.md §5.1; high quality only)."""
         return send_step_ms * VIEW_WIDTHS[self.view_width]
 
 
@@ -163,13 +163,13 @@ class Arena:
         return s
 
     def release(self, obj: int) -> None:
-        """Free the seat of a client that is gone without ``bye`` (docs/protocol.md 12 "Rejoin"), for a
+        """Free the seat of a client that is gone without ``bye`` (docs/protocol.md §12, "Rejoin"), for a
         ``reconnect``: unlike :meth:`disconnect` the player stays on the pitch as it is, so for the game
         the rejoining client only takes over a player that missed some cycles."""
         self.slot(obj).connected = False
 
     def disconnect(self, obj: int) -> None:
-        """bye: the player is disabled and parked off the pitch (spec 6)."""
+        """bye: the player is disabled and parked off the pitch (docs/protocol.md §5, "bye")."""
         s = self.slot(obj)
         s.connected = False
         w = self.world
@@ -186,7 +186,7 @@ class Arena:
 
     # -- game ----------------------------------------------------------------------------------------
     def start(self) -> None:
-        """Kick-off: the first play_on resets the field and starts episode 1 (spec 5 Start)."""
+        """Kick-off: the first play_on resets the field and starts episode 1 (docs/rules.md §8, "The kick-off")."""
         if not self.started:
             self.started = True
             start_game(0, self.world, self.referee, self.kp)
@@ -196,7 +196,7 @@ class Arena:
         """Queue one client's atomic commands for this cycle, as (name, args) pairs (a decoded
         ``Command``'s); return one-line warnings for the client.
 
-        Slot rule (spec 1 Commands): the first accepted dash/turn/kick/tackle/move/catch wins, later
+        Slot rule (docs/rules.md §2): the first accepted dash/turn/kick/tackle/move/catch wins, later
         ones are ignored; CLASSIC: a kick that cannot reach the ball does not use the slot. turn_neck
         has its own slot; say and change_view are unlimited. Numbers are finite (the codec checks);
         ranges are clamped by the kernels as rcssserver clamps them. The slot rules are a kernel's
@@ -294,14 +294,14 @@ class Arena:
         return record
 
     def reset_episode(self, seed: int | None = None, now_ms: float = 0.0) -> None:
-        """The coach's "reset" (docs/protocol.md 12 "Coach"): restart the episode now, not logged; the
+        """The coach's "reset" (docs/protocol.md §12, "Coach"): restart the episode now, not logged; the
         episode and cycle counters go on and the players hear the referee's episode message.
 
         Without ``seed`` the field is reset from the running stream; everything else goes on. With
         ``seed`` the new episode plays exactly as the first episode of a fresh arena started with that
         seed, relative to this cycle (common random numbers across a trainer's requests): the world
         becomes a fresh one (:meth:`_restore_fresh`, ``now_ms`` being this cycle's virtual time for the
-        see timers), then the kick-off's reset (spec 5 Start) places the players from the new stream.
+        see timers), then the kick-off's reset (docs/rules.md §7) places the players from the new stream.
         Exact only between cycles (the server pauses there, ``server/app.py``): percepts already sent
         for this cycle described the old episode. Before the kick-off the arena is only reseeded and
         the kick-off places the players.
@@ -324,8 +324,8 @@ class Arena:
         the command counters (``KEPT_ON_RESEED``): the random stream (``seed_streams(seed, 1)``), the
         ball at the centre, parked players, body and neck angles, stamina, effort, recovery, capacity,
         collision and kick flags; no pending commands or says; every view normal, and every see timer
-        restarted at ``now_ms`` as if the player connected now (spec 1: a see is due every period from
-        the connection time). Queued hears stay (the coach's advice) but for the players' says, which
+        restarted at ``now_ms`` as if the player connected now (docs/rules.md §5.1: a see is due every period
+        from the connection time). Queued hears stay (the coach's advice) but for the players' says, which
         belong to the old world.
         """
         w = self.world
@@ -351,7 +351,7 @@ class Arena:
         return said
 
     def _referee_says(self, *messages: str) -> None:
-        """Referee messages are heard at once, in this cycle's percepts (spec 4 Hearing)."""
+        """Referee messages are heard at once, in this cycle's percepts (docs/rules.md §5.5)."""
         if self.referee_log is not None:
             self.referee_log.extend(messages)
         frames = [encode(m.Hear(cycle=self.cycle, sender="referee", direction=None, unum=None, message=text))
@@ -362,13 +362,13 @@ class Arena:
     # -- hearing ------------------------------------------------------------------------------------
     def take_hears(self, s: PlayerSlot) -> list[bytes]:
         """The frames of the hears queued for ``s``, in order, now delivered: in its next percepts, or at
-        once while the server is paused (docs/protocol.md 12 "Coach")."""
+        once while the server is paused (docs/protocol.md §12, "Coach")."""
         out, s.hears = s.hears, []
         return [h.frame for h in out]
 
     def advice_targets(self, target: Any) -> list[int]:
         """The player objects a coach's advice ``target`` names: "keepers", "takers", "all", or one player
-        as [side, unum] (docs/protocol.md 7, ``advice``)."""
+        as [side, unum] (docs/protocol.md §7)."""
         if target == "keepers":
             return [s.obj for s in self.slots if s.side == "l"]
         if target == "takers":
@@ -403,7 +403,7 @@ class Arena:
         self._frame_end = np.empty(frames, dtype=np.int64)
 
     def _deliver_says(self) -> None:
-        """Says of cycle t are heard in t+1 (spec 4 Hearing): self always, others as
+        """Says of cycle t are heard in t+1 (docs/rules.md §5.5): self always, others as
         ``perception.hear_picks`` draws them. One kernel call draws them for every connected listener and
         writes their frames (``perception.hear_frames``; a say's text was checked when it was taken,
         :meth:`submit`); here they are only cut apart and queued."""

@@ -1,4 +1,4 @@
-"""The server's rules for a player's commands of a cycle (`server-physics.md` 1 "Commands"), compiled.
+"""The server's rules for a player's commands of a cycle (docs/rules.md §2), compiled.
 
 One main command (dash, turn, kick, tackle, move, catch) and one turn_neck per cycle, the first accepted
 winning; under the classic parameters (``failed_kick_uses_slot`` off) a kick that cannot reach the ball
@@ -35,7 +35,7 @@ MAIN_SLOT = {"dash": CMD_DASH, "turn": CMD_TURN, "kick": CMD_KICK, "tackle": CMD
 """The commands of the main slot, by name, and their ``Commands.main`` codes."""
 
 SAY_ALPHABET = "[-0-9a-zA-Z ().+*/?<>_]"
-"""The characters a say may use (spec 3 "say"), as a regular expression's class."""
+"""The characters a say may use (docs/rules.md §2, "The other commands"), as a regular expression's class."""
 
 DROPPED_SAY = -1
 """The code :func:`take_command_frame` gives a say that :func:`say_allowed` refuses, in its buffer."""

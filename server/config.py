@@ -54,10 +54,10 @@ class ServerConfig:
     kwy_name: str | None = "keepaway"  # fixed .kwy name; None: incomplete.kwy renamed at shutdown
     game_log: bool = True  # with log_dir: also write the game log (<kwy_name>.rcg, server/game_log.py)
     max_message_bytes: int = 4 * 1024 * 1024
-    player_budget: int = 8  # messages of a seated player served per cycle (docs/protocol.md 1 "Budgets")
-    coach_budget: int = 8  # messages of a coach served per cycle (docs/protocol.md 1 "Budgets")
+    player_budget: int = 8  # messages of a seated player served per cycle (docs/protocol.md §1, "Budgets")
+    coach_budget: int = 8  # messages of a coach served per cycle (docs/protocol.md §1, "Budgets")
     unseated_budget: int = 16  # messages per 0.1 s of a client that is not (yet) a player or a coach
-    # what keepers note with their commands, for the game log and the monitor (docs/protocol.md
+    # what keepers note with their commands, for the game log and the monitor (docs/protocol.md §5,
     # "command"): none (the default: nothing extra on the wire), their GetOpen target, or target and values
     getopen_notes: str = "none"
 

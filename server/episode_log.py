@@ -1,7 +1,7 @@
 """Episode logs: rcssserver's ``.kwy`` file and a JSON-lines log with the run's seed and parameters.
 
 Both write one line per episode and flush it at once, so nothing already logged is lost if the process
-is killed (spec `server-physics.md` 5 "kwy log"; agents spec 6 for what an episode's hold time is).
+is killed (docs/protocol.md §12, "Episode logs"; docs/players.md §1 for what an episode's hold time is).
 
 A log never overwrites an earlier one: a log file that already exists when a new one opens under its
 name (a resumed training, a second server on the same log directory) is first moved to the next free
@@ -61,7 +61,7 @@ class EpisodeRecord:
 
     @property
     def hold_time_s(self) -> float:
-        """Hold time in simulated seconds (agents spec 6: cycles / 10 at 100 ms per step)."""
+        """Hold time in simulated seconds (docs/players.md §1: cycles / 10 at 100 ms per step)."""
         return self.duration * self.simulator_step_ms / 1000.0
 
 
@@ -136,7 +136,8 @@ class LineLog:
 
 
 class KwyLog(LineLog):
-    """rcssserver's Keepaway log, byte for byte (spec 5 "kwy log", ``KeepawayRef::logHeader``).
+    """rcssserver's Keepaway log, byte for byte (rcssserver src/referee.cpp, ``KeepawayRef::logHeader``, and
+    src/logger.cpp).
 
     With ``fixed_name`` the file is ``<directory>/<fixed_name>.kwy``; otherwise it is written as
     ``<directory>/incomplete.kwy`` and renamed at :meth:`close` to

@@ -21,7 +21,7 @@ reference's runs) takes its episodes from the ``.kwy`` beside it (:func:`read_kw
 values, is written as ``(msg T 2 "(getopen (l U) TX TY [X1 Y1 V1 ...])")`` on the log board (board 2),
 which rcssmonitor and soccerwindow2 list and otherwise ignore; ``keepaway view`` and ``keepaway render``
 draw them. Our keepers send them with their commands when the server asks for notes (``keepaway server
---getopen-notes target|values``, docs/protocol.md ``command``); the note of a step's commands goes with the
+--getopen-notes target|values``; docs/protocol.md §5, "command"); the note of a step's commands goes with the
 show after that step.
 
 The core is sans-IO: :class:`RcgFormatter` turns shows and events into text lines, :func:`parse_rcg`

@@ -1,5 +1,5 @@
-"""Fair, bounded input: how many messages of each peer the server reads (docs/protocol.md 1 "Budgets",
-docs/design.md "Fair input and rejoin").
+"""Fair, bounded input: how many messages of each peer the server reads (docs/protocol.md §1, "Budgets";
+docs/design.md, "Fair input and rejoin").
 
 A poller loop that reads a socket until it is empty can be held there by one client that sends faster
 than the server answers, and the game stops. So the server's loop (``server/app.py``) reads at most

@@ -1,4 +1,5 @@
-"""What each player perceives: ``see``, ``sense_body`` and ``fullstate`` (spec `server-physics.md` 4).
+"""What each player perceives: ``see``, ``sense_body`` and ``fullstate`` (docs/rules.md §5;
+rcssserver src/visualsenderplayer.cpp, src/bodysender.cpp, src/fullstatesender.cpp).
 
 The kernels mirror rcssserver's ``VisualSenderPlayerV1``/``BodySenderPlayerV6`` arithmetic step by step
 (angles are turned into radians with the server's ``DEG2RAD`` and back with ``RAD2DEG``; distances get
@@ -41,14 +42,14 @@ DIST_EPS = 1.0e-10
 DIST_STEP = 0.1
 SPEED_STEP = 0.01
 
-# How much of an object a see reveals (spec 4 "Content", "Identity by distance").
+# How much of an object a see reveals (docs/rules.md §5.2).
 UNSEEN = 0
 CLOSE = 1  # outside the view cone within visible_distance: anonymous (F) (G) (B) (P), dist and dir
 NAMELESS = 2  # player too far for its team: (p) dist dir
 PARTIAL = 3  # flag/ball without the change pair; player with team but no unum, changes or facing
 FULL = 4  # everything: name, dist_chg, dir_chg (players also unum, body_dir, head_dir)
 
-# View cone width factors applied to visible_angle (spec 4 "View modes").
+# View cone width factors applied to visible_angle (docs/rules.md §5.1).
 VIEW_WIDTH_FACTOR: dict[str, float] = {"narrow": 0.5, "normal": 1.0, "wide": 2.0}
 SYNCH_SEE_WIDTH_FACTOR: dict[str, float] = {"narrow": 2.0 / 3.0, "normal": 4.0 / 3.0, "wide": 2.0}
 
@@ -58,7 +59,7 @@ COUNT_NAMES: tuple[str, ...] = ("kick", "dash", "turn", "catch", "move", "turn_n
 
 @njit(cache=True)
 def see_due(cycle: int, step_ms: float, period_ms: float, phase_ms: float) -> bool:
-    """Synchronous-mode see schedule in virtual time (spec 1): a see is due every ``period_ms`` from
+    """Synchronous-mode see schedule in virtual time (docs/rules.md §5.1): a see is due every ``period_ms`` from
     ``phase_ms`` (the player's connection time), and one whose time falls in ((cycle - 1) step, cycle
     step] comes with cycle's percepts (normal width: 2 sees per 3 cycles: 0, 2, 3, 5, 6, ...)."""
     hi = cycle * step_ms - phase_ms
@@ -67,7 +68,7 @@ def see_due(cycle: int, step_ms: float, period_ms: float, phase_ms: float) -> bo
 
 def cone_factor(view_width: str, synch_see: bool = False) -> float:
     """Factor on ``visible_angle`` giving the full view cone for a view width: asynchronous sees use
-    narrow 0.5 / normal 1 / wide 2, synch-see (v18+ clients) 2/3, 4/3, 2 (spec 4 "View modes")."""
+    narrow 0.5 / normal 1 / wide 2, synch-see (v18+ clients) 2/3, 4/3, 2 (docs/rules.md §5.1)."""
     table = SYNCH_SEE_WIDTH_FACTOR if synch_see else VIEW_WIDTH_FACTOR
     try:
         return table[view_width]
@@ -76,7 +77,7 @@ def cone_factor(view_width: str, synch_see: bool = False) -> float:
 
 
 # --------------------------------------------------------------------------------------------------
-# Quantisation and angles (spec 4 "Distance", "Content")
+# Quantisation and angles (docs/rules.md §5.2)
 
 
 @njit(cache=True, inline="always")
@@ -274,7 +275,7 @@ def _far_probability(quant_dist: float, far: float, too_far: float) -> float:
 
 @njit(cache=True, inline="always")
 def _player_level(rng: np.ndarray, b: int, quant_dist: float, kp) -> int:
-    """Identity of a player inside the cone (spec 4 "Identity by distance"): CLASSIC drops the team at
+    """Identity of a player inside the cone (docs/rules.md §5.2): CLASSIC drops the team at
     d' >= team_too_far_length, CURRENT with p(team lengths); then the unum with p(unum lengths)."""
     if kp.team_loss_probabilistic != 0.0:
         if _decide(rng, b, _far_probability(quant_dist, kp.team_far_length, kp.team_too_far_length)):
@@ -362,7 +363,7 @@ def see_arena(b: int, w: World, obs: int, width_factor: float, kp: KernelParams,
     """Compute player object ``obs``'s see of arena ``b`` into row ``obs - 1`` of ``out``.
 
     ``width_factor`` multiplies ``kp.visible_angle`` into the full view cone (:func:`cone_factor`).
-    Identity-loss draws come from ``w.rng[b]`` in sending order (flags, ball, players). Spec 4.
+    Identity-loss draws come from ``w.rng[b]`` in sending order (flags, ball, players); docs/rules.md §5.2.
     """
     p = obs - 1
     ox = w.pos[b, obs, 0]
@@ -437,8 +438,8 @@ def see_arena(b: int, w: World, obs: int, width_factor: float, kp: KernelParams,
 
 @njit(cache=True, inline="always")
 def _changes(dist: float, quant_dist: float, dx: float, dy: float, rvx: float, rvy: float, kp) -> tuple:
-    """dist_chg and dir_chg from the relative stored velocity (rcssserver ``calcVel``, spec 4
-    "Changes"): both 0 at distance 0; an exact 0 direction change stays 0 instead of being quantised."""
+    """dist_chg and dir_chg from the relative stored velocity (rcssserver ``calcVel``,
+    docs/rules.md §5.2): both 0 at distance 0; an exact 0 direction change stays 0 instead of being quantised."""
     if dist == 0.0:
         return 0.0, 0.0
     ex = dx / dist
@@ -453,7 +454,7 @@ def _changes(dist: float, quant_dist: float, dx: float, dy: float, rvx: float, r
 def _see_lines(b: int, p: int, ox: float, oy: float, head: float, kp, out: SeeBuffers) -> None:
     """The pitch lines the line of sight crosses (rcssserver ``sendLines``/``sendLine``): at most one
     from inside the pitch, two from outside; distance |perpendicular / cos(sight-to-normal angle)|
-    quantised with quantize_step_l; direction = that angle -/+ 90 deg (spec 4)."""
+    quantised with quantize_step_l; direction = that angle -/+ 90 deg (docs/rules.md §5.2)."""
     half_length = kp.pitch_length * 0.5
     half_width = kp.pitch_width * 0.5
     inside = abs(ox) < half_length and abs(oy) < half_width
@@ -509,7 +510,7 @@ def see_batch(w: World, width_factor: np.ndarray, due: np.ndarray, kp: KernelPar
 @borrowing
 def sense_body_arena(b: int, w: World, obs: int, out: SenseBodyBuffers) -> None:
     """Player object ``obs``'s sense_body values into row ``obs - 1`` (rcssserver BodySenderPlayerV6+,
-    spec 4 "sense_body"): speed Q(|v|, 0.01) of the stored velocity, its direction relative to body +
+    docs/rules.md §5.3): speed Q(|v|, 0.01) of the stored velocity, its direction relative to body +
     neck and the neck angle, both truncated to integer degrees."""
     p = obs - 1
     vx = w.vel[b, obs, 0]
@@ -589,7 +590,7 @@ def see_frame_bytes(n_objects: int) -> int:
 @borrowing
 def write_see(out: SeeBuffers, b: int, obs: int, n_keepers: int, cycle: int, buf: np.ndarray) -> int:
     """One observer's ``see`` message (``protocol.messages.See``) as msgpack into ``buf``; returns its
-    length. Rows in spec 4 "Content" order: flags, lines, the ball, players left then right. Omitted
+    length. Rows in this order: flags, lines, the ball, players left then right. Omitted
     fields are nil: a CLOSE flag has no id, a NAMELESS player no side, a PARTIAL one no unum; changes
     and facing only at FULL; an unseen ball is nil."""
     p = obs - 1
@@ -675,7 +676,7 @@ def _put_changes(buf: np.ndarray, n: int, out: SeeBuffers, b: int, p: int, slot:
 @borrowing
 def write_sense_body(out: SenseBodyBuffers, b: int, obs: int, cycle: int, view_mode: np.ndarray,
                      buf: np.ndarray) -> int:
-    """One player's ``sense_body`` message (``protocol.messages.SenseBody``, spec 4 "sense_body") as
+    """One player's ``sense_body`` message (``protocol.messages.SenseBody``, docs/rules.md §5.3) as
     msgpack into ``buf``; returns its length. The view mode is server-side connection state: the caller
     passes it packed (:func:`packed_view_mode`)."""
     p = obs - 1
@@ -750,7 +751,7 @@ def see_payload(out: SeeBuffers, b: int, obs: int, n_keepers: int) -> dict:
 @njit(cache=True)
 def hear_picks(b: int, w: World, speakers: np.ndarray, listener: int, hear_max: float, cut: float,
                picks: np.ndarray) -> int:
-    """Which of this cycle's says ``listener`` hears from other players (spec 4 "Hearing"): ``speakers``
+    """Which of this cycle's says ``listener`` hears from other players (docs/rules.md §5.5): ``speakers``
     holds the speaker of each say, in object order; of those other than the listener within ``cut``
     (audio_cut_dist), at most ``hear_max`` from its own team, then at most ``hear_max`` from the other,
     each drawn at random from arena ``b``'s stream. Writes their indices into ``speakers`` to ``picks``
@@ -862,7 +863,7 @@ def sense_body_payload(out: SenseBodyBuffers, b: int, obs: int, view_quality: st
 
 
 def fullstate(w: World, b: int) -> dict:
-    """Exact global state of arena ``b`` (rcssserver fullstate, spec 4): ball x y vx vy; every enabled
+    """Exact global state of arena ``b`` (rcssserver fullstate, docs/rules.md §5.4): ball x y vx vy; every enabled
     player side, unum, x y vx vy, body, neck (deg, neck relative to body), stamina effort recovery
     capacity. Not mirrored for the right team."""
     ball = np.concatenate((w.pos[b, BALL], w.vel[b, BALL])).tolist()

@@ -1,8 +1,9 @@
-"""rcssserver's physics as numba kernels over a batch of arenas (spec `server-physics.md` 2, 3, 7, 8).
+"""rcssserver's physics as numba kernels over a batch of arenas (docs/rules.md §1-§4; rcssserver
+src/object.cpp, src/player.cpp, src/stadium.cpp).
 
 Each kernel works on one arena ``b`` of a :class:`server.world.World` and reads every constant from the
 kernel parameter record ``kp`` (``ServerParams.kernel()``), so the simulation composes them in one njit
-loop over the batch, in rcssserver's order (spec 2, "Step"):
+loop over the batch, in rcssserver's order (docs/rules.md §1):
 
 1. :func:`apply_commands`: this cycle's resolved dash/turn/kick and turn_neck (``Player::dash``, ``turn``,
    ``kick``, ``turn_neck``); dash and kick accelerations are added to ``w.acc``, turns become pending;
@@ -14,7 +15,7 @@ loop over the batch, in rcssserver's order (spec 2, "Step"):
 :func:`physics_step` is the plain batch entry for all of it; :func:`place_object` is the trainer's move.
 Angles are kept in degrees (rcssserver works in radians; the difference is rounding only). Every random
 draw comes from the arena's own stream ``w.rng[b]``, so a batch draws exactly what its arenas would draw
-one at a time. Goal-post bounces (spec 2 step 1d) are left out: Keepaway is played in a 20 x 20 m square
+one at a time. Goal-post bounces (docs/rules.md §11) are left out: Keepaway is played in a 20 x 20 m square
 at the centre of the pitch, far from the posts, and wind is zero.
 """
 
@@ -76,7 +77,7 @@ def _direction_deg(dx: float, dy: float) -> float:
 
 @njit(cache=True, inline="always")
 def dash_direction_rate(direction: float, kp) -> float:
-    """Power factor of a dash ``direction`` degrees off the body (spec 3, CURRENT; 1.0 straight ahead)."""
+    """Power factor of a dash ``direction`` degrees off the body (docs/rules.md §2, "dash"; 1.0 straight ahead)."""
     d = abs(direction)
     if d > 90.0:
         rate = kp.back_dash_rate - (kp.back_dash_rate - kp.side_dash_rate) * (1.0 - (d - 90.0) / 90.0)
@@ -87,7 +88,8 @@ def dash_direction_rate(direction: float, kp) -> float:
 
 @borrowing
 def dash(b: int, w: World, i: int, power: float, direction: float, kp) -> None:
-    """``Player::dash``: stamina cost, then an acceleration along body + direction into ``w.acc`` (spec 3).
+    """``Player::dash``: stamina cost, then an acceleration along body + direction into ``w.acc``
+    (docs/rules.md §2, "dash").
 
     CLASSIC is the same code with ``min_dash_angle == max_dash_angle == 0`` (no direction, rate 1) and
     ``min_dash_power = -100``: a negative power costs 2|power| and pushes backwards."""
@@ -111,7 +113,7 @@ def dash(b: int, w: World, i: int, power: float, direction: float, kp) -> None:
 
 @borrowing
 def turn(b: int, w: World, i: int, moment: float, kp) -> None:
-    """``Player::turn``: the pending body angle, slowed by inertia at the stored speed (spec 3)."""
+    """``Player::turn``: the pending body angle, slowed by inertia at the stored speed (docs/rules.md §2, "turn")."""
     moment = _clamp(moment, kp.min_moment, kp.max_moment)
     noise = 1.0 + uniform(w.rng, b, -kp.player_rand, kp.player_rand)
     speed = math.hypot(w.vel[b, i, 0], w.vel[b, i, 1])
@@ -121,7 +123,8 @@ def turn(b: int, w: World, i: int, moment: float, kp) -> None:
 
 @borrowing
 def turn_neck(b: int, w: World, i: int, moment: float, kp) -> None:
-    """``Player::turn_neck``: pending neck angle relative to the body, clamped; no noise (spec 3)."""
+    """``Player::turn_neck``: pending neck angle relative to the body, clamped; no noise
+    (docs/rules.md §2, "turn_neck")."""
     moment = _clamp(moment, kp.min_neck_moment, kp.max_neck_moment)
     w.neck_pending[b, i] = _clamp(w.neck[b, i] + moment, kp.min_neck_angle, kp.max_neck_angle)
     w.counts[b, i, COUNT_TURN_NECK] += 1
@@ -141,8 +144,8 @@ def kick_possible(b: int, w: World, i: int, kp) -> bool:
 @borrowing
 def kick(b: int, w: World, i: int, power: float, direction: float, kp) -> None:
     """``Player::kick`` in play_on: effective power by distance and angle, plus noise, added to the
-    ball's acceleration (spec 3). Marks the kicker even when the ball is out of reach (``KICK`` state);
-    only a kick that reaches the ball is counted."""
+    ball's acceleration (docs/rules.md §2, "kick"). Marks the kicker even when the ball is out of reach
+    (``KICK`` state); only a kick that reaches the ball is counted."""
     w.kicked[b, i] = True
     if not kick_possible(b, w, i, kp):
         return
@@ -176,7 +179,7 @@ def kick(b: int, w: World, i: int, power: float, direction: float, kp) -> None:
 
 @borrowing
 def apply_commands(b: int, w: World, c: Commands, kp) -> None:
-    """Execute the already-resolved main command and the turn_neck of every enabled player (spec 3).
+    """Execute the already-resolved main command and the turn_neck of every enabled player (docs/rules.md §2).
 
     tackle, move and catch have no effect in play_on and rcssserver counts none of them there (a move
     outside before_kick_off/after_goal and a non-goalie catch return before their counter); the tackle
@@ -200,7 +203,7 @@ def apply_commands(b: int, w: World, c: Commands, kp) -> None:
 @borrowing
 def _move_object(b: int, w: World, i: int, decay: float, rand: float, speed_max: float,
                  accel_max: float, kp) -> None:
-    """``MPObject::_inc`` for one object (spec 2 step 1 a-e)."""
+    """``MPObject::_inc`` for one object (docs/rules.md §1 step 2)."""
     ax = w.acc[b, i, 0]
     ay = w.acc[b, i, 1]
     vx = w.vel[b, i, 0]
@@ -238,7 +241,8 @@ def _move_object(b: int, w: World, i: int, decay: float, rand: float, speed_max:
 
 @borrowing
 def move_objects(b: int, w: World, kp) -> None:
-    """Step 1 of spec 2 for every enabled object; also starts this step's collision flags afresh.
+    """The movement step (docs/rules.md §1 step 2) for every enabled object; also starts this step's
+    collision flags afresh.
 
     rcssserver shuffles the objects before moving them. Each object moves independently, so the order
     only decides which object consumes which draws; a random rotation of the object order (one draw)
@@ -333,7 +337,7 @@ def _collide_pair(b: int, w: World, i: int, j: int, scratch: np.ndarray, kp) -> 
 
 @njit(cache=True)
 def resolve_collisions(b: int, w: World, kp) -> None:
-    """``Stadium::collisions`` in play_on (spec 2 "Collisions", spec 8): end positions only, no sweep.
+    """``Stadium::collisions`` in play_on (docs/rules.md §3): end positions only, no sweep.
 
     Up to 10 passes; in each, the ball is checked against every player, then every pair of players, all
     from the positions at the start of the pass; each object then moves to the average of its targets.
@@ -377,7 +381,7 @@ def resolve_collisions(b: int, w: World, kp) -> None:
 
 @borrowing
 def update_stamina(b: int, w: World, kp) -> None:
-    """``Player::updateStamina`` for every enabled player (spec 3 "Stamina").
+    """``Player::updateStamina`` for every enabled player (docs/rules.md §4).
 
     The effort increase threshold is effort_dec_thr under CLASSIC (its bug, ``effort_inc_uses_dec_thr``)
     and effort_inc_thr from 12.0; the capacity model (13.0+) is on when ``stamina_capacity >= 0``."""
@@ -410,7 +414,7 @@ def place_object(b: int, w: World, i: int, x: float, y: float, vx: float, vy: fl
                  body_or_nan: float, kp) -> None:
     """The trainer's move (``Stadium::moveBall`` / ``movePlayer``): position, velocity, no acceleration,
     and for a player the body angle (effective and pending) unless NaN. A player move runs the collision
-    routine at once, as rcssserver does (spec 2; traces README "Setup at cycle 0")."""
+    routine at once, as rcssserver does (tests/data/rcss-traces/README.md, "Setup at cycle 0")."""
     w.pos[b, i, 0] = x
     w.pos[b, i, 1] = y
     w.vel[b, i, 0] = vx
@@ -428,7 +432,7 @@ def place_object(b: int, w: World, i: int, x: float, y: float, vx: float, vy: fl
 @borrowing
 def physics_step(w: World, c: Commands, kp) -> None:
     """One play_on cycle of every arena without a referee: commands, movement, collisions, time, stamina
-    (spec 2, steps 0-3 and 5)."""
+    (docs/rules.md §1, steps 1-4 and 6)."""
     for b in range(w.pos.shape[0]):
         apply_commands(b, w, c, kp)
         move_objects(b, w, kp)

@@ -1,9 +1,9 @@
 """The Keepaway referee (rcssserver ``KeepawayRef``) and the ball-stuck referee, as per-arena kernels.
 
-Spec `server-physics.md` 5 (and 2, step 4, for where the referees run): after movement, collisions and
-``time += 1``, every play_on cycle ends the episode when the ball leaves the keepaway region ('o') or a
-taker has been near the ball in ``take_cycles`` counted cycles ('t'); an end resets the field and the
-next episode starts in the same cycle. Kernels take the arena index ``b`` so a caller can compose them
+After movement, collisions and ``time += 1`` (docs/rules.md §1, step 5), every play_on cycle ends the
+episode when the ball leaves the keepaway region ('o') or a taker has been near the ball in
+``take_cycles`` counted cycles ('t'); an end resets the field and the next episode starts in the same
+cycle (docs/rules.md §7; rcssserver src/referee.cpp). Kernels take the arena index ``b`` so a caller can compose them
 with the physics in one njit loop over the batch; :func:`referee_step` is the plain batch entry.
 """
 
@@ -25,7 +25,7 @@ END_OUT = 1
 END_TAKEN = 2
 END_CAUSES = {END_OUT: episode_log.END_OUT, END_TAKEN: episode_log.END_TAKEN}  # names in the logs
 
-# Reset jitter (spec 5 Reset): corners get U(0, 3) inwards, keepers in slot >= 3 U(-1, 1) about the
+# Reset jitter (docs/rules.md §7, reset): corners get U(0, 3) inwards, keepers in slot >= 3 U(-1, 1) about the
 # centre; the ball sits this far inside the slot-0 corner on both axes.
 _CORNER_JITTER = 3.0
 _CENTRE_JITTER = 1.0
@@ -70,7 +70,7 @@ def new_referee_state(batch: int) -> RefereeState:
 
 @borrowing
 def reset_field(b: int, w: World, kp) -> None:
-    """Place the players and the ball for a new episode (spec 5 Reset; agents spec 6).
+    """Place the players and the ball for a new episode (docs/rules.md §7).
 
     Random draws from ``w.rng`` in rcssserver's order: the start slot, then x before y for each enabled
     player in object order (keepers 1..K, then takers). K is the number of enabled keepers, so the
@@ -137,7 +137,7 @@ def _anchor_ball(b: int, w: World, r: RefereeState) -> None:
 
 @borrowing
 def start_game(b: int, w: World, r: RefereeState, kp) -> None:
-    """The first play_on (spec 5 Start): reset the field; episode 1 starts at the current cycle.
+    """The first play_on (docs/rules.md §8, "The kick-off"): reset the field; episode 1 starts at the current cycle.
 
     The ball-stuck anchor is the ball's position before the reset, where rcssserver's BallStuck
     referee last saw it outside play_on.
@@ -152,7 +152,7 @@ def start_game(b: int, w: World, r: RefereeState, kp) -> None:
 
 @borrowing
 def _ball_stuck(b: int, w: World, r: RefereeState, kp) -> None:
-    """BallStuck referee (spec 5 "Other referees"): a ball that stays within ``ball_stuck_area`` of
+    """BallStuck referee (docs/rules.md §7, step 1): a ball that stays within ``ball_stuck_area`` of
     its anchor for ``drop_ball_time`` cycles is dropped where it is (velocity 0) and re-anchored;
     a ball that leaves the area becomes the new anchor."""
     if kp.ball_stuck_area <= 0.0 or kp.drop_ball_time <= 0.0:
@@ -186,9 +186,9 @@ def _near_ball(b: int, w: World, first: int, stop: int, kickable2: float) -> boo
 def keepaway_referee(b: int, w: World, r: RefereeState, kp) -> int:
     """The referees of one play_on cycle of arena ``b``; returns the END_* cause (0: episode goes on).
 
-    Run after movement, collisions and ``time += 1``. In rcssserver's referee order (spec 2 step 4)
+    Run after movement, collisions and ``time += 1``. In rcssserver's referee order (docs/rules.md §1 step 5)
     BallStuck comes before Keepaway; a drop does not move the ball, so it never changes the Keepaway
-    decision of the same cycle. Keepaway (spec 5 "Every play_on cycle"): out test first (the ball not
+    decision of the same cycle. Keepaway (docs/rules.md §7, steps 2-4): out test first (the ball not
     strictly inside the region centred on (0, 0)), then ``take_count >= take_cycles``, else the
     proximity update: any enabled taker nearer than the kickable area counts (even with a keeper
     near), otherwise a keeper that near resets the count, otherwise it stays. An end fills the end

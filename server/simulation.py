@@ -1,4 +1,4 @@
-"""One simulation cycle of a batch of arenas, in rcssserver's order (spec `server-physics.md` 2).
+"""One simulation cycle of a batch of arenas, in rcssserver's order (docs/rules.md §1).
 
 apply commands -> move objects -> collisions -> time += 1 -> Keepaway referee -> stamina. The same
 compiled loop serves the distributed server (batch of one) and the batched mode (many arenas).

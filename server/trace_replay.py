@@ -1,11 +1,11 @@
-"""Replay an rcssserver physics trace against our kernels (traces README, spec `server-physics.md` 2, 3).
+"""Replay an rcssserver physics trace against our kernels (docs/rules.md §1-§4).
 
-A trace (``/work/shared/rcss-traces/*.json``) records one player and the trainer driving rcssserver 19.0.0
-in synch mode, with every ``(fullstate T)`` printed to 6 significant digits. We rebuild the parameter set
-from the file (CURRENT, the 19.0.0 defaults, plus every ``params`` key that names a ``ServerParams``
-field), run the same trainer and player commands with the README's timing (commands of cycle T act in
-the step T -> T+1, trainer commands before the player's) and compare every entry within the print
-precision. Only left-side players in play_on are supported, which is what the traces contain.
+A trace (``tests/data/rcss-traces/*.json``; its format: tests/data/rcss-traces/README.md) records one player
+and the trainer driving rcssserver 19.0.0 in synch mode, with every ``(fullstate T)`` printed to 6 significant
+digits. We rebuild the parameter set from the file (CURRENT, the 19.0.0 defaults, plus every ``params`` key
+that names a ``ServerParams`` field), run the same trainer and player commands with the traces' timing
+(commands of cycle T act in the step T -> T+1, trainer commands before the player's) and compare every entry
+within the print precision. Only left-side players in play_on are supported, which is what the traces contain.
 """
 
 from __future__ import annotations
@@ -24,7 +24,8 @@ from server.physics import physics_step, place_object
 from core.objects import BALL
 from server.world import COLLIDED_BALL, COLLIDED_PLAYER, Commands, World, new_world
 
-RELATIVE_TOLERANCE = 1e-5  # 6 significant digits as printed by the server (traces README)
+# 6 significant digits as printed by the server (tests/data/rcss-traces/README.md)
+RELATIVE_TOLERANCE = 1e-5
 ABSOLUTE_TOLERANCE = 1e-6
 PHYSICS_TRACE_KEYS = ("params", "commands", "trainer_commands", "trace", "last_cycle", "player")
 
@@ -136,7 +137,7 @@ class _Replay:
     def player_commands(self, texts: list[str]) -> None:
         """Resolve the slots as rcssserver does, by the server's rules (``server.command_slots``): the
         first dash/turn/kick wins (a CLASSIC kick that cannot reach the ball leaves the slot free),
-        turn_neck has its own slot (spec 1, "Commands")."""
+        turn_neck has its own slot (docs/rules.md §2)."""
         out = self._read
         if len(texts) > len(out.command):
             raise ValueError(f"more than {len(out.command)} player commands in a cycle: {texts!r}")

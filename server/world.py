@@ -93,7 +93,7 @@ def new_world(params: ServerParams, n_keepers: int, n_takers: int, batch: int = 
     """A batch of arenas with every player disabled and parked, the ball at the centre, full stamina.
 
     Players are enabled when they connect (distributed mode) or by the arena (embedded/batched); the
-    referee's reset then places them (spec 5).
+    referee's reset then places them (docs/rules.md §7).
     """
     if n_keepers < 1 or n_takers < 1:
         raise ValueError("an arena needs at least one keeper and one taker")
@@ -132,7 +132,7 @@ def new_world(params: ServerParams, n_keepers: int, n_takers: int, batch: int = 
 class Commands(NamedTuple):
     """One cycle's commands of every player of every arena (what the step consumes).
 
-    The main slot is already resolved (one command per player, spec 3); out-of-range arguments are
+    The main slot is already resolved (one command per player, docs/rules.md §2); out-of-range arguments are
     clamped by the kernels exactly as rcssserver clamps them."""
 
     main: np.ndarray  # (B, N) int8 CMD_* code

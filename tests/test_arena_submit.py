@@ -1,5 +1,5 @@
-"""The server's rules for a player's commands of a cycle (``server.command_slots``, spec `server-physics.md`
-1 "Commands", docs/protocol.md): one main command (dash, turn, kick, ...) and one turn_neck per cycle, the
+"""The server's rules for a player's commands of a cycle (``server.command_slots``, docs/rules.md §2,
+docs/protocol.md): one main command (dash, turn, kick, ...) and one turn_neck per cycle, the
 first accepted winning; a kick that cannot reach the ball does not use the main slot under the classic
 parameters (``failed_kick_uses_slot``) but does under the current ones; says and change_views are counted
 and unlimited, a say that breaks the size or alphabet rule is dropped with a warning. These are the rules

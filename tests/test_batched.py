@@ -1,6 +1,6 @@
 """The batched mode (runner/batched.py): many arenas with full noisy players in one process.
 
-Spec `architecture.md`, "Embedded and batched execution": one arena of the batched mode must play the
+One arena of the batched mode must play the
 game the distributed server and its player processes play. The reference here is the embedded game
 (``runner.embedded.EmbeddedGame``): a ``server.arena.Arena`` and five ``agents.player.PlayerAgent``
 exchanging encoded messages in the synchronous order.

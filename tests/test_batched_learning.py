@@ -1,6 +1,6 @@
 """Pass learning in the batched mode (runner/batched.py, ``pass_policy="learned"``).
 
-Spec `keepaway-agents.md` 1 and 5, `keepaway-task.md` 5: each keeper of each arena learns its own SMDP
+docs/players.md §2 and §6.3: each keeper of each arena learns its own SMDP
 Sarsa Pass policy; rewards are cycles between its decisions, the terminal reward runs to the new
 episode's first cycle; the mode changes only between episodes. The reference is the embedded game of
 ``tests/test_batched.py`` with learning player agents (``agents.player.sarsa_pass_factory``).
@@ -205,7 +205,7 @@ def test_learned_pass_holds_the_ball_longer_than_the_untrained_policy():
     # P:L-GO:HC: 4 arenas learn for 4 x 1,600 = 6,400 episodes; then their greedy policies and the
     # untrained ones (zero weights, greedy = uniform ties, i.e. random passing) play 416 episodes each;
     # Welch t-test on the hold times. Experience per learner is what counts (arenas learn
-    # independently). With the players of issue 14 (C++ skills, talking) 800 episodes per learner gain
+    # independently). With players that follow the C++ skills and talk, 800 episodes per learner gain
     # about 4 cycles, too little to tell apart on 208 episodes (p 0.01-0.2 by seed); 1,600 gain 11-14
     # (p ~ 1e-12 on seeds 0 and 1).
     trained = learning(4, 0, sarsa=BATCHED_SARSA)

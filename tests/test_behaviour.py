@@ -49,8 +49,8 @@ N = 1 + K + T
 KEEPER_1, KEEPER_2, TAKER_1 = 1, 2, K + 1
 STEP_S = 0.1
 # Hold times of the reference stack over its measurement campaigns: every campaign of the data file
-# (tests/data/rcss-behaviour/README.md), and hand-coded Pass's earlier campaign that the file lacks (the
-# issue's 10.50 s): always hold 2.77-2.98 s, random 5.09-5.34 s, hand-coded 10.39-12.15 s.
+# (tests/data/rcss-behaviour/README.md), and hand-coded Pass's earlier campaign that the file lacks (10.50 s,
+# named in that README): always hold 2.77-2.98 s, random 5.09-5.34 s, hand-coded 10.39-12.15 s.
 EARLIER_CAMPAIGNS_S = {"hold": (), "random": (), "handcoded": (10.50,)}
 
 
@@ -234,7 +234,7 @@ def test_tolerance_is_three_standard_errors_or_ten_percent_whichever_is_larger()
 
 def test_the_reference_file_reads_into_the_same_statistics():
     live = [f"{policy}{seed}" for policy in ("hand", "hold", "rand") for seed in (31, 51, 52, 53)]
-    again = [f"{c}b" for c in live if not c.endswith("31")]  # the same server seeds played again (the data's README)
+    again = [f"{c}b" for c in live if not c.endswith("31")]  # the same server seeds played again (data README)
     assert sorted(REFERENCE) == sorted(["hand", "hand14", "hold", "hold12", "rand", "rand21", *live, *again])
     assert sorted(c for campaigns in REFERENCE_CAMPAIGNS.values() for c in campaigns) == sorted(REFERENCE)
     assert REFERENCE["rand21"].episodes == 1006 and REFERENCE["rand21"].hold_s.value == pytest.approx(5.21, abs=0.005)

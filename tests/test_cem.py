@@ -1,4 +1,4 @@
-"""The cross-entropy method (spec `keepaway-task.md` 6)."""
+"""The cross-entropy method (docs/players.md §8.1)."""
 
 from __future__ import annotations
 

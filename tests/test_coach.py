@@ -63,7 +63,7 @@ def test_trainer_runs_episodes_through_the_arena_endpoint_and_stops_the_arena(pr
 
 
 def test_after_a_20_mb_advice_the_arena_still_answers_a_normal_request(processes, tmp_path):
-    """Issue 12's jam: one run_episodes carrying a 20 MB advice used to leave the arena busy for good."""
+    """A run_episodes carrying a 20 MB advice must not leave the arena busy for good."""
     srv, coach, arena, players = start_arena(processes, tmp_path)
     trainer = zmq.Context.instance().socket(zmq.DEALER)
     trainer.setsockopt(zmq.LINGER, 0)

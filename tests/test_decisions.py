@@ -1,5 +1,5 @@
-"""Keeper and taker decisions, Pass and GetOpen policies (`keepaway-agents.md` 1-3,
-`keepaway-task.md` 2-4)."""
+"""Keeper and taker decisions, Pass and GetOpen policies (docs/players.md §2, §3,
+§6, §7)."""
 
 from __future__ import annotations
 
@@ -213,8 +213,8 @@ def test_taker_holds_the_ball_it_controls():
 
 
 def test_taker_hold_turns_when_the_ball_is_already_in_place():
-    # ball 0.5 m ahead is within 0.3 m of the 0.3 m spot (quirk of spec 2.2 step 2) and stays within
-    # 0.85 x 1.085 m: turn towards the keepers' goal (-52.5, 0), i.e. by 180 deg
+    # ball 0.5 m ahead is within 0.3 m of the 0.3 m spot (quirk of docs/players.md §5.3 step 2) and stays
+    # within 0.85 x 1.085 m: turn towards the keepers' goal (-52.5, 0), i.e. by 180 deg
     pos = [[0.5, 0.0], [-7.0, -7.0], [7.0, -7.0], [-7.0, 7.0], [0.0, 0.0], [6.0, 6.0]]
     out = outputs()
     taker_decide(belief(pos, 4), 0, new_memory(1, seed_streams(0, 1)), SUMS, KP, CFG, *out)

@@ -1,4 +1,4 @@
-"""Episode logs: the rcssserver .kwy file and the JSON-lines log (spec `server-physics.md` 5 "kwy log")."""
+"""Episode logs: the rcssserver .kwy file and the JSON-lines log (docs/protocol.md §12, "Episode logs")."""
 
 from __future__ import annotations
 
@@ -11,8 +11,9 @@ import pytest
 from protocol.params import CLASSIC
 from server.episode_log import EpisodeRecord, JsonlLog, KwyLog, cpp_number, free_name, read_jsonl
 
-# The spec's example, byte for byte (tab-separated episode lines).
-SPEC_EXAMPLE = (
+# The first episodes of the keepaway-0.6 example log (keepaway-0.6 tools/example.kwy), byte for byte
+# (tab-separated episode lines).
+EXAMPLE_KWY = (
     "# Keepers: 3\n"
     "# Takers:  2\n"
     "# Region:  20 x 20\n"
@@ -35,13 +36,13 @@ EPISODES = [
 ]
 
 
-def test_kwy_matches_the_spec_example_byte_for_byte(tmp_path):
+def test_kwy_matches_the_keepaway_example_byte_for_byte(tmp_path):
     log = KwyLog(tmp_path, 3, 2, 20.0, 20.0, fixed_name="rcssserver")
     for record in EPISODES:
         log.write(record)
     log.close()
     assert log.path == tmp_path / "rcssserver.kwy"
-    assert (tmp_path / "rcssserver.kwy").read_bytes() == SPEC_EXAMPLE.encode("ascii")
+    assert (tmp_path / "rcssserver.kwy").read_bytes() == EXAMPLE_KWY.encode("ascii")
 
 
 @pytest.mark.parametrize("value, text", [(20.0, "20"), (17.5, "17.5"), (1 / 3, "0.333333"),

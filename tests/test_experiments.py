@@ -1,6 +1,6 @@
 """``keepaway experiment figure3`` / ``table2`` (trainer/experiments.py, trainer/experiment_cli.py).
 
-Spec `keepaway-task.md` 8: the nine Pass x GetOpen configurations with learning curves (mean and standard
+docs/players.md §8.3: the nine Pass x GetOpen configurations with learning curves (mean and standard
 error over trials), the specialisation cross-tests with Welch's t-test. The experiment here is tiny
 (48 training episodes, CEM generations of 4 candidates x 2 episodes, evaluations of 4 episodes, 2 trials),
 run once per module and copied where a test changes it.
@@ -186,7 +186,7 @@ def test_figure3_writes_a_png_and_final_evaluations_of_nine_configurations(finis
         assert [p["episodes"] for p in configuration["curve"]] == POINTS
         assert float(row["final_mean_hold_time_s"]) == configuration["curve"][-1]["mean_hold_time_s"] > 0.0
         assert math.isfinite(float(row["final_stderr_hold_time_s"]))
-    # Hand-coded keepers hold the ball far longer than random ones (keepaway-task.md 8).
+    # Hand-coded keepers hold the ball far longer than random ones (docs/players.md §8.3).
     finals = {r["name"]: float(r["final_mean_hold_time_s"]) for r in rows}
     assert finals["P:HC-GO:HC"] > 2 * finals["P:R-GO:R"]
     # the same as a table: the pairs first, five columns of the curve, the final beside the hand-coded pair's

@@ -1,4 +1,4 @@
-"""GO:L's input scaling and tie-break (docs/design.md, GetOpen inputs): the scaling folded into the net,
+"""GO:L's input scaling and tie-break (docs/design.md, "Learning options"): the scaling folded into the net,
 the per-kind rule, its place in policy files, checkpoints and advice, and ties between grid points."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The packages import downwards only (style guide): core and protocol are leaves, and a player or a coach
+"""The packages import downwards only: core and protocol are leaves, and a player or a coach
 knows nothing a real client could not know, so agents/ and coach/ import neither server/ nor the layers
 above. runner/ plays games in every mode and knows nothing of learning: trainer/ builds on it, never the
 other way round, and its job types (runner/job.py) are a leaf every backend builds on. No module imports

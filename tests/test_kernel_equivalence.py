@@ -9,8 +9,8 @@ threshold (``agents.geometry.DECIDE_SLACK``), the Sarsa tile hashing sums each t
 parts shared by its tilings, and the Pass and GetOpen variables take each distance once per vertex (and
 what no grid point changes once per decision) and the smallest of several angles from the largest
 cosine. None of this may change a decision or a belief by one bit. The
-references below are the pre-optimisation kernels kept verbatim as plain step-by-step code (spec
-`keepaway-agents.md` 1 step 4, 2.1 step 2; the Procrustes fit of ``localise_row``), compiled by numba
+references below are the pre-optimisation kernels kept verbatim as plain step-by-step code
+(docs/players.md §4.3, §5.2 step 2; the Procrustes fit of ``localise_row``), compiled by numba
 without caching so their floating-point arithmetic is the kernels' (Python's own ``math.hypot`` rounds
 differently). They are compared on hand-built beliefs and on every belief row of a short batched game.
 """

@@ -1,7 +1,8 @@
 """Perception (server/perception.py) and the landmark table (protocol/landmarks.py).
 
-Formulas are pinned with numbers computed by hand from spec `server-physics.md` 4; the replay at the end
-compares our sees with the raw sees of rcssserver 19.0.0 (`rcss-traces/see-samples.json`).
+Formulas are pinned with numbers computed by hand from docs/rules.md §5; the replay at the end
+compares our sees with the raw sees of rcssserver 19.0.0 (``tests/data/see-samples.json``, or the file
+``$KEEPAWAY_SEE_SAMPLES`` names).
 """
 
 from __future__ import annotations
@@ -487,8 +488,7 @@ def samples_path() -> Path:
     env = os.environ.get("KEEPAWAY_SEE_SAMPLES")
     if env:
         return Path(env)
-    shared = REPO.parent / "shared" / "rcss-traces" / "see-samples.json"
-    return shared if shared.exists() else REPO / "tests" / "data" / "see-samples.json"
+    return REPO / "tests" / "data" / "see-samples.json"
 
 
 _SEE_OBJECT = re.compile(r"\(\(([^()]*)\)([^()]*)\)")
@@ -547,4 +547,4 @@ def test_sees_match_rcssserver_19_samples():
                 n = min(len(values), len(ours[name]))
                 assert n >= 2 and ours[name][:n] == values[:n], f"{where} {name}: {ours[name]} != {values}"
                 matched += 1
-    assert matched == total == 4657  # every object of every see string (README counts 1078 "checked")
+    assert matched == total == 4657  # every object of every see string

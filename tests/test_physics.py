@@ -1,4 +1,5 @@
-"""Hand-computed checks of every physics formula (spec `server-physics.md` 2, 3; traces README hand checks)."""
+"""Hand-computed checks of every physics formula (docs/rules.md §1-§4;
+tests/data/rcss-traces/README.md, "Hand checks")."""
 
 from __future__ import annotations
 

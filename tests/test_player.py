@@ -2,7 +2,7 @@
 
 Agents are fed the messages a real ``server.arena.Arena`` produces for 5 players in one process, each
 message encoded and decoded as on the wire; their commands go back through the server's decoder
-(docs/protocol.md 5-6, spec `keepaway-agents.md` 1).
+(docs/protocol.md §5, §6; docs/players.md §2).
 """
 
 from __future__ import annotations
@@ -123,7 +123,7 @@ def test_a_keeper_with_the_ball_kicks_it():
     keeper = 1
     # Ball 0.6 m to the side of keeper 1's body, at rest; takers far away. Not on HoldBall's spot
     # (0.7 m straight ahead, tolerance 0.3: distance sqrt(0.7^2 + 0.6^2) = 0.92), so HoldBall or a pass
-    # must kick (spec `keepaway-agents.md` 2.2 step 3, 2.3).
+    # must kick (docs/players.md §5.3 step 3, §5.4).
     body = math.radians(w.body[0, keeper])
     w.pos[0, 0] = w.pos[0, keeper] + 0.6 * np.array([-math.sin(body), math.cos(body)])
     w.vel[0, 0] = 0.0
@@ -369,7 +369,7 @@ def test_learned_pass_asks_the_learner_at_each_decision_and_ends_its_episode():
         game.think(*slot_agent)
         game.arena.step()
     assert [c[0] for c in learner.calls] == ["start", "step", "step"]
-    # HoldBall lasts one cycle: each step is rewarded 1 cycle (spec `keepaway-agents.md` 1 step 3b)
+    # HoldBall lasts one cycle: each step is rewarded 1 cycle (docs/players.md §2 step 3b)
     assert [c[1] for c in learner.calls[1:]] == [1.0, 1.0]
     assert all(c[2].shape == (13,) for c in learner.calls)
     last_decision = game.arena.cycle - 1

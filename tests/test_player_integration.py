@@ -1,5 +1,5 @@
-"""``keepaway player`` processes against a real ``keepaway server`` (docs/protocol.md; issue: the player
-connects, waits for the game, plays and exits cleanly when the server ends or on SIGTERM)."""
+"""``keepaway player`` processes against a real ``keepaway server`` (docs/protocol.md): the player
+connects, waits for the game, plays and exits cleanly when the server ends or on SIGTERM."""
 
 from __future__ import annotations
 

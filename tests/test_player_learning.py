@@ -1,7 +1,7 @@
 """Pass learning in a player process (agents/player.py, ``--pass learned``): the coach's ``pass_mode``
 advice, taken up at the next episode boundary, and the learner's reports to the coach.
 
-Spec `keepaway-agents.md` 5 (modes, per-keeper learners), `architecture.md` (coach advice, reports). The
+docs/players.md §6.3 (modes, per-keeper learners), docs/advice.md (coach advice, reports). The
 game is the embedded one of ``tests/test_player.py`` (Arena + PlayerAgents, no sockets).
 """
 

@@ -1,4 +1,4 @@
-"""The Keepaway and ball-stuck referees (spec `server-physics.md` 5; `keepaway-agents.md` 6)."""
+"""The Keepaway and ball-stuck referees (docs/rules.md §7)."""
 
 from __future__ import annotations
 
@@ -54,7 +54,7 @@ KEEPER, TAKER = 1, 4
 
 
 def test_taken_after_four_counted_cycles_not_necessarily_consecutive():
-    # Spec 5: taker near in 1, 2; nobody in 3 (count unchanged); taker near in 4, 5 -> count 4 after
+    # docs/rules.md §7: taker near in 1, 2; nobody in 3 (count unchanged); taker near in 4, 5 -> count 4 after
     # cycle 5; the check at cycle 6 ends the episode 't' whatever the positions then.
     w, r = started()
     for near, count in [((TAKER,), 1), ((TAKER,), 2), ((), 2), ((TAKER,), 3), ((TAKER,), 4)]:
@@ -206,7 +206,7 @@ def test_arenas_of_a_batch_are_independent():
 # --- reset -------------------------------------------------------------------------------------
 
 def _corner_slot(x, y, half_l, half_w, jitter=3.0):
-    """Which reset slot box (spec 5) contains (x, y): 0..2 the keeper corners, 3 the centre, 4 the
+    """Which reset slot box (docs/rules.md §7) contains (x, y): 0..2 the keeper corners, 3 the centre, 4 the
     takers' corner, -1 none."""
     boxes = [
         ((-half_l, -half_l + jitter), (-half_w, -half_w + jitter)),

@@ -1,4 +1,4 @@
-"""SMDP Sarsa with tile coding, the Pass learner (spec `keepaway-agents.md` 5, `keepaway-task.md` 5)."""
+"""SMDP Sarsa with tile coding, the Pass learner (docs/players.md §6.3)."""
 
 from __future__ import annotations
 
@@ -86,7 +86,7 @@ def test_unh_hash_is_a_sum_of_table_words():
 def test_widths_paper_and_code():
     paper = tile_widths(SarsaConfig(), 3, 2)
     np.testing.assert_array_equal(paper, [3.0] * 11 + [10.0] * 2)
-    # Code widths (keepaway-agents.md 4) in pass_state order: dist(K1,C) 2, dist(K2,C) 2, dist(K3,C) 3,
+    # Code widths (docs/players.md §6.1) in pass_state order: dist(K1,C) 2, dist(K2,C) 2, dist(K3,C) 3,
     # dist(T1,C) 3, dist(T2,C) 3, dist(K1,K2) 2, dist(K1,K3) 3, dist(K1,T1) 2, dist(K1,T2) 3, 4, 4, 10, 10.
     code = tile_widths(SarsaConfig(code_widths=True), 3, 2)
     np.testing.assert_array_equal(code, [2, 2, 3, 3, 3, 2, 3, 2, 3, 4, 4, 10, 10])

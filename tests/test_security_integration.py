@@ -1,4 +1,4 @@
-"""CURVE authentication with real processes (protocol/security.py, docs/protocol.md 14): an arena started
+"""CURVE authentication with real processes (protocol/security.py, docs/protocol.md §15): an arena started
 with ``--keys`` plays whole episodes for its authorised players, coach and monitor, while a client
 without a key, or with a key the arena does not know, gets nothing and the game goes on; ``keepaway
 run --keys`` and the trainer's arenas play exactly the episodes of the plain game."""

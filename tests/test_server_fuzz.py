@@ -1,5 +1,5 @@
 """Fuzzing the live server loop: whatever a client sends, the server answers with one-line errors and
-keeps serving everyone (spec: "Bad input gets a clear error and loses nothing")."""
+keeps serving everyone: bad input gets a clear error and loses nothing (docs/protocol.md §10)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""A hardened arena (issue 12): floods are dropped and counted while the game goes on, a player that is
+"""A hardened arena: floods are dropped and counted while the game goes on, a player that is
 gone takes its seat back with ``reconnect``, short-handed episodes are marked in the episode log, and a
 second server on a log directory keeps the earlier logs. Real server, scripted clients, real ZeroMQ."""
 

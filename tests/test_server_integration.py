@@ -55,7 +55,7 @@ def test_sync_mode_steps_each_cycle_once_everyone_answered(processes, tmp_path):
                     p.answer(msg.cycle, ("dash", 100.0))
                     break
     assert thinks == list(range(30))
-    # dash 100 from rest: stored speed 0.6 * 0.4 = 0.24 after the first step (spec 3), quantised to 0.01
+    # dash 100 from rest: stored speed 0.6 * 0.4 = 0.24 after the first step (docs/rules.md §1), quantised to 0.01
     assert speeds[0] == 0.0 and speeds[1] == pytest.approx(0.24)
     # send_step 150 ms against 100 ms cycles: 2 sees per 3 cycles at normal width
     assert sees == 20

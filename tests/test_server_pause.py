@@ -1,4 +1,5 @@
-"""Reseeding resets and pausing at episode boundaries (docs/protocol.md 7 `episode_control`, 12 "Coach").
+"""Reseeding resets and pausing at episode boundaries (docs/protocol.md §7, `episode_control`;
+docs/protocol.md §12, "Coach").
 
 The arena-level test pins what a reset with a seed restores against a fresh ``server.arena.Arena``; the
 others drive the real ``keepaway server`` process with scripted players (the deterministic

@@ -1,4 +1,4 @@
-"""Skills pinned by hand computations from `keepaway-agents.md` 2 (classic parameters, keepaway launch)."""
+"""Skills pinned by hand computations from docs/players.md §5 (classic parameters, keepaway launch)."""
 
 from __future__ import annotations
 
@@ -308,7 +308,7 @@ def test_a_player_stuck_dashing_backwards_turns_round():
 
 def test_two_takers_dashing_backwards_at_a_held_ball_do_not_deadlock():
     # Always hold, CURRENT, arena seed 85: in episode 9 both takers stood 1.4-2.0 m from a ball the keeper
-    # held behind them, sending dash -100 every cycle, for ever, until _unstuck (docs/design.md)
+    # held behind them, sending dash -100 every cycle, for ever, until _unstuck (docs/design.md, "The players' skills")
     game = EmbeddedGame(ArenaSpec(parameter_set("current"), seed=85, pass_policy="hold"))
     ends = []
     while len(ends) < 10 and game.arena.cycle < 2000:

@@ -1,4 +1,4 @@
-"""Pass and GetOpen state variables on hand-placed 3v2 positions (`keepaway-task.md` 3-4)."""
+"""Pass and GetOpen state variables on hand-placed 3v2 positions (docs/players.md §6.1, §7.4)."""
 
 from __future__ import annotations
 

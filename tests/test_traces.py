@@ -1,6 +1,5 @@
-"""Our physics reproduces every rcssserver 19.0.0 physics trace (traces README: "build a test that replays
-each file"). The traces come from ``$KEEPAWAY_RCSS_TRACES``, else ``../shared/rcss-traces`` beside the
-repository, else the vendored copy in ``tests/data/rcss-traces``."""
+"""Our physics reproduces every rcssserver 19.0.0 physics trace (tests/data/rcss-traces/README.md). The
+traces come from ``tests/data/rcss-traces``, or from the folder ``$KEEPAWAY_RCSS_TRACES`` names."""
 
 from __future__ import annotations
 
@@ -21,8 +20,7 @@ VENDORED = REPO / "tests" / "data" / "rcss-traces"
 def trace_directory() -> Path:
     if os.environ.get("KEEPAWAY_RCSS_TRACES"):
         return Path(os.environ["KEEPAWAY_RCSS_TRACES"])
-    shared = REPO.parent / "shared" / "rcss-traces"
-    return shared if shared.is_dir() else VENDORED
+    return VENDORED
 
 
 TRACE_FILES = sorted(p for p in trace_directory().glob("*.json")

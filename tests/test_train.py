@@ -1,6 +1,6 @@
 """``keepaway train`` / ``keepaway evaluate`` (trainer/train.py, schedule.py, curves.py, train_cli.py).
 
-Spec `keepaway-task.md` 6-8: CEM generations for GetOpen, Sarsa blocks for Pass, Algorithm 3's schedule,
+docs/players.md §8: CEM generations for GetOpen, Sarsa blocks for Pass, Algorithm 3's schedule,
 frozen evaluations every ``eval_every`` episodes, per-trial outputs, resume from the last checkpoint.
 Trainings here are tiny (a few candidates of a few episodes) so each runs in seconds.
 """
@@ -100,7 +100,7 @@ def outputs(out: Path, trials: int) -> dict[str, object]:
 
 # -- schedule --------------------------------------------------------------------------------------
 def test_algorithm_3_is_the_default_schedule_when_both_behaviours_learn():
-    # keepaway-task.md 7: 2 x 2,500 GetOpen, 5,000 Pass, 6 x 2,500 GetOpen, 5,000 Pass = 30,000.
+    # docs/players.md §8.2: 2 x 2,500 GetOpen, 5,000 Pass, 6 x 2,500 GetOpen, 5,000 Pass = 30,000.
     phases = training_schedule("learned", "learned")
     assert phases == ALGORITHM_3
     assert [(p.behaviour, p.episodes) for p in phases] == [(GETOPEN, 5000), (PASS, 5000), (GETOPEN, 15000),
@@ -125,7 +125,7 @@ def test_schedules_parse_and_refuse_what_cannot_be_trained():
 
 
 def test_evaluations_every_2500_of_30000_episodes_give_13_points():
-    # keepaway-task.md 8: 0, 2,500, ..., 30,000 = 30,000 / 2,500 + 1 = 13 evaluations.
+    # docs/players.md §8.3: 0, 2,500, ..., 30,000 = 30,000 / 2,500 + 1 = 13 evaluations.
     assert evaluation_points(ALGORITHM_3, 2500) == list(range(0, 30_001, 2500))
     assert evaluation_points((Phase(PASS, 10),), 4) == [0, 4, 8, 10]  # the end is always evaluated
 
@@ -468,7 +468,7 @@ def test_an_annealed_step_size_without_learned_pass_is_a_one_line_usage_error(tm
 
 
 def test_before_learning_algorithm_3_plays_random_policies_and_go_l_alone_a_small_random_net():
-    # keepaway-task.md 7: start from P:R and GO:R; 6: a random-initialised net draws from U[-0.5, 0.5].
+    # docs/players.md §8.2: start from P:R and GO:R; §8.1: a random-initialised net draws from U[-0.5, 0.5].
     start = initial_behaviours(algorithm_3_config(), 0)
     assert (start.pass_policy, start.getopen_policy, start.getopen_theta) == ("random", "random", None)
     alone = initial_behaviours(tiny_config(), 0)
@@ -569,10 +569,10 @@ def population_means(seed: int, getopen_inputs: str, generations: int = 7) -> li
 
 @pytest.mark.slow
 def test_cem_raises_the_getopen_population_mean_over_generation_0():
-    # Regression guard for issue 10 (GO:L on raw metres and degrees: N(0, 1) nets saturate, the population
-    # mean stays flat). 8 seeds x 7 generations; per seed the population's mean fitness in generation 0
+    # Regression guard for GO:L's input scaling (on raw metres and degrees N(0, 1) nets saturate and the
+    # population mean stays flat). 8 seeds x 7 generations; per seed the population's mean fitness in generation 0
     # and in generation 6; one-sided Welch t-test over the seeds that the rise exceeds GUARD_GAIN_S.
-    # Measured (docs/design.md): scaled inputs 4.82 -> 8.28 s, p = 0.004; raw inputs 4.69 -> 5.92 s,
+    # Measured (docs/design.md, "Learning options"): scaled inputs 4.82 -> 8.28 s, p = 0.004; raw inputs 4.69 -> 5.92 s,
     # p = 1.0 (this test fails on them).
     means = np.array([population_means(seed, "scaled") for seed in range(8)])
     first, last = means[:, 0], means[:, -1]

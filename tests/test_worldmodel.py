@@ -1,7 +1,7 @@
 """The players' world model (agents/worldmodel.py): localisation, tracking, prediction, confidence.
 
 Percepts come from the server's own perception code (`server/perception.py`) applied to exact worlds,
-or are written by hand where a formula is pinned. Spec `server-physics.md` 2-4, `keepaway-agents.md` 1.
+or are written by hand where a formula is pinned. docs/rules.md §1, §2, §5; docs/players.md §4.
 """
 
 from __future__ import annotations
@@ -178,14 +178,15 @@ def test_velocity_from_sense_body_matches_the_server_within_its_quantisation():
 
 
 # --------------------------------------------------------------------------------------------------
-# own motion prediction (spec `server-physics.md` 2-3)
+# own motion prediction (docs/rules.md §1, §2)
 
 
 @pytest.mark.parametrize("sensed, moved", [(0.24, 0.6), (0.1, 0.25)])
 def test_dash_moves_me_by_the_sensed_speed(sensed, moved):
-    # a = effort 1 * 100 * 0.006 = 0.6; p += 0.6; v = 0.6 * 0.4 = 0.24 (trace README hand check): sensed
-    # 0.24, I moved 0.24 / 0.4 = 0.6, as predicted. Sensed 0.1 (no ball near, no collision guessed): as the
-    # C++ (updateAgentAndBallAfterSense) I moved by the speed before decay, 0.1 / 0.4 = 0.25
+    # a = effort 1 * 100 * 0.006 = 0.6; p += 0.6; v = 0.6 * 0.4 = 0.24 (tests/data/rcss-traces/README.md,
+    # "Hand checks"): sensed 0.24, I moved 0.24 / 0.4 = 0.6, as predicted. Sensed 0.1 (no ball near, no
+    # collision guessed): as the C++ (updateAgentAndBallAfterSense) I moved by the speed before decay,
+    # 0.1 / 0.4 = 0.25
     wm = model_for(1, HAND_FLAGS)
     wm.on_sense_body(sense(3))
     wm.on_see(hand_see(3))
@@ -239,7 +240,7 @@ def test_turn_with_inertia_and_turn_neck():
 
 def test_own_kick_accelerates_the_predicted_ball():
     # ball 0.5 ahead, still; kick 100 at 0: eff = 100 * 0.027 * (1 - 0.25 * (0.5 - 0.385)/0.7)
-    # = 2.58911; ball x = 0.5 + 2.58911 = 3.08911, v = 2.58911 * 0.94 = 2.43376 (trace README)
+    # = 2.58911; ball x = 0.5 + 2.58911 = 3.08911, v = 2.58911 * 0.94 = 2.43376 (tests/data/rcss-traces/README.md)
     wm = model_for(1, HAND_FLAGS)
     wm.on_sense_body(sense(3))
     wm.on_see(hand_see(3, ball=[0.5, 0, 0.0, 0.0]))
@@ -524,7 +525,7 @@ def test_confidence_decays_by_one_hundredth_per_unseen_cycle():
         wm.on_sense_body(sense(cycle))
     b = wm.belief()
     assert CONF_HORIZON_CYCLES == 100.0
-    assert b.conf[0, 0] == pytest.approx(0.90)  # 1 - 10/100: still "known" (keepaway-agents.md 1)
+    assert b.conf[0, 0] == pytest.approx(0.90)  # 1 - 10/100: still "known" (docs/players.md §4.1)
     assert b.conf[0, 2] == pytest.approx(0.90)
     assert b.conf[0, 1] == 1.0  # myself
     assert b.conf[0, 3] == 0.0  # never seen

@@ -1,10 +1,10 @@
 """Behaviour statistics of Keepaway games: ours, recorded from the batched mode, beside the reference stack's.
 
 The reference is rcssserver 19.0.0 with the keepaway-0.6 C++ players, measured from its game logs
-(``tests/data/rcss-behaviour``). The statistics follow the definitions of the reference's own analysis
-(``stats.py`` there), so that both stacks are measured by one rule (t = cycles since the episode's
-reset; row t = 0 is the reset placement; the state after the last step, already the next reset, is not
-a row of the episode):
+(``tests/data/rcss-behaviour``). The statistics follow the definitions of the reference measurement's
+own analysis script (tests/data/rcss-behaviour/README.md), so that both stacks are measured by one rule
+(t = cycles since the episode's reset; row t = 0 is the reset placement; the state after the last step,
+already the next reset, is not a row of the episode):
 
 * hold time = episode length in cycles x the simulator step; s.e. = sd / sqrt(n) (sd with n - 1).
 * hold-time spread: sd, median, p10, p90 (linear interpolation), each with a bootstrap standard error
@@ -21,7 +21,7 @@ a row of the episode):
   over all rows and keepers (pooled) and the mean of the episodes' means.
 * takers near a held ball: the taker rows (not the last of an episode) in which a keeper is within 1 m of
   the ball and the taker 1-3 m from it; of these, the share in which the taker's dash was executed in the
-  step that follows, and the share of its turns (issue 14's "dash/turn shares"; s.e. with the episodes
+  step that follows, and the share of its turns (the "dash/turn shares"; s.e. with the episodes
   as clusters, :func:`ratio_estimate`).
 
 :func:`behaviour_statistics` is the sans-IO core (arrays in, statistics out); :func:`record_batched`
@@ -65,7 +65,8 @@ COMMAND_COUNTS = [COUNT_KICK, COUNT_DASH, COUNT_TURN]
 FAST_KICK_SPEED = 1.5  # m/cycle
 CURVE_CYCLES = 30
 # A difference within this many combined standard errors or this share of the reference, whichever is
-# larger, is within tolerance (the reference's campaigns differ by more than their s.e., its README).
+# larger, is within tolerance (the reference's campaigns differ by more than their s.e.:
+# tests/data/rcss-behaviour/README.md).
 TOLERANCE_SE = 3.0
 TOLERANCE_SHARE = 0.10
 # Our Pass policies and the reference file's campaigns of the same policy (the first recorded; the later
@@ -340,7 +341,7 @@ def behaviour_statistics(episodes: Sequence[Episode], n_keepers: int, seconds_pe
     )
 
 
-# An episode this long (10 minutes of play at 100 ms a cycle) is stuck: issue 14's limit for any episode.
+# An episode this long (10 minutes of play at 100 ms a cycle) is stuck: the limit for any episode.
 MAX_EPISODE_CYCLES = 6000
 
 
@@ -557,8 +558,8 @@ class Verdict:
     @property
     def within_tolerance(self) -> bool:
         """Within tolerance of one campaign, or between the campaigns' lowest and highest value: the
-        reference's campaigns differ by more than their standard errors (its README), so any value
-        between two of them is one the reference stack itself produces."""
+        reference's campaigns differ by more than their standard errors (tests/data/rcss-behaviour/README.md),
+        so any value between two of them is one the reference stack itself produces."""
         low, high = self.reference_range
         return low <= self.ours.value <= high or any(row.within_tolerance for row in self.rows)
 

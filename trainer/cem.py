@@ -1,4 +1,4 @@
-"""The cross-entropy method for GetOpen policy search (spec `keepaway-task.md` 6).
+"""The cross-entropy method for GetOpen policy search (docs/players.md §8.1).
 
 A diagonal Gaussian over the 91 parameters of the GetOpen net (`agents.getopen.net_value`; the net on
 scaled inputs, `agents.getopen.GetOpenScaling`, unless the training says raw), N(0, I) at the
@@ -7,7 +7,7 @@ over 125 episodes (all keepers share the candidate, Pass fixed) and hands the 20
 which keeps the best 5 and refits the mean and the per-parameter variance to them (with the noisy
 variant, :attr:`CEMConfig.extra_noise`, plus a decreasing amount of extra variance). One generation is
 20 x 125 = 2,500 episodes. The best candidate evaluated so far is what Algorithm 3's Pass phases use
-(`keepaway-task.md` 7).
+(docs/players.md §8.2).
 
 Generation g draws its standard normals from ``numpy.random.default_rng([seed, g])``, so the search is a
 function of the seed alone and ``state_dict()`` needs no generator state: a restored search, even one
@@ -29,9 +29,9 @@ PLAYS = (BEST, MEAN)  # CEMConfig.play: the best candidate so far (the paper) or
 
 @dataclass(frozen=True)
 class CEMConfig:
-    """The search's constants (keepaway-task.md 6 unless noted)."""
+    """The search's constants (docs/players.md §8.1 unless noted)."""
 
-    n_params: int = net_size()  # 91: the 10-5-5-1 GetOpen net (keepaway-task.md 4)
+    n_params: int = net_size()  # 91: the 10-5-5-1 GetOpen net (docs/players.md §7.4)
     population: int = 20  # candidates per generation
     elite: int = 5  # best candidates the distribution is refitted to
     episodes_per_candidate: int = 125  # evaluation episodes per candidate (read by the trainer)
@@ -44,7 +44,7 @@ class CEMConfig:
     extra_noise: float = 0.0
     extra_noise_generations: int = 0
     # Which net the trainer plays after each generation (evaluations, Pass phases, the policy file): the
-    # best candidate evaluated so far (keepaway-task.md 7, the paper) or, ours, the distribution's mean.
+    # best candidate evaluated so far (the paper, docs/players.md §8.2) or, ours, the distribution's mean.
     play: str = "best"
 
     def __post_init__(self) -> None:

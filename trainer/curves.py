@@ -1,5 +1,5 @@
 """Learning curves: per trial a CSV of evaluations, over trials a mean with a standard-error band as PNG
-(spec `keepaway-task.md` 8: every 2,500 episodes a frozen evaluation; report mean and standard error over
+(docs/players.md §8.3: every 2,500 episodes a frozen evaluation; report mean and standard error over
 at least 20 trials).
 
 A standard error that is undefined (one value) is None: an empty CSV field, ``null`` in JSON, no band in a

@@ -1,5 +1,5 @@
 """``keepaway experiment figure3`` and ``keepaway experiment table2``: the paper's experiments on any backend
-(spec `keepaway-task.md` 8; :mod:`trainer.experiments`)."""
+(docs/players.md §8.3; :mod:`trainer.experiments`)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The paper's experiments (spec `keepaway-task.md` 8): Figure 3's nine configurations and Table 2's
+"""The paper's experiments (docs/players.md §8.3): Figure 3's nine configurations and Table 2's
 specialisation cross-tests, built on :mod:`trainer.train`.
 
 Figure 3: Pass in {R, HC, L} x GetOpen in {R, HC, L}, each configuration (``P:HC-GO:L``) in its own
@@ -110,8 +110,8 @@ log = logging.getLogger("keepaway.experiment")
 
 POLICIES = ("random", "handcoded", LEARNED)  # the paper's R, HC, L, in its order
 SHORT = {"random": "R", "handcoded": "HC", LEARNED: "L"}
-SIGNIFICANCE = 0.05  # keepaway-task.md 8 / the issue: Welch's t-test, p < 0.05
-INTERVALS = 12  # keepaway-task.md 8: an evaluation every 2,500 of 30,000 episodes
+SIGNIFICANCE = 0.05  # docs/players.md §8.3: Welch's t-test, p < 0.05
+INTERVALS = 12  # docs/players.md §8.3: an evaluation every 2,500 of 30,000 episodes
 FIXED_RECORD = "fixed.json"  # a configuration that learns nothing records itself here (a training: config.json)
 TIMING = "timing.json"  # each sitting's wall and CPU time in a configuration's directory (Table 2's tests too)
 # Figure 3's measured reference levels: the configurations that learn nothing at the paper's two extremes.
@@ -119,7 +119,7 @@ REFERENCES = {("handcoded", "handcoded"): "hand-coded", ("random", "random"): "r
 
 
 def configuration_name(pass_policy: str, getopen_policy: str) -> str:
-    """``P:HC-GO:L`` (keepaway-task.md 8)."""
+    """``P:HC-GO:L`` (docs/players.md §8.3)."""
     return f"P:{SHORT[pass_policy]}-GO:{SHORT[getopen_policy]}"
 
 
@@ -135,7 +135,7 @@ def default_eval_every(episodes: int) -> int:
 
 @dataclass(frozen=True)
 class ExperimentConfig:
-    """What every configuration of an experiment shares (keepaway-task.md 8 unless noted)."""
+    """What every configuration of an experiment shares (docs/players.md §8.3 unless noted)."""
 
     trials: int = 20  # "at least 20 independent trials"
     episodes: int = TRAINING_EPISODES
@@ -151,7 +151,7 @@ class ExperimentConfig:
 
     def schedule(self, pass_policy: str, getopen_policy: str) -> tuple[Phase, ...]:
         """The phases of a learning configuration: one phase of ``episodes``, or with both behaviours
-        learned Algorithm 3 (keepaway-task.md 7) scaled to ``episodes``, which must keep its proportions
+        learned Algorithm 3 (docs/players.md §8.2) scaled to ``episodes``, which must keep its proportions
         exact (a multiple of 6)."""
         schedule = None
         if pass_policy == LEARNED and getopen_policy == LEARNED:
@@ -554,8 +554,8 @@ def train_together(exp: ExperimentConfig, configurations: Sequence[tuple[str, st
     return runs
 
 
-# The configurations from the longest to the shortest to train, as measured in the 20-trial study
-# (README, "Figure 3 at 20 trials"): workers that take them in this order finish at about the same time.
+# The configurations from the longest to the shortest to train, as measured in a run of Figure 3 at 20
+# trials: workers that take them in this order finish at about the same time.
 LONGEST_FIRST = ((LEARNED, "handcoded"), ("handcoded", LEARNED), (LEARNED, LEARNED), (LEARNED, "random"),
                  ("random", LEARNED), ("handcoded", "handcoded"), ("random", "handcoded"), ("handcoded", "random"),
                  ("random", "random"))

@@ -1,4 +1,4 @@
-"""Training schedules: which behaviour learns in which stretch of episodes (spec `keepaway-task.md` 7, 8).
+"""Training schedules: which behaviour learns in which stretch of episodes (docs/players.md §8.2, §8.3).
 
 A schedule is a sequence of phases, each one behaviour learning for a number of episodes while the other
 stays fixed at its current value. Algorithm 3 alternates GetOpen (CEM) and Pass (Sarsa) phases; the
@@ -8,7 +8,7 @@ command line as ``getopen:5000,pass:5000,getopen:15000,pass:5000``.
 Ours, beyond the paper: a ``both`` phase learns the two behaviours at once. It runs CEM generations as a
 GetOpen phase does, but its candidates play one after another with Sarsa learning Pass in every episode,
 the learners carried from candidate to candidate (``trainer.train``); so each behaviour learns in every
-episode of the phase instead of in its share of them (docs/design.md, Learning options).
+episode of the phase instead of in its share of them (docs/design.md, "Learning options").
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ BEHAVIOURS = (GETOPEN, PASS, BOTH)
 CEM_PHASES = (GETOPEN, BOTH)  # phases that advance one CEM generation per step
 LEARNED = "learned"
 POLICY_NAMES = ("random", "handcoded", LEARNED)  # what train and evaluate offer for Pass and for GetOpen
-TRAINING_EPISODES = 30_000  # keepaway-task.md 8: training length
+TRAINING_EPISODES = 30_000  # docs/players.md §8.3: training length
 
 
 @dataclass(frozen=True)
@@ -39,7 +39,7 @@ class Phase:
             raise ValueError(f"a {self.behaviour} phase needs at least one episode, got {self.episodes}")
 
 
-# keepaway-task.md 7: 2 CEM generations, 5,000 Sarsa episodes, 6 CEM generations, 5,000 Sarsa episodes.
+# docs/players.md §8.2: 2 CEM generations, 5,000 Sarsa episodes, 6 CEM generations, 5,000 Sarsa episodes.
 ALGORITHM_3 = (Phase(GETOPEN, 5_000), Phase(PASS, 5_000), Phase(GETOPEN, 15_000), Phase(PASS, 5_000))
 
 
@@ -85,7 +85,7 @@ def training_schedule(pass_policy: str, getopen_policy: str, episodes: int | Non
 
 def evaluation_points(phases: tuple[Phase, ...], eval_every: int) -> list[int]:
     """Episodes trained at which learning is frozen and evaluated: 0, every ``eval_every`` and the end
-    (keepaway-task.md 8: every 2,500 of 30,000)."""
+    (docs/players.md §8.3: every 2,500 of 30,000)."""
     if eval_every < 1:
         raise ValueError("the evaluation interval must be at least one episode")
     total = sum(p.episodes for p in phases)

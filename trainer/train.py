@@ -1,6 +1,6 @@
 """``keepaway train``: learn GetOpen (CEM), Pass (Sarsa) or both (Algorithm 3).
 
-Spec `keepaway-task.md` 6-8. A training is ``trials`` independent trials of one configuration, each a
+docs/players.md §8. A training is ``trials`` independent trials of one configuration, each a
 walk through the schedule (:mod:`trainer.schedule`) in steps:
 
 * a GetOpen phase advances one CEM generation per step: every candidate plays
@@ -8,17 +8,17 @@ walk through the schedule (:mod:`trainer.schedule`) in steps:
   arenas with the same seeds (common random numbers), so their fitness differs by the policy, not by
   the luck of the draw;
 * a Pass phase runs Sarsa in one arena (each keeper learns its own Pass policy from its own experience,
-  `keepaway-task.md` 5) up to the next evaluation point or the phase's end, GetOpen fixed at the best
+  docs/players.md §6.3) up to the next evaluation point or the phase's end, GetOpen fixed at the best
   candidate so far;
 * at 0, every ``eval_every`` episodes and the end, learning is frozen and both policies play
   ``eval_episodes`` episodes; their mean hold time and standard error form the learning curve.
 
-A learned behaviour that has not learned yet plays: in Algorithm 3 its random policy (P:R, GO:R: "start
-from P:R and GO:R", section 7); alone, GO:L a net drawn from U[-0.5, 0.5] (section 6) and P:L fresh
-Sarsa learners (weights 0). The GetOpen policy a trial hands on (to Pass phases, evaluations and its
-policy file) is the CEM's best candidate so far; the CEM's distribution carries over from one GetOpen
-phase to the next. The nets drawn and searched see their inputs scaled (``TrainConfig.getopen_inputs``:
-``agents.getopen.GetOpenScaling`` by default, or raw; docs/design.md, GetOpen inputs) and play with the
+A learned behaviour that has not learned yet plays: in Algorithm 3 its random policy (P:R, GO:R: "start from
+P:R and GO:R", docs/players.md §8.2); alone, GO:L a net drawn from U[-0.5, 0.5] (docs/players.md §8.1) and P:L
+fresh Sarsa learners (weights 0). The GetOpen policy a trial hands on (to Pass phases, evaluations and its
+policy file) is the CEM's best candidate so far; the CEM's distribution carries over from one GetOpen phase to
+the next. The nets drawn and searched see their inputs scaled (``TrainConfig.getopen_inputs``:
+``agents.getopen.GetOpenScaling`` by default, or raw; docs/design.md, "Learning options") and play with the
 scaling folded into their first layer (``Behaviours.getopen_net``); the policy file records the scaling.
 
 The steps are played by a backend of ``config.mode`` (``runner.job.Backend``: batched, embedded or
@@ -108,7 +108,7 @@ from trainer.schedule import (
 )
 
 CHECKPOINT_VERSION = 1
-INITIAL_NET_RANGE = 0.5  # keepaway-task.md 6: a random-initialised GO:L net draws from U[-0.5, 0.5]
+INITIAL_NET_RANGE = 0.5  # docs/players.md §8.1: a random-initialised GO:L net draws from U[-0.5, 0.5]
 
 
 @dataclass(frozen=True)
@@ -119,8 +119,8 @@ class TrainConfig:
     getopen_policy: str = LEARNED
     schedule: tuple[Phase, ...] = (Phase(GETOPEN, TRAINING_EPISODES),)
     trials: int = 1
-    eval_every: int = 2_500  # keepaway-task.md 8
-    eval_episodes: int = 500  # keepaway-task.md 8
+    eval_every: int = 2_500  # docs/players.md §8.3
+    eval_episodes: int = 500  # docs/players.md §8.3
     arenas: int = 2  # distributed: arenas of processes (where the chunks play, no part of any result)
     seed: int = 0
     keepers: int = 3
@@ -170,7 +170,7 @@ class TrainConfig:
 
     @property
     def name(self) -> str:
-        """The configuration's name in the paper's notation, e.g. ``P:R-GO:L`` (keepaway-task.md 8)."""
+        """The configuration's name in the paper's notation, e.g. ``P:R-GO:L`` (docs/players.md §8.3)."""
         short = {"random": "R", "handcoded": "HC", LEARNED: "L"}
         return f"P:{short[self.pass_policy]}-GO:{short[self.getopen_policy]}"
 
@@ -182,14 +182,15 @@ class TrainConfig:
 
     def pass_alpha(self, pass_episodes: int) -> float:
         """Sarsa's step size for a Pass block that begins after ``pass_episodes`` episodes of Pass learning:
-        the original's constant 0.125 (keepaway-task.md 5), or with a half-life h the harmonic schedule
+        the original's constant 0.125 (docs/players.md §6.3), or with a half-life h the harmonic schedule
         0.125 h / (h + n), constant within a block (blocks end at the evaluation points). The paper
-        suggests annealing against the dips of its learning curves; docs/design.md has what it does here."""
+        suggests annealing against the dips of its learning curves; docs/design.md, "Learning options", has
+        what it does here."""
         h = self.pass_alpha_halflife
         return self.sarsa.alpha if h == 0 else self.sarsa.alpha * h / (h + pass_episodes)
 
     def input_scaling(self) -> InputScaling:
-        """The scaling the CEM's nets see their inputs through (docs/design.md, GetOpen inputs)."""
+        """The scaling the CEM's nets see their inputs through (docs/design.md, "Learning options")."""
         return getopen_input_scaling(self.getopen_inputs, self.keepers, self.takers, self.field_size)
 
     def to_dict(self) -> dict[str, Any]:
@@ -210,7 +211,7 @@ class TrainConfig:
 
 def hive_mind_sarsa(hive_mind: bool) -> SarsaConfig:
     """A training's Sarsa configuration: the batched mode's, with the keepers of an arena sharing one
-    table if ``hive_mind`` (ours, off by default: docs/design.md, Learning options)."""
+    table if ``hive_mind`` (ours, off by default: docs/design.md, "Learning options")."""
     return replace(BATCHED_SARSA, hive_mind=hive_mind)
 
 
@@ -246,7 +247,7 @@ class TrialState:
 
 # -- playing -----------------------------------------------------------------------------------------
 def evaluation_job(behaviours: Behaviours, seed: int, episodes: int) -> Job:
-    """The frozen policies (no learning, greedy Pass) over ``episodes`` episodes (keepaway-task.md 8)."""
+    """The frozen policies (no learning, greedy Pass) over ``episodes`` episodes (docs/players.md §8.3)."""
     return Job(behaviours, seed, episodes, GREEDY)
 
 
@@ -335,7 +336,7 @@ def _step_jobs(config: TrainConfig, state: TrialState) -> StepJobs:
 
 
 def _cem_generation(config: TrainConfig, state: TrialState, learn_pass: bool = False) -> StepJobs:
-    """One CEM generation (keepaway-task.md 6): every candidate plays the same arena seeds with the
+    """One CEM generation (docs/players.md §8.1): every candidate plays the same arena seeds with the
     current Pass policy frozen; or, with ``learn_pass`` (a ``both`` phase), one after another in one arena
     each, Sarsa learning Pass in every episode and handing its learners on to the next candidate."""
     if state.cem is None:
@@ -378,7 +379,7 @@ def _pass_episodes_learned(state: TrialState) -> int:
 
 
 def _pass_block(config: TrainConfig, state: TrialState, episodes: int) -> StepJobs:
-    """Sarsa learns Pass for ``episodes`` episodes in one fresh arena, GetOpen fixed (keepaway-task.md 5, 7)."""
+    """Sarsa learns Pass for ``episodes`` episodes in one fresh arena, GetOpen fixed (docs/players.md §6.3, §8.2)."""
     learner = replace(state.behaviours, pass_policy=LEARNED)
     seed = derive_seed(config.seed, state.trial, STREAM_PASS_BLOCK, state.episodes)
     alpha = config.pass_alpha(_pass_episodes_learned(state))

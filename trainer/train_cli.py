@@ -1,5 +1,5 @@
 """``keepaway train`` and ``keepaway evaluate``: learning runs and frozen evaluations of their policies
-(spec `keepaway-task.md` 6-8; :mod:`trainer.train`)."""
+(docs/players.md §8; :mod:`trainer.train`)."""
 
 from __future__ import annotations
 

@@ -1,0 +1,73 @@
+"""The repository speaks of the software, not of how it was made: no file it tracks (code, tests,
+benchmarks, data, docs) names a work session, a task-tracker number, people who are not part of the
+project, a path of one particular machine, or a document the repository does not contain. History goes
+in CHANGELOG.md; citations go to the project's own docs or to public sources (tests/test_citations.py)."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+from repository_files import read_text, text_files
+
+FORBIDDEN = {
+    "a work session": r"\b[Ss]essions? \d",
+    "a tracker issue": r"\b[Ii]ssues? #?\d",
+    "an item of an issue": r"\b[Ii]tems? \d",
+    "a machine path": r"(?<![\w.~-])/(?:work|root|home)/\w",
+    "a folder beside the repository": r"\.\./shared\b",
+    "a workplace folder": r"\bshared/(?:spec|rcss-traces|rcss-behaviour|reference-stack|tools)\b",
+    "someone's jobs": r"\banother engineer|\bsomeone else",
+    "a document the repository lacks": (r"\b[Ss]pec [`\d]|\bspec: \"|\bstyle guide\b|\bserver-physics\.md"
+                                        r"|\bkeepaway-(?:agents|task)\.md|\barchitecture\.md"),
+}
+PATTERNS = {name: re.compile(pattern) for name, pattern in FORBIDDEN.items()}
+# This file names the patterns themselves.
+FILES = [name for name in text_files() if name != Path("tests/test_repository_text.py")]
+
+
+def findings(name: Path, text: str) -> list[str]:
+    """``file:line: what`` for every forbidden phrase in ``text``."""
+    found = []
+    for number, line in enumerate(text.split("\n"), start=1):
+        for what, pattern in PATTERNS.items():
+            match = pattern.search(line)
+            if match:
+                found.append(f"{name}:{number}: {what}: {match.group(0)!r} in {line.strip()[:100]!r}")
+    return found
+
+
+def test_no_tracked_file_speaks_of_how_the_project_was_made():
+    problems = [problem for name in FILES for problem in findings(name, read_text(name))]
+    assert not problems, f"{len(problems)} lines:\n" + "\n".join(problems)
+
+
+@pytest.mark.parametrize("line, what", [
+    ("# measured in session 33", "a work session"),
+    ("(issue 12, item 1)", "a tracker issue"),
+    ("see item 2 of the list", "an item of an issue"),
+    ("BUILD=/work/rcss-build/b", "a machine path"),
+    ("../shared/tools/build-rcss.sh", "a folder beside the repository"),
+    ("`shared/rcss-traces`", "a workplace folder"),
+    ("another engineer's jobs", "someone's jobs"),
+    ("(spec `keepaway-agents.md` 2.2)", "a document the repository lacks"),
+    ("(style guide, \"Sockets at the edge\")", "a document the repository lacks"),
+])
+def test_each_pattern_catches_what_it_names(line, what):
+    assert any(f": {what}: " in finding for finding in findings(Path("x.py"), line))
+
+
+@pytest.mark.parametrize("line", [
+    "start_new_session=True",
+    "the coach lost its server session during the run",
+    "tests/data/rcss-traces/README.md",
+    "a Ray session, an HTTP session",
+    "for name, table in rows.items():",
+    "(docs/players.md §5.3)",
+    "run(RunOptions(spec, episodes), progress=False)",
+    "importlib.util.module_from_spec(spec)",
+])
+def test_the_patterns_leave_ordinary_words_alone(line):
+    assert findings(Path("x.py"), line) == []
