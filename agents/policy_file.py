@@ -27,17 +27,17 @@ from __future__ import annotations
 
 import json
 import zipfile
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
-from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from agents.getopen import InputScaling, net_size
-from agents.state_vars import getopen_state_size
-from protocol.params import KEEPAWAY_KEEPERS, KEEPAWAY_TAKERS
+from keepaway.agents.getopen import InputScaling, net_size
+from keepaway.agents.state_vars import getopen_state_size
+from keepaway.protocol.params import KEEPAWAY_KEEPERS, KEEPAWAY_TAKERS
 
 POLICY_FORMAT = "keepaway-policy"
 POLICY_VERSION = 2  # 2: the header records getopen_inputs

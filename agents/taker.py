@@ -14,12 +14,10 @@ from __future__ import annotations
 
 import math
 
-from core.jit import borrowing
-
-from agents.belief import AgentMemory, Belief
-from agents.geometry import compared_hypot, distance, in_cone
-from agents.getopen import move_to_spot
-from agents.skills import (
+from keepaway.agents.belief import AgentMemory, Belief
+from keepaway.agents.geometry import compared_hypot, distance, in_cone
+from keepaway.agents.getopen import move_to_spot
+from keepaway.agents.skills import (
     UNKNOWN_FIRST,
     ball_kickable,
     closest_to_ball,
@@ -33,6 +31,7 @@ from agents.skills import (
     turn_to_point,
     write_action,
 )
+from keepaway.core.jit import borrowing
 
 # The chasers: the closest and the second-closest taker to the ball never mark (docs/players.md §3 step 3).
 CHASING_TAKERS = 2

@@ -40,8 +40,19 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))  # the repository, before benchmarks/
 
-from protocol.params import parameter_set  # noqa: E402
-from trainer.behaviour import (  # noqa: E402
+from benchmarks.reference_stack import (  # noqa: E402
+    CPP_POLICY,
+    KEEPERS,
+    LOG_NAME,
+    TAKERS,
+    ReferenceStack,
+    play_reference,
+)
+from keepaway.protocol.params import parameter_set  # noqa: E402
+from keepaway.runner.launch import ArenaFailure, interrupt_on_sigterm  # noqa: E402
+from keepaway.server.episode_log import read_kwy  # noqa: E402
+from keepaway.server.game_log import read_rcg  # noqa: E402
+from keepaway.trainer.behaviour import (  # noqa: E402
     CURVE_CYCLES,
     REFERENCE_CAMPAIGNS,
     TOLERANCE_SE,
@@ -56,17 +67,6 @@ from trainer.behaviour import (  # noqa: E402
     measure_policy,
     reference_entry,
 )
-from runner.launch import ArenaFailure, interrupt_on_sigterm  # noqa: E402
-from benchmarks.reference_stack import (  # noqa: E402
-    CPP_POLICY,
-    KEEPERS,
-    LOG_NAME,
-    TAKERS,
-    ReferenceStack,
-    play_reference,
-)
-from server.episode_log import read_kwy  # noqa: E402
-from server.game_log import read_rcg  # noqa: E402
 
 REFERENCE = REPO / "tests" / "data" / "rcss-behaviour" / "stats_real.json"
 # A policy's references: (label, statistics), one row each.

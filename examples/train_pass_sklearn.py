@@ -19,9 +19,9 @@ from sklearn.kernel_approximation import RBFSampler
 from sklearn.linear_model import SGDRegressor
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
+from train_pass import main as report  # the command line and the report of examples/train_pass.py
 
 from keepaway.env import parallel_env
-from train_pass import main as report  # the command line and the report of examples/train_pass.py
 
 EPSILON = 0.05  # exploration: a random allowed action this often
 STEP_SIZE = 0.05  # SGDRegressor's constant learning rate

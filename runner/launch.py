@@ -99,8 +99,10 @@ class Member:
 
 
 def keepaway_argv(*args: str) -> list[str]:
-    """Run the ``keepaway`` CLI with this interpreter (no dependence on PATH)."""
-    return [sys.executable, "-m", "keepaway", *args]
+    """Run the ``keepaway`` CLI with this interpreter (no dependence on PATH). ``-P``: the current
+    directory is not put first on the child's ``sys.path``, so a user's own ``keepaway.py`` (or any module
+    there) cannot stand in for the installed package."""
+    return [sys.executable, "-P", "-m", "keepaway", *args]
 
 
 @dataclass(frozen=True)
@@ -293,7 +295,7 @@ def forking_players() -> bool:
 def _players_fork_server() -> multiprocessing.context.ForkServerContext:
     """multiprocessing's fork-server context, preloading the players' modules and kernels."""
     context = multiprocessing.get_context("forkserver")
-    context.set_forkserver_preload(["runner.player_preload"])
+    context.set_forkserver_preload(["keepaway.runner.player_preload"])
     return context
 
 
@@ -318,7 +320,7 @@ def _forked_player(name: str, args: list[str], log: str, environ: dict[str, str]
         os.dup2(target, fd)
     os.close(null)
     os.close(stderr)
-    from agents.cli import player_command
+    from keepaway.agents.cli import player_command
 
     player_command.main(args=args, prog_name="keepaway player")
 

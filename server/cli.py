@@ -10,10 +10,10 @@ from typing import Any
 
 import click
 
-from protocol.messages import GETOPEN_NOTE_MODES
-from protocol.params import TEAM_SIZE, ServerParams, parameter_set
-from protocol.security import SecurityError, keys_option
-from server.config import (
+from keepaway.protocol.messages import GETOPEN_NOTE_MODES
+from keepaway.protocol.params import TEAM_SIZE, ServerParams, parameter_set
+from keepaway.protocol.security import SecurityError, keys_option
+from keepaway.server.config import (
     AT_LEAST_ONE,
     HANG_POLICIES,
     PORT,
@@ -109,7 +109,7 @@ def server_command(config_file: Path | None, parameter_set_name: str | None, par
 
     Prints one line with the bound endpoints (useful with port 0), then logs to stderr.
     """
-    from server.app import Server  # imported here so `keepaway --help` does not compile kernels
+    from keepaway.server.app import Server  # imported here so `keepaway --help` does not compile kernels
 
     logging.basicConfig(level=logging.WARNING - 10 * min(verbose, 2) if verbose else logging.WARNING,
                         format="%(asctime)s %(name)s %(levelname)s %(message)s", stream=sys.stderr)
@@ -146,7 +146,7 @@ def server_command(config_file: Path | None, parameter_set_name: str | None, par
 @click.option("--show", default=5, show_default=True, help="Mismatches printed per failing file.")
 def replay_trace_command(paths: tuple[str, ...], show: int) -> None:
     """Replay rcssserver physics traces (FILEs or directories of *.json) against our physics."""
-    from server.trace_replay import is_physics_trace, replay_trace, trace_files  # loads numba
+    from keepaway.server.trace_replay import is_physics_trace, replay_trace, trace_files  # loads numba
 
     failed = False
     for path in trace_files(paths):

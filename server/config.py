@@ -9,9 +9,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from protocol.endpoints import MAX_MESSAGE_BYTES_LIMIT
-from protocol.messages import GETOPEN_NOTE_MODES, MAX_SEED
-from protocol.params import (
+from keepaway.protocol.endpoints import MAX_MESSAGE_BYTES_LIMIT
+from keepaway.protocol.messages import GETOPEN_NOTE_MODES, MAX_SEED
+from keepaway.protocol.params import (
     PARAMETER_SETS,
     POSITIVE,
     TEAM_SIZE,

@@ -14,12 +14,12 @@ from __future__ import annotations
 
 import json
 import time
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
-from collections.abc import Iterable
 from typing import Any, Mapping, Self, TextIO
 
-from protocol.params import CLASSIC
+from keepaway.protocol.params import CLASSIC
 
 END_OUT = "out"
 END_TAKEN = "taken"

@@ -177,7 +177,7 @@ class ProcessGroup:
         piped = stderr == subprocess.PIPE
         path = self.stderr_dir / f"{len(self.procs):02d}-{program_name(args)}.stderr"
         with path.open("wb") as sink:
-            proc = subprocess.Popen(args, cwd=REPO, start_new_session=True,
+            proc = subprocess.Popen(args, cwd=kwargs.pop("cwd", REPO), start_new_session=True,
                                     stderr=sink if piped or stderr is None else stderr, **kwargs)
         self.procs.append(proc)
         self.stderr_paths[proc] = path
@@ -268,7 +268,7 @@ def pytest_sessionstart(session: pytest.Session) -> None:
     clone's CI run then had every test fail with the compile cut off at 300 s)."""
     if session.config.option.collectonly:
         return
-    from runner.kernels import KERNEL_SETS, CompileError, ensure_compiled
+    from keepaway.runner.kernels import KERNEL_SETS, CompileError, ensure_compiled
 
     reporter = session.config.pluginmanager.get_plugin("terminalreporter")
     try:

@@ -17,14 +17,14 @@ import pytest
 import zmq
 from zmq.utils.monitor import recv_monitor_message
 
-from coach.core import STOPPING
 from conftest import keepaway_command, process_tree, read_until_match
-from protocol import PROTOCOL_VERSION, encode
-from protocol import messages as m
-from protocol.arena import ARENA_REQUEST_MAX_BYTES, StopArena, decode_for_trainer
-from protocol.messages import SERVER_SILENCE_S
+from keepaway.coach.core import STOPPING
+from keepaway.protocol import PROTOCOL_VERSION, encode
+from keepaway.protocol import messages as m
+from keepaway.protocol.arena import ARENA_REQUEST_MAX_BYTES, StopArena, decode_for_trainer
+from keepaway.protocol.messages import SERVER_SILENCE_S
+from keepaway.server.episode_log import read_jsonl
 from scripted import ScriptedCoach, connect_all, play_chasers
-from server.episode_log import read_jsonl
 from test_server_hardening import DROPPED_RE, answer_cycle, wait_logged
 
 GONE = "is gone without coach_bye; the game goes on without it"

@@ -28,9 +28,11 @@ ALLOWED = {
 
 
 def module_name(path: Path) -> str:
-    """``runner/job.py`` -> ``runner.job``; a package's ``__init__.py`` is the package."""
+    """``runner/job.py`` -> ``keepaway.runner.job`` (the folders are the keepaway namespace's subpackages);
+    a package's ``__init__.py`` is the package."""
     parts = path.relative_to(ROOT).with_suffix("").parts
-    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+    parts = parts[:-1] if parts[-1] == "__init__" else parts
+    return ".".join(parts if parts[0] == "keepaway" else ("keepaway", *parts))
 
 
 MODULES = {module_name(path): path for package in PROJECT for path in sorted((ROOT / package).glob("*.py"))}
@@ -48,9 +50,18 @@ def imported_names(path: Path) -> set[str]:
     return found
 
 
+def package_of(name: str) -> str | None:
+    """The project's package a dotted name lies in (``keepaway.server.arena`` -> ``server``;
+    ``keepaway.cli`` -> ``keepaway``), or None for a name outside the project."""
+    parts = name.split(".")
+    if parts[0] != "keepaway":
+        return None
+    return parts[1] if len(parts) > 1 and parts[1] in PROJECT else "keepaway"
+
+
 def imported_packages(path: Path) -> set[str]:
-    """The project's top-level packages a module imports."""
-    return {name.split(".")[0] for name in imported_names(path)} & set(PROJECT)
+    """The project's packages a module imports."""
+    return {package_of(name) for name in imported_names(path)} - {None}
 
 
 def import_graph() -> dict[str, set[str]]:
@@ -97,8 +108,8 @@ def test_no_module_of_the_project_imports_itself_back():
 
 def test_the_cycle_check_sees_imports_inside_functions_and_finds_cycles(tmp_path):
     module = tmp_path / "m.py"
-    module.write_text("def f():\n    from trainer.train import derive_seed\n")
-    assert imported_names(module) == {"trainer.train", "trainer.train.derive_seed"}
+    module.write_text("def f():\n    from keepaway.trainer.train import derive_seed\n")
+    assert imported_names(module) == {"keepaway.trainer.train", "keepaway.trainer.train.derive_seed"}
     assert find_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == ["a", "b", "c", "a"]
     assert find_cycle({"a": {"b", "c"}, "b": {"c"}, "c": set()}) is None
 
@@ -107,5 +118,5 @@ def test_the_job_types_are_the_runners_leaf():
     # runner.job may read the package's own constants (runner.MODES, kept there so that the command line
     # need not import the players' kernels), and the package imports none of its modules itself
     graph = import_graph()
-    assert not {name for name in graph["runner.job"] if name.startswith("runner.")}
-    assert not {name for name in graph["runner"] if name.startswith("runner")}
+    assert not {name for name in graph["keepaway.runner.job"] if name.startswith("keepaway.runner.")}
+    assert not {name for name in graph["keepaway.runner"] if name.startswith("keepaway.runner")}

@@ -17,46 +17,46 @@ import msgpack
 import numpy as np
 import pytest
 
-from protocol import encode
-from protocol import messages as m
-from protocol.landmarks import FLAG_INDEX, FLAG_POSITIONS, FLAGS, LINES, N_FLAGS, to_wire
-from protocol.params import parameter_set
-from server.perception import (
+from keepaway.core.objects import BALL
+from keepaway.protocol import encode
+from keepaway.protocol import messages as m
+from keepaway.protocol.landmarks import FLAG_INDEX, FLAG_POSITIONS, FLAGS, LINES, N_FLAGS, to_wire
+from keepaway.protocol.params import parameter_set
+from keepaway.server.perception import (
     ATAN_ESTIMATE_ERROR,
     BEARING_SLACK,
     CLOSE,
+    DEG2RAD,
     FULL,
     NAMELESS,
     PARTIAL,
     RAD2DEG,
     SENSE_BODY_FRAME_BYTES,
-    DEG2RAD,
     UNSEEN,
     SeeBuffers,
-    atan2_estimate,
     SenseBodyBuffers,
+    atan2_estimate,
     cone_factor,
     distance_table,
     fullstate,
+    normalize_rad,
+    packed_view_mode,
     quantize,
     quantize_distance,
-    normalize_rad,
     round_deg,
     see_arena,
-    see_bearing,
     see_batch,
+    see_bearing,
     see_frame_bytes,
     see_payload,
     sense_body_arena,
     sense_body_payload,
-    packed_view_mode,
     table_distance,
     trunc_deg,
     write_see,
     write_sense_body,
 )
-from core.objects import BALL
-from server.world import COLLIDED_BALL, COLLIDED_PLAYER, COUNT_DASH, COUNT_TURN_NECK, new_world
+from keepaway.server.world import COLLIDED_BALL, COLLIDED_PLAYER, COUNT_DASH, COUNT_TURN_NECK, new_world
 
 REPO = Path(__file__).resolve().parent.parent
 CLASSIC = parameter_set("classic")  # keepaway launch: visible_angle 360

@@ -8,9 +8,8 @@ import math
 import msgpack
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from test_protocol import ALL_SETS, SAMPLES, allowed_for
 
-from protocol import (
+from keepaway.protocol import (
     COMMAND_ARGUMENTS,
     MAX_COMMANDS,
     PLAYER_TO_SERVER,
@@ -24,7 +23,8 @@ from protocol import (
     decode,
     encode,
 )
-from protocol.messages import MAX_SAY_CHARS, VIEW_QUALITIES, VIEW_WIDTHS
+from keepaway.protocol.messages import MAX_SAY_CHARS, VIEW_QUALITIES, VIEW_WIDTHS
+from test_protocol import ALL_SETS, SAMPLES, allowed_for
 
 FUZZ = settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 

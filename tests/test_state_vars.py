@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from agents.skills import AgentConfig
-from agents.state_vars import getopen_state, getopen_state_size, pass_state, pass_state_size, smallest_angle
 from beliefs import belief
+from keepaway.agents.skills import AgentConfig
+from keepaway.agents.state_vars import getopen_state, getopen_state_size, pass_state, pass_state_size, smallest_angle
 
 CFG = AgentConfig().kernel()
 ANGLE_3_4_5 = math.degrees(math.acos(0.8))  # 36.8699 deg: cos = 0.8 in a 3-4-5 triangle

@@ -16,9 +16,9 @@ from pathlib import Path
 import pytest
 
 from conftest import keepaway_command, read_until_match
-from protocol import messages as m
-from server.game_log import parse_rcg, read_rcg
-from viewer.frames import SPEEDS, Replay, live_frame
+from keepaway.protocol import messages as m
+from keepaway.server.game_log import parse_rcg, read_rcg
+from keepaway.viewer.frames import SPEEDS, Replay, live_frame
 
 DATA = Path(__file__).parent / "data" / "rcss-behaviour"
 REFERENCE = DATA / "ref_hold2_head.rcg"
@@ -96,7 +96,7 @@ def test_view_and_render_refuse_bad_input_in_one_line(processes, tmp_path):
 def test_render_draws_an_episode_to_a_gif_and_an_mp4(tmp_path):
     from PIL import Image
 
-    from viewer.render import render
+    from keepaway.viewer.render import render
 
     record = read_rcg(REFERENCE, kwy=DATA / "ref_hold2_head.kwy")
     assert render(record, 2, tmp_path / "e2.gif") == 15  # cycles 25..39 of the log

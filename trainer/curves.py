@@ -12,8 +12,6 @@ killed training never leaves a half-written curve behind.
 
 from __future__ import annotations
 
-from typing import Any
-
 import csv
 import io
 import math
@@ -22,8 +20,9 @@ import tempfile
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import Any
 
-from runner.report import finite_or_none
+from keepaway.runner.report import finite_or_none
 
 CSV_HEADER = ("episodes", "mean_hold_time_s", "stderr_hold_time_s")
 OVER_TRIALS = "trials"  # a mean curve's standard errors: over its trials' means
