@@ -8,6 +8,8 @@ Trainings here are tiny (a few candidates of a few episodes) so each runs in sec
 from __future__ import annotations
 
 import json
+import stat
+import subprocess
 from dataclasses import replace
 from pathlib import Path
 
@@ -18,6 +20,7 @@ from click.testing import CliRunner
 
 import trainer.train as train_module
 from agents.policy_file import load_policy
+from conftest import keepaway_command
 from keepaway.cli import main
 from trainer.cem import CEMConfig
 from trainer.curves import CSV_HEADER, CurvePoint, mean_curve, plot_curves, read_curve_csv, write_curve_csv
@@ -220,6 +223,19 @@ def test_train_writes_curves_policies_traces_summary_and_plot(tmp_path):
     assert (out / "curves.png").read_bytes().startswith(PNG_MAGIC)
     mean0 = np.mean([summary["trials"][t]["curve"][0]["mean_hold_time_s"] for t in range(2)])
     assert summary["curve"][0]["mean_hold_time_s"] == pytest.approx(mean0)
+
+
+def test_train_outputs_are_written_with_the_mode_the_umask_gives(processes, tmp_path):
+    """Every file of a training gets 0666 less the umask, as ``policy.npz`` (a plain open) always did."""
+    out = tmp_path / "run"
+    proc = processes.popen(keepaway_command(*TINY_ARGS, "--trials", "1", "--out", str(out)), umask=0o027,
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    _, err = proc.communicate(timeout=600)
+    assert proc.returncode == 0, err.decode()[-2000:]
+    files = [p for p in out.rglob("*") if p.is_file()]
+    assert {"config.json", "summary.json", "curves.png", "curve.csv", "trace.jsonl", "checkpoint.npz",
+            "policy.npz"} <= {p.name for p in files}
+    assert {p.name: oct(stat.S_IMODE(p.stat().st_mode)) for p in files} == {p.name: "0o640" for p in files}
 
 
 def test_one_trial_reports_its_evaluations_standard_error_as_strict_json(tmp_path):
