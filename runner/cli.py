@@ -211,6 +211,8 @@ def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str,
         policy = load_policy(policy_path) if policy_path is not None else None
     except (ValueError, PolicyFileError) as exc:
         raise click.UsageError(str(exc)) from None
+    if policy is None:
+        warn_untrained(pass_policy, getopen_policy, mode)
     spec = ArenaSpec(params, keepers, takers, seed, pass_policy, getopen_policy, policy)
     opts = RunOptions(spec, episodes, mode, batch, realtime, out, policy_path, parameter_set, keys,
                       game_log=not no_game_log, game_log_arenas=logged_arenas, view=view,
@@ -243,6 +245,21 @@ def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str,
         click.echo("keepaway run: interrupted; every process was stopped", err=True)
         sys.exit(EXIT_INTERRUPTED)
     show(result)
+
+
+def warn_untrained(pass_policy: str, getopen_policy: str, mode: str) -> None:
+    """Learned policies without a policy file start from zero weights (agents/cli.py's players wait for a
+    coach's; ``keepaway run`` has none to send): one line on stderr naming the option to add. The batched
+    mode's kernels play only a given GetOpen net (``BatchedArenas``): a usage error there."""
+    untrained = [f"--{flag} learned" for flag, name in (("pass", pass_policy), ("getopen", getopen_policy))
+                 if name == "learned"]
+    if getopen_policy == "learned" and mode == "batched":
+        raise click.UsageError("--getopen learned in the batched mode plays a policy file's net: add --policy FILE "
+                               "(e.g. a training's trial_000/policy.npz)")
+    if untrained:
+        verb = "start" if len(untrained) > 1 else "starts"
+        click.echo(f"keepaway run: {' and '.join(untrained)} without --policy {verb} from zero weights (an untrained "
+                   f"policy): add --policy FILE (e.g. a training's trial_000/policy.npz)", err=True)
 
 
 def arena_list(text: str, batch: int, option: str) -> tuple[int, ...]:

@@ -12,8 +12,10 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
+from agents.policy_file import getopen_theta_size, save_policy
 from conftest import arena_members, keepaway_command, process_tree, running
 from server.episode_log import read_jsonl
 from server.game_log import read_rcg
@@ -128,12 +130,35 @@ def test_bad_options_are_one_line_errors(processes, tmp_path):
         (["--mode", "embedded", "--backend", "ray"], "--backend ray places the distributed mode's arena"),
         (["--backend", "ray", "--view"], "--view serves a viewer of an arena on this machine"),
         (["--ray-address", "auto"], "--ray-address names the Ray cluster of --backend ray"),
+        (["--mode", "batched", "--getopen", "learned"],
+         "--getopen learned in the batched mode plays a policy file's net: add --policy FILE"),
     ]:
         proc = processes.popen(keepaway_command("run", *args, "--out", str(tmp_path)),
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE)
         _, err = proc.communicate(timeout=120)
         assert proc.returncode == 2, err
         assert text in err.decode() and "Traceback" not in err.decode()
+
+
+def test_learned_policies_without_a_policy_file_are_announced_as_untrained(processes, tmp_path):
+    policy = save_policy(tmp_path / "go.npz", getopen_theta=np.zeros(getopen_theta_size()),
+                         config={"pass": "handcoded", "getopen": "learned"})
+    runs = {"none": ["--pass", "learned", "--getopen", "learned"], "pass": ["--pass", "learned"],
+            "file": ["--getopen", "learned", "--policy", str(policy)]}
+    warnings = {}
+    for name, args in runs.items():
+        proc = processes.popen(keepaway_command("run", "--mode", "embedded", "--episodes", "1", "--no-progress",
+                                                *args, "--out", str(tmp_path / name)),
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+        _, err = proc.communicate(timeout=600)
+        assert proc.returncode == 0, err.decode()[-2000:]
+        warnings[name] = [l for l in err.decode().splitlines() if "without --policy" in l]
+    advice = "from zero weights (an untrained policy): add --policy FILE (e.g. a training's trial_000/policy.npz)"
+    assert warnings == {
+        "none": [f"keepaway run: --pass learned and --getopen learned without --policy start {advice}"],
+        "pass": [f"keepaway run: --pass learned without --policy starts {advice}"],
+        "file": [],
+    }
 
 
 @pytest.mark.slow
