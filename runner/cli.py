@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 
 import click
 
+from core.options import FiniteFloatRange
 from protocol.messages import GETOPEN_NOTE_MODES, MAX_SEED
 from protocol.params import KEEPAWAY_KEEPERS, KEEPAWAY_TAKERS
 from protocol.security import keys_option
@@ -18,6 +19,7 @@ from runner.kernels import KERNEL_SETS
 from runner import MODES
 
 if TYPE_CHECKING:
+    from protocol.params import ServerParams
     from runner.backends import Placement
 
 # Option types shared by run, train, evaluate and experiment: what a seed, a count, a Keepaway team and
@@ -26,7 +28,7 @@ SEED_TYPE = click.IntRange(0, MAX_SEED)
 COUNT_TYPE = click.IntRange(min=1)
 KEEPERS_TYPE = click.IntRange(KEEPAWAY_KEEPERS.low, KEEPAWAY_KEEPERS.high)
 TAKERS_TYPE = click.IntRange(KEEPAWAY_TAKERS.low, KEEPAWAY_TAKERS.high)
-FIELD_SIZE_TYPE = click.FloatRange(min=0.0, min_open=True)
+FIELD_SIZE_TYPE = FiniteFloatRange(min=0.0, min_open=True)
 KEEPERS_HELP = "Number of keepers (at least 2: Pass needs a keeper to pass to)."
 TAKERS_HELP = "Number of takers."
 FIELD_SIZE_HELP = "Side of the square region (m), at most the pitch width."
@@ -50,6 +52,18 @@ def game_options(command: Command) -> Command:
                      show_default=True, help="Server parameter set."),
     ]
     return with_options(options, command)
+
+
+def game_params(parameter_set: str, field_size: float) -> ServerParams:
+    """The server parameters :func:`game_options` choose; a region that does not fit the pitch is refused
+    in one line naming ``--field-size``, the option that sets it."""
+    from protocol.params import parameter_set as make_params
+    from protocol.params import with_square_region
+
+    try:
+        return with_square_region(make_params(parameter_set), field_size)
+    except ValueError as exc:
+        raise click.BadParameter(str(exc), param_hint="'--field-size'") from None
 
 
 # Where distributed arenas are started, for every command that plays (run's one arena, the others' many).
@@ -173,7 +187,6 @@ def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str,
                 keys: Path | None) -> None:
     """Play Keepaway: a whole arena (server, coach, keepers, takers) for --episodes episodes."""
     from agents.policy_file import PolicyFileError, load_policy
-    from protocol.params import parameter_set as make_params
     from runner.embedded import ArenaSpec
     from runner.kernels import CompileError
     from core.exits import EXIT_INTERRUPTED
@@ -206,8 +219,8 @@ def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str,
     logged_arenas = arena_list(game_log_arenas, batch if mode == "batched" else 0, "--game-log-arenas")
     if logged_arenas and no_game_log:
         raise click.UsageError("--game-log-arenas chooses game logs to write; --no-game-log writes none: choose one")
+    params = game_params(parameter_set, field_size)
     try:
-        params = make_params(parameter_set, keepaway_length=field_size, keepaway_width=field_size)
         policy = load_policy(policy_path) if policy_path is not None else None
     except (ValueError, PolicyFileError) as exc:
         raise click.UsageError(str(exc)) from None

@@ -17,6 +17,7 @@ from runner.cli import (
     Command,
     arena_count,
     game_options,
+    game_params,
     placement,
     placement_options,
     with_options,
@@ -130,6 +131,7 @@ def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, s
             raise click.UsageError(f"--resume uses the stored configuration; drop {', '.join(given)}")
         config = None
     else:
+        game_params(parameter_set, field_size)  # the region's own one-line refusal, before the configuration's
         try:
             phases = training_schedule(pass_policy, getopen_policy, episodes,
                                        parse_schedule(schedule) if schedule else None)
