@@ -70,6 +70,36 @@ class ShortHanded:
         return lines
 
 
+@dataclass
+class RateWindow:
+    """What a run's rates are measured over: from the first episode's end to the last's, so that start-up
+    and compilation are left out. The progress bar shows the rate the summary reports, from the same
+    window."""
+
+    first_at: float | None = None
+    first_cycle: int = 0
+    last_at: float = 0.0
+    last_cycle: int = 0  # the most arena-cycles any ended episode came with
+    episodes: int = 0  # the episodes that ended in the window (after the first one's cycles)
+
+    def add(self, cycles: int, now: float) -> None:
+        """An episode ended, with ``cycles`` arena-cycles played so far, at ``now``."""
+        if self.first_at is None:
+            self.first_at, self.first_cycle = now, cycles
+        if cycles > self.last_cycle:
+            self.last_at, self.last_cycle = now, cycles
+        if cycles > self.first_cycle:
+            self.episodes += 1
+
+    @property
+    def elapsed_s(self) -> float:
+        """The window's wall time; 0 until episodes have ended at two different times."""
+        return self.last_at - self.first_at if self.first_at is not None and self.last_at > self.first_at else 0.0
+
+
+BAR_FORMAT = "{l_bar}{bar}| {n_fmt}/{total_fmt} [{elapsed}<{remaining}{postfix}]"  # the rate is in the postfix
+
+
 # An ended episode as run() takes it: the record, the arena-cycles played so far, and when it was seen
 # ended (time.perf_counter of the machine that played it: the rates need no clock shared with this one).
 Ended = tuple[EpisodeRecord, int, float]
@@ -244,9 +274,9 @@ def run(opts: RunOptions, progress: bool = True, announce: Callable[[str], None]
     if elsewhere is None:
         ensure_compiled(kernel_sets(opts.mode), announce, log_dir=opts.out / "processes")
     records: list[EpisodeRecord] = []
-    marks: list[int] = []  # the stream's cycle count when each record came (all arenas' in batched mode)
+    window = RateWindow()  # over the stream's cycle counts (all arenas' in batched mode) and times
     held_s = 0.0  # the records' hold times, summed as they come (the bar's running mean)
-    bar = tqdm(total=opts.episodes, unit="ep", disable=not progress, dynamic_ncols=True)
+    bar = tqdm(total=opts.episodes, unit="ep", disable=not progress, dynamic_ncols=True, bar_format=BAR_FORMAT)
 
     def said(line: str) -> None:  # ``announce``, a line above the progress bar, not through it
         if announce is not None:
@@ -254,9 +284,6 @@ def run(opts: RunOptions, progress: bool = True, announce: Callable[[str], None]
                 announce(line)
 
     short_handed = ShortHanded()
-    first_at: float | None = None
-    last_at = 0.0
-    first_cycle = last_cycle = 0
     start = time.perf_counter()
     processes = (ArenaProcesses(opts.out / "processes", batch_scheduled=not opts.realtime)
                  if opts.mode == "distributed" and elsewhere is None else None)
@@ -279,16 +306,13 @@ def run(opts: RunOptions, progress: bool = True, announce: Callable[[str], None]
         # are cut at the wanted number of episodes
         for record, cycles, now in stream if opts.mode == "distributed" else islice(stream, opts.episodes):
             records.append(record)
-            marks.append(cycles)
-            if first_at is None:
-                first_at, first_cycle = now, cycles
-            if cycles > last_cycle:
-                last_at, last_cycle = now, cycles
+            window.add(cycles, now)
             held_s += record.hold_time_s
             for line in short_handed.update(record):
                 said(line)
+            rate = f"{window.episodes / window.elapsed_s:,.2f} ep/s, " if window.elapsed_s > 0 else ""
+            bar.set_postfix_str(f"{rate}mean hold {held_s / len(records):.2f} s", refresh=False)
             bar.update(1)
-            bar.set_postfix(mean_hold_s=f"{held_s / len(records):.2f}")
     except (ArenaFailure, KeyboardInterrupt) as exc:
         stopped = exc
     finally:
@@ -302,12 +326,10 @@ def run(opts: RunOptions, progress: bool = True, announce: Callable[[str], None]
         # the server's log is the record (flushed per episode, also when the server was killed)
         records = logged_episodes(opts.out) or records
     records.sort(key=lambda r: r.episode)
-    if len(records) > 1 and first_at is not None and last_at > first_at:
-        # rates between the first and the last episode end: start-up and compilation excluded
-        elapsed, cycles = last_at - first_at, last_cycle - first_cycle
-        n_rate = sum(first_cycle < c <= last_cycle for c in marks)
+    if len(records) > 1 and window.elapsed_s > 0:
+        elapsed, cycles, n_rate = window.elapsed_s, window.last_cycle - window.first_cycle, window.episodes
     else:
-        elapsed, cycles, n_rate = time.perf_counter() - start, last_cycle, len(records)
+        elapsed, cycles, n_rate = time.perf_counter() - start, window.last_cycle, len(records)
     if opts.mode != "distributed":  # the distributed server writes its own logs
         _write_logs(opts, records)
     result = RunResult(opts.mode, spec.seed, records, elapsed, cycles, n_rate)
@@ -330,5 +352,5 @@ def _write_logs(opts: RunOptions, records: list[EpisodeRecord]) -> None:
         jsonl.close()
 
 
-__all__ = ["Elsewhere", "Ended", "RunOptions", "RunStopped", "ShortHanded", "distributed_episodes", "logged_episodes",
-           "run", "timed"]
+__all__ = ["Elsewhere", "Ended", "RateWindow", "RunOptions", "RunStopped", "ShortHanded", "distributed_episodes",
+           "logged_episodes", "run", "timed"]

@@ -140,6 +140,18 @@ def test_bad_options_are_one_line_errors(processes, tmp_path):
         assert text in err.decode() and "Traceback" not in err.decode()
 
 
+@pytest.mark.parametrize("mode", ["embedded", "batched"])
+def test_the_progress_bar_ends_at_the_summarys_rate(processes, tmp_path, mode):
+    proc = processes.popen(keepaway_command("run", "--mode", mode, "--batch", "4", "--episodes", "12", "--seed", "2",
+                                            "--out", str(tmp_path)), stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    out, err = proc.communicate(timeout=600)
+    assert proc.returncode == 0, err.decode()[-2000:]
+    rate = re.search(r"^episodes / s +(\S+)$", out.decode(), re.M).group(1)
+    hold = re.search(r"^mean hold time +(\S+ s) ", out.decode(), re.M).group(1)
+    last_bar = [drawn for drawn in re.split(r"[\r\n]+", err.decode()) if "12/12" in drawn][-1]
+    assert last_bar.endswith(f", {rate} ep/s, mean hold {hold}]"), (last_bar, rate, hold)
+
+
 def test_learned_policies_without_a_policy_file_are_announced_as_untrained(processes, tmp_path):
     policy = save_policy(tmp_path / "go.npz", getopen_theta=np.zeros(getopen_theta_size()),
                          config={"pass": "handcoded", "getopen": "learned"})

@@ -7,9 +7,15 @@ Trainings here are tiny (a few candidates of a few episodes) so each runs in sec
 
 from __future__ import annotations
 
+import fcntl
 import json
+import os
+import pty
+import re
 import stat
+import struct
 import subprocess
+import termios
 from dataclasses import replace
 from pathlib import Path
 
@@ -236,6 +242,36 @@ def test_train_outputs_are_written_with_the_mode_the_umask_gives(processes, tmp_
     assert {"config.json", "summary.json", "curves.png", "curve.csv", "trace.jsonl", "checkpoint.npz",
             "policy.npz"} <= {p.name for p in files}
     assert {p.name: oct(stat.S_IMODE(p.stat().st_mode)) for p in files} == {p.name: "0o640" for p in files}
+
+
+def terminal_lines(processes, args: list[str], columns: int) -> list[str]:
+    """What ``keepaway *args`` draws on a terminal ``columns`` wide (its stderr on a pseudo-terminal), as
+    the lines and carriage-return overwrites a reader would see in turn."""
+    master, slave = pty.openpty()
+    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 40, columns, 0, 0))
+    proc = processes.popen(keepaway_command(*args), stdout=subprocess.DEVNULL, stderr=slave)
+    os.close(slave)
+    drawn = b""
+    while True:
+        try:
+            chunk = os.read(master, 65536)
+        except OSError:  # EIO: the terminal's last writer is gone
+            break
+        if not chunk:
+            break
+        drawn += chunk
+    os.close(master)
+    assert proc.wait(timeout=60) == 0, drawn.decode(errors="replace")[-2000:]
+    return re.split(r"[\r\n]+", drawn.decode())
+
+
+@pytest.mark.parametrize("trials, postfix", [("1", r"eval \d+\.\d\d s @32"), ("3", r"trial 3 eval \d+\.\d\d s @32")])
+def test_the_training_bar_keeps_room_to_draw_at_120_columns(processes, tmp_path, trials, postfix):
+    args = [a for a in TINY_ARGS if a != "--no-progress"]
+    lines = terminal_lines(processes, [*args, "--trials", trials, "--out", str(tmp_path / "run")], columns=120)
+    bar = [line for line in lines if "%|" in line][-1]
+    assert len(bar) < 120 and re.search(rf"ep/s, {postfix}\]$", bar), bar
+    assert len(bar.split("|")[1]) >= 30, bar  # the bar itself, between its two edges
 
 
 def test_one_trial_reports_its_evaluations_standard_error_as_strict_json(tmp_path):
