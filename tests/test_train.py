@@ -37,6 +37,7 @@ from trainer.schedule import (
     PASS,
     Phase,
     check_generations,
+    denser_eval_every,
     evaluation_points,
     format_schedule,
     parse_schedule,
@@ -137,6 +138,28 @@ def test_evaluations_every_2500_of_30000_episodes_give_13_points():
     # keepaway-task.md 8: 0, 2,500, ..., 30,000 = 30,000 / 2,500 + 1 = 13 evaluations.
     assert evaluation_points(ALGORITHM_3, 2500) == list(range(0, 30_001, 2500))
     assert evaluation_points((Phase(PASS, 10),), 4) == [0, 4, 8, 10]  # the end is always evaluated
+
+
+def test_a_denser_evaluation_interval_is_even_and_falls_on_generation_boundaries():
+    assert denser_eval_every((Phase(PASS, 2000),), 2500, 2500, 5) == 500  # 0, 500, ..., 2,000
+    assert denser_eval_every((Phase(PASS, 2000),), 500, 2500, 5) is None  # already 5 points
+    assert denser_eval_every(ALGORITHM_3, 10_000, 2500, 5) == 7500  # 30,000 / 4, a generation's multiple
+    assert denser_eval_every((Phase(GETOPEN, 5000),), 2500, 2500, 5) is None  # only 0, 2,500 and 5,000 can be
+    assert denser_eval_every((Phase(PASS, 500), Phase(GETOPEN, 10_000)), 10_500, 1000, 5) is None  # off its grid
+
+
+def test_a_training_whose_curve_would_have_few_points_names_an_interval_that_gives_more(processes, tmp_path):
+    args = ["train", "--pass", "random", "--getopen", "learned", "--population", "2", "--elite", "1",
+            "--candidate-episodes", "2", "--episodes", "16", "--eval-episodes", "2", "--threads", "1", "--no-progress"]
+    said = {}
+    for every in ("16", "4"):
+        proc = processes.popen(keepaway_command(*args, "--eval-every", every, "--out", str(tmp_path / every)),
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+        _, err = proc.communicate(timeout=600)
+        assert proc.returncode == 0, err.decode()[-2000:]
+        said[every] = [line for line in err.decode().splitlines() if "--eval-every" in line]
+    assert said == {"16": ["keepaway train: --eval-every 16 gives the learning curve only 2 points (at 0 and 16 "
+                           "episodes); --eval-every 4 gives it 5"], "4": []}
 
 
 def test_getopen_phases_and_their_evaluations_must_fall_on_generation_boundaries():

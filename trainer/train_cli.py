@@ -26,8 +26,29 @@ from trainer.schedule import POLICY_NAMES
 
 if TYPE_CHECKING:
     from runner.job import Backend, Behaviours
+    from trainer.train import TrainConfig
 
 POLICY_CHOICES = click.Choice(POLICY_NAMES)
+
+
+MIN_CURVE_POINTS = 5  # a learning curve of fewer evaluations has hardly a shape
+
+
+def warn_sparse_curve(config: TrainConfig) -> None:
+    """One line on stderr when ``--eval-every`` leaves the learning curve fewer than
+    :data:`MIN_CURVE_POINTS` points and a smaller one would give more, naming one that does."""
+    from trainer.schedule import denser_eval_every, evaluation_points
+
+    points = evaluation_points(config.schedule, config.eval_every)
+    if len(points) >= MIN_CURVE_POINTS:
+        return
+    every = denser_eval_every(config.schedule, config.eval_every, config.generation_episodes, MIN_CURVE_POINTS)
+    if every is None:
+        return
+    at = ", ".join(f"{p:,}" for p in points[:-1]) + f" and {points[-1]:,}"
+    click.echo(f"keepaway train: --eval-every {config.eval_every} gives the learning curve only {len(points)} points "
+               f"(at {at} episodes); --eval-every {every} gives it "
+               f"{len(evaluation_points(config.schedule, every))}", err=True)
 
 
 def prepare_kernels(kernel_sets: tuple[str, ...]) -> None:
@@ -145,6 +166,7 @@ def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, s
                                  sarsa=hive_mind_sarsa(pass_hive_mind))
         except ValueError as exc:
             raise click.UsageError(str(exc)) from None
+        warn_sparse_curve(config)
     interrupt_on_sigterm()
     prepare_kernels(where.kernel_sets(mode))
     try:
