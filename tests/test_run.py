@@ -140,6 +140,25 @@ def test_bad_options_are_one_line_errors(processes, tmp_path):
         assert text in err.decode() and "Traceback" not in err.decode()
 
 
+def test_a_run_names_its_logs_and_the_names_an_earlier_runs_logs_were_set_aside_under(processes, tmp_path):
+    def notes(*args: str) -> list[str]:
+        proc = processes.popen(keepaway_command("run", "--episodes", "2", "--no-progress", *args, "--out",
+                                                str(tmp_path)), stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+        _, err = proc.communicate(timeout=600)
+        assert proc.returncode == 0, err.decode()[-2000:]
+        return [line for line in err.decode().splitlines() if "logs in" in line]
+
+    assert notes("--mode", "embedded") == [f"keepaway: logs in {tmp_path}: keepaway.kwy, keepaway.jsonl, keepaway.rcg"]
+    first = {name: (tmp_path / name).read_bytes() for name in ("keepaway.kwy", "keepaway.jsonl", "keepaway.rcg")}
+    assert notes("--mode", "batched", "--batch", "2", "--game-log-arenas", "1") == [
+        f"keepaway: an earlier run's logs in {tmp_path} set aside: keepaway.kwy -> keepaway.1.kwy, "
+        "keepaway.jsonl -> keepaway.1.jsonl",
+        f"keepaway: logs in {tmp_path}: keepaway.kwy, keepaway.jsonl, keepaway-arena1.rcg"]
+    for name in ("keepaway.kwy", "keepaway.jsonl"):
+        assert (tmp_path / name.replace("keepaway.", "keepaway.1.")).read_bytes() == first[name]
+    assert (tmp_path / "keepaway.rcg").read_bytes() == first["keepaway.rcg"]  # not a log this run writes
+
+
 @pytest.mark.parametrize("mode", ["embedded", "batched"])
 def test_the_progress_bar_ends_at_the_summarys_rate(processes, tmp_path, mode):
     proc = processes.popen(keepaway_command("run", "--mode", mode, "--batch", "4", "--episodes", "12", "--seed", "2",
