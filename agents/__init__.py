@@ -10,21 +10,21 @@ numba or the kernels.
 
 from __future__ import annotations
 
-from core.exports import lazy_exports
+from keepaway.core.exports import lazy_exports
 
 _EXPORTS = {
-    "agents.belief": ("AgentMemory", "Belief", "belief_from_truth", "empty_belief", "forget_episode",
+    "keepaway.agents.belief": ("AgentMemory", "Belief", "belief_from_truth", "empty_belief", "forget_episode",
                       "new_memory"),
-    "agents.worldmodel": ("WorldModel",),
-    "agents.skills": ("AgentConfig", "GETOPEN_HANDCODED", "GETOPEN_HANDCODED_CONE", "GETOPEN_LEARNED",
+    "keepaway.agents.worldmodel": ("WorldModel",),
+    "keepaway.agents.skills": ("AgentConfig", "GETOPEN_HANDCODED", "GETOPEN_HANDCODED_CONE", "GETOPEN_LEARNED",
                       "GETOPEN_RANDOM", "PASS_EXTERNAL", "PASS_HANDCODED", "PASS_HOLD", "PASS_RANDOM", "decay_sums"),
-    "agents.state_vars": ("getopen_state", "getopen_state_size", "pass_state", "pass_state_size"),
-    "agents.getopen": ("GetOpenScaling", "InputScaling", "net_size", "net_value"),
-    "agents.keeper": ("NO_PASS_DECISION", "PASS_DECISION_START", "PASS_DECISION_STEP", "execute_pass_action",
+    "keepaway.agents.state_vars": ("getopen_state", "getopen_state_size", "pass_state", "pass_state_size"),
+    "keepaway.agents.getopen": ("GetOpenScaling", "InputScaling", "net_size", "net_value"),
+    "keepaway.agents.keeper": ("NO_PASS_DECISION", "PASS_DECISION_START", "PASS_DECISION_STEP", "execute_pass_action",
                       "handcoded_pass", "keeper_decide"),
-    "agents.taker": ("taker_decide",),
-    "agents.policy_file": ("Policy", "PolicyFileError", "getopen_theta_size", "load_policy", "save_policy"),
-    "agents.player": ("GETOPEN_POLICIES", "PASS_POLICIES", "PassLearner",
+    "keepaway.agents.taker": ("taker_decide",),
+    "keepaway.agents.policy_file": ("Policy", "PolicyFileError", "getopen_theta_size", "load_policy", "save_policy"),
+    "keepaway.agents.player": ("GETOPEN_POLICIES", "PASS_POLICIES", "PassLearner",
                       "PlayerAgent", "compile_kernels", "greedy_pass_factory", "sarsa_config"),
 }
 __all__, __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

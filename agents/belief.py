@@ -12,7 +12,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from core.jit import borrowing
+from keepaway.core.jit import borrowing
 
 
 class Belief(NamedTuple):

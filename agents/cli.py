@@ -26,9 +26,9 @@ from typing import TYPE_CHECKING, Any
 
 import click
 
-from protocol.messages import MAX_SEED, SERVER_SILENCE_S
-from protocol.endpoints import DEFAULT_PORTS, parse_endpoint
-from protocol.security import KeyDir, SecurityError, keys_option, no_answer, open_keys, secure_client
+from keepaway.protocol.messages import MAX_SEED, SERVER_SILENCE_S
+from keepaway.protocol.endpoints import DEFAULT_PORTS, parse_endpoint
+from keepaway.protocol.security import KeyDir, SecurityError, keys_option, no_answer, open_keys, secure_client
 
 EXIT_OK = 0
 EXIT_START_FAILED = 2
@@ -45,7 +45,7 @@ CLIENT_NAME = "keepaway-player"
 DEFAULT_SERVER = f"tcp://127.0.0.1:{DEFAULT_PORTS['players']}"
 
 if TYPE_CHECKING:
-    from agents.player import PlayerAgent
+    from keepaway.agents.player import PlayerAgent
 
 log = logging.getLogger("keepaway.player")
 
@@ -82,13 +82,13 @@ def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop
     exit code; raises :class:`PlayerExit` when the player cannot start."""
     import zmq
 
-    from agents.policy_file import PolicyFileError
-    from protocol import PROTOCOL_VERSION
-    from protocol import messages as m
-    from protocol.codec import encode
-    from protocol.endpoints import configure
-    from protocol.errors import ProtocolError
-    from protocol.messages import decode_for_player
+    from keepaway.agents.policy_file import PolicyFileError
+    from keepaway.protocol import PROTOCOL_VERSION
+    from keepaway.protocol import messages as m
+    from keepaway.protocol.codec import encode
+    from keepaway.protocol.endpoints import configure
+    from keepaway.protocol.errors import ProtocolError
+    from keepaway.protocol.messages import decode_for_player
 
     stop.in_loop = True
     ctx = zmq.Context()
@@ -247,8 +247,8 @@ def player_command(team: str, pass_policy: str, getopen_policy: str, policy_path
     signal.signal(signal.SIGTERM, stop)
     signal.signal(signal.SIGINT, stop)
 
-    from agents.player import PlayerAgent, compile_kernels  # here so `keepaway --help` stays light
-    from agents.policy_file import PolicyFileError, load_policy
+    from keepaway.agents.player import PlayerAgent, compile_kernels  # here so `keepaway --help` stays light
+    from keepaway.agents.policy_file import PolicyFileError, load_policy
 
     try:
         policy = load_policy(policy_path) if policy_path is not None else None

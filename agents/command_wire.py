@@ -13,13 +13,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from agents.say import CHAR_BYTES, MAX_CHARS, Talk
-from core.jit import borrowing
-from core.msgpack_out import (FLOAT_BYTES, MAX_ARRAY_HEADER_BYTES, MAX_INT_BYTES, packed, put_array, put_float, put_int,
+from keepaway.agents.say import CHAR_BYTES, MAX_CHARS, Talk
+from keepaway.core.jit import borrowing
+from keepaway.core.msgpack_out import (FLOAT_BYTES, MAX_ARRAY_HEADER_BYTES, MAX_INT_BYTES, packed, put_array, put_float, put_int,
                               put_raw)
-from core.objects import CMD_DASH, CMD_KICK, CMD_TURN
-from protocol import messages as m
-from protocol.messages import MAX_NOTE_NUMBERS
+from keepaway.core.objects import CMD_DASH, CMD_KICK, CMD_TURN
+from keepaway.protocol import messages as m
+from keepaway.protocol.messages import MAX_NOTE_NUMBERS
 
 MAIN_COMMANDS = {CMD_DASH: ("dash", 1), CMD_TURN: ("turn", 1), CMD_KICK: ("kick", 2)}
 """The main commands a player's decision gives, by code (``core.objects``): their names and how many of

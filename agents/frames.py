@@ -29,8 +29,8 @@ import dataclasses
 
 import numpy as np
 
-from core.jit import borrowing
-from core.msgpack_in import (
+from keepaway.core.jit import borrowing
+from keepaway.core.msgpack_in import (
     BAD,
     ascii,
     is_nil,
@@ -41,7 +41,7 @@ from core.msgpack_in import (
     read_str,
     str_equals,
 )
-from protocol.messages import (
+from keepaway.protocol.messages import (
     COLLISIONS,
     COMMAND_COUNTS,
     MAX_CYCLE,

@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import math
 
-from core.jit import borrowing
+from keepaway.core.jit import borrowing
 
-from core.objects import CMD_DASH, CMD_TURN
+from keepaway.core.objects import CMD_DASH, CMD_TURN
 
 # How far a quick estimate (one sqrt where the exact code takes hypot, a cosine instead of acos) may lie
 # from a comparison's threshold and still decide it: far above the few ulps by which the two

@@ -16,11 +16,11 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from core.jit import borrowing, njit
+from keepaway.core.jit import borrowing, njit
 
-from agents.belief import AgentMemory, Belief
-from agents.geometry import DECIDE_SLACK, compared_hypot, distance, in_cone, vertex_angle_below
-from agents.skills import (
+from keepaway.agents.belief import AgentMemory, Belief
+from keepaway.agents.geometry import DECIDE_SLACK, compared_hypot, distance, in_cone, vertex_angle_below
+from keepaway.agents.skills import (
     GETOPEN_HANDCODED,
     GETOPEN_HANDCODED_CONE,
     GETOPEN_LEARNED,
@@ -31,7 +31,7 @@ from agents.skills import (
     go_to_point,
     turn_to_point,
 )
-from agents.state_vars import (
+from keepaway.agents.state_vars import (
     ESTIMATE_ANGLE_ERROR,
     ESTIMATE_DISTANCE_ERROR,
     getopen_point_estimate,
@@ -41,7 +41,7 @@ from agents.state_vars import (
     getopen_state_size,
     vertex_scratch,
 )
-from core.rng import randint
+from keepaway.core.rng import randint
 
 NET_HIDDEN = 5  # keepaway-task.md 4: two hidden layers of 5 units
 SCALED_TANH_A = 1.7159  # keepaway-task.md 4: Haykin's scaled tanh a tanh(b x)

@@ -15,11 +15,11 @@ the caller picks a grid point and calls ``execute_getopen_action``.
 
 from __future__ import annotations
 
-from core.jit import borrowing
+from keepaway.core.jit import borrowing
 
-from agents.belief import AgentMemory, Belief
-from agents.getopen import getopen, grid_point, move_to_spot, note_getopen
-from agents.skills import (
+from keepaway.agents.belief import AgentMemory, Belief
+from keepaway.agents.getopen import getopen, grid_point, move_to_spot, note_getopen
+from keepaway.agents.skills import (
     GETOPEN_EXTERNAL,
     PASS_EXTERNAL,
     PASS_HANDCODED,
@@ -35,8 +35,8 @@ from agents.skills import (
     search_ball,
     write_action,
 )
-from agents.state_vars import pass_state
-from core.rng import randint
+from keepaway.agents.state_vars import pass_state
+from keepaway.core.rng import randint
 
 NO_PASS_DECISION = 0
 PASS_DECISION_START = 1  # learner: startEpisode(state)

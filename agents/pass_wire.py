@@ -21,9 +21,9 @@ from typing import Any
 
 import numpy as np
 
-from agents.sarsa import EMPTY_SLOT, SarsaConfig
-from protocol.advice import ARRAY_DTYPES, HASH_COUNTS, SparsePassChunk
-from protocol.codec import Message
+from keepaway.agents.sarsa import EMPTY_SLOT, SarsaConfig
+from keepaway.protocol.advice import ARRAY_DTYPES, HASH_COUNTS, SparsePassChunk
+from keepaway.protocol.codec import Message
 
 # Per-entry array bytes per message: well below the server's 4 MiB message limit (protocol.endpoints
 # DEFAULT_MAX_MESSAGE_BYTES) once msgpack framing and the server's player_report envelope are added.

@@ -65,28 +65,28 @@ from typing import Any, NamedTuple, Protocol
 
 import numpy as np
 
-from agents.belief import forget_episode, new_memory
-from agents.command_wire import MAIN_COMMANDS, MAX_COMMAND_BYTES
-from agents.frames import NOT_TAKEN, SENDER, TEXT_LENGTH, TEXT_START
-from agents.getopen import grid_size, grid_states, grid_values
-from agents.keeper import (
+from keepaway.agents.belief import forget_episode, new_memory
+from keepaway.agents.command_wire import MAIN_COMMANDS, MAX_COMMAND_BYTES
+from keepaway.agents.frames import NOT_TAKEN, SENDER, TEXT_LENGTH, TEXT_START
+from keepaway.agents.getopen import grid_size, grid_states, grid_values
+from keepaway.agents.keeper import (
     GETOPEN_DECISION,
     NO_PASS_DECISION,
     PASS_DECISION_START,
     execute_getopen_action,
     execute_pass_action,
 )
-from agents.pass_wire import REPORT_BYTES, chunked, pass_arrays_from_chunks, sparse_pass_chunks
-from agents.policy_file import (
+from keepaway.agents.pass_wire import REPORT_BYTES, chunked, pass_arrays_from_chunks, sparse_pass_chunks
+from keepaway.agents.policy_file import (
     Policy,
     PolicyFileError,
     as_getopen_theta,
     getopen_theta_size,
     keeper_pass_arrays,
 )
-from agents.sarsa import MODE_GREEDY, MODE_LEARN, MODE_NAMES, SarsaConfig, SarsaLearner
-from agents.say import BYTE_CODES, hear_bytes, hear_row, hear_text, new_talk
-from agents.skills import (
+from keepaway.agents.sarsa import MODE_GREEDY, MODE_LEARN, MODE_NAMES, SarsaConfig, SarsaLearner
+from keepaway.agents.say import BYTE_CODES, hear_bytes, hear_row, hear_text, new_talk
+from keepaway.agents.skills import (
     GETOPEN_EXTERNAL,
     GETOPEN_POLICIES,
     PASS_EXTERNAL,
@@ -95,12 +95,12 @@ from agents.skills import (
     decay_sums,
     neck_to_ball,
 )
-from agents.state_vars import getopen_state_size, pass_state_size
-from agents.think import NOT_WRITTEN, finish_row, think
-from agents.worldmodel import SIDE_CODES, WorldModel
-from protocol import PROTOCOL_VERSION, ProtocolError
-from protocol import messages as m
-from protocol.advice import (
+from keepaway.agents.state_vars import getopen_state_size, pass_state_size
+from keepaway.agents.think import NOT_WRITTEN, finish_row, think
+from keepaway.agents.worldmodel import SIDE_CODES, WorldModel
+from keepaway.protocol import PROTOCOL_VERSION, ProtocolError
+from keepaway.protocol import messages as m
+from keepaway.protocol.advice import (
     REPORTED,
     PassLoadAdvice,
     PassModeAdvice,
@@ -111,10 +111,10 @@ from protocol.advice import (
     SeedAdvice,
     advice_kind,
 )
-from protocol.messages import MAX_NOTE_NUMBERS, decode_from_player
-from protocol.params import ServerParams
-from core.jit import SteadyCall
-from core.objects import CMD_DASH
+from keepaway.protocol.messages import MAX_NOTE_NUMBERS, decode_from_player
+from keepaway.protocol.params import ServerParams
+from keepaway.core.jit import SteadyCall
+from keepaway.core.objects import CMD_DASH
 
 log = logging.getLogger("keepaway.player")
 
@@ -815,9 +815,9 @@ def compile_kernels(percepts: bool = True, decisions: bool = True) -> None:
     kernels; ``decisions``, the think (from a ``think`` decoded and from its frame, on a model that may
     have seen nothing: numba compiles for the arguments' types, not their values) and the decisions that
     Python calls outside it."""
-    from protocol.codec import encode
-    from protocol.landmarks import to_wire
-    from protocol.params import parameter_set
+    from keepaway.protocol.codec import encode
+    from keepaway.protocol.landmarks import to_wire
+    from keepaway.protocol.params import parameter_set
 
     params = parameter_set("classic")
     init = dict(version=PROTOCOL_VERSION, cycle=0, play_mode="play_on", params=params.to_dict(), landmarks=to_wire(),

@@ -35,9 +35,9 @@ from typing import Any
 
 import numpy as np
 
-from agents.getopen import InputScaling, net_size
-from agents.state_vars import getopen_state_size
-from protocol.params import KEEPAWAY_KEEPERS, KEEPAWAY_TAKERS
+from keepaway.agents.getopen import InputScaling, net_size
+from keepaway.agents.state_vars import getopen_state_size
+from keepaway.protocol.params import KEEPAWAY_KEEPERS, KEEPAWAY_TAKERS
 
 POLICY_FORMAT = "keepaway-policy"
 POLICY_VERSION = 2  # 2: the header records getopen_inputs

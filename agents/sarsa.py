@@ -28,10 +28,10 @@ from dataclasses import dataclass, replace
 from typing import NamedTuple
 
 import numpy as np
-from core.jit import borrowing
+from keepaway.core.jit import borrowing
 
-from core.rng import randint, seed_streams, uniform
-from protocol.advice import PASS_MODES
+from keepaway.core.rng import randint, seed_streams, uniform
+from keepaway.protocol.advice import PASS_MODES
 
 # Modes, switchable between episodes (spec `keepaway-agents.md` 5, evaluation mode).
 MODE_LEARN = 0  # epsilon-greedy actions, weight updates (player -e 1)

@@ -48,12 +48,12 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from core.jit import borrowing
+from keepaway.core.jit import borrowing
 
-from agents.geometry import ball_after_kick, compared_hypot, kick_rate, nearer_than, player_step
-from agents.skills import frame_sign, kickable_distance, opponent_range
-from agents.worldmodel import NEVER, ModelState, confidence
-from core.objects import BALL, CMD_DASH, CMD_KICK, CMD_NONE
+from keepaway.agents.geometry import ball_after_kick, compared_hypot, kick_rate, nearer_than, player_step
+from keepaway.agents.skills import frame_sign, kickable_distance, opponent_range
+from keepaway.agents.worldmodel import NEVER, ModelState, confidence
+from keepaway.core.objects import BALL, CMD_DASH, CMD_KICK, CMD_NONE
 
 # saymsglib's alphabet (SayMsgDataTypes.h validchars): a character is its index, 0..72.
 VALID_CHARS = "0123456789abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ().+-*/?<>_"

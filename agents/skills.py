@@ -15,11 +15,11 @@ from collections import namedtuple
 from dataclasses import dataclass, fields
 
 import numpy as np
-from core.jit import borrowing, njit
-from core.records import kernel_record
+from keepaway.core.jit import borrowing, njit
+from keepaway.core.records import kernel_record
 
-from agents.belief import AgentMemory, Belief
-from agents.geometry import (
+from keepaway.agents.belief import AgentMemory, Belief
+from keepaway.agents.geometry import (
     DECIDE_SLACK,
     ball_after_kick,
     compared_hypot,
@@ -39,8 +39,8 @@ from agents.geometry import (
     turn_effect,
     turn_moment,
 )
-from core.objects import CMD_DASH, CMD_KICK, CMD_TURN
-from protocol.advice import GETOPEN_POLICY_NAMES, PASS_POLICY_NAMES
+from keepaway.core.objects import CMD_DASH, CMD_KICK, CMD_TURN
+from keepaway.protocol.advice import GETOPEN_POLICY_NAMES, PASS_POLICY_NAMES
 
 # Pass policies (spec `keepaway-task.md` 3); EXTERNAL: the caller's learner picks the action.
 PASS_RANDOM = 0

@@ -15,11 +15,11 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from core.jit import borrowing, njit
+from keepaway.core.jit import borrowing, njit
 
-from agents.belief import Belief
-from agents.geometry import ACOS_ESTIMATE_ERROR, DECIDE_SLACK, acos_estimate, distance, ray_cosine
-from agents.skills import closest_to_ball, distances_from, sort_by_distance
+from keepaway.agents.belief import Belief
+from keepaway.agents.geometry import ACOS_ESTIMATE_ERROR, DECIDE_SLACK, acos_estimate, distance, ray_cosine
+from keepaway.agents.skills import closest_to_ball, distances_from, sort_by_distance
 
 
 @borrowing

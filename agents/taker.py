@@ -14,12 +14,12 @@ from __future__ import annotations
 
 import math
 
-from core.jit import borrowing
+from keepaway.core.jit import borrowing
 
-from agents.belief import AgentMemory, Belief
-from agents.geometry import compared_hypot, distance, in_cone
-from agents.getopen import move_to_spot
-from agents.skills import (
+from keepaway.agents.belief import AgentMemory, Belief
+from keepaway.agents.geometry import compared_hypot, distance, in_cone
+from keepaway.agents.getopen import move_to_spot
+from keepaway.agents.skills import (
     UNKNOWN_FIRST,
     ball_kickable,
     closest_to_ball,

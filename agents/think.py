@@ -16,13 +16,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from agents.belief import AgentMemory, Belief
-from agents.command_wire import write_command
-from agents.keeper import GETOPEN_DECISION, NO_PASS_DECISION, keeper_decide
-from agents.say import Talk, hear_row, say_row
-from agents.taker import taker_decide
-from agents.worldmodel import ModelState, sent_row, write_belief_row
-from core.jit import borrowing
+from keepaway.agents.belief import AgentMemory, Belief
+from keepaway.agents.command_wire import write_command
+from keepaway.agents.keeper import GETOPEN_DECISION, NO_PASS_DECISION, keeper_decide
+from keepaway.agents.say import Talk, hear_row, say_row
+from keepaway.agents.taker import taker_decide
+from keepaway.agents.worldmodel import ModelState, sent_row, write_belief_row
+from keepaway.core.jit import borrowing
 
 NOT_WRITTEN = -1
 """:func:`think`'s frame length when it wrote no frame: the decision is its caller's to finish."""

@@ -45,12 +45,12 @@ from collections.abc import Mapping, Sequence
 from typing import Any, NamedTuple
 
 import numpy as np
-from core.jit import SteadyCall, borrowing, njit
+from keepaway.core.jit import SteadyCall, borrowing, njit
 
-from agents.belief import Belief, empty_belief
-from agents.geometry import (believed_dash_power, compared_hypot, kick_rate, nearer_than, normalize_angle,
+from keepaway.agents.belief import Belief, empty_belief
+from keepaway.agents.geometry import (believed_dash_power, compared_hypot, kick_rate, nearer_than, normalize_angle,
                              turn_effect)
-from agents.frames import (
+from keepaway.agents.frames import (
     EFFORT,
     FRAME_VALUES,
     HEAD_ANGLE,
@@ -63,11 +63,11 @@ from agents.frames import (
     STAMINA,
     decode_frame,
 )
-from agents.frames import NO_SIDE as _NO_SIDE
-from agents.frames import NO_UNUM as _NO_UNUM
-from agents.skills import AgentConfig, kickable_distance, opponent_range
-from protocol.params import ServerParams
-from core.objects import BALL, CMD_DASH, CMD_KICK, CMD_NONE, CMD_TURN, COLLISION_VEL_FACTOR
+from keepaway.agents.frames import NO_SIDE as _NO_SIDE
+from keepaway.agents.frames import NO_UNUM as _NO_UNUM
+from keepaway.agents.skills import AgentConfig, kickable_distance, opponent_range
+from keepaway.protocol.params import ServerParams
+from keepaway.core.objects import BALL, CMD_DASH, CMD_KICK, CMD_NONE, CMD_TURN, COLLISION_VEL_FACTOR
 
 # Confidence falls to 0 after this many unseen cycles (spec `keepaway-agents.md` 1).
 CONF_HORIZON_CYCLES = 100.0

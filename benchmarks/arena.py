@@ -22,9 +22,9 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from protocol.params import parameter_set  # noqa: E402
-from runner.embedded import ArenaSpec  # noqa: E402
-from runner.run import RunOptions, run  # noqa: E402
+from keepaway.protocol.params import parameter_set  # noqa: E402
+from keepaway.runner.embedded import ArenaSpec  # noqa: E402
+from keepaway.runner.run import RunOptions, run  # noqa: E402
 from sibling import load  # noqa: E402
 
 

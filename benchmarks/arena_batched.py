@@ -14,9 +14,9 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # the repository, before benchmarks/
 
-from protocol.params import parameter_set  # noqa: E402
-from runner.batched import BatchedArenas  # noqa: E402
-from runner.job import EpisodeTable  # noqa: E402
+from keepaway.protocol.params import parameter_set  # noqa: E402
+from keepaway.runner.batched import BatchedArenas  # noqa: E402
+from keepaway.runner.job import EpisodeTable  # noqa: E402
 
 # (batch, cycles per arena): about 3000 arena-cycles at batch 1, 300k at batch 1024.
 DEFAULT_RUNS = ((1, 3000), (1024, 300))

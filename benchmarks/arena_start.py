@@ -24,7 +24,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
-from runner.launch import keepaway_argv  # noqa: E402
+from keepaway.runner.launch import keepaway_argv  # noqa: E402
 
 WAYS = {"forked": "1", "started": "0"}  # KEEPAWAY_FORK_PLAYERS
 

@@ -30,7 +30,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))  # the repository, before benchmarks/
 
-from runner.launch import LISTEN_RE  # noqa: E402
+from keepaway.runner.launch import LISTEN_RE  # noqa: E402
 
 # A player: answers every think with one dash; with a flood rate > 0 it also sends that many extra
 # commands a second (in bursts every 10 ms). The reporting player prints "start" `warm` seconds after its

@@ -16,10 +16,10 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from protocol.params import parameter_set  # noqa: E402
-from runner.embedded import ArenaSpec, EmbeddedGame  # noqa: E402
-from runner.run import RunOptions, run  # noqa: E402
-from server.game_log import WorldShows, show_line  # noqa: E402
+from keepaway.protocol.params import parameter_set  # noqa: E402
+from keepaway.runner.embedded import ArenaSpec, EmbeddedGame  # noqa: E402
+from keepaway.runner.run import RunOptions, run  # noqa: E402
+from keepaway.server.game_log import WorldShows, show_line  # noqa: E402
 
 
 def formatting_us(cycles: int = 2000) -> tuple[float, float]:

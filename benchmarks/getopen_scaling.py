@@ -28,7 +28,7 @@ from numba import njit
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # the repository, before benchmarks/
 
-from agents.getopen import (  # noqa: E402
+from keepaway.agents.getopen import (  # noqa: E402
     NET_HIDDEN,
     SCALED_TANH_B,
     GetOpenScaling,
@@ -38,10 +38,10 @@ from agents.getopen import (  # noqa: E402
     net_size,
     net_value,
 )
-from agents.skills import AgentConfig, ball_kickable, fastest_to_ball  # noqa: E402
-from agents.state_vars import GETOPEN_KINDS, getopen_state, getopen_state_kinds, getopen_state_size  # noqa: E402
-from protocol.params import parameter_set  # noqa: E402
-from runner.batched import BatchedArenas  # noqa: E402
+from keepaway.agents.skills import AgentConfig, ball_kickable, fastest_to_ball  # noqa: E402
+from keepaway.agents.state_vars import GETOPEN_KINDS, getopen_state, getopen_state_kinds, getopen_state_size  # noqa: E402
+from keepaway.protocol.params import parameter_set  # noqa: E402
+from keepaway.runner.batched import BatchedArenas  # noqa: E402
 
 SATURATED = 0.99  # |tanh| above this: the unit acts as a threshold
 

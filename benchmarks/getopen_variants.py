@@ -31,13 +31,13 @@ from scipy import stats
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # the repository, before benchmarks/
 
-from agents.getopen import RAW_INPUTS, SCALED_INPUTS  # noqa: E402
-from agents.skills import AgentConfig  # noqa: E402
-from trainer.cem import CEMConfig  # noqa: E402
-from trainer.curves import CurvePoint  # noqa: E402
-from trainer.schedule import GETOPEN, Phase  # noqa: E402
-from runner.batched_backend import BatchedBackend  # noqa: E402
-from trainer.train import TrainConfig, TrialState, evaluate, initial_behaviours, step  # noqa: E402
+from keepaway.agents.getopen import RAW_INPUTS, SCALED_INPUTS  # noqa: E402
+from keepaway.agents.skills import AgentConfig  # noqa: E402
+from keepaway.trainer.cem import CEMConfig  # noqa: E402
+from keepaway.trainer.curves import CurvePoint  # noqa: E402
+from keepaway.trainer.schedule import GETOPEN, Phase  # noqa: E402
+from keepaway.runner.batched_backend import BatchedBackend  # noqa: E402
+from keepaway.trainer.train import TrainConfig, TrialState, evaluate, initial_behaviours, step  # noqa: E402
 
 VARIANTS = {
     "scaled": (SCALED_INPUTS, AgentConfig()),

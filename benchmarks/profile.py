@@ -33,8 +33,8 @@ _GAME = """
 import os, sys
 os.environ.setdefault("NUMBA_NUM_THREADS", "1")
 sys.path.insert(0, {repo!r})
-from protocol.params import parameter_set
-from runner.batched import BatchedArenas
+from keepaway.protocol.params import parameter_set
+from keepaway.runner.batched import BatchedArenas
 arenas = BatchedArenas(parameter_set("classic"), 64, 0, pass_policy={pass_policy!r},
                        getopen_policy={getopen_policy!r}, threads=1)
 arenas.run(max_cycles=1)

@@ -21,9 +21,9 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from runner.launch import ArenaFailure, ArenaProcesses, Member
-from server.episode_log import EpisodeRecord, read_kwy
-from server.game_log import GameRecord, read_rcg
+from keepaway.runner.launch import ArenaFailure, ArenaProcesses, Member
+from keepaway.server.episode_log import EpisodeRecord, read_kwy
+from keepaway.server.game_log import GameRecord, read_rcg
 
 # Our Pass policy names -> keepaway_player's ``-q`` names.
 CPP_POLICY = {"hold": "hold", "random": "rand", "handcoded": "hand"}

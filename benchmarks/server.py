@@ -32,16 +32,16 @@ import numpy as np
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
-from protocol.params import parameter_set  # noqa: E402
-from runner.launch import LISTEN_RE  # noqa: E402
-from server.perception import SeeBuffers, SenseBodyBuffers, see_batch, sense_body_batch  # noqa: E402
-from server.referee import new_referee_state, start_game  # noqa: E402
-from server.simulation import new_causes, simulate_cycle  # noqa: E402
-from core.objects import CMD_DASH, CMD_TURN
-from server.world import Commands, new_world  # noqa: E402
-from core.jit import borrowing  # noqa: E402
-from agents.say import new_talk  # noqa: E402
-from runner.batched import deliver_says  # noqa: E402
+from keepaway.protocol.params import parameter_set  # noqa: E402
+from keepaway.runner.launch import LISTEN_RE  # noqa: E402
+from keepaway.server.perception import SeeBuffers, SenseBodyBuffers, see_batch, sense_body_batch  # noqa: E402
+from keepaway.server.referee import new_referee_state, start_game  # noqa: E402
+from keepaway.server.simulation import new_causes, simulate_cycle  # noqa: E402
+from keepaway.core.objects import CMD_DASH, CMD_TURN
+from keepaway.server.world import Commands, new_world  # noqa: E402
+from keepaway.core.jit import borrowing  # noqa: E402
+from keepaway.agents.say import new_talk  # noqa: E402
+from keepaway.runner.batched import deliver_says  # noqa: E402
 
 
 SAY_LENGTH = 10  # characters: what the hand-coded players say every cycle (9-10, measured in the game)

@@ -39,8 +39,8 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))  # the repository, before benchmarks/
 
-from protocol.params import parameter_set  # noqa: E402
-from trainer.behaviour import (  # noqa: E402
+from keepaway.protocol.params import parameter_set  # noqa: E402
+from keepaway.trainer.behaviour import (  # noqa: E402
     CURVE_CYCLES,
     REFERENCE_CAMPAIGNS,
     TOLERANCE_SE,
@@ -55,7 +55,7 @@ from trainer.behaviour import (  # noqa: E402
     measure_policy,
     reference_entry,
 )
-from runner.launch import ArenaFailure, interrupt_on_sigterm  # noqa: E402
+from keepaway.runner.launch import ArenaFailure, interrupt_on_sigterm  # noqa: E402
 from benchmarks.reference_stack import (  # noqa: E402
     CPP_POLICY,
     KEEPERS,
@@ -64,8 +64,8 @@ from benchmarks.reference_stack import (  # noqa: E402
     ReferenceStack,
     play_reference,
 )
-from server.episode_log import read_kwy  # noqa: E402
-from server.game_log import read_rcg  # noqa: E402
+from keepaway.server.episode_log import read_kwy  # noqa: E402
+from keepaway.server.game_log import read_rcg  # noqa: E402
 
 REFERENCE = REPO / "tests" / "data" / "rcss-behaviour" / "stats_real.json"
 # A policy's references: (label, statistics), one row each.

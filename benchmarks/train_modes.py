@@ -24,11 +24,11 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from runner.batched_backend import BatchedBackend  # noqa: E402
-from runner.distributed import DistributedBackend  # noqa: E402
-from runner.job import Backend, Behaviours  # noqa: E402
-from trainer.schedule import PASS, Phase  # noqa: E402
-from trainer.train import TrainConfig  # noqa: E402
+from keepaway.runner.batched_backend import BatchedBackend  # noqa: E402
+from keepaway.runner.distributed import DistributedBackend  # noqa: E402
+from keepaway.runner.job import Backend, Behaviours  # noqa: E402
+from keepaway.trainer.schedule import PASS, Phase  # noqa: E402
+from keepaway.trainer.train import TrainConfig  # noqa: E402
 
 DEFAULT_HOLD_S = 14.0
 TRIAL_EPISODES = 30_000

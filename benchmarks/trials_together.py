@@ -19,11 +19,11 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from runner.batched_backend import BatchedBackend  # noqa: E402
-from runner.job import LEARN  # noqa: E402
-from trainer.cem import CEMConfig  # noqa: E402
-from trainer.schedule import GETOPEN, PASS, Phase  # noqa: E402
-from trainer.train import TrainConfig, TrialState, advance, initial_behaviours  # noqa: E402
+from keepaway.runner.batched_backend import BatchedBackend  # noqa: E402
+from keepaway.runner.job import LEARN  # noqa: E402
+from keepaway.trainer.cem import CEMConfig  # noqa: E402
+from keepaway.trainer.schedule import GETOPEN, PASS, Phase  # noqa: E402
+from keepaway.trainer.train import TrainConfig, TrialState, advance, initial_behaviours  # noqa: E402
 
 
 def wall(config: TrainConfig, backend: BatchedBackend, together: bool) -> float:

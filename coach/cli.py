@@ -9,8 +9,8 @@ from pathlib import Path
 
 import click
 
-from protocol.endpoints import parse_endpoint
-from protocol.security import SecurityError, keys_option, open_keys
+from keepaway.protocol.endpoints import parse_endpoint
+from keepaway.protocol.security import SecurityError, keys_option, open_keys
 
 
 @click.command("coach")
@@ -32,7 +32,7 @@ from protocol.security import SecurityError, keys_option, open_keys
 def coach_command(server_endpoint: str, arena_port: int | None, host: str, idle: bool, stop_after: int | None,
                   connect_timeout: float, as_json: bool, keys: Path | None, verbose: int) -> None:
     """Run an arena's online coach: the ground-truth episode record and the trainer's endpoint."""
-    from coach.coach import Coach
+    from keepaway.coach.coach import Coach
 
     logging.basicConfig(level=logging.WARNING - 10 * min(verbose, 2),
                         format="%(asctime)s %(name)s %(levelname)s %(message)s", stream=sys.stderr)

@@ -23,13 +23,13 @@ from typing import Any
 
 import zmq
 
-from coach.core import SERVER, CoachCore, Outgoing, coach_init, log
-from core.log_limit import RepeatLimit
-from protocol import Message, ProtocolError, configure, encode
-from protocol import messages as m
-from protocol.arena import ARENA_MAX_MESSAGE_BYTES, decode_from_trainer
-from protocol.messages import decode_for_coach
-from protocol.security import KeyDir, PortGuard, no_answer, secure_client
+from keepaway.coach.core import SERVER, CoachCore, Outgoing, coach_init, log
+from keepaway.core.log_limit import RepeatLimit
+from keepaway.protocol import Message, ProtocolError, configure, encode
+from keepaway.protocol import messages as m
+from keepaway.protocol.arena import ARENA_MAX_MESSAGE_BYTES, decode_from_trainer
+from keepaway.protocol.messages import decode_for_coach
+from keepaway.protocol.security import KeyDir, PortGuard, no_answer, secure_client
 
 # As the server's: a flood of refused handshakes or bad requests costs one line a second (core/log_limit.py).
 repeat_limit = RepeatLimit()

@@ -37,11 +37,11 @@ import logging
 from dataclasses import dataclass, field
 from typing import Any
 
-from protocol import DEFAULT_MAX_MESSAGE_BYTES, PROTOCOL_VERSION, Message, ProtocolError, encode
-from protocol import messages as m
-from protocol.advice import REPORTED, KeeperReport, ReportRequest, SeedAdvice, decode_report
-from protocol.arena import EpisodesDone, RunEpisodes, StopArena
-from protocol.messages import advice_hear
+from keepaway.protocol import DEFAULT_MAX_MESSAGE_BYTES, PROTOCOL_VERSION, Message, ProtocolError, encode
+from keepaway.protocol import messages as m
+from keepaway.protocol.advice import REPORTED, KeeperReport, ReportRequest, SeedAdvice, decode_report
+from keepaway.protocol.arena import EpisodesDone, RunEpisodes, StopArena
+from keepaway.protocol.messages import advice_hear
 
 log = logging.getLogger("keepaway.coach")
 

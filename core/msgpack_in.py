@@ -17,8 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from core.jit import borrowing
-from core.msgpack_out import FLOAT64, NIL
+from keepaway.core.jit import borrowing
+from keepaway.core.msgpack_out import FLOAT64, NIL
 
 BAD = -1
 """The position a reader returns for bytes it does not take."""

@@ -19,7 +19,7 @@ from typing import Any
 import msgpack
 import numpy as np
 
-from core.jit import borrowing
+from keepaway.core.jit import borrowing
 
 NIL = 0xC0
 FLOAT64 = 0xCB

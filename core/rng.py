@@ -8,7 +8,7 @@ uint64 state, so a batch of arenas draws exactly what the same arenas would draw
 from __future__ import annotations
 
 import numpy as np
-from core.jit import njit
+from keepaway.core.jit import njit
 
 _GOLDEN = np.uint64(0x9E3779B97F4A7C15)
 _MIX1 = np.uint64(0xBF58476D1CE4E5B9)

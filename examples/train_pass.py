@@ -13,7 +13,7 @@ import argparse
 
 import numpy as np
 
-from agents.sarsa import SarsaConfig, SarsaLearner
+from keepaway.agents.sarsa import SarsaConfig, SarsaLearner
 from keepaway.env import parallel_env
 
 

@@ -6,7 +6,7 @@ import sys
 
 import click
 
-from core.exits import EXIT_INTERRUPTED
+from keepaway.core.exits import EXIT_INTERRUPTED
 
 
 class _Keepaway(click.Group):
@@ -31,14 +31,14 @@ def main() -> None:
 
 
 def _register() -> None:
-    from agents.cli import commands as agent_commands
-    from coach.cli import commands as coach_commands
-    from protocol.security import keys_command
-    from runner.cli import commands as runner_commands
-    from server.cli import commands as server_commands
-    from trainer.experiment_cli import commands as experiment_commands
-    from trainer.train_cli import commands as train_commands
-    from viewer.cli import commands as viewer_commands
+    from keepaway.agents.cli import commands as agent_commands
+    from keepaway.coach.cli import commands as coach_commands
+    from keepaway.protocol.security import keys_command
+    from keepaway.runner.cli import commands as runner_commands
+    from keepaway.server.cli import commands as server_commands
+    from keepaway.trainer.experiment_cli import commands as experiment_commands
+    from keepaway.trainer.train_cli import commands as train_commands
+    from keepaway.viewer.cli import commands as viewer_commands
 
     for command in (server_commands + agent_commands + coach_commands + runner_commands + train_commands
                     + experiment_commands + viewer_commands + [keys_command]):

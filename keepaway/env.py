@@ -36,14 +36,14 @@ import numpy as np
 from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
-from agents.getopen import grid_size, grid_states
-from agents.player import OUTSIDE_BODY, OUTSIDE_GETOPEN, OUTSIDE_PASS, PlayerAgent
-from agents.skills import AgentConfig
-from agents.state_vars import getopen_state_size, pass_state_size
-from core.objects import CMD_DASH, CMD_KICK, CMD_TURN
-from protocol.params import ServerParams, parameter_set
-from runner.embedded import ArenaSpec
-from runner.outside import AttachedKeepers, EmbeddedKeepers
+from keepaway.agents.getopen import grid_size, grid_states
+from keepaway.agents.player import OUTSIDE_BODY, OUTSIDE_GETOPEN, OUTSIDE_PASS, PlayerAgent
+from keepaway.agents.skills import AgentConfig
+from keepaway.agents.state_vars import getopen_state_size, pass_state_size
+from keepaway.core.objects import CMD_DASH, CMD_KICK, CMD_TURN
+from keepaway.protocol.params import ServerParams, parameter_set
+from keepaway.runner.embedded import ArenaSpec
+from keepaway.runner.outside import AttachedKeepers, EmbeddedKeepers
 
 AGENT_PREFIX = "keeper_"
 # The low-level commands in the order of the action's first element.

@@ -4,8 +4,8 @@ Message dataclasses, the msgpack codec with validation, the protocol version, Ze
 and the server parameter table. Depends on no other package of the project.
 """
 
-from protocol.codec import MAX_PAYLOAD_DEPTH, PROTOCOL_VERSION, Message, decode, encode
-from protocol.endpoints import (
+from keepaway.protocol.codec import MAX_PAYLOAD_DEPTH, PROTOCOL_VERSION, Message, decode, encode
+from keepaway.protocol.endpoints import (
     DEFAULT_MAX_MESSAGE_BYTES,
     DEFAULT_PORTS,
     MONITOR_EPISODE_TOPIC,
@@ -15,8 +15,8 @@ from protocol.endpoints import (
     connect_endpoint,
     parse_endpoint,
 )
-from protocol.errors import CODEC_ERROR_CODES, ERROR_CODES, ProtocolError
-from protocol.messages import (
+from keepaway.protocol.errors import CODEC_ERROR_CODES, ERROR_CODES, ProtocolError
+from keepaway.protocol.messages import (
     COACH_TO_SERVER,
     COMMAND_ARGUMENTS,
     MAX_COMMANDS,
@@ -57,7 +57,7 @@ from protocol.messages import (
     decode_from_player,
     decode_monitor,
 )
-from protocol.params import (
+from keepaway.protocol.params import (
     CLASSIC,
     CURRENT,
     KEEPAWAY_LAUNCH,

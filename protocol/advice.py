@@ -23,7 +23,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from protocol.codec import (
+from keepaway.protocol.codec import (
     Invalid,
     Loader,
     Message,
@@ -40,8 +40,8 @@ from protocol.codec import (
     tagged_type,
     wire,
 )
-from protocol.errors import ProtocolError
-from protocol.messages import COUNT, _by_type
+from keepaway.protocol.errors import ProtocolError
+from keepaway.protocol.messages import COUNT, _by_type
 
 ADVICE_TAG = "kind"  # the key naming an advice's or a report's kind
 # The names a policy advice may switch to (``keepaway player --pass/--getopen``; agents.skills maps

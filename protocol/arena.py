@@ -14,9 +14,9 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import ClassVar
 
-from protocol.advice import REPORTS, advice_value, report_value
-from protocol.codec import Message, choice, decode, fixed, integer, message, optional, sequence, wire
-from protocol.messages import (
+from keepaway.protocol.advice import REPORTS, advice_value, report_value
+from keepaway.protocol.codec import Message, choice, decode, fixed, integer, message, optional, sequence, wire
+from keepaway.protocol.messages import (
     CYCLE,
     EPISODE_ENDS,
     MAX_CYCLE,

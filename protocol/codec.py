@@ -19,8 +19,8 @@ from typing import Any, ClassVar, Self
 
 import msgpack
 
-from protocol.endpoints import DEFAULT_MAX_MESSAGE_BYTES
-from protocol.errors import ProtocolError
+from keepaway.protocol.endpoints import DEFAULT_MAX_MESSAGE_BYTES
+from keepaway.protocol.errors import ProtocolError
 
 PROTOCOL_VERSION = 1
 """Bumped on every incompatible change; ``init``/``reconnect``/``coach_init`` must carry exactly this."""

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Any, ClassVar
 
-from protocol.codec import (
+from keepaway.protocol.codec import (
     PROTOCOL_VERSION,
     Invalid,
     Loader,
@@ -40,9 +40,9 @@ from protocol.codec import (
     row,
     rows,
 )
-from protocol.endpoints import DEFAULT_MAX_MESSAGE_BYTES, MONITOR_EPISODE_TOPIC, MONITOR_FRAME_TOPIC
-from protocol.errors import ProtocolError
-from protocol.params import MAX_TEAM_SIZE, ServerParams
+from keepaway.protocol.endpoints import DEFAULT_MAX_MESSAGE_BYTES, MONITOR_EPISODE_TOPIC, MONITOR_FRAME_TOPIC
+from keepaway.protocol.errors import ProtocolError
+from keepaway.protocol.params import MAX_TEAM_SIZE, ServerParams
 
 # ------------------------------------------------------------------------------------------ vocabulary
 

@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from core.records import kernel_record
+from keepaway.core.records import kernel_record
 
 # Enumerations stored as floats in the kernel record (numba wants one field type).
 NOISE_AXIS = 0.0  # CLASSIC: per-axis U(-r, r)

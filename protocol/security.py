@@ -36,8 +36,8 @@ import zmq
 import zmq.auth
 from zmq.auth.thread import ThreadAuthenticator
 
-from core.log_limit import KIND_ATTR
-from protocol.endpoints import bind
+from keepaway.core.log_limit import KIND_ATTR
+from keepaway.protocol.endpoints import bind
 
 SERVER_KEY = "server"
 CLIENT_KEY = "client"

@@ -19,21 +19,21 @@ Names are imported on first use (PEP 562), so loading the command line does not 
 
 from __future__ import annotations
 
-from core.exports import lazy_exports
+from keepaway.core.exports import lazy_exports
 
 # The backends (above), here rather than in ``runner.job`` so that the command line can offer them
 # without importing the players' kernels.
 MODES = ("batched", "embedded", "distributed")
 
 _EXPORTS = {
-    "runner.job": ("BATCHED_SARSA", "GREEDY", "LEARN", "LEARNED", "Backend", "Behaviours", "EpisodeTable", "Game",
+    "keepaway.runner.job": ("BATCHED_SARSA", "GREEDY", "LEARN", "LEARNED", "Backend", "Behaviours", "EpisodeTable", "Game",
                    "Played", "Progress", "RunResult", "chunk_seeds", "derive_seed"),
-    "runner.backends": ("Placement", "open_backend"),
-    "runner.batched": ("BatchedArenas",),
-    "runner.batched_backend": ("BatchedBackend",),
-    "runner.embedded": ("ArenaSpec", "EmbeddedBackend", "EmbeddedGame"),
-    "runner.distributed": ("DistributedBackend",),
-    "runner.launch": ("ArenaFailure", "ArenaProcesses"),
+    "keepaway.runner.backends": ("Placement", "open_backend"),
+    "keepaway.runner.batched": ("BatchedArenas",),
+    "keepaway.runner.batched_backend": ("BatchedBackend",),
+    "keepaway.runner.embedded": ("ArenaSpec", "EmbeddedBackend", "EmbeddedGame"),
+    "keepaway.runner.distributed": ("DistributedBackend",),
+    "keepaway.runner.launch": ("ArenaFailure", "ArenaProcesses"),
 }
 __all__, __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
 __all__ = ["MODES", *__all__]

@@ -6,12 +6,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from runner.batched_backend import BatchedBackend
-from runner.distributed import DistributedBackend
-from runner.embedded import EmbeddedBackend
-from runner.job import CHUNK_EPISODES, MODES, Backend, Game
-from runner.kernels import kernel_sets
-from runner.ray_backend import Launcher
+from keepaway.runner.batched_backend import BatchedBackend
+from keepaway.runner.distributed import DistributedBackend
+from keepaway.runner.embedded import EmbeddedBackend
+from keepaway.runner.job import CHUNK_EPISODES, MODES, Backend, Game
+from keepaway.runner.kernels import kernel_sets
+from keepaway.runner.ray_backend import Launcher
 
 
 @dataclass(frozen=True)

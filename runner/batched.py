@@ -56,12 +56,12 @@ from typing import NamedTuple
 
 import numpy as np
 import numba
-from core.jit import borrowing
+from keepaway.core.jit import borrowing
 
-from agents.belief import AgentMemory, Belief, empty_belief, forget_episode, new_memory
-from agents.getopen import net_size
-from agents.keeper import NO_PASS_DECISION, PASS_DECISION_START, execute_pass_action
-from agents.sarsa import (
+from keepaway.agents.belief import AgentMemory, Belief, empty_belief, forget_episode, new_memory
+from keepaway.agents.getopen import net_size
+from keepaway.agents.keeper import NO_PASS_DECISION, PASS_DECISION_START, execute_pass_action
+from keepaway.agents.sarsa import (
     MODE_NAMES,
     SarsaConfig,
     SarsaMemory,
@@ -74,19 +74,19 @@ from agents.sarsa import (
     start_episode,
     step as sarsa_step,
 )
-from agents.player import agent_seed_sequence, learner_seed as player_learner_seed
-from agents.say import Talk, new_talk
-from agents.skills import (
+from keepaway.agents.player import agent_seed_sequence, learner_seed as player_learner_seed
+from keepaway.agents.say import Talk, new_talk
+from keepaway.agents.skills import (
     GETOPEN_POLICIES,
     PASS_POLICIES,
     PASS_EXTERNAL,
     AgentConfig,
     decay_sums,
 )
-from agents.state_vars import getopen_state_size, pass_state_size
-from agents.think import commit_row, decide_row
-from agents.frames import NO_SIDE
-from agents.worldmodel import (
+from keepaway.agents.state_vars import getopen_state_size, pass_state_size
+from keepaway.agents.think import commit_row, decide_row
+from keepaway.agents.frames import NO_SIDE
+from keepaway.agents.worldmodel import (
     SIDE_CODES,
     ModelState,
     SeeBuffer,
@@ -96,10 +96,10 @@ from agents.worldmodel import (
     see_row,
     sense_body_row,
 )
-from protocol.landmarks import FLAG_POSITIONS, N_FLAGS
-from protocol.params import ServerParams
-from server.arena import PlayerSlot
-from server.perception import (
+from keepaway.protocol.landmarks import FLAG_POSITIONS, N_FLAGS
+from keepaway.protocol.params import ServerParams
+from keepaway.server.arena import PlayerSlot
+from keepaway.server.perception import (
     see_due,
     hear_picks,
     FULL,
@@ -111,13 +111,13 @@ from server.perception import (
     see_arena,
     sense_body_arena,
 )
-from server.command_slots import take_main, take_neck, take_say
-from server.referee import END_NONE, RefereeState, new_referee_state, start_game
-from core.rng import seed_streams
-from server.simulation import step_arena
-from core.objects import BALL, CMD_KICK, CMD_NONE
-from server.world import Commands, World, new_world, player_unum
-from runner.job import BATCHED_SARSA, EpisodeTable
+from keepaway.server.command_slots import take_main, take_neck, take_say
+from keepaway.server.referee import END_NONE, RefereeState, new_referee_state, start_game
+from keepaway.core.rng import seed_streams
+from keepaway.server.simulation import step_arena
+from keepaway.core.objects import BALL, CMD_KICK, CMD_NONE
+from keepaway.server.world import Commands, World, new_world, player_unum
+from keepaway.runner.job import BATCHED_SARSA, EpisodeTable
 
 # The learner memory of arenas without Pass learning: no rows (kernels never touch it).
 _NO_LEARNERS = SarsaConfig(table_size=2, max_traces=1, transition_log_size=1)

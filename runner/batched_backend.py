@@ -26,9 +26,9 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from agents.sarsa import SarsaMemory
-from runner.batched import BatchedArenas
-from runner.job import (
+from keepaway.agents.sarsa import SarsaMemory
+from keepaway.runner.batched import BatchedArenas
+from keepaway.runner.job import (
     CHUNK_EPISODES,
     LEARNED,
     Behaviours,

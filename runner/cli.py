@@ -11,16 +11,16 @@ from typing import TYPE_CHECKING
 
 import click
 
-from core.options import FiniteFloatRange
-from protocol.messages import GETOPEN_NOTE_MODES, MAX_SEED
-from protocol.params import KEEPAWAY_KEEPERS, KEEPAWAY_TAKERS
-from protocol.security import keys_option
-from runner.kernels import KERNEL_SETS
-from runner import MODES
+from keepaway.core.options import FiniteFloatRange
+from keepaway.protocol.messages import GETOPEN_NOTE_MODES, MAX_SEED
+from keepaway.protocol.params import KEEPAWAY_KEEPERS, KEEPAWAY_TAKERS
+from keepaway.protocol.security import keys_option
+from keepaway.runner.kernels import KERNEL_SETS
+from keepaway.runner import MODES
 
 if TYPE_CHECKING:
-    from protocol.params import ServerParams
-    from runner.backends import Placement
+    from keepaway.protocol.params import ServerParams
+    from keepaway.runner.backends import Placement
 
 # Option types shared by run, train, evaluate and experiment: what a seed, a count, a Keepaway team and
 # a region can be.
@@ -57,8 +57,8 @@ def game_options(command: Command) -> Command:
 def game_params(parameter_set: str, field_size: float) -> ServerParams:
     """The server parameters :func:`game_options` choose; a region that does not fit the pitch is refused
     in one line naming ``--field-size``, the option that sets it."""
-    from protocol.params import parameter_set as make_params
-    from protocol.params import with_square_region
+    from keepaway.protocol.params import parameter_set as make_params
+    from keepaway.protocol.params import with_square_region
 
     try:
         return with_square_region(make_params(parameter_set), field_size)
@@ -104,7 +104,7 @@ def placement(mode: str, attach: tuple[str, ...], backend: str, ray_address: str
               keys: Path | None = None, stored_as: str | None = None) -> Placement:
     """The placement :func:`placement_options` describe for ``mode`` (a mode read from a stored ``stored_as``,
     e.g. "training", if it is one); a usage error in one line for options that do not go together."""
-    from runner.backends import Placement
+    from keepaway.runner.backends import Placement
 
     check_ray_address(backend, ray_address)
     if (attach or backend != "local") and mode != "distributed":
@@ -115,7 +115,7 @@ def placement(mode: str, attach: tuple[str, ...], backend: str, ray_address: str
         raise click.UsageError("--arena attaches to running arenas; --backend ray starts its own: choose one")
     launcher = None
     if backend == "ray":
-        from runner.ray_backend import ray_launcher
+        from keepaway.runner.ray_backend import ray_launcher
 
         try:
             launcher = ray_launcher(ray_address, keys, announce)
@@ -140,7 +140,7 @@ def arena_count(mode: str, attach: tuple[str, ...], arenas: int | None) -> int:
     error in one line if given for a mode that starts no arenas of processes (batched and embedded play
     every chunk in an in-process arena of its own)."""
     if arenas is not None and mode != "distributed":
-        from runner.job import CHUNK_EPISODES
+        from keepaway.runner.job import CHUNK_EPISODES
 
         raise click.UsageError(f"--arenas counts the distributed mode's arenas of processes; the {mode} mode "
                                f"plays each chunk of {CHUNK_EPISODES} episodes in an arena of its own: leave it out")
@@ -186,13 +186,13 @@ def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str,
                 getopen_notes: str | None, as_json: bool, no_progress: bool, backend: str, ray_address: str | None,
                 keys: Path | None) -> None:
     """Play Keepaway: a whole arena (server, coach, keepers, takers) for --episodes episodes."""
-    from agents.policy_file import PolicyFileError, load_policy
-    from runner.embedded import ArenaSpec
-    from runner.kernels import CompileError
-    from core.exits import EXIT_INTERRUPTED
-    from runner.launch import ArenaFailure, interrupt_on_sigterm
-    from runner.report import dump_json, summary_table
-    from runner.run import RunOptions, RunStopped, run
+    from keepaway.agents.policy_file import PolicyFileError, load_policy
+    from keepaway.runner.embedded import ArenaSpec
+    from keepaway.runner.kernels import CompileError
+    from keepaway.core.exits import EXIT_INTERRUPTED
+    from keepaway.runner.launch import ArenaFailure, interrupt_on_sigterm
+    from keepaway.runner.report import dump_json, summary_table
+    from keepaway.runner.run import RunOptions, RunStopped, run
 
     if episodes < 1:
         raise click.UsageError("--episodes must be at least 1")
@@ -232,7 +232,7 @@ def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str,
                       getopen_notes=getopen_notes)
     elsewhere = None
     if backend == "ray":  # joins the cluster: after every other check
-        from runner.ray_backend import ray_run
+        from keepaway.runner.ray_backend import ray_run
 
         try:
             elsewhere = ray_run(ray_address, announce)
@@ -306,8 +306,8 @@ def compile_command(only: tuple[str, ...], quiet: bool) -> None:
     Every later server, player, embedded or batched run of this version of the source loads them from
     the cache instead of compiling (keepaway run and train also do this by themselves when needed).
     """
-    from core.jit import cache_dir
-    from runner.kernels import CompileError, compile_set, ensure_compiled
+    from keepaway.core.jit import cache_dir
+    from keepaway.runner.kernels import CompileError, compile_set, ensure_compiled
 
     if only:
         for kernel_set in only:

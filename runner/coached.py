@@ -32,9 +32,9 @@ from typing import Any, ClassVar, Self
 
 import numpy as np
 
-from agents.pass_wire import pass_arrays_from_chunks, sparse_pass_chunks
-from agents.sarsa import SarsaLearner
-from protocol.advice import (
+from keepaway.agents.pass_wire import pass_arrays_from_chunks, sparse_pass_chunks
+from keepaway.agents.sarsa import SarsaLearner
+from keepaway.protocol.advice import (
     REPORT_SNAPSHOT,
     REPORT_TRANSITIONS,
     KeeperReport,
@@ -44,8 +44,8 @@ from protocol.advice import (
     PassTransitionsReport,
     PolicyAdvice,
 )
-from protocol.arena import EpisodesDone, RunEpisodes
-from runner.job import (
+from keepaway.protocol.arena import EpisodesDone, RunEpisodes
+from keepaway.runner.job import (
     CHUNK_EPISODES,
     LEARNED,
     Behaviours,
@@ -57,8 +57,8 @@ from runner.job import (
     Transitions,
     chunk_seeds,
 )
-from runner.launch import ArenaFailure
-from server.episode_log import EpisodeRecord
+from keepaway.runner.launch import ArenaFailure
+from keepaway.server.episode_log import EpisodeRecord
 
 # SMDP transitions a keeper keeps between two reports: a chunk's worth with room to spare (a keeper
 # decides a few times per second of hold time); the size does not change what is learned.

@@ -16,13 +16,13 @@ from pathlib import Path
 
 import zmq
 
-from protocol import configure, encode
-from protocol import messages as m
-from protocol.arena import ARENA_MAX_MESSAGE_BYTES, EpisodesDone, StopArena, decode_for_trainer
-from protocol.security import KeyDir, open_keys, secure_client
-from runner.coached import Chunk, CoachedBackend
-from runner.job import CHUNK_EPISODES, Game, Progress
-from runner.launch import ArenaFailure, ArenaProcesses
+from keepaway.protocol import configure, encode
+from keepaway.protocol import messages as m
+from keepaway.protocol.arena import ARENA_MAX_MESSAGE_BYTES, EpisodesDone, StopArena, decode_for_trainer
+from keepaway.protocol.security import KeyDir, open_keys, secure_client
+from keepaway.runner.coached import Chunk, CoachedBackend
+from keepaway.runner.job import CHUNK_EPISODES, Game, Progress
+from keepaway.runner.launch import ArenaFailure, ArenaProcesses
 
 # The options a coached arena's players start with (``keepaway player``): every policy comes as advice.
 ARENA_PLAYER_ARGS = ("--pass", "handcoded", "--getopen", "handcoded")

@@ -18,20 +18,20 @@ from collections.abc import Callable, Collection, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
-from agents.player import PassLearnerFactory, PlayerAgent
-from agents.policy_file import Policy
-from agents.skills import AgentConfig
-from protocol import encode
-from protocol import messages as m
-from protocol.advice import ReportRequest, SeedAdvice, decode_report
-from protocol.arena import EpisodesDone, RunEpisodes, decode_for_trainer, decode_from_trainer
-from protocol.messages import decode_for_player, decode_from_player
-from protocol.params import ServerParams
-from runner.coached import Chunk, CoachedBackend
-from runner.job import CHUNK_EPISODES, Game, Progress
-from server.arena import Arena, PlayerSlot
-from server.episode_log import EpisodeRecord
-from server.game_log import ArenaGameLog
+from keepaway.agents.player import PassLearnerFactory, PlayerAgent
+from keepaway.agents.policy_file import Policy
+from keepaway.agents.skills import AgentConfig
+from keepaway.protocol import encode
+from keepaway.protocol import messages as m
+from keepaway.protocol.advice import ReportRequest, SeedAdvice, decode_report
+from keepaway.protocol.arena import EpisodesDone, RunEpisodes, decode_for_trainer, decode_from_trainer
+from keepaway.protocol.messages import decode_for_player, decode_from_player
+from keepaway.protocol.params import ServerParams
+from keepaway.runner.coached import Chunk, CoachedBackend
+from keepaway.runner.job import CHUNK_EPISODES, Game, Progress
+from keepaway.server.arena import Arena, PlayerSlot
+from keepaway.server.episode_log import EpisodeRecord
+from keepaway.server.game_log import ArenaGameLog
 
 
 @dataclass(frozen=True)

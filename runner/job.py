@@ -29,14 +29,14 @@ from typing import NamedTuple, Protocol
 
 import numpy as np
 
-from agents.getopen import InputScaling
-from agents.player import LEARNED
-from agents.sarsa import SarsaConfig
-from agents.skills import AgentConfig
-from protocol.params import ServerParams
-from runner import MODES  # the backends (module docstring)
-from server.episode_log import EpisodeRecord
-from server.referee import END_OUT
+from keepaway.agents.getopen import InputScaling
+from keepaway.agents.player import LEARNED
+from keepaway.agents.sarsa import SarsaConfig
+from keepaway.agents.skills import AgentConfig
+from keepaway.protocol.params import ServerParams
+from keepaway.runner import MODES  # the backends (module docstring)
+from keepaway.server.episode_log import EpisodeRecord
+from keepaway.server.referee import END_OUT
 
 LEARN = "learn"  # Sarsa modes (agents.sarsa.MODE_NAMES): learning, ...
 GREEDY = "greedy"  # ... and the frozen Pass policy: greedy actions, no updates (keepaway-agents.md 5)

@@ -25,7 +25,7 @@ from typing import Iterator
 
 import numpy as np
 
-from runner.launch import die_with_parent, keepaway_argv
+from keepaway.runner.launch import die_with_parent, keepaway_argv
 
 # The players' kernels are two sets, their percepts' and their decisions' (agents.player.compile_kernels'
 # halves): compiled side by side, the decisions' process loads most of the kernels the two share (the frame
@@ -51,12 +51,12 @@ def compile_set(kernel_set: str) -> float:
     """Compile (or load) every kernel of ``kernel_set`` in this process; mark it warm; return seconds."""
     start = time.perf_counter()
     if kernel_set == SERVER:
-        from protocol.params import parameter_set
-        from server.game_log import compile_kernels
+        from keepaway.protocol.params import parameter_set
+        from keepaway.server.game_log import compile_kernels
 
         compile_kernels(parameter_set("classic"), 3, 2)
     elif kernel_set in PLAYER_SETS:
-        from agents.player import compile_kernels
+        from keepaway.agents.player import compile_kernels
 
         compile_kernels(percepts=kernel_set == PERCEPTS, decisions=kernel_set == DECISIONS)
     elif kernel_set == BATCHED:
@@ -64,7 +64,7 @@ def compile_set(kernel_set: str) -> float:
     else:
         raise ValueError(f"unknown kernel set {kernel_set!r}; choose from {', '.join(KERNEL_SETS)}")
     seconds = time.perf_counter() - start
-    from core.jit import mark_warm
+    from keepaway.core.jit import mark_warm
 
     mark_warm(kernel_set, seconds)
     return seconds
@@ -72,10 +72,10 @@ def compile_set(kernel_set: str) -> float:
 
 def _compile_batched() -> None:
     """The batched mode's kernels, with every Pass and GetOpen code path a training uses."""
-    from agents.getopen import net_size
-    from agents.state_vars import getopen_state_size
-    from protocol.params import parameter_set
-    from runner.batched import BatchedArenas
+    from keepaway.agents.getopen import net_size
+    from keepaway.agents.state_vars import getopen_state_size
+    from keepaway.protocol.params import parameter_set
+    from keepaway.runner.batched import BatchedArenas
 
     theta = np.zeros(net_size(getopen_state_size(3, 2)))
     arenas = BatchedArenas(parameter_set("classic"), 2, 0, pass_policy="learned", getopen_policy="learned",
@@ -96,7 +96,7 @@ def kernel_sets(mode: str) -> tuple[str, ...]:
 
 
 def missing(kernel_sets: Sequence[str]) -> list[str]:
-    from core.jit import is_warm
+    from keepaway.core.jit import is_warm
 
     return [s for s in KERNEL_SETS if s in kernel_sets and not is_warm(s)]
 
@@ -122,7 +122,7 @@ def _describe(seconds: float) -> str:
 
 @contextmanager
 def _compile_lock() -> Iterator[None]:
-    from core.jit import cache_dir
+    from keepaway.core.jit import cache_dir
 
     with open(cache_dir() / "compile.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
@@ -137,7 +137,7 @@ def ensure_compiled(kernel_sets: Sequence[str], announce: Callable[[str], None] 
     """Compile the sets of ``kernel_sets`` that this source has not compiled yet (each once, in
     ``keepaway compile`` processes, independent sets side by side); return those compiled. ``announce``
     gets one line saying what happens and roughly how long it takes. Raises CompileError in one line."""
-    from core.jit import cache_dir
+    from keepaway.core.jit import cache_dir
 
     todo = missing(kernel_sets)
     if not todo:

@@ -293,7 +293,7 @@ def forking_players() -> bool:
 def _players_fork_server() -> multiprocessing.context.ForkServerContext:
     """multiprocessing's fork-server context, preloading the players' modules and kernels."""
     context = multiprocessing.get_context("forkserver")
-    context.set_forkserver_preload(["runner.player_preload"])
+    context.set_forkserver_preload(["keepaway.runner.player_preload"])
     return context
 
 
@@ -318,7 +318,7 @@ def _forked_player(name: str, args: list[str], log: str, environ: dict[str, str]
         os.dup2(target, fd)
     os.close(null)
     os.close(stderr)
-    from agents.cli import player_command
+    from keepaway.agents.cli import player_command
 
     player_command.main(args=args, prog_name="keepaway player")
 

@@ -16,11 +16,11 @@ import logging
 from collections.abc import Callable, Collection
 from pathlib import Path
 
-from agents.player import EPISODE_MESSAGE, KICK_OFF_MESSAGE, PlayerAgent
-from protocol import encode
-from protocol import messages as m
-from protocol.messages import SERVER_SILENCE_S
-from runner.embedded import ArenaSpec, EmbeddedGame
+from keepaway.agents.player import EPISODE_MESSAGE, KICK_OFF_MESSAGE, PlayerAgent
+from keepaway.protocol import encode
+from keepaway.protocol import messages as m
+from keepaway.protocol.messages import SERVER_SILENCE_S
+from keepaway.runner.embedded import ArenaSpec, EmbeddedGame
 
 log = logging.getLogger("keepaway.env")
 CLIENT_NAME = "keepaway-env"
@@ -75,8 +75,8 @@ class AttachedKeepers:
                  keys: str | Path | None = None) -> None:
         import zmq
 
-        from protocol.endpoints import configure
-        from protocol.security import open_keys, secure_client
+        from keepaway.protocol.endpoints import configure
+        from keepaway.protocol.security import open_keys, secure_client
 
         key_dir = open_keys(keys)
 
@@ -109,8 +109,8 @@ class AttachedKeepers:
 
     def _receive(self, index: int) -> m.Message:
         """The next message of keeper ``index``'s socket, decoded (a bad frame is logged and skipped)."""
-        from protocol.errors import ProtocolError
-        from protocol.messages import decode_for_player
+        from keepaway.protocol.errors import ProtocolError
+        from keepaway.protocol.messages import decode_for_player
 
         sock = self.sockets[index]
         while True:

@@ -6,7 +6,7 @@ load their kernels themselves, as a started player does, and report what is wron
 """
 
 try:
-    from agents.player import compile_kernels
+    from keepaway.agents.player import compile_kernels
 
     compile_kernels()
 except Exception:  # noqa: BLE001 - see the module docstring; the players meet the same error and report it

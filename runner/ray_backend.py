@@ -33,13 +33,13 @@ from dataclasses import replace
 from pathlib import Path
 from typing import NamedTuple
 
-from protocol.endpoints import parse_endpoint
-from runner.distributed import ARENA_PLAYER_ARGS, DistributedBackend, arena_server_args, dead_process
-from runner.job import Game
-from runner.kernels import CompileError, ensure_compiled, kernel_sets
-from runner.launch import ArenaFailure, ArenaProcesses
-from runner.run import Elsewhere, Ended, RunOptions, distributed_episodes
-from server.episode_log import set_aside
+from keepaway.protocol.endpoints import parse_endpoint
+from keepaway.runner.distributed import ARENA_PLAYER_ARGS, DistributedBackend, arena_server_args, dead_process
+from keepaway.runner.job import Game
+from keepaway.runner.kernels import CompileError, ensure_compiled, kernel_sets
+from keepaway.runner.launch import ArenaFailure, ArenaProcesses
+from keepaway.runner.run import Elsewhere, Ended, RunOptions, distributed_episodes
+from keepaway.server.episode_log import set_aside
 
 ARENA_CPUS = 1.0  # a synchronous arena's seven processes mostly wait for one another
 

@@ -17,20 +17,20 @@ from pathlib import Path
 
 import zmq
 
-from protocol import MONITOR_EPISODE_TOPIC
-from protocol import messages as m
-from protocol.messages import decode_monitor
-from protocol.params import ServerParams
-from protocol.security import open_keys, secure_client
-from runner.batched import CHUNK_CYCLES, BatchedArenas
-from runner.embedded import ArenaSpec, embedded_episodes
-from runner.job import EpisodeTable, RunResult
-from runner.kernels import ensure_compiled, kernel_sets
-from runner.launch import VIEW_RE, ArenaFailure, ArenaProcesses, keepaway_argv
-from server.arena import REFEREE_EPISODE_MESSAGE
-from server.episode_log import KWY_SUFFIX, EpisodeRecord, JsonlLog, KwyLog, read_jsonl, set_aside
-from server.game_log import PLAY_ON, RCG_SUFFIX, RcgLog, WorldShows
-from server.world import World
+from keepaway.protocol import MONITOR_EPISODE_TOPIC
+from keepaway.protocol import messages as m
+from keepaway.protocol.messages import decode_monitor
+from keepaway.protocol.params import ServerParams
+from keepaway.protocol.security import open_keys, secure_client
+from keepaway.runner.batched import CHUNK_CYCLES, BatchedArenas
+from keepaway.runner.embedded import ArenaSpec, embedded_episodes
+from keepaway.runner.job import EpisodeTable, RunResult
+from keepaway.runner.kernels import ensure_compiled, kernel_sets
+from keepaway.runner.launch import VIEW_RE, ArenaFailure, ArenaProcesses, keepaway_argv
+from keepaway.server.arena import REFEREE_EPISODE_MESSAGE
+from keepaway.server.episode_log import KWY_SUFFIX, EpisodeRecord, JsonlLog, KwyLog, read_jsonl, set_aside
+from keepaway.server.game_log import PLAY_ON, RCG_SUFFIX, RcgLog, WorldShows
+from keepaway.server.world import World
 
 @dataclass(frozen=True)
 class RunOptions:

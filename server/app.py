@@ -32,19 +32,19 @@ from typing import Any, Callable
 
 import zmq
 
-from protocol import messages as m
-from protocol.codec import encode
-from protocol.messages import advice_hear, decode_from_coach, decode_from_player
-from protocol.endpoints import MONITOR_EPISODE_TOPIC, MONITOR_FRAME_TOPIC, configure
-from protocol.errors import ProtocolError
-from protocol import PROTOCOL_VERSION
-from protocol.security import PortGuard, open_keys
-from server.arena import TEAMS, Arena, ArenaError, PlayerSlot, player_name, truth_state
-from server.config import ServerConfig
-from server.episode_log import EpisodeRecord, JsonlLog, KwyLog
-from server.game_log import RCG_SUFFIX, ArenaGameLog, compile_kernels
-from server.intake import ROUND_MESSAGES, WINDOW_S, Intake
-from core.log_limit import KIND_ATTR, RepeatLimit
+from keepaway.protocol import messages as m
+from keepaway.protocol.codec import encode
+from keepaway.protocol.messages import advice_hear, decode_from_coach, decode_from_player
+from keepaway.protocol.endpoints import MONITOR_EPISODE_TOPIC, MONITOR_FRAME_TOPIC, configure
+from keepaway.protocol.errors import ProtocolError
+from keepaway.protocol import PROTOCOL_VERSION
+from keepaway.protocol.security import PortGuard, open_keys
+from keepaway.server.arena import TEAMS, Arena, ArenaError, PlayerSlot, player_name, truth_state
+from keepaway.server.config import ServerConfig
+from keepaway.server.episode_log import EpisodeRecord, JsonlLog, KwyLog
+from keepaway.server.game_log import RCG_SUFFIX, ArenaGameLog, compile_kernels
+from keepaway.server.intake import ROUND_MESSAGES, WINDOW_S, Intake
+from keepaway.core.log_limit import KIND_ATTR, RepeatLimit
 
 log = logging.getLogger("keepaway.server")
 # A hung player's "missed cycle" would otherwise be logged every cycle timeout (core/log_limit.py).

@@ -14,14 +14,14 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from protocol import PROTOCOL_VERSION
-from protocol import messages as m
-from protocol.codec import encode
-from protocol.landmarks import to_wire as landmarks_to_wire
-from protocol.params import ServerParams
-from server import perception
-from server.command_frame import MAX_FRAME_BYTES, SAY, CommandBuffer
-from server.command_slots import (
+from keepaway.protocol import PROTOCOL_VERSION
+from keepaway.protocol import messages as m
+from keepaway.protocol.codec import encode
+from keepaway.protocol.landmarks import to_wire as landmarks_to_wire
+from keepaway.protocol.params import ServerParams
+from keepaway.server import perception
+from keepaway.server.command_frame import MAX_FRAME_BYTES, SAY, CommandBuffer
+from keepaway.server.command_slots import (
     COMMAND_CODES,
     SAY_ALPHABET,
     put_command,
@@ -29,11 +29,11 @@ from server.command_slots import (
     take_command_frame,
     take_commands,
 )
-from server.referee import END_CAUSES, new_referee_state, reset_field, start_game
-from server.simulation import new_causes, simulate_cycle
-from core.jit import SteadyCall
-from server.world import COUNT_CHANGE_VIEW, PARKED_Y, Commands, World, new_world
-from server.episode_log import EpisodeRecord
+from keepaway.server.referee import END_CAUSES, new_referee_state, reset_field, start_game
+from keepaway.server.simulation import new_causes, simulate_cycle
+from keepaway.core.jit import SteadyCall
+from keepaway.server.world import COUNT_CHANGE_VIEW, PARKED_Y, Commands, World, new_world
+from keepaway.server.episode_log import EpisodeRecord
 
 TEAMS = {"keepers": "l", "takers": "r"}
 VIEW_WIDTHS = {"narrow": 0.5, "normal": 1.0, "wide": 2.0}

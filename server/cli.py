@@ -10,11 +10,11 @@ from typing import Any
 
 import click
 
-from core.options import FiniteFloatRange
-from protocol.messages import GETOPEN_NOTE_MODES
-from protocol.params import TEAM_SIZE, ServerParams, parameter_set, with_square_region
-from protocol.security import SecurityError, keys_option
-from server.config import (
+from keepaway.core.options import FiniteFloatRange
+from keepaway.protocol.messages import GETOPEN_NOTE_MODES
+from keepaway.protocol.params import TEAM_SIZE, ServerParams, parameter_set, with_square_region
+from keepaway.protocol.security import SecurityError, keys_option
+from keepaway.server.config import (
     AT_LEAST_ONE,
     HANG_POLICIES,
     PORT,
@@ -117,7 +117,7 @@ def server_command(config_file: Path | None, parameter_set_name: str | None, par
 
     Prints one line with the bound endpoints (useful with port 0), then logs to stderr.
     """
-    from server.app import Server  # imported here so `keepaway --help` does not compile kernels
+    from keepaway.server.app import Server  # imported here so `keepaway --help` does not compile kernels
 
     logging.basicConfig(level=logging.WARNING - 10 * min(verbose, 2) if verbose else logging.WARNING,
                         format="%(asctime)s %(name)s %(levelname)s %(message)s", stream=sys.stderr)
@@ -154,7 +154,7 @@ def server_command(config_file: Path | None, parameter_set_name: str | None, par
 @click.option("--show", default=5, show_default=True, help="Mismatches printed per failing file.")
 def replay_trace_command(paths: tuple[str, ...], show: int) -> None:
     """Replay rcssserver physics traces (FILEs or directories of *.json) against our physics."""
-    from server.trace_replay import is_physics_trace, replay_trace, trace_files  # loads numba
+    from keepaway.server.trace_replay import is_physics_trace, replay_trace, trace_files  # loads numba
 
     failed = False
     for path in trace_files(paths):

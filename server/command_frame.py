@@ -29,12 +29,12 @@ from typing import NamedTuple
 
 import numpy as np
 
-from core.jit import borrowing
-from core.msgpack_in import BAD, ascii, read_array, read_double, read_int, read_map, read_str, str_equals
-from core.msgpack_out import FLOAT64
-from protocol import messages as m
-from protocol.codec import MAX_EXACT_INT, number
-from protocol.messages import (
+from keepaway.core.jit import borrowing
+from keepaway.core.msgpack_in import BAD, ascii, read_array, read_double, read_int, read_map, read_str, str_equals
+from keepaway.core.msgpack_out import FLOAT64
+from keepaway.protocol import messages as m
+from keepaway.protocol.codec import MAX_EXACT_INT, number
+from keepaway.protocol.messages import (
     COMMAND_ARGUMENTS,
     MAX_COMMANDS,
     MAX_CYCLE,

@@ -24,11 +24,11 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from core.jit import borrowing
-from core.objects import CMD_CATCH, CMD_DASH, CMD_KICK, CMD_MOVE, CMD_NONE, CMD_TACKLE, CMD_TURN
-from server.command_frame import COMMAND_NAMES, SAY, read_command_frame
-from server.physics import kick_possible
-from server.world import COUNT_SAY
+from keepaway.core.jit import borrowing
+from keepaway.core.objects import CMD_CATCH, CMD_DASH, CMD_KICK, CMD_MOVE, CMD_NONE, CMD_TACKLE, CMD_TURN
+from keepaway.server.command_frame import COMMAND_NAMES, SAY, read_command_frame
+from keepaway.server.physics import kick_possible
+from keepaway.server.world import COUNT_SAY
 
 MAIN_SLOT = {"dash": CMD_DASH, "turn": CMD_TURN, "kick": CMD_KICK, "tackle": CMD_TACKLE, "move": CMD_MOVE,
              "catch": CMD_CATCH}

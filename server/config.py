@@ -9,8 +9,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from protocol.messages import GETOPEN_NOTE_MODES, MAX_SEED
-from protocol.params import (
+from keepaway.protocol.messages import GETOPEN_NOTE_MODES, MAX_SEED
+from keepaway.protocol.params import (
     PARAMETER_SETS,
     POSITIVE,
     TEAM_SIZE,

@@ -19,7 +19,7 @@ from pathlib import Path
 from collections.abc import Iterable
 from typing import Any, Mapping, Self, TextIO
 
-from protocol.params import CLASSIC
+from keepaway.protocol.params import CLASSIC
 
 END_OUT = "out"
 END_TAKEN = "taken"

@@ -45,13 +45,13 @@ from typing import NamedTuple
 
 import numpy as np
 
-from core.jit import SteadyCall
-from protocol import messages as m
-from protocol.params import ServerParams
-from server.arena import REFEREE_EPISODE_MESSAGE, VIEW_WIDTHS, Arena
-from server.arena import compile_kernels as compile_arena_kernels
-from server.episode_log import EpisodeRecord, LineLog, cpp_number, read_kwy
-from server.show_text import (
+from keepaway.core.jit import SteadyCall
+from keepaway.protocol import messages as m
+from keepaway.protocol.params import ServerParams
+from keepaway.server.arena import REFEREE_EPISODE_MESSAGE, VIEW_WIDTHS, Arena
+from keepaway.server.arena import compile_kernels as compile_arena_kernels
+from keepaway.server.episode_log import EpisodeRecord, LineLog, cpp_number, read_kwy
+from keepaway.server.show_text import (
     ANGLE_PREC,
     BAD_ORDER,
     HOLE_NUMBER,
@@ -73,7 +73,7 @@ from server.show_text import (
     world_table,
     write_show,
 )
-from server.world import COUNT_KICK, PARKED_Y, World, new_world
+from keepaway.server.world import COUNT_KICK, PARKED_Y, World, new_world
 
 RCG_SUFFIX = ".rcg"
 RCG_VERSION_LINE = "ULG5"

@@ -20,15 +20,15 @@ from typing import Any, NamedTuple
 
 import msgpack
 import numpy as np
-from core.jit import borrowing, njit
-from core.msgpack_out import (FLOAT_BYTES, MAX_INT_BYTES, MAX_STR_HEADER_BYTES, packed, put_array, put_float, put_int,
+from keepaway.core.jit import borrowing, njit
+from keepaway.core.msgpack_out import (FLOAT_BYTES, MAX_INT_BYTES, MAX_STR_HEADER_BYTES, packed, put_array, put_float, put_int,
                               put_nil, put_raw, put_str)
 
-from protocol.landmarks import FLAG_POSITIONS, LINE_LEFT, LINE_RIGHT, LINE_TOP, N_FLAGS, N_LINES
-from protocol.params import KernelParams
-from core.rng import randint, uniform
-from core.objects import BALL
-from server.world import COLLIDED_BALL, COLLIDED_PLAYER, N_COUNTS, World, player_unum
+from keepaway.protocol.landmarks import FLAG_POSITIONS, LINE_LEFT, LINE_RIGHT, LINE_TOP, N_FLAGS, N_LINES
+from keepaway.protocol.params import KernelParams
+from keepaway.core.rng import randint, uniform
+from keepaway.core.objects import BALL
+from keepaway.server.world import COLLIDED_BALL, COLLIDED_PLAYER, N_COUNTS, World, player_unum
 
 # rcssserver's angle conversions (utility.h): multiply by these constants, not by math.degrees.
 DEG2RAD = math.pi / 180.0

@@ -23,12 +23,12 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from core.jit import borrowing, njit
+from keepaway.core.jit import borrowing, njit
 
-from protocol.params import NOISE_POLAR
-from core.rng import randint, uniform
-from core.objects import BALL, CMD_DASH, CMD_KICK, CMD_TURN, COLLISION_VEL_FACTOR
-from server.world import (
+from keepaway.protocol.params import NOISE_POLAR
+from keepaway.core.rng import randint, uniform
+from keepaway.core.objects import BALL, CMD_DASH, CMD_KICK, CMD_TURN, COLLISION_VEL_FACTOR
+from keepaway.server.world import (
     COLLIDED_BALL,
     COLLIDED_PLAYER,
     COUNT_DASH,

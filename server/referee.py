@@ -12,12 +12,12 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from core.jit import borrowing
+from keepaway.core.jit import borrowing
 
-from server import episode_log
-from core.rng import randint, uniform
-from core.objects import BALL
-from server.world import World
+from keepaway.server import episode_log
+from keepaway.core.rng import randint, uniform
+from keepaway.core.objects import BALL
+from keepaway.server.world import World
 
 # End causes (the kwy log's 'o' and 't').
 END_NONE = 0

@@ -29,9 +29,9 @@ import math
 
 import numpy as np
 
-from core.jit import borrowing
-from protocol.params import MAX_TEAM_SIZE
-from server.world import COLLIDED_BALL, COLLIDED_PLAYER, COUNT_KICK, N_COUNTS
+from keepaway.core.jit import borrowing
+from keepaway.protocol.params import MAX_TEAM_SIZE
+from keepaway.server.world import COLLIDED_BALL, COLLIDED_PLAYER, COUNT_KICK, N_COUNTS
 
 MAX_UNUM = MAX_TEAM_SIZE  # players per side in every show (rcssserver's MAX_PLAYER)
 N_SLOTS = 2 * MAX_UNUM

@@ -7,10 +7,10 @@ compiled loop serves the distributed server (batch of one) and the batched mode 
 from __future__ import annotations
 
 import numpy as np
-from core.jit import borrowing
+from keepaway.core.jit import borrowing
 
-from server.physics import apply_commands, move_objects, resolve_collisions, update_stamina
-from server.referee import keepaway_referee
+from keepaway.server.physics import apply_commands, move_objects, resolve_collisions, update_stamina
+from keepaway.server.referee import keepaway_referee
 
 
 @borrowing

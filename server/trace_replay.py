@@ -17,12 +17,12 @@ import re
 from pathlib import Path
 from typing import Any
 
-from protocol.params import ServerParams, parameter_set
-from server.command_frame import CommandBuffer
-from server.command_slots import COMMAND_CODES, put_command, take_commands
-from server.physics import physics_step, place_object
-from core.objects import BALL
-from server.world import COLLIDED_BALL, COLLIDED_PLAYER, Commands, World, new_world
+from keepaway.protocol.params import ServerParams, parameter_set
+from keepaway.server.command_frame import CommandBuffer
+from keepaway.server.command_slots import COMMAND_CODES, put_command, take_commands
+from keepaway.server.physics import physics_step, place_object
+from keepaway.core.objects import BALL
+from keepaway.server.world import COLLIDED_BALL, COLLIDED_PLAYER, Commands, World, new_world
 
 RELATIVE_TOLERANCE = 1e-5  # 6 significant digits as printed by the server (traces README)
 ABSOLUTE_TOLERANCE = 1e-6

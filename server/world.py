@@ -11,10 +11,10 @@ from typing import NamedTuple
 
 import numpy as np
 
-from core.jit import njit
-from core.objects import BALL, CMD_NONE
-from core.rng import seed_streams
-from protocol.params import ServerParams
+from keepaway.core.jit import njit
+from keepaway.core.objects import BALL, CMD_NONE
+from keepaway.core.rng import seed_streams
+from keepaway.protocol.params import ServerParams
 
 # Command counters, in sense_body order: kick, dash, turn, catch, move, turn_neck, change_view, say.
 COUNT_KICK, COUNT_DASH, COUNT_TURN, COUNT_CATCH, COUNT_MOVE, COUNT_TURN_NECK, COUNT_CHANGE_VIEW, COUNT_SAY = range(8)

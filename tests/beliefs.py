@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from agents.belief import Belief, belief_from_truth
+from keepaway.agents.belief import Belief, belief_from_truth
 
 
 def belief(pos, me: int, vel=None, body=None, n_keepers: int = 3, n_takers: int = 2, time: int = 100) -> Belief:

@@ -268,7 +268,7 @@ def pytest_sessionstart(session: pytest.Session) -> None:
     clone's CI run then had every test fail with the compile cut off at 300 s)."""
     if session.config.option.collectonly:
         return
-    from runner.kernels import KERNEL_SETS, CompileError, ensure_compiled
+    from keepaway.runner.kernels import KERNEL_SETS, CompileError, ensure_compiled
 
     reporter = session.config.pluginmanager.get_plugin("terminalreporter")
     try:

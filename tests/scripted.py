@@ -8,8 +8,8 @@ from typing import Any
 import msgpack
 import zmq
 
-from protocol import messages as m
-from protocol import PROTOCOL_VERSION, SERVER_TO_COACH, SERVER_TO_PLAYER, decode, encode
+from keepaway.protocol import messages as m
+from keepaway.protocol import PROTOCOL_VERSION, SERVER_TO_COACH, SERVER_TO_PLAYER, decode, encode
 
 # A message no port accepts: the server answers it with an ``unknown_type`` error naming "warp".
 BARRIER = msgpack.packb({"type": "warp"})

@@ -7,8 +7,8 @@ import msgpack
 import numpy as np
 import pytest
 
-from protocol import ProtocolError, encode
-from protocol.advice import (
+from keepaway.protocol import ProtocolError, encode
+from keepaway.protocol.advice import (
     PassLoadAdvice,
     PassModeAdvice,
     PassSnapshotReport,
@@ -19,7 +19,7 @@ from protocol.advice import (
     decode_advice,
     decode_report,
 )
-from protocol.arena import EpisodesDone, RunEpisodes, decode_for_trainer, decode_from_trainer
+from keepaway.protocol.arena import EpisodesDone, RunEpisodes, decode_for_trainer, decode_from_trainer
 
 F8 = np.dtype("<f8")
 CONFIG = {"table_size": 16, "alpha": 0.25, "code_widths": False}

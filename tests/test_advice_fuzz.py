@@ -10,8 +10,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 from test_protocol_fuzz import FUZZ, HOSTILE, MSGPACK_VALUES, paths, plain, replace_at
 
-from protocol import ProtocolError, encode
-from protocol.advice import (
+from keepaway.protocol import ProtocolError, encode
+from keepaway.protocol.advice import (
     ADVICE_KINDS,
     ARRAY_DTYPES,
     GETOPEN_POLICY_NAMES,
@@ -29,7 +29,7 @@ from protocol.advice import (
     decode_advice,
     decode_report,
 )
-from protocol.arena import RunEpisodes, decode_from_trainer
+from keepaway.protocol.arena import RunEpisodes, decode_from_trainer
 
 FINITE = st.floats(allow_nan=False, allow_infinity=False)
 CHUNK = st.integers(1, 4).flatmap(lambda chunks: st.tuples(st.integers(0, chunks - 1), st.just(chunks)))

@@ -12,12 +12,12 @@ from __future__ import annotations
 
 import pytest
 
-from core.objects import BALL, CMD_DASH, CMD_KICK, CMD_NONE, CMD_TURN
-from protocol import encode
-from protocol import messages as m
-from protocol.params import parameter_set
-from server.arena import Arena
-from server.world import COUNT_CHANGE_VIEW, COUNT_SAY
+from keepaway.core.objects import BALL, CMD_DASH, CMD_KICK, CMD_NONE, CMD_TURN
+from keepaway.protocol import encode
+from keepaway.protocol import messages as m
+from keepaway.protocol.params import parameter_set
+from keepaway.server.arena import Arena
+from keepaway.server.world import COUNT_CHANGE_VIEW, COUNT_SAY
 
 KEEPER = 1  # object 1: keeper 1
 

@@ -13,13 +13,13 @@ from dataclasses import asdict, replace
 import numpy as np
 import pytest
 
-from agents.policy_file import getopen_theta_size, load_policy, pack_pass_arrays, save_policy
+from keepaway.agents.policy_file import getopen_theta_size, load_policy, pack_pass_arrays, save_policy
 from conftest import keepaway_command
-from protocol.params import parameter_set
-from runner.backends import Placement, open_backend
-from runner.distributed import DistributedBackend
-from runner.embedded import EmbeddedBackend
-from runner.job import GREEDY, LEARN, MODES, Backend, Behaviours, Game, Job, Played, RunResult
+from keepaway.protocol.params import parameter_set
+from keepaway.runner.backends import Placement, open_backend
+from keepaway.runner.distributed import DistributedBackend
+from keepaway.runner.embedded import EmbeddedBackend
+from keepaway.runner.job import GREEDY, LEARN, MODES, Backend, Behaviours, Game, Job, Played, RunResult
 
 GAME = Game(parameter_set("classic"))
 CHUNK = 2  # episodes per request: jobs of a few episodes still span several chunks

@@ -12,24 +12,24 @@ import numba
 import numpy as np
 import pytest
 
-from agents.getopen import net_size
-from agents.sarsa import SarsaConfig
-from agents.skills import AgentConfig
-from agents.worldmodel import WorldModel, new_model_state, new_see_buffer, see_row, write_belief_row
-from agents.belief import empty_belief
-from protocol import encode
-from protocol import messages as m
-from protocol.landmarks import FLAG_POSITIONS, N_FLAGS, to_wire
-from protocol.messages import decode_for_player
-from protocol.params import parameter_set
-from server.arena import Arena
-from server.perception import CLOSE, FULL, NAMELESS, PARTIAL, UNSEEN, SeeBuffers, cone_factor, see_arena, see_payload
-from server.referee import END_OUT, END_TAKEN
-from server.world import new_world
-from server.perception import see_due
-from runner.batched import CHUNK_CYCLES, BatchedArenas, see_to_model_row
-from runner.embedded import ArenaSpec, EmbeddedGame
-from trainer.experiments import welch_p_value
+from keepaway.agents.getopen import net_size
+from keepaway.agents.sarsa import SarsaConfig
+from keepaway.agents.skills import AgentConfig
+from keepaway.agents.worldmodel import WorldModel, new_model_state, new_see_buffer, see_row, write_belief_row
+from keepaway.agents.belief import empty_belief
+from keepaway.protocol import encode
+from keepaway.protocol import messages as m
+from keepaway.protocol.landmarks import FLAG_POSITIONS, N_FLAGS, to_wire
+from keepaway.protocol.messages import decode_for_player
+from keepaway.protocol.params import parameter_set
+from keepaway.server.arena import Arena
+from keepaway.server.perception import CLOSE, FULL, NAMELESS, PARTIAL, UNSEEN, SeeBuffers, cone_factor, see_arena, see_payload
+from keepaway.server.referee import END_OUT, END_TAKEN
+from keepaway.server.world import new_world
+from keepaway.server.perception import see_due
+from keepaway.runner.batched import CHUNK_CYCLES, BatchedArenas, see_to_model_row
+from keepaway.runner.embedded import ArenaSpec, EmbeddedGame
+from keepaway.trainer.experiments import welch_p_value
 
 PARAMS = parameter_set("classic")
 KP = PARAMS.kernel()

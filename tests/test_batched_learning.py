@@ -13,14 +13,14 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from agents.player import sarsa_pass_factory
-from agents.policy_file import getopen_theta_size
-from agents.sarsa import MODE_EXPLORE, MODE_GREEDY, MODE_LEARN, NO_ACTION, SarsaConfig
-from protocol.params import parameter_set
-from runner.batched import BatchedArenas
-from runner.job import BATCHED_SARSA
-from trainer.experiments import welch_p_value
-from runner.embedded import ArenaSpec, EmbeddedGame
+from keepaway.agents.player import sarsa_pass_factory
+from keepaway.agents.policy_file import getopen_theta_size
+from keepaway.agents.sarsa import MODE_EXPLORE, MODE_GREEDY, MODE_LEARN, NO_ACTION, SarsaConfig
+from keepaway.protocol.params import parameter_set
+from keepaway.runner.batched import BatchedArenas
+from keepaway.runner.job import BATCHED_SARSA
+from keepaway.trainer.experiments import welch_p_value
+from keepaway.runner.embedded import ArenaSpec, EmbeddedGame
 from test_batched import table_rows
 
 PARAMS = parameter_set("classic")

@@ -13,16 +13,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from protocol.params import parameter_set
-from runner.embedded import ArenaSpec
-from runner.run import RunOptions, run
-from server.episode_log import read_kwy
-from server.game_log import read_rcg
-from server.referee import END_OUT, END_TAKEN
-from core.objects import BALL
-from server.world import COUNT_DASH, COUNT_KICK, COUNT_TURN
-from runner.batched import BatchedArenas
-from trainer.behaviour import (
+from keepaway.protocol.params import parameter_set
+from keepaway.runner.embedded import ArenaSpec
+from keepaway.runner.run import RunOptions, run
+from keepaway.server.episode_log import read_kwy
+from keepaway.server.game_log import read_rcg
+from keepaway.server.referee import END_OUT, END_TAKEN
+from keepaway.core.objects import BALL
+from keepaway.server.world import COUNT_DASH, COUNT_KICK, COUNT_TURN
+from keepaway.runner.batched import BatchedArenas
+from keepaway.trainer.behaviour import (
     CURVE_CYCLES,
     REFERENCE_CAMPAIGNS,
     Compared,

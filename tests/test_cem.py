@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from trainer.cem import CEM, CEMConfig, fit_elite
+from keepaway.trainer.cem import CEM, CEMConfig, fit_elite
 
 TARGET = np.array([1.0, -0.5, 0.3, 0.8, -1.2])
 

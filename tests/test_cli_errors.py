@@ -11,7 +11,7 @@ import sys
 import numpy as np
 import pytest
 
-from agents.policy_file import getopen_theta_size, save_policy
+from keepaway.agents.policy_file import getopen_theta_size, save_policy
 from conftest import keepaway_command
 
 QUICK_S = 120  # a refusal comes before any kernel is compiled or any process started
@@ -218,9 +218,9 @@ def test_evaluate_and_experiment_refuse_bad_options(processes, tmp_path, command
 @pytest.fixture
 def training(tmp_path):
     """A training directory as ``keepaway train`` leaves it after its first step (P:HC-GO:L, one trial)."""
-    from trainer.cem import CEMConfig
-    from trainer.schedule import GETOPEN, Phase
-    from trainer.train import TrainConfig, TrialState, initial_behaviours, save_checkpoint, trial_dir, write_config
+    from keepaway.trainer.cem import CEMConfig
+    from keepaway.trainer.schedule import GETOPEN, Phase
+    from keepaway.trainer.train import TrainConfig, TrialState, initial_behaviours, save_checkpoint, trial_dir, write_config
 
     config = TrainConfig("handcoded", "learned", (Phase(GETOPEN, 50),), eval_every=50, eval_episodes=2, arenas=2,
                          cem=CEMConfig(n_params=getopen_theta_size(), population=2, elite=1,
@@ -302,7 +302,7 @@ INTERRUPT_WHILE_COMMANDS_LOAD = '''
 import sys
 class InterruptAnImport:
     def find_spec(self, name, path=None, target=None):
-        if name == "viewer.cli":  # as Ctrl-C lands while keepaway.cli imports the commands' modules
+        if name == "keepaway.viewer.cli":  # as Ctrl-C lands while keepaway.cli imports the commands' modules
             exec("raise KeyboardInterrupt")
         return None
 sys.meta_path.insert(0, InterruptAnImport())

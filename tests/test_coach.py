@@ -12,14 +12,14 @@ import numpy as np
 import pytest
 import zmq
 
-from coach.coach import Coach
+from keepaway.coach.coach import Coach
 from conftest import keepaway_command, read_until_match
-from protocol import PROTOCOL_VERSION, encode, parameter_set
-from protocol import messages as m
-from protocol.advice import PolicyAdvice
-from protocol.arena import EpisodesDone, RunEpisodes, StopArena, decode_for_trainer
-from protocol.landmarks import to_wire as landmarks_to_wire
-from protocol.messages import decode_from_coach
+from keepaway.protocol import PROTOCOL_VERSION, encode, parameter_set
+from keepaway.protocol import messages as m
+from keepaway.protocol.advice import PolicyAdvice
+from keepaway.protocol.arena import EpisodesDone, RunEpisodes, StopArena, decode_for_trainer
+from keepaway.protocol.landmarks import to_wire as landmarks_to_wire
+from keepaway.protocol.messages import decode_from_coach
 from scripted import ScriptedCoach
 
 ARENA_RE = re.compile(r"arena=(tcp://\S+)\n")

@@ -6,10 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from coach.core import HEARTBEAT_S, LOOK_INTERVAL_S, REPORT_TIMEOUT_S, SERVER, CoachCore
-from protocol import PROTOCOL_VERSION, ProtocolError, parameter_set
-from protocol import messages as m
-from protocol.advice import (
+from keepaway.coach.core import HEARTBEAT_S, LOOK_INTERVAL_S, REPORT_TIMEOUT_S, SERVER, CoachCore
+from keepaway.protocol import PROTOCOL_VERSION, ProtocolError, parameter_set
+from keepaway.protocol import messages as m
+from keepaway.protocol.advice import (
     PassSnapshotReport,
     PassTransitionsReport,
     PolicyAdvice,
@@ -17,8 +17,8 @@ from protocol.advice import (
     SeedAdvice,
     decode_advice,
 )
-from protocol.arena import EpisodesDone, RunEpisodes, StopArena
-from protocol.landmarks import to_wire as landmarks_to_wire
+from keepaway.protocol.arena import EpisodesDone, RunEpisodes, StopArena
+from keepaway.protocol.landmarks import to_wire as landmarks_to_wire
 
 TRAINER = b"trainer-1"
 OTHER = b"trainer-2"

@@ -13,12 +13,12 @@ import pytest
 from command_read import Read, read
 from mutations import mutated_frames
 
-from protocol import ProtocolError
-from protocol import messages as m
-from protocol.params import parameter_set
-from runner.embedded import ArenaSpec, EmbeddedGame
-from server.arena import Arena
-from server.command_frame import MAX_FRAME_BYTES
+from keepaway.protocol import ProtocolError
+from keepaway.protocol import messages as m
+from keepaway.protocol.params import parameter_set
+from keepaway.runner.embedded import ArenaSpec, EmbeddedGame
+from keepaway.server.arena import Arena
+from keepaway.server.command_frame import MAX_FRAME_BYTES
 
 PARAMS = parameter_set("classic")
 

@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 from command_read import read
 
-from agents.command_wire import MAIN_COMMANDS, MAX_COMMAND_BYTES, write_command
-from agents.say import MAX_CHARS, NUM_CHARS, VALID_CHARS, new_talk
-from core.objects import CMD_DASH, CMD_KICK, CMD_NONE, CMD_TURN
-from protocol import encode
-from protocol import messages as m
-from protocol.messages import MAX_NOTE_NUMBERS, decode_from_player
+from keepaway.agents.command_wire import MAIN_COMMANDS, MAX_COMMAND_BYTES, write_command
+from keepaway.agents.say import MAX_CHARS, NUM_CHARS, VALID_CHARS, new_talk
+from keepaway.core.objects import CMD_DASH, CMD_KICK, CMD_NONE, CMD_TURN
+from keepaway.protocol import encode
+from keepaway.protocol import messages as m
+from keepaway.protocol.messages import MAX_NOTE_NUMBERS, decode_from_player
 
 
 def _reference(cycle, main, a1, a2, neck, codes, note) -> bytes:

@@ -7,10 +7,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from agents.belief import forget_episode, new_memory
-from agents.geometry import direction
-from agents.getopen import grid_point, handcoded_target, net_size, net_value, random_target
-from agents.keeper import (
+from keepaway.agents.belief import forget_episode, new_memory
+from keepaway.agents.geometry import direction
+from keepaway.agents.getopen import grid_point, handcoded_target, net_size, net_value, random_target
+from keepaway.agents.keeper import (
     NO_PASS_DECISION,
     PASS_DECISION_START,
     PASS_DECISION_STEP,
@@ -18,11 +18,11 @@ from agents.keeper import (
     handcoded_pass,
     keeper_decide,
 )
-from agents.skills import PASS_EXTERNAL, AgentConfig, decay_sums, fastest_to_ball
-from agents.taker import mark_point, taker_decide
-from protocol.params import parameter_set
-from core.rng import seed_streams
-from core.objects import CMD_DASH, CMD_KICK, CMD_NONE, CMD_TURN
+from keepaway.agents.skills import PASS_EXTERNAL, AgentConfig, decay_sums, fastest_to_ball
+from keepaway.agents.taker import mark_point, taker_decide
+from keepaway.protocol.params import parameter_set
+from keepaway.core.rng import seed_streams
+from keepaway.core.objects import CMD_DASH, CMD_KICK, CMD_NONE, CMD_TURN
 from beliefs import belief
 
 KP = parameter_set("classic").kernel()

@@ -14,14 +14,14 @@ import numpy as np
 import pytest
 from pettingzoo.test import parallel_api_test
 
-from agents.getopen import grid_point, handcoded_target
-from agents.keeper import handcoded_pass
-from agents.player import OUTSIDE_BODY, OUTSIDE_PASS, PlayerAgent
-from agents.skills import fastest_to_ball
+from keepaway.agents.getopen import grid_point, handcoded_target
+from keepaway.agents.keeper import handcoded_pass
+from keepaway.agents.player import OUTSIDE_BODY, OUTSIDE_PASS, PlayerAgent
+from keepaway.agents.skills import fastest_to_ball
 from conftest import REPO, keepaway_command
 from keepaway.env import parallel_env, random_action
-from protocol.params import parameter_set
-from runner.embedded import ArenaSpec, embedded_episodes
+from keepaway.protocol.params import parameter_set
+from keepaway.runner.embedded import ArenaSpec, embedded_episodes
 
 MODES = {"pass": {}, "getopen": {"getopen_action": True}, "low_level": {"low_level": True}}
 
@@ -185,10 +185,10 @@ _UNWARMED_KERNELS = """
 import sys
 import numpy as np
 from numba.core.registry import CPUDispatcher
-from agents.player import compile_kernels
+from keepaway.agents.player import compile_kernels
 from keepaway.env import parallel_env, random_action
-from protocol.params import parameter_set
-from server.arena import compile_kernels as compile_server_kernels
+from keepaway.protocol.params import parameter_set
+from keepaway.server.arena import compile_kernels as compile_server_kernels
 
 def loaded():
     return {f"{d.py_func.__module__}.{d.py_func.__name__}": set(d.overloads)

@@ -8,8 +8,8 @@ import time
 
 import pytest
 
-from protocol.params import CLASSIC
-from server.episode_log import EpisodeRecord, JsonlLog, KwyLog, cpp_number, free_name, read_jsonl
+from keepaway.protocol.params import CLASSIC
+from keepaway.server.episode_log import EpisodeRecord, JsonlLog, KwyLog, cpp_number, free_name, read_jsonl
 
 # The spec's example, byte for byte (tab-separated episode lines).
 SPEC_EXAMPLE = (
@@ -198,8 +198,7 @@ def test_a_new_log_sets_an_earlier_one_aside_instead_of_overwriting_it(tmp_path)
 
 
 def test_an_unfixed_kwy_never_renames_over_another_log(tmp_path, monkeypatch):
-    import server.episode_log as episode_log
-
+    import keepaway.server.episode_log as episode_log
     moment = time.localtime()
     monkeypatch.setattr(episode_log.time, "localtime", lambda: moment)  # both opened in the same second
     paths = []

@@ -27,15 +27,15 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-import trainer.experiments as experiments
+import keepaway.trainer.experiments as experiments
 from keepaway.cli import main
-from runner.backends import Placement
-from runner.batched_backend import BatchedBackend
-from runner.job import Behaviours
-from runner.report import dump_json
-from trainer.cem import CEMConfig
-from trainer.curves import CurvePoint, read_curve_csv, write_atomic, write_curve_csv
-from trainer.experiments import (
+from keepaway.runner.backends import Placement
+from keepaway.runner.batched_backend import BatchedBackend
+from keepaway.runner.job import Behaviours
+from keepaway.runner.report import dump_json
+from keepaway.trainer.cem import CEMConfig
+from keepaway.trainer.curves import CurvePoint, read_curve_csv, write_atomic, write_curve_csv
+from keepaway.trainer.experiments import (
     Cell,
     ConfigurationRun,
     CrossTable,
@@ -48,7 +48,7 @@ from trainer.experiments import (
     with_counterpart,
     write_final_evaluations,
 )
-from trainer.schedule import GETOPEN, LEARNED, PASS, Phase
+from keepaway.trainer.schedule import GETOPEN, LEARNED, PASS, Phase
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 # Evaluations at 0, 8, ..., 48 (7 points); Algorithm 3 scaled to 48: getopen 8, pass 8, getopen 24, pass 8.

@@ -13,10 +13,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from protocol import messages as m
-from protocol.params import parameter_set
-from runner.embedded import ArenaSpec, EmbeddedGame
-from server.game_log import (
+from keepaway.protocol import messages as m
+from keepaway.protocol.params import parameter_set
+from keepaway.runner.embedded import ArenaSpec, EmbeddedGame
+from keepaway.server.game_log import (
     STATE_BALL_COLLIDE,
     STATE_KICK,
     STATE_KICK_FAULT,
@@ -32,7 +32,7 @@ from server.game_log import (
     show_from_frame,
     show_line,
 )
-from server.world import COLLIDED_BALL, COUNT_KICK, new_world
+from keepaway.server.world import COLLIDED_BALL, COUNT_KICK, new_world
 
 DATA = Path(__file__).parent / "data" / "rcss-behaviour"
 REFERENCE = DATA / "ref_hold2_head.rcg"

@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from agents.getopen import (
+from keepaway.agents.getopen import (
     RAW_INPUTS,
     SCALED_INPUTS,
     GetOpenScaling,
@@ -19,14 +19,14 @@ from agents.getopen import (
     net_size,
     net_value,
 )
-from agents.policy_file import POLICY_VERSION, PolicyFileError, load_policy, save_policy
-from agents.skills import AgentConfig
-from agents.state_vars import getopen_state_kinds, getopen_state_size
-from protocol.params import parameter_set
-from trainer.curves import CurvePoint
-from runner.coached import policy_advice
-from trainer.train import TrainConfig, TrialState, initial_behaviours, load_checkpoint, save_checkpoint, trial_dir
-from trainer.train import write_trial_outputs
+from keepaway.agents.policy_file import POLICY_VERSION, PolicyFileError, load_policy, save_policy
+from keepaway.agents.skills import AgentConfig
+from keepaway.agents.state_vars import getopen_state_kinds, getopen_state_size
+from keepaway.protocol.params import parameter_set
+from keepaway.trainer.curves import CurvePoint
+from keepaway.runner.coached import policy_advice
+from keepaway.trainer.train import TrainConfig, TrialState, initial_behaviours, load_checkpoint, save_checkpoint, trial_dir
+from keepaway.trainer.train import write_trial_outputs
 from beliefs import belief
 
 KP = parameter_set("classic").kernel()

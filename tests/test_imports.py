@@ -98,7 +98,7 @@ def test_no_module_of_the_project_imports_itself_back():
 def test_the_cycle_check_sees_imports_inside_functions_and_finds_cycles(tmp_path):
     module = tmp_path / "m.py"
     module.write_text("def f():\n    from trainer.train import derive_seed\n")
-    assert imported_names(module) == {"trainer.train", "trainer.train.derive_seed"}
+    assert imported_names(module) == {"keepaway.trainer.train", "keepaway.trainer.train.derive_seed"}
     assert find_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == ["a", "b", "c", "a"]
     assert find_cycle({"a": {"b", "c"}, "b": {"c"}, "c": set()}) is None
 
@@ -107,5 +107,5 @@ def test_the_job_types_are_the_runners_leaf():
     # runner.job may read the package's own constants (runner.MODES, kept there so that the command line
     # need not import the players' kernels), and the package imports none of its modules itself
     graph = import_graph()
-    assert not {name for name in graph["runner.job"] if name.startswith("runner.")}
+    assert not {name for name in graph["keepaway.runner.job"] if name.startswith("runner.")}
     assert not {name for name in graph["runner"] if name.startswith("runner")}

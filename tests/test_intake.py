@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from server.intake import BACKLOG, Intake
+from keepaway.server.intake import BACKLOG, Intake
 
 
 def frames(n: int) -> list[bytes]:

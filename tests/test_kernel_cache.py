@@ -18,14 +18,14 @@ import numpy as np
 from conftest import REPO, keepaway_command
 
 from test_imports import MODULES, PROJECT, imported_names
-from core.jit import KERNEL_SOURCES, NOT_KERNEL_SOURCES, ROOT, Kernel, borrowing, configure_cache, njit, source_digest, source_files
+from keepaway.core.jit import KERNEL_SOURCES, NOT_KERNEL_SOURCES, ROOT, Kernel, borrowing, configure_cache, njit, source_digest, source_files
 
 # Runs pkg.a.f() with numba's cache in CACHE_ROOT/numba-<digest of pkg's source>, as core.jit does.
 RUN_KERNEL = textwrap.dedent("""
     import sys
     from pathlib import Path
     import numba.core.config
-    from core.jit import source_digest
+    from keepaway.core.jit import source_digest
     root, cache_root = Path(sys.argv[1]), Path(sys.argv[2])
     numba.core.config.CACHE_DIR = str(cache_root / f"numba-{source_digest(root, ('pkg',))}")
     sys.path.insert(0, str(root))
@@ -99,7 +99,7 @@ def test_every_cached_kernel_goes_through_core_jit_and_is_in_the_key():
             tree = ast.parse(path.read_text())
             if path.name != "jit.py":
                 assert not imports_numba_njit(tree), f"{path}: import njit from core.jit"
-            if imports_njit(tree, "core.jit"):
+            if imports_njit(tree, "keepaway.core.jit"):
                 assert path in keyed, f"{path} defines kernels but is not in core.jit.KERNEL_SOURCES"
 
 
@@ -108,8 +108,8 @@ def test_every_module_a_kernel_module_imports_is_in_the_key():
     own module imports, directly or through others: an edit there must select a fresh cache as well."""
     assert all((ROOT / name).is_file() for name in NOT_KERNEL_SOURCES)
     keyed = {path.resolve() for path in source_files(ROOT, KERNEL_SOURCES, NOT_KERNEL_SOURCES)}
-    kernel_modules = [name for name, path in MODULES.items() if imports_njit(ast.parse(path.read_text()), "core.jit")]
-    assert "server.physics" in kernel_modules and "runner.batched" in kernel_modules
+    kernel_modules = [name for name, path in MODULES.items() if imports_njit(ast.parse(path.read_text()), "keepaway.core.jit")]
+    assert "keepaway.server.physics" in kernel_modules and "keepaway.runner.batched" in kernel_modules
     reached: set[str] = set()
     todo = list(kernel_modules)
     while todo:

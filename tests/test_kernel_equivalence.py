@@ -23,25 +23,25 @@ import numpy as np
 import pytest
 from numba import njit
 
-from agents.belief import AgentMemory, belief_from_truth, new_memory
-from agents.geometry import (ACOS_ESTIMATE_ERROR, acos_estimate, compared_hypot, direction, distance, final_position,
+from keepaway.agents.belief import AgentMemory, belief_from_truth, new_memory
+from keepaway.agents.geometry import (ACOS_ESTIMATE_ERROR, acos_estimate, compared_hypot, direction, distance, final_position,
                              nearer_than, normalize_angle, rolled_out)
-from agents.getopen import (TANH_ESTIMATE_ERROR, grid_point, grid_size, handcoded_target, lane_origin,
+from keepaway.agents.getopen import (TANH_ESTIMATE_ERROR, grid_point, grid_size, handcoded_target, lane_origin,
                             learned_target, net_estimate_error, net_first_layer, net_output, net_output_estimate,
                             net_value, predicted_ball_pos, tanh_estimate)
-from agents.sarsa import (EMPTY_SLOT, INDEX_INCREMENT, CHECK_INCREMENT, MAX_LONG_INT, SarsaConfig,
+from keepaway.agents.sarsa import (EMPTY_SLOT, INDEX_INCREMENT, CHECK_INCREMENT, MAX_LONG_INT, SarsaConfig,
                           load_policy_arrays, load_tiles, new_memory as new_sarsa_memory, policy_arrays, quantize,
                           tiling_coordinate, unh_hash)
-from agents.skills import (UNKNOWN_FIRST, AgentConfig, _longest_run, closest_to_ball, decay_sums, fastest_to_ball,
+from keepaway.agents.skills import (UNKNOWN_FIRST, AgentConfig, _longest_run, closest_to_ball, decay_sums, fastest_to_ball,
                            interception_point, travel)
-from agents.state_vars import (ESTIMATE_ANGLE_ERROR, ESTIMATE_DISTANCE_ERROR, getopen_point_estimate,
+from keepaway.agents.state_vars import (ESTIMATE_ANGLE_ERROR, ESTIMATE_DISTANCE_ERROR, getopen_point_estimate,
                                getopen_point_state, getopen_setup, getopen_state, pass_state, vertex_scratch)
-from agents.worldmodel import ModelState, SeeBuffer, localise_row, whole_degree_table
-from protocol.landmarks import FLAG_POSITIONS
-from protocol.params import parameter_set
-from core.rng import seed_streams
-from core.objects import CMD_DASH, CMD_TURN
-from runner.batched import BatchedArenas
+from keepaway.agents.worldmodel import ModelState, SeeBuffer, localise_row, whole_degree_table
+from keepaway.protocol.landmarks import FLAG_POSITIONS
+from keepaway.protocol.params import parameter_set
+from keepaway.core.rng import seed_streams
+from keepaway.core.objects import CMD_DASH, CMD_TURN
+from keepaway.runner.batched import BatchedArenas
 
 PARAMS = parameter_set("classic")
 KP = PARAMS.kernel()

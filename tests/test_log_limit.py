@@ -8,9 +8,9 @@ import time
 
 import pytest
 
-from protocol import messages as m
+from keepaway.protocol import messages as m
 from scripted import ScriptedCoach, ScriptedPlayer
-from core.log_limit import KIND_ATTR, MAX_KINDS, RepeatLimit
+from keepaway.core.log_limit import KIND_ATTR, MAX_KINDS, RepeatLimit
 
 MISSED = "%s missed cycle %d (%d in a row)"
 

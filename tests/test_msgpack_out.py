@@ -7,7 +7,7 @@ import math
 import msgpack
 import numpy as np
 
-from core.msgpack_out import packed, put_array, put_float, put_int, put_nil, put_raw
+from keepaway.core.msgpack_out import packed, put_array, put_float, put_int, put_nil, put_raw
 
 BUF = np.zeros(64, dtype=np.uint8)
 

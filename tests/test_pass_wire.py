@@ -10,13 +10,13 @@ from dataclasses import asdict, replace
 import numpy as np
 import pytest
 
-import agents.pass_wire as pass_wire
-from agents.pass_wire import pass_arrays_from_chunks, sparse_pass_chunks
-from agents.sarsa import SarsaConfig
-from protocol import encode
-from protocol import messages as m
-from protocol.advice import PassLoadAdvice, PassSnapshotReport, decode_report
-from protocol.messages import decode_from_player
+import keepaway.agents.pass_wire as pass_wire
+from keepaway.agents.pass_wire import pass_arrays_from_chunks, sparse_pass_chunks
+from keepaway.agents.sarsa import SarsaConfig
+from keepaway.protocol import encode
+from keepaway.protocol import messages as m
+from keepaway.protocol.advice import PassLoadAdvice, PassSnapshotReport, decode_report
+from keepaway.protocol.messages import decode_from_player
 
 CONFIG = SarsaConfig(table_size=16, alpha=0.25)
 HEAD = {"episode": 7, "learner": True}

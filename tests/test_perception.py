@@ -16,11 +16,11 @@ import msgpack
 import numpy as np
 import pytest
 
-from protocol import encode
-from protocol import messages as m
-from protocol.landmarks import FLAG_INDEX, FLAG_POSITIONS, FLAGS, LINES, N_FLAGS, to_wire
-from protocol.params import parameter_set
-from server.perception import (
+from keepaway.protocol import encode
+from keepaway.protocol import messages as m
+from keepaway.protocol.landmarks import FLAG_INDEX, FLAG_POSITIONS, FLAGS, LINES, N_FLAGS, to_wire
+from keepaway.protocol.params import parameter_set
+from keepaway.server.perception import (
     ATAN_ESTIMATE_ERROR,
     BEARING_SLACK,
     CLOSE,
@@ -54,8 +54,8 @@ from server.perception import (
     write_see,
     write_sense_body,
 )
-from core.objects import BALL
-from server.world import COLLIDED_BALL, COLLIDED_PLAYER, COUNT_DASH, COUNT_TURN_NECK, new_world
+from keepaway.core.objects import BALL
+from keepaway.server.world import COLLIDED_BALL, COLLIDED_PLAYER, COUNT_DASH, COUNT_TURN_NECK, new_world
 
 REPO = Path(__file__).resolve().parent.parent
 CLASSIC = parameter_set("classic")  # keepaway launch: visible_angle 360

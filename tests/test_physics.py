@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from protocol.params import parameter_set
-from server.physics import (
+from keepaway.protocol.params import parameter_set
+from keepaway.server.physics import (
     apply_commands,
     dash_direction_rate,
     kick_possible,
@@ -18,9 +18,9 @@ from server.physics import (
     resolve_collisions,
     update_stamina,
 )
-from core.rng import seed_streams
-from core.objects import BALL, CMD_CATCH, CMD_DASH, CMD_KICK, CMD_MOVE, CMD_TURN
-from server.world import (
+from keepaway.core.rng import seed_streams
+from keepaway.core.objects import BALL, CMD_CATCH, CMD_DASH, CMD_KICK, CMD_MOVE, CMD_TURN
+from keepaway.server.world import (
     COLLIDED_BALL,
     COLLIDED_PLAYER,
     COUNT_DASH,

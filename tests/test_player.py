@@ -12,9 +12,9 @@ import math
 import numpy as np
 import pytest
 
-from agents.player import PlayerAgent, agent_seed_sequence, greedy_pass_factory
-from agents.skills import GETOPEN_POLICIES, PASS_POLICIES
-from agents.policy_file import (
+from keepaway.agents.player import PlayerAgent, agent_seed_sequence, greedy_pass_factory
+from keepaway.agents.skills import GETOPEN_POLICIES, PASS_POLICIES
+from keepaway.agents.policy_file import (
     PolicyFileError,
     getopen_theta_size,
     keeper_pass_arrays,
@@ -23,11 +23,11 @@ from agents.policy_file import (
     save_policy,
     unpack_pass_arrays,
 )
-from protocol import PROTOCOL_VERSION, encode
-from protocol import messages as m
-from protocol.messages import decode_for_player, decode_from_player
-from protocol.params import parameter_set
-from server.arena import Arena
+from keepaway.protocol import PROTOCOL_VERSION, encode
+from keepaway.protocol import messages as m
+from keepaway.protocol.messages import decode_for_player, decode_from_player
+from keepaway.protocol.params import parameter_set
+from keepaway.server.arena import Arena
 
 PARAMS = parameter_set("classic")
 K, T = 3, 2
@@ -385,7 +385,7 @@ def test_learned_pass_asks_the_learner_at_each_decision_and_ends_its_episode():
 def test_learned_pass_plays_the_policy_files_sarsa_weights_greedily(tmp_path):
     """A Sarsa learner's saved weights, loaded with --pass learned, decide greedily: weights that make
     HoldBall worth more than any pass give a keeper that never passes."""
-    from agents.sarsa import SarsaConfig, SarsaLearner
+    from keepaway.agents.sarsa import SarsaConfig, SarsaLearner
 
     small = SarsaConfig(table_size=2**14)
     teacher = SarsaLearner(K, T, small, seed=1)
@@ -450,7 +450,7 @@ def test_policy_file_theta_is_the_keepers_getopen_net(tmp_path):
 
 
 def test_policy_file_net_on_scaled_inputs_plays_with_its_scaling_folded_in(tmp_path):
-    from agents.getopen import GetOpenScaling
+    from keepaway.agents.getopen import GetOpenScaling
 
     theta = np.linspace(-1.0, 1.0, THETA_SIZE)
     scaling = GetOpenScaling().inputs(K, T, 20.0)
@@ -542,7 +542,7 @@ def test_pass_arrays_pack_per_keeper_and_unpack_with_the_plain_ones_as_fallback(
 
 
 def test_a_learned_pass_keeper_loads_its_own_arrays_from_a_per_keeper_file(tmp_path):
-    from agents.sarsa import SarsaConfig, SarsaLearner
+    from keepaway.agents.sarsa import SarsaConfig, SarsaLearner
 
     small = SarsaConfig(table_size=2**12)
     own = []
@@ -561,7 +561,7 @@ def test_a_learned_pass_keeper_loads_its_own_arrays_from_a_per_keeper_file(tmp_p
 
 
 def test_a_keepers_own_pass_arrays_of_the_wrong_size_are_a_one_line_error(tmp_path):
-    from agents.sarsa import SarsaConfig, SarsaLearner
+    from keepaway.agents.sarsa import SarsaConfig, SarsaLearner
 
     good = SarsaLearner(K, T, SarsaConfig(table_size=2**12)).save()
     path = save_policy(tmp_path / "odd.npz", pass_arrays=pack_pass_arrays([good, {"pass_weights": np.zeros(4)}]),

@@ -12,14 +12,14 @@ import numpy as np
 import pytest
 from mutations import mutated_frames
 
-from agents.player import PlayerAgent
-from agents.think import NOT_WRITTEN
-from protocol import ProtocolError, encode
-from protocol import messages as m
-from protocol.advice import SeedAdvice
-from protocol.messages import decode_for_player, decode_from_player
-from protocol.params import parameter_set
-from runner.embedded import ArenaSpec, EmbeddedGame
+from keepaway.agents.player import PlayerAgent
+from keepaway.agents.think import NOT_WRITTEN
+from keepaway.protocol import ProtocolError, encode
+from keepaway.protocol import messages as m
+from keepaway.protocol.advice import SeedAdvice
+from keepaway.protocol.messages import decode_for_player, decode_from_player
+from keepaway.protocol.params import parameter_set
+from keepaway.runner.embedded import ArenaSpec, EmbeddedGame
 
 PARAMS = parameter_set("classic")
 CYCLES = 300

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from conftest import keepaway_command, read_until_match
-from protocol import messages as m
+from keepaway.protocol import messages as m
 from scripted import ScriptedPlayer
 
 TEAMS = ["keepers"] * 3 + ["takers"] * 2

@@ -10,9 +10,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import agents.pass_wire as pass_wire
-from agents.pass_wire import pass_arrays_from_chunks, sparse_pass_chunks
-from agents.player import (
+import keepaway.agents.pass_wire as pass_wire
+from keepaway.agents.pass_wire import pass_arrays_from_chunks, sparse_pass_chunks
+from keepaway.agents.player import (
     EPISODE_MESSAGE,
     PASS_POLICIES,
     REPORT_BYTES,
@@ -21,14 +21,14 @@ from agents.player import (
     learner_seed,
     sarsa_pass_factory,
 )
-from agents.policy_file import load_policy, save_policy
-from agents.sarsa import MODE_EXPLORE, MODE_GREEDY, MODE_LEARN, NO_ACTION, SarsaConfig, SarsaLearner
-from protocol import encode
-from protocol import messages as m
-from protocol.advice import PassLoadAdvice, decode_report
-from protocol.endpoints import DEFAULT_MAX_MESSAGE_BYTES
-from protocol.messages import decode_from_player
-from core.rng import seed_streams
+from keepaway.agents.policy_file import load_policy, save_policy
+from keepaway.agents.sarsa import MODE_EXPLORE, MODE_GREEDY, MODE_LEARN, NO_ACTION, SarsaConfig, SarsaLearner
+from keepaway.protocol import encode
+from keepaway.protocol import messages as m
+from keepaway.protocol.advice import PassLoadAdvice, decode_report
+from keepaway.protocol.endpoints import DEFAULT_MAX_MESSAGE_BYTES
+from keepaway.protocol.messages import decode_from_player
+from keepaway.core.rng import seed_streams
 from test_player import K, Game, wire
 
 SMALL = SarsaConfig(table_size=1 << 15)

@@ -12,9 +12,9 @@ import msgpack
 import pytest
 import zmq
 
-import protocol
-from protocol import params
-from protocol import (
+from keepaway import protocol
+from keepaway.protocol import params
+from keepaway.protocol import (
     CLASSIC,
     COACH_TO_SERVER,
     CURRENT,
@@ -62,11 +62,11 @@ from protocol import (
     decode_monitor,
     encode,
 )
-from protocol.codec import MAX_PAYLOAD_DEPTH, Invalid
-from protocol.endpoints import bind, configure, connect_endpoint, parse_endpoint
-from protocol.errors import CODEC_ERROR_CODES
-from protocol import messages as m
-from protocol.messages import MAX_COMMANDS, MONITOR_TOPICS
+from keepaway.protocol.codec import MAX_PAYLOAD_DEPTH, Invalid
+from keepaway.protocol.endpoints import bind, configure, connect_endpoint, parse_endpoint
+from keepaway.protocol.errors import CODEC_ERROR_CODES
+from keepaway.protocol import messages as m
+from keepaway.protocol.messages import MAX_COMMANDS, MONITOR_TOPICS
 
 # ------------------------------------------------------------------------------- one sample per message
 
@@ -353,7 +353,7 @@ def test_unknown_parameters_and_names_that_are_not_strings_are_refused():
 
 
 def test_real_landmark_tables_fit_the_init_ok_limits():
-    from protocol.landmarks import FLAGS, LINES
+    from keepaway.protocol.landmarks import FLAGS, LINES
 
     landmarks = {"flags": [[f.name, f.x, f.y] for f in FLAGS], "lines": [[ln.name, ln.x, ln.y] for ln in LINES]}
     msg = InitOk(cycle=0, side="r", unum=2, team="takers", play_mode="play_on", params=CLASSIC.to_dict(),

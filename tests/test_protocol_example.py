@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 
 from conftest import keepaway_command
-from server.episode_log import read_jsonl
+from keepaway.server.episode_log import read_jsonl
 
 EXAMPLE = Path(__file__).resolve().parent.parent / "examples" / "protocol_taker.py"
 

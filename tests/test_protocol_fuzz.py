@@ -10,7 +10,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from test_protocol import ALL_SETS, SAMPLES, allowed_for
 
-from protocol import (
+from keepaway.protocol import (
     COMMAND_ARGUMENTS,
     MAX_COMMANDS,
     PLAYER_TO_SERVER,
@@ -24,7 +24,7 @@ from protocol import (
     decode,
     encode,
 )
-from protocol.messages import MAX_SAY_CHARS, VIEW_QUALITIES, VIEW_WIDTHS
+from keepaway.protocol.messages import MAX_SAY_CHARS, VIEW_QUALITIES, VIEW_WIDTHS
 
 FUZZ = settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 

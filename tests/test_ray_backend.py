@@ -23,11 +23,11 @@ from click.testing import CliRunner
 
 from conftest import keepaway_command, process_tree, running
 from keepaway.cli import main
-from protocol.params import parameter_set
-from runner.embedded import ArenaSpec
-from runner.job import Behaviours
-from runner.ray_backend import LogMirror, LogPiece, RunHost
-from trainer.train import TrainConfig
+from keepaway.protocol.params import parameter_set
+from keepaway.runner.embedded import ArenaSpec
+from keepaway.runner.job import Behaviours
+from keepaway.runner.ray_backend import LogMirror, LogPiece, RunHost
+from keepaway.trainer.train import TrainConfig
 
 HAVE_RAY = importlib.util.find_spec("ray") is not None
 
@@ -85,8 +85,8 @@ def test_a_run_on_ray_plays_the_games_of_a_local_run_and_brings_its_logs_back(pr
 def test_ray_places_arenas_that_play_like_local_ones(tmp_path):
     import ray
 
-    from runner.distributed import DistributedBackend
-    from runner.ray_backend import ray_launcher
+    from keepaway.runner.distributed import DistributedBackend
+    from keepaway.runner.ray_backend import ray_launcher
 
     config = TrainConfig(mode="distributed", arenas=2)
     job = Behaviours("random", "handcoded")
@@ -111,8 +111,8 @@ def test_a_process_dying_in_an_arena_on_ray_is_named_with_where_its_logs_are():
     after the server's 60 s cycle timeout, nor, for a dead coach, the 900 s an attached arena is given)."""
     import ray
 
-    from runner.launch import ArenaFailure
-    from runner.ray_backend import ray_launcher
+    from keepaway.runner.launch import ArenaFailure
+    from keepaway.runner.ray_backend import ray_launcher
 
     config = TrainConfig(mode="distributed", arenas=1)
     try:
@@ -143,9 +143,11 @@ def test_an_arena_whose_port_this_machine_cannot_reach_is_refused_at_once_and_st
     the arenas start, in one line, instead of after each request's 900 s; the arenas are stopped."""
     import ray
 
-    import runner.ray_backend
-    from runner.launch import ArenaFailure
-    from runner.ray_backend import ray_launcher
+    from keepaway import runner
+
+    import keepaway.runner.ray_backend
+    from keepaway.runner.launch import ArenaFailure
+    from keepaway.runner.ray_backend import ray_launcher
 
     arena: set[int] = set()  # the arena's server and coach (a local Ray's processes are this one's descendants)
 
@@ -167,7 +169,7 @@ def test_an_arena_whose_port_this_machine_cannot_reach_is_refused_at_once_and_st
 
 
 def test_a_ray_error_is_told_by_one_of_its_lines_without_terminal_colours():
-    from runner.ray_backend import error_line
+    from keepaway.runner.ray_backend import error_line
 
     died = RuntimeError("The actor died because of an error raised in its creation task, \x1b[36mray::ArenaHost."
                         "__init__()\x1b[39m (pid=7, ip=10.0.0.6)\n  File \"x.py\", line 1\n\nModuleNotFoundError: "
@@ -179,7 +181,7 @@ def test_a_ray_error_is_told_by_one_of_its_lines_without_terminal_colours():
 
 
 def test_unreachable_says_why_in_one_line():
-    from runner.ray_backend import unreachable
+    from keepaway.runner.ray_backend import unreachable
 
     with socket.socket() as s:  # a loopback port nobody listens on
         s.bind(("127.0.0.1", 0))
@@ -203,10 +205,12 @@ def test_an_actor_that_cannot_be_created_is_named_in_one_line(tmp_path, monkeypa
     that does not exist."""
     import ray
 
-    import runner.ray_backend
-    from runner.launch import ArenaFailure
-    from runner.ray_backend import ray_run
-    from runner.run import RunOptions
+    from keepaway import runner
+
+    import keepaway.runner.ray_backend
+    from keepaway.runner.launch import ArenaFailure
+    from keepaway.runner.ray_backend import ray_run
+    from keepaway.runner.run import RunOptions
 
     monkeypatch.setattr(runner.ray_backend, "RunHost", Unimportable)
     ray.init(num_cpus=1, log_to_driver=False)
@@ -258,8 +262,8 @@ def test_the_logs_of_a_run_elsewhere_are_copied_as_they_grow_and_never_overwrite
     """``RunHost.logs_since`` (on the node) and ``LogMirror`` (in the driver's --out), without Ray: pieces of a
     few bytes at a time give byte-for-byte copies, an earlier run's log of the same name is set aside as the
     server does, a process's log is appended to as a resumed local run's."""
-    import runner.ray_backend
-
+    from keepaway import runner
+    import keepaway.runner.ray_backend
     monkeypatch.setattr(runner.ray_backend, "LOG_PIECE", 5)
     node, out = tmp_path / "node", tmp_path / "out"
     (node / "processes").mkdir(parents=True)
@@ -300,8 +304,10 @@ def test_arenas_waiting_for_a_cpu_on_ray_are_announced_and_then_placed(monkeypat
     cluster's CPUs) instead of falling silent, and again once the arena is placed and started."""
     import ray
 
-    import runner.ray_backend
-    from runner.ray_backend import ray_launcher
+    from keepaway import runner
+
+    import keepaway.runner.ray_backend
+    from keepaway.runner.ray_backend import ray_launcher
 
     monkeypatch.setattr(runner.ray_backend, "PLACEMENT_NOTICE_S", 1.0)
     config = TrainConfig(mode="distributed", arenas=1)

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from protocol.params import parameter_set
-from server.referee import (
+from keepaway.protocol.params import parameter_set
+from keepaway.server.referee import (
     END_CAUSES,
     END_NONE,
     END_OUT,
@@ -16,9 +16,9 @@ from server.referee import (
     reset_field,
     start_game,
 )
-from core.rng import randint, uniform
-from core.objects import BALL
-from server.world import new_world
+from keepaway.core.rng import randint, uniform
+from keepaway.core.objects import BALL
+from keepaway.server.world import new_world
 
 CLASSIC = parameter_set("classic")
 KP = CLASSIC.kernel()

@@ -7,8 +7,8 @@ import re
 from dataclasses import fields
 from pathlib import Path
 
-from protocol.errors import CODEC_ERROR_CODES, ERROR_CODES
-from protocol.params import CLASSIC, CURRENT, KEEPAWAY_LAUNCH, ServerParams
+from keepaway.protocol.errors import CODEC_ERROR_CODES, ERROR_CODES
+from keepaway.protocol.params import CLASSIC, CURRENT, KEEPAWAY_LAUNCH, ServerParams
 
 ROOT = Path(__file__).resolve().parent.parent
 RULES = (ROOT / "docs" / "rules.md").read_text(encoding="utf-8")

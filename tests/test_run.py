@@ -15,10 +15,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agents.policy_file import getopen_theta_size, save_policy
+from keepaway.agents.policy_file import getopen_theta_size, save_policy
 from conftest import arena_members, keepaway_command, process_tree, running
-from server.episode_log import read_jsonl
-from server.game_log import read_rcg
+from keepaway.server.episode_log import read_jsonl
+from keepaway.server.game_log import read_rcg
 
 SUMMARY_KEYS = {"mode", "seed", "episodes", "mean_hold_time_s", "stderr_hold_time_s", "cycles_per_s",
                 "episodes_per_s"}
@@ -267,11 +267,12 @@ SLOW_STOP = ("import subprocess, sys, time; code = subprocess.call(sys.argv[3:])
 def test_clean_exits_while_a_slow_server_stops_are_not_deaths(tmp_path, monkeypatch):
     """Players and coach exit 0 right after the server's shutdown; the server's process then takes
     longer than the launcher's grace period to go. That is success, not a death."""
-    import runner.launch
-    from runner.launch import CLEAN_EXIT_GRACE_S
-    from protocol.params import parameter_set
-    from runner.embedded import ArenaSpec
-    from runner.run import RunOptions, run
+    from keepaway import runner
+    import keepaway.runner.launch
+    from keepaway.runner.launch import CLEAN_EXIT_GRACE_S
+    from keepaway.protocol.params import parameter_set
+    from keepaway.runner.embedded import ArenaSpec
+    from keepaway.runner.run import RunOptions, run
 
     real_argv = runner.launch.keepaway_argv
     exited = tmp_path / "server-exited"
@@ -299,9 +300,9 @@ def strict_json(text: str):
 
 
 def test_a_one_episode_summary_has_no_nan_and_says_why_it_has_no_standard_error():
-    from server.episode_log import EpisodeRecord
-    from runner.job import RunResult
-    from runner.report import dump_json, summary_table
+    from keepaway.server.episode_log import EpisodeRecord
+    from keepaway.runner.job import RunResult
+    from keepaway.runner.report import dump_json, summary_table
 
     # one episode of 43 cycles, no measured time: no standard error, no rates
     summary = RunResult("batched", 3, [EpisodeRecord(1, 0, 43, "taken")], 0.0, 0, 1).summary()
@@ -325,17 +326,17 @@ def test_a_batched_run_of_one_episode_prints_strict_json(processes, tmp_path):
 
 
 def batched_chunks(episodes: int, batch: int, seed: int) -> list:
-    from protocol.params import parameter_set
-    from runner.batched import BatchedArenas
+    from keepaway.protocol.params import parameter_set
+    from keepaway.runner.batched import BatchedArenas
 
     return list(BatchedArenas(parameter_set("classic"), batch, seed).chunks(total_episodes=episodes))
 
 
 def test_batched_episodes_come_out_chunk_by_chunk_as_they_end(monkeypatch, tmp_path):
-    from protocol.params import parameter_set
-    from runner.batched import BatchedArenas
-    from runner.embedded import ArenaSpec
-    from runner.run import RunOptions, batched_episodes
+    from keepaway.protocol.params import parameter_set
+    from keepaway.runner.batched import BatchedArenas
+    from keepaway.runner.embedded import ArenaSpec
+    from keepaway.runner.run import RunOptions, batched_episodes
 
     played = []
     real_chunk = BatchedArenas._run_chunk
@@ -357,9 +358,9 @@ def test_batched_episodes_come_out_chunk_by_chunk_as_they_end(monkeypatch, tmp_p
 
 
 def test_batched_rates_count_the_episodes_and_arena_cycles_after_the_first_chunk_with_an_episode(tmp_path):
-    from protocol.params import parameter_set
-    from runner.embedded import ArenaSpec
-    from runner.run import RunOptions, run
+    from keepaway.protocol.params import parameter_set
+    from keepaway.runner.embedded import ArenaSpec
+    from keepaway.runner.run import RunOptions, run
 
     result = run(RunOptions(ArenaSpec(parameter_set("classic"), 3, 2, 4), 12, "batched", 3, out=tmp_path),
                  progress=False)
@@ -374,7 +375,7 @@ def test_batched_rates_count_the_episodes_and_arena_cycles_after_the_first_chunk
 def test_a_forked_player_runs_as_a_started_one_would(tmp_path):
     """runner/launch.py: a player forked from the fork server has its own session, its member name, the
     arena's scheduling policy and its own log, and the arena reads its exit code."""
-    from runner.launch import ArenaProcesses
+    from keepaway.runner.launch import ArenaProcesses
 
     with socket.socket() as unused:
         unused.bind(("127.0.0.1", 0))  # a port that nobody listens on: the player waits for its init_ok
@@ -397,7 +398,7 @@ def test_a_forked_player_runs_as_a_started_one_would(tmp_path):
 def test_a_synchronous_arenas_processes_run_batch_scheduled_and_others_as_they_were(tmp_path):
     """runner/launch.py: members of a batch-scheduled arena run under SCHED_BATCH (a woken process does
     not preempt the one that woke it); other processes keep the launcher's policy."""
-    from runner.launch import ArenaProcesses
+    from keepaway.runner.launch import ArenaProcesses
 
     sleeper = [sys.executable, "-c", "import time; time.sleep(60)"]
     for batch, expected in ((True, os.SCHED_BATCH), (False, os.sched_getscheduler(0))):

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from agents.keeper import NO_PASS_DECISION, PASS_DECISION_START, PASS_DECISION_STEP
-from agents.sarsa import (
+from keepaway.agents.keeper import NO_PASS_DECISION, PASS_DECISION_START, PASS_DECISION_STEP
+from keepaway.agents.sarsa import (
     MODE_EXPLORE,
     MODE_GREEDY,
     MODE_LEARN,

@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from agents.say import (
+from keepaway.agents.say import (
     BYTE_CODES,
     MAX_CHARS,
     VALID_CHARS,
@@ -27,14 +27,14 @@ from agents.say import (
     say_row,
     to_text,
 )
-from agents.skills import AgentConfig
-from agents.worldmodel import new_model_state
-from protocol.params import parameter_set
-from protocol.codec import encode
-from protocol.messages import Hear
-from server.perception import HEAR_FRAME_BYTES, HEAR_SENDERS, hear_frames, hear_picks, write_hear
-from core.objects import BALL, CMD_DASH, CMD_KICK, CMD_TURN
-from server.world import new_world
+from keepaway.agents.skills import AgentConfig
+from keepaway.agents.worldmodel import new_model_state
+from keepaway.protocol.params import parameter_set
+from keepaway.protocol.codec import encode
+from keepaway.protocol.messages import Hear
+from keepaway.server.perception import HEAR_FRAME_BYTES, HEAR_SENDERS, hear_frames, hear_picks, write_hear
+from keepaway.core.objects import BALL, CMD_DASH, CMD_KICK, CMD_TURN
+from keepaway.server.world import new_world
 
 K, T = 3, 2
 PARAMS = parameter_set("current")
@@ -340,7 +340,7 @@ def test_the_hear_frames_of_a_cycle_are_the_draws_directions_and_texts_of_the_ru
 
 
 def test_says_reach_teammates_in_a_game_and_keepers_hear_passes():
-    from runner.batched import BatchedArenas
+    from keepaway.runner.batched import BatchedArenas
 
     arenas = BatchedArenas(PARAMS, 2, 11, pass_policy="random", threads=1)
     arenas.run(total_episodes=6)

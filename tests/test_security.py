@@ -13,7 +13,7 @@ import zmq
 from click.testing import CliRunner
 
 from keepaway.cli import main
-from protocol.security import (
+from keepaway.protocol.security import (
     KeyDir,
     PortGuard,
     SecurityError,
@@ -178,8 +178,8 @@ def test_binding_beyond_loopback_without_keys_warns_once_per_host(ctx, caplog):
 
 def test_refusals_from_one_address_are_one_kind_of_line_whatever_the_key(tmp_path, caplog):
     # A client trying ever new keys from one address costs one line a second in a rate-limited log.
-    from core.log_limit import RepeatLimit
-    from protocol.security import _KeyCheck
+    from keepaway.core.log_limit import RepeatLimit
+    from keepaway.protocol.security import _KeyCheck
 
     log = logging.getLogger("test.security.refusals")
     limit = RepeatLimit(clock=lambda: 0.0)

@@ -13,17 +13,17 @@ import pytest
 import zmq
 
 from conftest import keepaway_command, read_until_match
-from protocol import PROTOCOL_VERSION, encode
-from protocol import messages as m
-from protocol.arena import RunEpisodes
-from protocol.endpoints import MONITOR_FRAME_TOPIC
-from protocol.security import KeyDir, create_keys, exposure_warning, no_answer, secure_client
-from runner import distributed
-from runner.distributed import DistributedBackend
-from runner.job import Behaviours
-from runner.launch import ArenaFailure
+from keepaway.protocol import PROTOCOL_VERSION, encode
+from keepaway.protocol import messages as m
+from keepaway.protocol.arena import RunEpisodes
+from keepaway.protocol.endpoints import MONITOR_FRAME_TOPIC
+from keepaway.protocol.security import KeyDir, create_keys, exposure_warning, no_answer, secure_client
+from keepaway.runner import distributed
+from keepaway.runner.distributed import DistributedBackend
+from keepaway.runner.job import Behaviours
+from keepaway.runner.launch import ArenaFailure
 from test_run import run_json
-from trainer.train import TrainConfig
+from keepaway.trainer.train import TrainConfig
 
 ARENA_RE = re.compile(r"arena=(tcp://\S+)\n")
 SILENCE_MS = 3000  # what a refused client waits for an answer it never gets

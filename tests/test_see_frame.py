@@ -10,14 +10,14 @@ import numpy as np
 import pytest
 from mutations import mutated_frames
 
-from agents.frames import NOT_TAKEN, SEE
-from agents.worldmodel import WorldModel
-from core.msgpack_in import BAD, read_double, read_int, read_str
-from protocol import ProtocolError
-from protocol.landmarks import to_wire as landmarks
-from protocol.messages import See, SenseBody, decode_for_player
-from protocol.params import parameter_set
-from runner.embedded import ArenaSpec, EmbeddedGame
+from keepaway.agents.frames import NOT_TAKEN, SEE
+from keepaway.agents.worldmodel import WorldModel
+from keepaway.core.msgpack_in import BAD, read_double, read_int, read_str
+from keepaway.protocol import ProtocolError
+from keepaway.protocol.landmarks import to_wire as landmarks
+from keepaway.protocol.messages import See, SenseBody, decode_for_player
+from keepaway.protocol.params import parameter_set
+from keepaway.runner.embedded import ArenaSpec, EmbeddedGame
 
 PARAMS = parameter_set("classic")
 

@@ -10,7 +10,7 @@ import pytest
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
-from protocol import messages as m
+from keepaway.protocol import messages as m
 from scripted import ScriptedCoach, ScriptedPlayer
 
 

@@ -14,11 +14,11 @@ import msgpack
 import zmq
 
 from conftest import keepaway_command
-from protocol import DEFAULT_MAX_MESSAGE_BYTES, PROTOCOL_VERSION, encode
-from protocol import messages as m
-from protocol.messages import advice_hear
+from keepaway.protocol import DEFAULT_MAX_MESSAGE_BYTES, PROTOCOL_VERSION, encode
+from keepaway.protocol import messages as m
+from keepaway.protocol.messages import advice_hear
 from scripted import ScriptedClient, ScriptedCoach, ScriptedPlayer, chase_and_kick_out, connect_all, play_chasers
-from server.episode_log import read_jsonl
+from keepaway.server.episode_log import read_jsonl
 
 DROPPED_RE = re.compile(r"dropped (\d+) messages beyond your budget")
 JUNK = msgpack.packb({"type": "command", "cycle": 0, "commands": [["dash", 100.0]]})

@@ -9,9 +9,9 @@ from pathlib import Path
 import msgpack
 import pytest
 
-from protocol import PROTOCOL_VERSION, ServerParams
-from protocol import messages as m
-from protocol.landmarks import FLAGS
+from keepaway.protocol import PROTOCOL_VERSION, ServerParams
+from keepaway.protocol import messages as m
+from keepaway.protocol.landmarks import FLAGS
 from scripted import ScriptedCoach, ScriptedPlayer, connect_all, play_chasers
 
 

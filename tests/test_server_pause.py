@@ -14,14 +14,14 @@ import msgpack
 import numpy as np
 import pytest
 
-from protocol import encode
-from protocol import messages as m
-from protocol.messages import decode_for_player, decode_from_coach
-from protocol.errors import ProtocolError
-from protocol.params import parameter_set
+from keepaway.protocol import encode
+from keepaway.protocol import messages as m
+from keepaway.protocol.messages import decode_for_player, decode_from_coach
+from keepaway.protocol.errors import ProtocolError
+from keepaway.protocol.params import parameter_set
 from scripted import ScriptedCoach, ScriptedPlayer, chase_and_kick_out
-from server.arena import Arena
-from server.world import World
+from keepaway.server.arena import Arena
+from keepaway.server.world import World
 
 TEAMS = ["keepers"] * 3 + ["takers"] * 2
 EPISODE_MESSAGE = "training Keepaway 1"

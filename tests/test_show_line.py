@@ -14,8 +14,8 @@ from numba import njit
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from protocol.params import parameter_set
-from server.game_log import (
+from keepaway.protocol.params import parameter_set
+from keepaway.server.game_log import (
     ANGLE_PREC,
     N_RCG_COUNTS,
     PLAYER_NUMBERS,
@@ -30,8 +30,8 @@ from server.game_log import (
     WorldShows,
     show_line,
 )
-from server.show_text import LARGEST, SMALLEST, _put_number
-from server.world import COLLIDED_BALL, COLLIDED_PLAYER, new_world
+from keepaway.server.show_text import LARGEST, SMALLEST, _put_number
+from keepaway.server.world import COLLIDED_BALL, COLLIDED_PLAYER, new_world
 
 SLOTS = [(side, unum) for side in "lr" for unum in range(1, 12)]
 

@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from agents.belief import belief_from_truth, new_memory
-from agents.geometry import (
+from keepaway.agents.belief import belief_from_truth, new_memory
+from keepaway.agents.geometry import (
     ball_after_kick,
     geometric_sum,
     kick_rate,
@@ -19,7 +19,7 @@ from agents.geometry import (
     vertex_angle,
     vertex_angle_below,
 )
-from agents.skills import (
+from keepaway.agents.skills import (
     UNKNOWN_FIRST,
     AgentConfig,
     _longest_run,
@@ -37,11 +37,11 @@ from agents.skills import (
     pass_initial_speed,
     search_ball,
 )
-from protocol.params import parameter_set
-from core.rng import seed_streams
-from core.objects import CMD_DASH, CMD_KICK, CMD_TURN
+from keepaway.protocol.params import parameter_set
+from keepaway.core.rng import seed_streams
+from keepaway.core.objects import CMD_DASH, CMD_KICK, CMD_TURN
 from beliefs import belief
-from runner.embedded import ArenaSpec, EmbeddedGame
+from keepaway.runner.embedded import ArenaSpec, EmbeddedGame
 
 KP = parameter_set("classic").kernel()
 CFG = AgentConfig().kernel()

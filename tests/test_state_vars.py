@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from agents.skills import AgentConfig
-from agents.state_vars import getopen_state, getopen_state_size, pass_state, pass_state_size, smallest_angle
+from keepaway.agents.skills import AgentConfig
+from keepaway.agents.state_vars import getopen_state, getopen_state_size, pass_state, pass_state_size, smallest_angle
 from beliefs import belief
 
 CFG = AgentConfig().kernel()

@@ -12,10 +12,10 @@ import numba
 import numpy as np
 import pytest
 
-from agents.skills import AgentConfig
-from core.jit import SteadyCall, borrowing
-from core.records import KernelTable
-from protocol.params import parameter_set
+from keepaway.agents.skills import AgentConfig
+from keepaway.core.jit import SteadyCall, borrowing
+from keepaway.core.records import KernelTable
+from keepaway.protocol.params import parameter_set
 
 
 class Pair(NamedTuple):

@@ -11,8 +11,8 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-from server.cli import replay_trace_command
-from server.trace_replay import is_physics_trace, replay_trace
+from keepaway.server.cli import replay_trace_command
+from keepaway.server.trace_replay import is_physics_trace, replay_trace
 
 REPO = Path(__file__).resolve().parent.parent
 VENDORED = REPO / "tests" / "data" / "rcss-traces"

@@ -24,13 +24,13 @@ import pytest
 from scipy import stats
 from click.testing import CliRunner
 
-import trainer.train as train_module
-from agents.policy_file import load_policy
+import keepaway.trainer.train as train_module
+from keepaway.agents.policy_file import load_policy
 from conftest import keepaway_command
 from keepaway.cli import main
-from trainer.cem import CEMConfig
-from trainer.curves import CSV_HEADER, CurvePoint, mean_curve, plot_curves, read_curve_csv, write_curve_csv
-from trainer.schedule import (
+from keepaway.trainer.cem import CEMConfig
+from keepaway.trainer.curves import CSV_HEADER, CurvePoint, mean_curve, plot_curves, read_curve_csv, write_curve_csv
+from keepaway.trainer.schedule import (
     ALGORITHM_3,
     BOTH,
     GETOPEN,
@@ -43,11 +43,11 @@ from trainer.schedule import (
     parse_schedule,
     training_schedule,
 )
-from agents.policy_file import pack_pass_arrays, unpack_pass_arrays
-from runner.backends import Placement
-from runner.batched_backend import BatchedBackend
-from runner.job import LEARN
-from trainer.train import (
+from keepaway.agents.policy_file import pack_pass_arrays, unpack_pass_arrays
+from keepaway.runner.backends import Placement
+from keepaway.runner.batched_backend import BatchedBackend
+from keepaway.runner.job import LEARN
+from keepaway.trainer.train import (
     TrainConfig,
     TrialState,
     advance_trainings,

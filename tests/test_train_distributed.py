@@ -15,19 +15,19 @@ import numpy as np
 import pytest
 import zmq
 
-from agents.policy_file import load_policy
+from keepaway.agents.policy_file import load_policy
 from conftest import arena_members, keepaway_command, process_tree, running
-from protocol import encode
-from protocol import messages as m
-from protocol.arena import RunEpisodes, decode_from_trainer
-from runner import distributed
-from runner.job import chunk_seeds
-from runner.distributed import DistributedBackend
-from runner.job import GREEDY, Behaviours, Job
-from runner.launch import ArenaFailure
-from trainer.cem import CEMConfig
-from trainer.schedule import PASS, Phase
-from trainer.train import TrainConfig, train
+from keepaway.protocol import encode
+from keepaway.protocol import messages as m
+from keepaway.protocol.arena import RunEpisodes, decode_from_trainer
+from keepaway.runner import distributed
+from keepaway.runner.job import chunk_seeds
+from keepaway.runner.distributed import DistributedBackend
+from keepaway.runner.job import GREEDY, Behaviours, Job
+from keepaway.runner.launch import ArenaFailure
+from keepaway.trainer.cem import CEMConfig
+from keepaway.trainer.schedule import PASS, Phase
+from keepaway.trainer.train import TrainConfig, train
 
 pytestmark = pytest.mark.timeout(600)
 

@@ -16,11 +16,11 @@ from pathlib import Path
 import pytest
 
 from conftest import keepaway_command, read_until_match
-from protocol import messages as m
-from server.episode_log import read_kwy
-from server.game_log import parse_rcg, read_rcg
-from viewer.frames import SPEEDS, Replay, live_frame
-from viewer.render import episode_shows
+from keepaway.protocol import messages as m
+from keepaway.server.episode_log import read_kwy
+from keepaway.server.game_log import parse_rcg, read_rcg
+from keepaway.viewer.frames import SPEEDS, Replay, live_frame
+from keepaway.viewer.render import episode_shows
 
 DATA = Path(__file__).parent / "data" / "rcss-behaviour"
 REFERENCE = DATA / "ref_hold2_head.rcg"
@@ -121,7 +121,7 @@ def test_a_runs_game_log_has_the_episodes_it_played_and_render_refuses_the_next(
 def test_render_draws_an_episode_to_a_gif_and_an_mp4(tmp_path):
     from PIL import Image
 
-    from viewer.render import render
+    from keepaway.viewer.render import render
 
     record = read_rcg(REFERENCE, kwy=DATA / "ref_hold2_head.kwy")
     assert render(record, 2, tmp_path / "e2.gif") == 15  # cycles 25..39 of the log

@@ -11,12 +11,12 @@ import math
 import numpy as np
 import pytest
 
-from agents.belief import belief_from_truth
-from agents.skills import AgentConfig
-from agents.worldmodel import CONF_HORIZON_CYCLES, WorldModel, new_model_state, new_see_buffer, see_row
-from protocol import landmarks
-from protocol.params import parameter_set
-from server.perception import (
+from keepaway.agents.belief import belief_from_truth
+from keepaway.agents.skills import AgentConfig
+from keepaway.agents.worldmodel import CONF_HORIZON_CYCLES, WorldModel, new_model_state, new_see_buffer, see_row
+from keepaway.protocol import landmarks
+from keepaway.protocol.params import parameter_set
+from keepaway.server.perception import (
     SeeBuffers,
     SenseBodyBuffers,
     cone_factor,
@@ -26,8 +26,8 @@ from server.perception import (
     sense_body_arena,
     sense_body_payload,
 )
-from core.objects import CMD_DASH, CMD_KICK, CMD_NONE, CMD_TURN
-from server.world import new_world
+from keepaway.core.objects import CMD_DASH, CMD_KICK, CMD_NONE, CMD_TURN
+from keepaway.server.world import new_world
 
 PARAMS = parameter_set("classic")  # keepaway launch: visible_angle 360
 KP = PARAMS.kernel()

@@ -44,15 +44,15 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import bootstrap
 
-from agents.skills import AgentConfig
-from protocol.params import ServerParams
-from server.episode_log import EpisodeRecord
-from server.game_log import STATE_KICK, STATE_KICK_FAULT, GameRecord, Show
-from server.referee import END_CAUSES, END_OUT, END_TAKEN
-from core.objects import BALL
-from server.world import COUNT_DASH, COUNT_KICK, COUNT_TURN
-from runner.batched import BatchedArenas
-from runner.job import EpisodeTable
+from keepaway.agents.skills import AgentConfig
+from keepaway.protocol.params import ServerParams
+from keepaway.server.episode_log import EpisodeRecord
+from keepaway.server.game_log import STATE_KICK, STATE_KICK_FAULT, GameRecord, Show
+from keepaway.server.referee import END_CAUSES, END_OUT, END_TAKEN
+from keepaway.core.objects import BALL
+from keepaway.server.world import COUNT_DASH, COUNT_KICK, COUNT_TURN
+from keepaway.runner.batched import BatchedArenas
+from keepaway.runner.job import EpisodeTable
 
 # The reference analysis's definitions (its stats.py docstring), not server parameters.
 TAKER_REACH_M = 1.0

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from agents.getopen import net_size
+from keepaway.agents.getopen import net_size
 
 BEST, MEAN = "best", "mean"
 PLAYS = (BEST, MEAN)  # CEMConfig.play: the best candidate so far (the paper) or the distribution's mean

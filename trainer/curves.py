@@ -23,7 +23,7 @@ from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
-from runner.report import finite_or_none
+from keepaway.runner.report import finite_or_none
 
 CSV_HEADER = ("episodes", "mean_hold_time_s", "stderr_hold_time_s")
 OVER_TRIALS = "trials"  # a mean curve's standard errors: over its trials' means

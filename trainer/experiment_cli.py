@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 import click
 
-from runner.cli import (
+from keepaway.runner.cli import (
     ARENAS_HELP,
     COUNT_TYPE,
     SEED_TYPE,
@@ -21,10 +21,10 @@ from runner.cli import (
     placement_options,
     with_options,
 )
-from trainer.train_cli import learning_options
+from keepaway.trainer.train_cli import learning_options
 
 if TYPE_CHECKING:
-    from runner.backends import Placement
+    from keepaway.runner.backends import Placement
 
 
 def experiment_options(command: Command) -> Command:
@@ -74,8 +74,8 @@ def _experiment(trials: int, episodes: int, eval_every: int | None, eval_episode
                 keys: Path | None) -> tuple[Any, Placement]:
     """The experiment the shared options describe (:func:`experiment_options`) and where its arenas run; a
     usage error if it cannot run."""
-    from trainer.cem import CEMConfig
-    from trainer.experiments import ExperimentConfig, default_eval_every
+    from keepaway.trainer.cem import CEMConfig
+    from keepaway.trainer.experiments import ExperimentConfig, default_eval_every
 
     where = placement(mode, attach, backend, ray_address, threads, keys)
     try:
@@ -91,8 +91,8 @@ def _experiment(trials: int, episodes: int, eval_every: int | None, eval_episode
 
 
 def _report(run: Any) -> None:
-    from runner.report import format_hold
-    from trainer.experiments import TIMING, TOGETHER
+    from keepaway.runner.report import format_hold
+    from keepaway.trainer.experiments import TIMING, TOGETHER
 
     final = run.final()
     state = "finished before, skipped" if run.skipped else "done"
@@ -103,9 +103,9 @@ def _report(run: Any) -> None:
 
 
 def _run(what: Callable[..., Any], exp: Any, where: Placement, out: Path, no_progress: bool) -> Any:
-    from core.exits import EXIT_INTERRUPTED
-    from runner.launch import ArenaFailure, interrupt_on_sigterm
-    from trainer.train_cli import prepare_kernels
+    from keepaway.core.exits import EXIT_INTERRUPTED
+    from keepaway.runner.launch import ArenaFailure, interrupt_on_sigterm
+    from keepaway.trainer.train_cli import prepare_kernels
 
     interrupt_on_sigterm()
     prepare_kernels(where.kernel_sets(exp.mode))
@@ -135,7 +135,7 @@ def experiment_group() -> None:
 def figure3_command(out: Path, no_progress: bool, only: tuple[str, ...], workers: int, together: bool,
                     **settings: Any) -> None:
     """Train the nine Pass x GetOpen configurations and plot them grouped by Pass and by GetOpen."""
-    from trainer.experiments import figure3, parse_configurations
+    from keepaway.trainer.experiments import figure3, parse_configurations
 
     exp, where = _experiment(**settings)
     try:
@@ -153,7 +153,7 @@ def figure3_command(out: Path, no_progress: bool, only: tuple[str, ...], workers
 @experiment_options
 def table2_command(out: Path, no_progress: bool, workers: int, together: bool, **settings: Any) -> None:
     """Test each learned Pass policy with every GetOpen and each learned GetOpen with every Pass."""
-    from trainer.experiments import table2
+    from keepaway.trainer.experiments import table2
 
     exp, where = _experiment(**settings)
     tables = _run(functools.partial(table2, workers=workers, together=together), exp, where, out, no_progress)

@@ -52,8 +52,8 @@ import numba
 import numpy as np
 from scipy import stats
 
-from runner.backends import Placement, open_backend
-from runner.job import (
+from keepaway.runner.backends import Placement, open_backend
+from keepaway.runner.job import (
     CHUNK_EPISODES,
     STREAM_CROSS_TEST,
     STREAM_EVALUATION,
@@ -63,9 +63,9 @@ from runner.job import (
     Progress,
     derive_seed,
 )
-from runner.report import dump_json, finite_or_none
-from trainer.cem import CEMConfig
-from trainer.curves import (
+from keepaway.runner.report import dump_json, finite_or_none
+from keepaway.trainer.cem import CEMConfig
+from keepaway.trainer.curves import (
     CurvePoint,
     curve_summary,
     draw_curve,
@@ -77,7 +77,7 @@ from trainer.curves import (
     write_atomic,
     write_curve_csv,
 )
-from trainer.schedule import (
+from keepaway.trainer.schedule import (
     ALGORITHM_3,
     GETOPEN,
     LEARNED,
@@ -87,7 +87,7 @@ from trainer.schedule import (
     evaluation_points,
     training_schedule,
 )
-from trainer.train import (
+from keepaway.trainer.train import (
     TrainConfig,
     TrialState,
     advance_trainings,
@@ -645,7 +645,7 @@ def _configuration_worker(send: Connection, exp: ExperimentConfig, config: tuple
     parent-death signal, so no worker goes on training alone (a CI run left two doing so for minutes)."""
     from tqdm import tqdm
 
-    from runner.launch import die_with_parent
+    from keepaway.runner.launch import die_with_parent
 
     tqdm.set_lock(threading.RLock())
     for signum in (signal.SIGINT, signal.SIGTERM):

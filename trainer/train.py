@@ -55,12 +55,12 @@ from typing import Any
 
 import numpy as np
 
-from agents.getopen import RAW_INPUTS, SCALED_INPUTS, InputScaling, getopen_input_scaling
-from agents.policy_file import getopen_theta_size, pack_pass_arrays, read_npz, save_policy, unpack_pass_arrays
-from agents.sarsa import SarsaConfig
-from protocol.params import ServerParams, parameter_set
-from runner.backends import Placement, open_backend
-from runner.job import (
+from keepaway.agents.getopen import RAW_INPUTS, SCALED_INPUTS, InputScaling, getopen_input_scaling
+from keepaway.agents.policy_file import getopen_theta_size, pack_pass_arrays, read_npz, save_policy, unpack_pass_arrays
+from keepaway.agents.sarsa import SarsaConfig
+from keepaway.protocol.params import ServerParams, parameter_set
+from keepaway.runner.backends import Placement, open_backend
+from keepaway.runner.job import (
     BATCHED_SARSA,
     CHUNK_EPISODES,
     GREEDY,
@@ -81,9 +81,9 @@ from runner.job import (
     Transitions,
     derive_seed,
 )
-from runner.report import dump_json
-from trainer.cem import CEM, CEMConfig
-from trainer.curves import (
+from keepaway.runner.report import dump_json
+from keepaway.trainer.cem import CEM, CEMConfig
+from keepaway.trainer.curves import (
     CurvePoint,
     curve_summary,
     mean_curve,
@@ -92,7 +92,7 @@ from trainer.curves import (
     write_atomic,
     write_curve_csv,
 )
-from trainer.schedule import (
+from keepaway.trainer.schedule import (
     BOTH,
     CEM_PHASES,
     GETOPEN,

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 
 import click
 
-from runner.cli import (
+from keepaway.runner.cli import (
     ARENAS_HELP,
     COUNT_TYPE,
     SEED_TYPE,
@@ -22,11 +22,11 @@ from runner.cli import (
     placement_options,
     with_options,
 )
-from trainer.schedule import POLICY_NAMES
+from keepaway.trainer.schedule import POLICY_NAMES
 
 if TYPE_CHECKING:
-    from runner.job import Backend, Behaviours
-    from trainer.train import TrainConfig
+    from keepaway.runner.job import Backend, Behaviours
+    from keepaway.trainer.train import TrainConfig
 
 POLICY_CHOICES = click.Choice(POLICY_NAMES)
 
@@ -37,7 +37,7 @@ MIN_CURVE_POINTS = 5  # a learning curve of fewer evaluations has hardly a shape
 def warn_sparse_curve(config: TrainConfig) -> None:
     """One line on stderr when ``--eval-every`` leaves the learning curve fewer than
     :data:`MIN_CURVE_POINTS` points and a smaller one would give more, naming one that does."""
-    from trainer.schedule import denser_eval_every, evaluation_points
+    from keepaway.trainer.schedule import denser_eval_every, evaluation_points
 
     points = evaluation_points(config.schedule, config.eval_every)
     if len(points) >= MIN_CURVE_POINTS:
@@ -53,8 +53,8 @@ def warn_sparse_curve(config: TrainConfig) -> None:
 
 def prepare_kernels(kernel_sets: tuple[str, ...]) -> None:
     """Compile the kernel sets this command's processes use, once, saying so (``runner.kernels``)."""
-    from runner.cli import announce
-    from runner.kernels import CompileError, ensure_compiled
+    from keepaway.runner.cli import announce
+    from keepaway.runner.kernels import CompileError, ensure_compiled
 
     try:
         ensure_compiled(kernel_sets, announce)
@@ -128,12 +128,12 @@ def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, s
                   pass_hive_mind: bool, cem_extra_noise: float, cem_noise_generations: int, cem_play: str, out: Path,
                   resume: Path | None, no_progress: bool) -> None:
     """Learn GetOpen (CEM), Pass (Sarsa) or both (Algorithm 3) with frozen evaluations along the way."""
-    from agents.policy_file import getopen_theta_size
-    from trainer.cem import CEMConfig
-    from trainer.schedule import parse_schedule, training_schedule
-    from core.exits import EXIT_INTERRUPTED
-    from runner.launch import ArenaFailure, interrupt_on_sigterm
-    from trainer.train import TrainConfig, hive_mind_sarsa, load_checkpoint, read_config, train
+    from keepaway.agents.policy_file import getopen_theta_size
+    from keepaway.trainer.cem import CEMConfig
+    from keepaway.trainer.schedule import parse_schedule, training_schedule
+    from keepaway.core.exits import EXIT_INTERRUPTED
+    from keepaway.runner.launch import ArenaFailure, interrupt_on_sigterm
+    from keepaway.trainer.train import TrainConfig, hive_mind_sarsa, load_checkpoint, read_config, train
 
     ctx = click.get_current_context()
     if resume is not None:
@@ -180,8 +180,8 @@ def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, s
     except KeyboardInterrupt:
         click.echo(f"keepaway train: interrupted; continue with --resume {resume or out}", err=True)
         sys.exit(EXIT_INTERRUPTED)
-    from runner.report import format_hold
-    from trainer.curves import stderr_basis
+    from keepaway.runner.report import format_hold
+    from keepaway.trainer.curves import stderr_basis
 
     trials = len(summary["trials"])
     basis = stderr_basis(trials, summary["config"]["eval_episodes"])
@@ -225,14 +225,14 @@ def evaluate_command(policy_path: Path, episodes: int, seed: int, pass_policy: s
     import tempfile
     from itertools import groupby
 
-    from agents.player import sarsa_config
-    from agents.policy_file import PolicyFileError, load_policy, unpack_pass_arrays
-    from protocol.params import parameter_set as make_params
-    from runner.backends import open_backend
-    from runner.job import Behaviours, Game
-    from core.exits import EXIT_INTERRUPTED
-    from runner.launch import ArenaFailure, interrupt_on_sigterm
-    from runner.report import dump_json, summary_table
+    from keepaway.agents.player import sarsa_config
+    from keepaway.agents.policy_file import PolicyFileError, load_policy, unpack_pass_arrays
+    from keepaway.protocol.params import parameter_set as make_params
+    from keepaway.runner.backends import open_backend
+    from keepaway.runner.job import Behaviours, Game
+    from keepaway.core.exits import EXIT_INTERRUPTED
+    from keepaway.runner.launch import ArenaFailure, interrupt_on_sigterm
+    from keepaway.runner.report import dump_json, summary_table
 
     where = placement(mode, attach, backend, ray_address, threads, keys)
     plays = []  # every file is checked before the kernels are compiled and anything is played
@@ -289,7 +289,7 @@ def _evaluate_one(backend: Backend, path: Path, behaviours: Behaviours, seed: in
     """The summary of one policy file's frozen evaluation, with a progress bar unless ``quiet``."""
     from tqdm import tqdm
 
-    from trainer.train import evaluate
+    from keepaway.trainer.train import evaluate
 
     with tqdm(total=episodes, unit="ep", desc=str(path), disable=quiet, dynamic_ncols=True) as bar:
         try:

@@ -19,13 +19,13 @@ import zmq
 import zmq.asyncio
 from aiohttp import WSMsgType, web
 
-from protocol import MONITOR_FRAME_TOPIC
-from protocol import messages as m
-from protocol.errors import ProtocolError
-from protocol.messages import decode_monitor
-from protocol.security import KeyDir, secure_client
-from server.game_log import GameRecord
-from viewer.frames import Replay, info_message, live_frame
+from keepaway.protocol import MONITOR_FRAME_TOPIC
+from keepaway.protocol import messages as m
+from keepaway.protocol.errors import ProtocolError
+from keepaway.protocol.messages import decode_monitor
+from keepaway.protocol.security import KeyDir, secure_client
+from keepaway.server.game_log import GameRecord
+from keepaway.viewer.frames import Replay, info_message, live_frame
 
 log = logging.getLogger("keepaway.viewer")
 PAGE = Path(__file__).parent / "static" / "index.html"

@@ -7,14 +7,14 @@ from pathlib import Path
 
 import click
 
-from protocol.endpoints import parse_endpoint
-from protocol.security import is_loopback, keys_option, open_keys
+from keepaway.protocol.endpoints import parse_endpoint
+from keepaway.protocol.security import is_loopback, keys_option, open_keys
 
 FIELD_SIZE_TYPE = click.FloatRange(min=0.0, min_open=True)
 
 
 def _read(path: Path, kwy: Path | None):
-    from server.game_log import read_rcg
+    from keepaway.server.game_log import read_rcg
 
     try:
         return read_rcg(path, kwy)
@@ -44,7 +44,7 @@ def view_command(game_log: Path | None, monitor: str | None, host: str, port: in
     if (game_log is None) == (monitor is None):
         raise click.UsageError("give a game log to replay or --server tcp://HOST:PORT to follow, not both")
     try:
-        from viewer.app import LiveSource, ReplaySource, serve
+        from keepaway.viewer.app import LiveSource, ReplaySource, serve
     except ImportError as exc:
         raise click.ClickException(f"the viewer needs aiohttp ({exc}): pip install 'keepaway[view]'") from None
     if monitor is not None:
@@ -83,7 +83,7 @@ def view_command(game_log: Path | None, monitor: str | None, host: str, port: in
               help="Episode log for a game log without referee messages [the .kwy beside it, if any].")
 def render_command(game_log: Path, episode: int, out: Path, scale: float, fps: float, kwy: Path | None) -> None:
     """Draw one episode of GAME_LOG (.rcg) to a GIF or an MP4, for papers and slides."""
-    from viewer.render import render
+    from keepaway.viewer.render import render
 
     record = _read(game_log, kwy)
     try:

@@ -10,8 +10,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from protocol import messages as m
-from server.game_log import GameRecord, GetOpenNote, Show, show_from_frame
+from keepaway.protocol import messages as m
+from keepaway.server.game_log import GameRecord, GetOpenNote, Show, show_from_frame
 
 SPEEDS = (0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0)  # replay speeds the page offers (x real time)
 

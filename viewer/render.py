@@ -13,7 +13,7 @@ from pathlib import Path
 
 from PIL import Image, ImageDraw
 
-from server.game_log import GameRecord, Show
+from keepaway.server.game_log import GameRecord, Show
 
 MARGIN_M = 2.5
 PLAYER_R_M = 0.45
