@@ -353,6 +353,18 @@ def parameter_set(name: str, /, keepaway_launch: bool = True, **overrides: Any) 
     return base.replace(**changes) if changes else base
 
 
+def with_square_region(params: ServerParams, side: float) -> ServerParams:
+    """``params`` with a square Keepaway region of ``side`` m (the commands' ``--field-size``); a ValueError
+    that speaks of the side, not of the two parameters it sets, when the region is empty or does not fit
+    the pitch."""
+    try:
+        return params.replace(keepaway_length=side, keepaway_width=side)
+    except ValueError:
+        most = min(params.pitch_length, params.pitch_width)
+        raise ValueError(f"a square region of side {side:g} m does not fit the pitch ({params.pitch_length:g} x "
+                         f"{params.pitch_width:g} m): its side must be above 0 and at most {most:g} m") from None
+
+
 __all__ = [
     "CLASSIC",
     "CURRENT",
@@ -363,4 +375,5 @@ __all__ = [
     "PARAMETER_SETS",
     "ServerParams",
     "parameter_set",
+    "with_square_region",
 ]

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 
 import click
 
+from keepaway.core.options import FiniteFloatRange
 from keepaway.protocol.messages import GETOPEN_NOTE_MODES, MAX_SEED
 from keepaway.protocol.params import KEEPAWAY_KEEPERS, KEEPAWAY_TAKERS
 from keepaway.protocol.security import keys_option
@@ -18,6 +19,7 @@ from keepaway.runner import MODES
 from keepaway.runner.kernels import KERNEL_SETS
 
 if TYPE_CHECKING:
+    from keepaway.protocol.params import ServerParams
     from keepaway.runner.backends import Placement
 
 # Option types shared by run, train, evaluate and experiment: what a seed, a count, a Keepaway team and
@@ -26,7 +28,7 @@ SEED_TYPE = click.IntRange(0, MAX_SEED)
 COUNT_TYPE = click.IntRange(min=1)
 KEEPERS_TYPE = click.IntRange(KEEPAWAY_KEEPERS.low, KEEPAWAY_KEEPERS.high)
 TAKERS_TYPE = click.IntRange(KEEPAWAY_TAKERS.low, KEEPAWAY_TAKERS.high)
-FIELD_SIZE_TYPE = click.FloatRange(min=0.0, min_open=True)
+FIELD_SIZE_TYPE = FiniteFloatRange(min=0.0, min_open=True)
 KEEPERS_HELP = "Number of keepers (at least 2: Pass needs a keeper to pass to)."
 TAKERS_HELP = "Number of takers."
 FIELD_SIZE_HELP = "Side of the square region (m), at most the pitch width."
@@ -50,6 +52,18 @@ def game_options(command: Command) -> Command:
                      show_default=True, help="Server parameter set."),
     ]
     return with_options(options, command)
+
+
+def game_params(parameter_set: str, field_size: float) -> ServerParams:
+    """The server parameters :func:`game_options` choose; a region that does not fit the pitch is refused
+    in one line naming ``--field-size``, the option that sets it."""
+    from keepaway.protocol.params import parameter_set as make_params
+    from keepaway.protocol.params import with_square_region
+
+    try:
+        return with_square_region(make_params(parameter_set), field_size)
+    except ValueError as exc:
+        raise click.BadParameter(str(exc), param_hint="'--field-size'") from None
 
 
 # Where distributed arenas are started, for every command that plays (run's one arena, the others' many).
@@ -174,7 +188,6 @@ def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str,
     """Play Keepaway: a whole arena (server, coach, keepers, takers) for --episodes episodes."""
     from keepaway.agents.policy_file import PolicyFileError, load_policy
     from keepaway.core.exits import EXIT_INTERRUPTED
-    from keepaway.protocol.params import parameter_set as make_params
     from keepaway.runner.embedded import ArenaSpec
     from keepaway.runner.kernels import CompileError
     from keepaway.runner.launch import ArenaFailure, interrupt_on_sigterm
@@ -206,11 +219,13 @@ def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str,
     logged_arenas = arena_list(game_log_arenas, batch if mode == "batched" else 0, "--game-log-arenas")
     if logged_arenas and no_game_log:
         raise click.UsageError("--game-log-arenas chooses game logs to write; --no-game-log writes none: choose one")
+    params = game_params(parameter_set, field_size)
     try:
-        params = make_params(parameter_set, keepaway_length=field_size, keepaway_width=field_size)
         policy = load_policy(policy_path) if policy_path is not None else None
     except (ValueError, PolicyFileError) as exc:
         raise click.UsageError(str(exc)) from None
+    if policy is None:
+        warn_untrained(pass_policy, getopen_policy, mode)
     spec = ArenaSpec(params, keepers, takers, seed, pass_policy, getopen_policy, policy)
     opts = RunOptions(spec, episodes, mode, batch, realtime, out, policy_path, parameter_set, keys,
                       game_log=not no_game_log, game_log_arenas=logged_arenas, view=view,
@@ -243,6 +258,21 @@ def run_command(episodes: int, seed: int, pass_policy: str, getopen_policy: str,
         click.echo("keepaway run: interrupted; every process was stopped", err=True)
         sys.exit(EXIT_INTERRUPTED)
     show(result)
+
+
+def warn_untrained(pass_policy: str, getopen_policy: str, mode: str) -> None:
+    """Learned policies without a policy file start from zero weights (agents/cli.py's players wait for a
+    coach's; ``keepaway run`` has none to send): one line on stderr naming the option to add. The batched
+    mode's kernels play only a given GetOpen net (``BatchedArenas``): a usage error there."""
+    untrained = [f"--{flag} learned" for flag, name in (("pass", pass_policy), ("getopen", getopen_policy))
+                 if name == "learned"]
+    if getopen_policy == "learned" and mode == "batched":
+        raise click.UsageError("--getopen learned in the batched mode plays a policy file's net: add --policy FILE "
+                               "(e.g. a training's trial_000/policy.npz)")
+    if untrained:
+        verb = "start" if len(untrained) > 1 else "starts"
+        click.echo(f"keepaway run: {' and '.join(untrained)} without --policy {verb} from zero weights (an untrained "
+                   f"policy): add --policy FILE (e.g. a training's trial_000/policy.npz)", err=True)
 
 
 def arena_list(text: str, batch: int, option: str) -> tuple[int, ...]:

@@ -28,7 +28,7 @@ from keepaway.runner.job import EpisodeTable, RunResult
 from keepaway.runner.kernels import ensure_compiled, kernel_sets
 from keepaway.runner.launch import VIEW_RE, ArenaFailure, ArenaProcesses, keepaway_argv
 from keepaway.server.arena import REFEREE_EPISODE_MESSAGE
-from keepaway.server.episode_log import EpisodeRecord, JsonlLog, KwyLog, read_jsonl
+from keepaway.server.episode_log import KWY_SUFFIX, EpisodeRecord, JsonlLog, KwyLog, read_jsonl, set_aside
 from keepaway.server.game_log import PLAY_ON, RCG_SUFFIX, RcgLog, WorldShows
 from keepaway.server.world import World
 
@@ -48,6 +48,41 @@ class RunOptions:
     game_log_arenas: tuple[int, ...] = ()  # batched: the arenas whose keepaway-arena<B>.rcg is written
     view: bool = False  # distributed: a `keepaway view` of the arena's monitor, for as long as the run
     getopen_notes: str = "none"  # distributed, embedded: the keepers' notes (protocol.messages.GETOPEN_NOTE_MODES)
+
+
+LOG_NAME = "keepaway"  # the run's logs: keepaway.kwy, keepaway.jsonl, keepaway.rcg in --out
+JSONL_SUFFIX = ".jsonl"
+
+
+def arena_game_log(out: Path, arena: int) -> Path:
+    """The game log of arena ``arena`` of a batched run."""
+    return out / f"{LOG_NAME}-arena{arena}{RCG_SUFFIX}"
+
+
+def run_logs(opts: RunOptions) -> list[Path]:
+    """The logs a run writes in ``opts.out`` (besides its processes' logs under ``processes/``)."""
+    logs = [opts.out / f"{LOG_NAME}{KWY_SUFFIX}", opts.out / f"{LOG_NAME}{JSONL_SUFFIX}"]
+    if opts.mode == "batched":
+        return logs + [arena_game_log(opts.out, b) for b in opts.game_log_arenas]
+    return logs + [opts.out / f"{LOG_NAME}{RCG_SUFFIX}"] if opts.game_log else logs
+
+
+def set_aside_earlier(opts: RunOptions) -> str | None:
+    """Set aside an earlier run's logs of the names this run writes, as every log is
+    (``server.episode_log.set_aside``), before anything starts; one line naming their new names, None if
+    there were none."""
+    moved = [(path.name, aside.name) for path in run_logs(opts) if (aside := set_aside(path)) is not None]
+    if not moved:
+        return None
+    return f"an earlier run's logs in {opts.out} set aside: " + ", ".join(f"{a} -> {b}" for a, b in moved)
+
+
+def written_logs(opts: RunOptions) -> str:
+    """One line naming where a run's logs are."""
+    names = [path.name for path in run_logs(opts) if path.exists()]
+    processes = opts.out / "processes"
+    line = f"logs in {opts.out}: {', '.join(names) if names else 'none'}"
+    return line + (f" (the processes' logs in {processes})" if processes.is_dir() else "")
 
 
 class ShortHanded:
@@ -71,6 +106,36 @@ class ShortHanded:
         return lines
 
 
+@dataclass
+class RateWindow:
+    """What a run's rates are measured over: from the first episode's end to the last's, so that start-up
+    and compilation are left out. The progress bar shows the rate the summary reports, from the same
+    window."""
+
+    first_at: float | None = None
+    first_cycle: int = 0
+    last_at: float = 0.0
+    last_cycle: int = 0  # the most arena-cycles any ended episode came with
+    episodes: int = 0  # the episodes that ended in the window (after the first one's cycles)
+
+    def add(self, cycles: int, now: float) -> None:
+        """An episode ended, with ``cycles`` arena-cycles played so far, at ``now``."""
+        if self.first_at is None:
+            self.first_at, self.first_cycle = now, cycles
+        if cycles > self.last_cycle:
+            self.last_at, self.last_cycle = now, cycles
+        if cycles > self.first_cycle:
+            self.episodes += 1
+
+    @property
+    def elapsed_s(self) -> float:
+        """The window's wall time; 0 until episodes have ended at two different times."""
+        return self.last_at - self.first_at if self.first_at is not None and self.last_at > self.first_at else 0.0
+
+
+BAR_FORMAT = "{l_bar}{bar}| {n_fmt}/{total_fmt} [{elapsed}<{remaining}{postfix}]"  # the rate is in the postfix
+
+
 # An ended episode as run() takes it: the record, the arena-cycles played so far, and when it was seen
 # ended (time.perf_counter of the machine that played it: the rates need no clock shared with this one).
 Ended = tuple[EpisodeRecord, int, float]
@@ -92,7 +157,7 @@ def distributed_episodes(opts: RunOptions, processes: ArenaProcesses, viewer: Ar
     spec = opts.spec
     server_args = ["--seed", str(spec.seed), "--keepers", str(spec.keepers), "--takers", str(spec.takers),
                    "--field-size", str(spec.params.keepaway_length), "--episodes", str(opts.episodes),
-                   "--params", opts.parameter_set, "--log-dir", str(opts.out), "--kwy-name", "keepaway"]
+                   "--params", opts.parameter_set, "--log-dir", str(opts.out), "--kwy-name", LOG_NAME]
     if opts.realtime:
         server_args += ["--mode", "realtime"]
     if not opts.game_log:
@@ -156,7 +221,7 @@ def distributed_episodes(opts: RunOptions, processes: ArenaProcesses, viewer: Ar
 def logged_episodes(out: Path) -> list[EpisodeRecord]:
     """The episodes in the server's JSON-lines log in ``out`` so far (none if it has no log yet)."""
     try:
-        return read_jsonl(out / "keepaway.jsonl")[1]
+        return read_jsonl(out / f"{LOG_NAME}{JSONL_SUFFIX}")[1]
     except (OSError, ValueError):
         return []
 
@@ -192,7 +257,7 @@ class BatchedGameLogs:
     def __init__(self, world: World, params: ServerParams, out: Path, arenas: tuple[int, ...]) -> None:
         self.world = world
         self.shows = WorldShows(world, params.visible_angle)
-        self.logs = {b: RcgLog(out / f"keepaway-arena{b}{RCG_SUFFIX}", params) for b in arenas}
+        self.logs = {b: RcgLog(arena_game_log(out, b), params) for b in arenas}
         for b, log in self.logs.items():
             log.start_game(self.shows.table(b), (PLAY_ON,))
 
@@ -238,26 +303,25 @@ def run(opts: RunOptions, progress: bool = True, announce: Callable[[str], None]
     """
     from tqdm import tqdm
 
-    if elsewhere is not None and opts.mode != "distributed":
-        raise ValueError(f"only the distributed mode's arena can be played elsewhere, not the {opts.mode} mode's")
-    spec = opts.spec
-    opts.out.mkdir(parents=True, exist_ok=True)
-    if elsewhere is None:
-        ensure_compiled(kernel_sets(opts.mode), announce, log_dir=opts.out / "processes")
-    records: list[EpisodeRecord] = []
-    marks: list[int] = []  # the stream's cycle count when each record came (all arenas' in batched mode)
-    held_s = 0.0  # the records' hold times, summed as they come (the bar's running mean)
-    bar = tqdm(total=opts.episodes, unit="ep", disable=not progress, dynamic_ncols=True)
-
     def said(line: str) -> None:  # ``announce``, a line above the progress bar, not through it
         if announce is not None:
             with tqdm.external_write_mode():
                 announce(line)
 
+    if elsewhere is not None and opts.mode != "distributed":
+        raise ValueError(f"only the distributed mode's arena can be played elsewhere, not the {opts.mode} mode's")
+    spec = opts.spec
+    opts.out.mkdir(parents=True, exist_ok=True)
+    aside = set_aside_earlier(opts)
+    if aside is not None:
+        said(aside)
+    if elsewhere is None:
+        ensure_compiled(kernel_sets(opts.mode), announce, log_dir=opts.out / "processes")
+    records: list[EpisodeRecord] = []
+    window = RateWindow()  # over the stream's cycle counts (all arenas' in batched mode) and times
+    held_s = 0.0  # the records' hold times, summed as they come (the bar's running mean)
+    bar = tqdm(total=opts.episodes, unit="ep", disable=not progress, dynamic_ncols=True, bar_format=BAR_FORMAT)
     short_handed = ShortHanded()
-    first_at: float | None = None
-    last_at = 0.0
-    first_cycle = last_cycle = 0
     start = time.perf_counter()
     processes = (ArenaProcesses(opts.out / "processes", batch_scheduled=not opts.realtime)
                  if opts.mode == "distributed" and elsewhere is None else None)
@@ -272,7 +336,7 @@ def run(opts: RunOptions, progress: bool = True, announce: Callable[[str], None]
             processes.__enter__()
             stream = timed(distributed_episodes(opts, processes, viewer, said))
         elif opts.mode == "embedded":
-            stream = timed(embedded_episodes(spec, opts.out / f"keepaway{RCG_SUFFIX}" if opts.game_log else None,
+            stream = timed(embedded_episodes(spec, opts.out / f"{LOG_NAME}{RCG_SUFFIX}" if opts.game_log else None,
                                              opts.getopen_notes))
         else:
             stream = timed(batched_episodes(opts))
@@ -280,16 +344,13 @@ def run(opts: RunOptions, progress: bool = True, announce: Callable[[str], None]
         # are cut at the wanted number of episodes
         for record, cycles, now in stream if opts.mode == "distributed" else islice(stream, opts.episodes):
             records.append(record)
-            marks.append(cycles)
-            if first_at is None:
-                first_at, first_cycle = now, cycles
-            if cycles > last_cycle:
-                last_at, last_cycle = now, cycles
+            window.add(cycles, now)
             held_s += record.hold_time_s
             for line in short_handed.update(record):
                 said(line)
+            rate = f"{window.episodes / window.elapsed_s:,.2f} ep/s, " if window.elapsed_s > 0 else ""
+            bar.set_postfix_str(f"{rate}mean hold {held_s / len(records):.2f} s", refresh=False)
             bar.update(1)
-            bar.set_postfix(mean_hold_s=f"{held_s / len(records):.2f}")
     except (ArenaFailure, KeyboardInterrupt) as exc:
         stopped = exc
     finally:
@@ -303,15 +364,14 @@ def run(opts: RunOptions, progress: bool = True, announce: Callable[[str], None]
         # the server's log is the record (flushed per episode, also when the server was killed)
         records = logged_episodes(opts.out) or records
     records.sort(key=lambda r: r.episode)
-    if len(records) > 1 and first_at is not None and last_at > first_at:
-        # rates between the first and the last episode end: start-up and compilation excluded
-        elapsed, cycles = last_at - first_at, last_cycle - first_cycle
-        n_rate = sum(first_cycle < c <= last_cycle for c in marks)
+    if len(records) > 1 and window.elapsed_s > 0:
+        elapsed, cycles, n_rate = window.elapsed_s, window.last_cycle - window.first_cycle, window.episodes
     else:
-        elapsed, cycles, n_rate = time.perf_counter() - start, last_cycle, len(records)
+        elapsed, cycles, n_rate = time.perf_counter() - start, window.last_cycle, len(records)
     if opts.mode != "distributed":  # the distributed server writes its own logs
         _write_logs(opts, records)
     result = RunResult(opts.mode, spec.seed, records, elapsed, cycles, n_rate)
+    said(written_logs(opts))
     if stopped is not None:
         raise RunStopped(result, stopped)
     return result
@@ -323,13 +383,13 @@ def _write_logs(opts: RunOptions, records: list[EpisodeRecord]) -> None:
     config = {"mode": opts.mode, "keepers": spec.keepers, "takers": spec.takers, "pass": spec.pass_policy,
               "getopen": spec.getopen_policy, "episodes": opts.episodes, "batch": opts.batch}
     with KwyLog(opts.out, spec.keepers, spec.takers, p.keepaway_length, p.keepaway_width,
-                fixed_name="keepaway") as kwy:
-        jsonl = JsonlLog(opts.out / "keepaway.jsonl", seed=spec.seed, config=config, params=p.to_dict())
+                fixed_name=LOG_NAME) as kwy:
+        jsonl = JsonlLog(opts.out / f"{LOG_NAME}{JSONL_SUFFIX}", seed=spec.seed, config=config, params=p.to_dict())
         for record in records:
             kwy.write(record)
             jsonl.write(record)
         jsonl.close()
 
 
-__all__ = ["Elsewhere", "Ended", "RunOptions", "RunStopped", "ShortHanded", "distributed_episodes", "logged_episodes",
-           "run", "timed"]
+__all__ = ["Elsewhere", "Ended", "RateWindow", "RunOptions", "RunStopped", "ShortHanded", "distributed_episodes",
+           "logged_episodes", "run", "timed"]

@@ -10,8 +10,9 @@ from typing import Any
 
 import click
 
+from keepaway.core.options import FiniteFloatRange
 from keepaway.protocol.messages import GETOPEN_NOTE_MODES
-from keepaway.protocol.params import TEAM_SIZE, ServerParams, parameter_set
+from keepaway.protocol.params import TEAM_SIZE, ServerParams, parameter_set, with_square_region
 from keepaway.protocol.security import SecurityError, keys_option
 from keepaway.server.config import (
     AT_LEAST_ONE,
@@ -27,7 +28,7 @@ from keepaway.server.config import (
 PORT_TYPE = click.IntRange(PORT.low, PORT.high)
 TEAM_SIZE_TYPE = click.IntRange(TEAM_SIZE.low, TEAM_SIZE.high)
 COUNT_TYPE = click.IntRange(min=AT_LEAST_ONE.low)
-POSITIVE_TYPE = click.FloatRange(min=0.0, min_open=True)
+POSITIVE_TYPE = FiniteFloatRange(min=0.0, min_open=True)
 
 
 def _parse_overrides(pairs: tuple[str, ...]) -> dict[str, float]:
@@ -45,15 +46,22 @@ def _parse_overrides(pairs: tuple[str, ...]) -> dict[str, float]:
 
 def build_config(config_file: Path | None, parameter_set_name: str | None, overrides: dict[str, float],
                  keepaway_launch: bool, field_size: float | None, **settings: Any) -> ServerConfig:
-    """Defaults, then the TOML file, then flags (only those given); raises ValueError in one line."""
+    """Defaults, then the TOML file, then flags (only those given); raises ValueError in one line, or a
+    usage error naming ``--field-size`` for a region that does not fit the pitch."""
     data: dict[str, Any] = load_toml(config_file) if config_file is not None else {}
     file_params = data.pop("params", {}) or {}
     set_name = parameter_set_name or data.pop("parameter_set", "classic")
     data.pop("parameter_set", None)
     param_changes = {**file_params, **overrides}
-    if field_size is not None:
-        param_changes["keepaway_length"] = param_changes["keepaway_width"] = field_size
+    if field_size is not None:  # it sets the region, whatever the file or --param said
+        param_changes.pop("keepaway_length", None)
+        param_changes.pop("keepaway_width", None)
     params: ServerParams = parameter_set(set_name, keepaway_launch=keepaway_launch, **param_changes)
+    if field_size is not None:
+        try:
+            params = with_square_region(params, field_size)
+        except ValueError as exc:
+            raise click.BadParameter(str(exc), param_hint="'--field-size'") from None
     data.update({k: v for k, v in settings.items() if v is not None})
     for name in ("log_dir", "keys"):
         if data.get(name) is not None:

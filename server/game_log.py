@@ -468,9 +468,10 @@ def parse_show(line: str) -> Show:
 
 @dataclass
 class GameRecord:
-    """What a game log holds: its shows (in order), the cycles at which episodes start (the first show,
-    then each referee ``training Keepaway`` message, or the ``.kwy``'s start cycles), the GetOpen notes by
-    cycle, the play modes and the team names."""
+    """What a game log holds: its shows (in order), the cycles at which the episodes it plays start (the
+    first show, then each referee ``training Keepaway`` message, or the ``.kwy``'s start cycles), the GetOpen
+    notes by cycle, the play modes and the team names. ``episodes_end`` is the cycle at which the last
+    episode ended (the referee's message that follows it), None if the log stops during it."""
 
     shows: list[Show]
     episode_starts: list[int]
@@ -478,6 +479,7 @@ class GameRecord:
     play_modes: list[tuple[int, str]]
     teams: tuple[str, str]
     server_param: dict[str, str] = field(default_factory=dict)  # the header's, by rcssserver's names
+    episodes_end: int | None = None
 
     def region(self) -> tuple[float, float]:
         """The Keepaway region's length and width (m); rcssserver's defaults if the header lacks them."""
@@ -535,7 +537,19 @@ def parse_rcg(lines: Iterable[str], source: str = "game log") -> GameRecord:
                 raise ValueError(f"{source}:{number}: {exc}") from None
     if not shows:
         raise ValueError(f"{source}: the game log has no show")
-    return GameRecord(shows, sorted(set(starts)), notes, modes, teams, server_param)
+    played, end = _episodes_played(starts, shows[-1].cycle)
+    return GameRecord(shows, played, notes, modes, teams, server_param, end)
+
+
+def _episodes_played(boundaries: Iterable[int], last_cycle: int) -> tuple[list[int], int | None]:
+    """The starts of the episodes a log plays, and the cycle the last one ended at (None: the log stops
+    during it). The first boundary is the first show's cycle; a later one at or after the last show starts
+    no episode: the referee's message when the run's last episode ended (only the reset show follows it), or
+    a ``.kwy`` cycle beyond a log cut short."""
+    ordered = sorted(set(boundaries))
+    played = ordered[:1] + [cycle for cycle in ordered[1:] if cycle < last_cycle]
+    after = ordered[len(played):]
+    return played, after[0] if after else None
 
 
 def _take_msg(line: str, starts: list[int], notes: dict[int, list[GetOpenNote]]) -> None:
@@ -565,7 +579,9 @@ def read_rcg(path: Path | str, kwy: Path | str | None = None) -> GameRecord:
     kwy_path = Path(kwy) if kwy is not None else path.with_suffix(".kwy")
     if len(record.episode_starts) <= 1 and (kwy is not None or kwy_path.exists()):
         episodes: list[EpisodeRecord] = read_kwy(kwy_path)
-        record.episode_starts = sorted({r.start_cycle for r in episodes} | set(record.episode_starts[:1]))
+        boundaries = [r.start_cycle for r in episodes] + [r.end_cycle for r in episodes[-1:]]
+        record.episode_starts, record.episodes_end = _episodes_played(
+            boundaries + record.episode_starts[:1], record.shows[-1].cycle)
     return record
 
 

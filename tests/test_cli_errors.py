@@ -67,7 +67,10 @@ def policy_files(tmp_path):
     (["--takers", "0"], "Invalid value for '--takers': 0 is not in the range 1<=x<=11."),
     (["--seed", "-1"], "Invalid value for '--seed': -1 is not in the range 0<=x<=9223372036854775807."),
     (["--field-size", "-3"], "Invalid value for '--field-size': -3.0 is not in the range x>0.0."),
-    (["--field-size", "100"], "server parameter keepaway_width=100.0 must not exceed pitch_width=68.0"),
+    (["--field-size", "100"], "Invalid value for '--field-size': a square region of side 100 m does not fit the "
+                              "pitch (105 x 68 m): its side must be above 0 and at most 68 m"),
+    (["--field-size", "nan"], "Invalid value for '--field-size': nan is not a finite number"),
+    (["--field-size", "inf"], "Invalid value for '--field-size': inf is not a finite number"),
 ])
 def test_run_refuses_teams_seeds_and_regions_outside_their_ranges_before_starting(processes, tmp_path, args,
                                                                                   problem):
@@ -115,7 +118,14 @@ def test_a_ray_address_without_the_ray_backend_is_refused_not_ignored(processes,
     (["--field-size", "-3"], "Invalid value for '--field-size': -3.0 is not in the range x>0.0."),
     (["--keepers", "0"], "Invalid value for '--keepers': 0 is not in the range 1<=x<=11."),
     (["--players-port", "70000"], "Invalid value for '--players-port': 70000 is not in the range 0<=x<=65535."),
+    (["--field-size", "70"], "Invalid value for '--field-size': a square region of side 70 m does not fit the "
+                             "pitch (105 x 68 m): its side must be above 0 and at most 68 m"),
+    (["--field-size", "nan"], "Invalid value for '--field-size': nan is not a finite number"),
+    (["--param", "pitch_width=50", "--field-size", "60"],
+     "Invalid value for '--field-size': a square region of side 60 m does not fit the pitch (105 x 50 m): its side "
+     "must be above 0 and at most 50 m"),
     (["--cycle-timeout", "0"], "Invalid value for '--cycle-timeout': 0.0 is not in the range x>0.0."),
+    (["--cycle-timeout", "nan"], "Invalid value for '--cycle-timeout': nan is not a finite number"),
     (["--max-cycles", "-5"], "Invalid value for '--max-cycles': -5 is not in the range x>=1."),
     (["--param", "ball_decay=-0.5"], "server parameter ball_decay=-0.5 is out of range: allowed [0, 1]"),
     (["--param", "effort_dec=-0.1"], "server parameter effort_dec=-0.1 is out of range: allowed [0, 1]"),
@@ -182,7 +192,9 @@ def test_player_and_coach_refuse_bad_options(processes, command, args, problem):
     (["--takers", "0"], "Invalid value for '--takers': 0 is not in the range 1<=x<=11."),
     (["--seed", "-1"], "Invalid value for '--seed': -1 is not in the range 0<=x<=9223372036854775807."),
     (["--field-size", "-3"], "Invalid value for '--field-size': -3.0 is not in the range x>0.0."),
-    (["--field-size", "80"], "server parameter keepaway_width=80.0 must not exceed pitch_width=68.0"),
+    (["--field-size", "80"], "Invalid value for '--field-size': a square region of side 80 m does not fit the "
+                             "pitch (105 x 68 m): its side must be above 0 and at most 68 m"),
+    (["--field-size", "inf"], "Invalid value for '--field-size': inf is not a finite number"),
     (["--threads", "0"], "Invalid value for '--threads': 0 is not in the range x>=1."),
     (["--episodes", "-5"], "Invalid value for '--episodes': -5 is not in the range x>=1."),
     (["--arenas", "3"], "--arenas counts the distributed mode's arenas of processes; the batched mode plays each "

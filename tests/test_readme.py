@@ -1,13 +1,17 @@
 """The README is a front door that matches the repository: short, the paths it names exist, its command
 table lists every command; every option of every command has a help text and is described in docs/cli.md,
-where the table's details live."""
+where the table's details live; what a user creates in a checkout by following it (the virtual
+environment, the commands' default output directories) is ignored by git."""
 
 from __future__ import annotations
 
 import re
+import shutil
+import subprocess
 from pathlib import Path
 
 import click
+import pytest
 
 from keepaway.cli import main
 
@@ -81,3 +85,22 @@ def test_docs_cli_describes_every_option_of_every_command():
     undescribed = [f"{name} {param.opts[0]}" for name, command in all_commands(main) for param in command.params
                    if isinstance(param, click.Option) and not any(opt in sections[name] for opt in param.opts)]
     assert not undescribed, f"options docs/cli.md does not describe under their command: {undescribed}"
+
+
+def default_out_directories() -> list[str]:
+    """The ``--out`` defaults of every command (``out``, ``train_out``, ...)."""
+    return sorted({str(param.default) for _, command in all_commands(main) for param in command.params
+                   if "--out" in getattr(param, "opts", ()) and isinstance(param.default, Path)})
+
+
+def test_what_a_user_creates_in_a_checkout_is_ignored_by_git():
+    if shutil.which("git") is None or not (REPO / ".git").exists():
+        pytest.skip("not a git checkout")
+    outs = default_out_directories()
+    assert "out" in outs and "train_out" in outs
+    created = [".venv/bin/python", "keepaway.egg-info/PKG-INFO", "agents/__pycache__/cli.cpython-311.pyc",
+               ".pytest_cache/README.md", *(f"{out}/keepaway.kwy" for out in outs)]
+    checked = subprocess.run(["git", "check-ignore", "--no-index", "--verbose", "--non-matching", *created],
+                             cwd=REPO, capture_output=True, text=True)
+    unignored = [line.split("\t")[-1] for line in checked.stdout.splitlines() if line.startswith("::")]
+    assert not unignored, f"git would offer to commit {unignored}"

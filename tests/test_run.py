@@ -12,9 +12,11 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from conftest import arena_members, keepaway_command, process_tree, running
+from keepaway.agents.policy_file import getopen_theta_size, save_policy
 from keepaway.server.episode_log import read_jsonl
 from keepaway.server.game_log import read_rcg
 
@@ -104,7 +106,7 @@ def test_batched_run_reports_the_same_summary_shape(processes, tmp_path):
     # the chosen arena's game log: every cycle of its two episodes, each started by the referee's message
     record = read_rcg(tmp_path / "keepaway-arena3.rcg")
     assert [s.cycle for s in record.shows] == list(range(len(record.shows)))
-    assert len(record.episode_starts) == 3 and record.episode_starts[-1] == record.shows[-1].cycle
+    assert len(record.episode_starts) == 2 and record.episodes_end == record.shows[-1].cycle
     assert [p.name for p in tmp_path.glob("*.rcg")] == ["keepaway-arena3.rcg"]
 
 
@@ -128,12 +130,66 @@ def test_bad_options_are_one_line_errors(processes, tmp_path):
         (["--mode", "embedded", "--backend", "ray"], "--backend ray places the distributed mode's arena"),
         (["--backend", "ray", "--view"], "--view serves a viewer of an arena on this machine"),
         (["--ray-address", "auto"], "--ray-address names the Ray cluster of --backend ray"),
+        (["--mode", "batched", "--getopen", "learned"],
+         "--getopen learned in the batched mode plays a policy file's net: add --policy FILE"),
     ]:
         proc = processes.popen(keepaway_command("run", *args, "--out", str(tmp_path)),
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE)
         _, err = proc.communicate(timeout=120)
         assert proc.returncode == 2, err
         assert text in err.decode() and "Traceback" not in err.decode()
+
+
+def test_a_run_names_its_logs_and_the_names_an_earlier_runs_logs_were_set_aside_under(processes, tmp_path):
+    def notes(*args: str) -> list[str]:
+        proc = processes.popen(keepaway_command("run", "--episodes", "2", "--no-progress", *args, "--out",
+                                                str(tmp_path)), stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+        _, err = proc.communicate(timeout=600)
+        assert proc.returncode == 0, err.decode()[-2000:]
+        return [line for line in err.decode().splitlines() if "logs in" in line]
+
+    assert notes("--mode", "embedded") == [f"keepaway: logs in {tmp_path}: keepaway.kwy, keepaway.jsonl, keepaway.rcg"]
+    first = {name: (tmp_path / name).read_bytes() for name in ("keepaway.kwy", "keepaway.jsonl", "keepaway.rcg")}
+    assert notes("--mode", "batched", "--batch", "2", "--game-log-arenas", "1") == [
+        f"keepaway: an earlier run's logs in {tmp_path} set aside: keepaway.kwy -> keepaway.1.kwy, "
+        "keepaway.jsonl -> keepaway.1.jsonl",
+        f"keepaway: logs in {tmp_path}: keepaway.kwy, keepaway.jsonl, keepaway-arena1.rcg"]
+    for name in ("keepaway.kwy", "keepaway.jsonl"):
+        assert (tmp_path / name.replace("keepaway.", "keepaway.1.")).read_bytes() == first[name]
+    assert (tmp_path / "keepaway.rcg").read_bytes() == first["keepaway.rcg"]  # not a log this run writes
+
+
+@pytest.mark.parametrize("mode", ["embedded", "batched"])
+def test_the_progress_bar_ends_at_the_summarys_rate(processes, tmp_path, mode):
+    proc = processes.popen(keepaway_command("run", "--mode", mode, "--batch", "4", "--episodes", "12", "--seed", "2",
+                                            "--out", str(tmp_path)), stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    out, err = proc.communicate(timeout=600)
+    assert proc.returncode == 0, err.decode()[-2000:]
+    rate = re.search(r"^episodes / s +(\S+)$", out.decode(), re.M).group(1)
+    hold = re.search(r"^mean hold time +(\S+ s) ", out.decode(), re.M).group(1)
+    last_bar = [drawn for drawn in re.split(r"[\r\n]+", err.decode()) if "12/12" in drawn][-1]
+    assert last_bar.endswith(f", {rate} ep/s, mean hold {hold}]"), (last_bar, rate, hold)
+
+
+def test_learned_policies_without_a_policy_file_are_announced_as_untrained(processes, tmp_path):
+    policy = save_policy(tmp_path / "go.npz", getopen_theta=np.zeros(getopen_theta_size()),
+                         config={"pass": "handcoded", "getopen": "learned"})
+    runs = {"none": ["--pass", "learned", "--getopen", "learned"], "pass": ["--pass", "learned"],
+            "file": ["--getopen", "learned", "--policy", str(policy)]}
+    warnings = {}
+    for name, args in runs.items():
+        proc = processes.popen(keepaway_command("run", "--mode", "embedded", "--episodes", "1", "--no-progress",
+                                                *args, "--out", str(tmp_path / name)),
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+        _, err = proc.communicate(timeout=600)
+        assert proc.returncode == 0, err.decode()[-2000:]
+        warnings[name] = [l for l in err.decode().splitlines() if "without --policy" in l]
+    advice = "from zero weights (an untrained policy): add --policy FILE (e.g. a training's trial_000/policy.npz)"
+    assert warnings == {
+        "none": [f"keepaway run: --pass learned and --getopen learned without --policy start {advice}"],
+        "pass": [f"keepaway run: --pass learned without --policy starts {advice}"],
+        "file": [],
+    }
 
 
 @pytest.mark.slow

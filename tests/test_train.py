@@ -7,7 +7,15 @@ Trainings here are tiny (a few candidates of a few episodes) so each runs in sec
 
 from __future__ import annotations
 
+import fcntl
 import json
+import os
+import pty
+import re
+import stat
+import struct
+import subprocess
+import termios
 from dataclasses import replace
 from pathlib import Path
 
@@ -17,6 +25,7 @@ from click.testing import CliRunner
 from scipy import stats
 
 import keepaway.trainer.train as train_module
+from conftest import keepaway_command
 from keepaway.agents.policy_file import load_policy, pack_pass_arrays, unpack_pass_arrays
 from keepaway.cli import main
 from keepaway.runner.backends import Placement
@@ -31,6 +40,7 @@ from keepaway.trainer.schedule import (
     PASS,
     Phase,
     check_generations,
+    denser_eval_every,
     evaluation_points,
     format_schedule,
     parse_schedule,
@@ -129,6 +139,28 @@ def test_evaluations_every_2500_of_30000_episodes_give_13_points():
     assert evaluation_points((Phase(PASS, 10),), 4) == [0, 4, 8, 10]  # the end is always evaluated
 
 
+def test_a_denser_evaluation_interval_is_even_and_falls_on_generation_boundaries():
+    assert denser_eval_every((Phase(PASS, 2000),), 2500, 2500, 5) == 500  # 0, 500, ..., 2,000
+    assert denser_eval_every((Phase(PASS, 2000),), 500, 2500, 5) is None  # already 5 points
+    assert denser_eval_every(ALGORITHM_3, 10_000, 2500, 5) == 7500  # 30,000 / 4, a generation's multiple
+    assert denser_eval_every((Phase(GETOPEN, 5000),), 2500, 2500, 5) is None  # only 0, 2,500 and 5,000 can be
+    assert denser_eval_every((Phase(PASS, 500), Phase(GETOPEN, 10_000)), 10_500, 1000, 5) is None  # off its grid
+
+
+def test_a_training_whose_curve_would_have_few_points_names_an_interval_that_gives_more(processes, tmp_path):
+    args = ["train", "--pass", "random", "--getopen", "learned", "--population", "2", "--elite", "1",
+            "--candidate-episodes", "2", "--episodes", "16", "--eval-episodes", "2", "--threads", "1", "--no-progress"]
+    said = {}
+    for every in ("16", "4"):
+        proc = processes.popen(keepaway_command(*args, "--eval-every", every, "--out", str(tmp_path / every)),
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+        _, err = proc.communicate(timeout=600)
+        assert proc.returncode == 0, err.decode()[-2000:]
+        said[every] = [line for line in err.decode().splitlines() if "--eval-every" in line]
+    assert said == {"16": ["keepaway train: --eval-every 16 gives the learning curve only 2 points (at 0 and 16 "
+                           "episodes); --eval-every 4 gives it 5"], "4": []}
+
+
 def test_getopen_phases_and_their_evaluations_must_fall_on_generation_boundaries():
     check_generations(ALGORITHM_3, 2500, 2500)
     with pytest.raises(ValueError, match="inside a CEM generation"):
@@ -219,6 +251,49 @@ def test_train_writes_curves_policies_traces_summary_and_plot(tmp_path):
     assert (out / "curves.png").read_bytes().startswith(PNG_MAGIC)
     mean0 = np.mean([summary["trials"][t]["curve"][0]["mean_hold_time_s"] for t in range(2)])
     assert summary["curve"][0]["mean_hold_time_s"] == pytest.approx(mean0)
+
+
+def test_train_outputs_are_written_with_the_mode_the_umask_gives(processes, tmp_path):
+    """Every file of a training gets 0666 less the umask, as ``policy.npz`` (a plain open) always did."""
+    out = tmp_path / "run"
+    proc = processes.popen(keepaway_command(*TINY_ARGS, "--trials", "1", "--out", str(out)), umask=0o027,
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    _, err = proc.communicate(timeout=600)
+    assert proc.returncode == 0, err.decode()[-2000:]
+    files = [p for p in out.rglob("*") if p.is_file()]
+    assert {"config.json", "summary.json", "curves.png", "curve.csv", "trace.jsonl", "checkpoint.npz",
+            "policy.npz"} <= {p.name for p in files}
+    assert {p.name: oct(stat.S_IMODE(p.stat().st_mode)) for p in files} == {p.name: "0o640" for p in files}
+
+
+def terminal_lines(processes, args: list[str], columns: int) -> list[str]:
+    """What ``keepaway *args`` draws on a terminal ``columns`` wide (its stderr on a pseudo-terminal), as
+    the lines and carriage-return overwrites a reader would see in turn."""
+    master, slave = pty.openpty()
+    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 40, columns, 0, 0))
+    proc = processes.popen(keepaway_command(*args), stdout=subprocess.DEVNULL, stderr=slave)
+    os.close(slave)
+    drawn = b""
+    while True:
+        try:
+            chunk = os.read(master, 65536)
+        except OSError:  # EIO: the terminal's last writer is gone
+            break
+        if not chunk:
+            break
+        drawn += chunk
+    os.close(master)
+    assert proc.wait(timeout=60) == 0, drawn.decode(errors="replace")[-2000:]
+    return re.split(r"[\r\n]+", drawn.decode())
+
+
+@pytest.mark.parametrize("trials, postfix", [("1", r"eval \d+\.\d\d s @32"), ("3", r"trial 3 eval \d+\.\d\d s @32")])
+def test_the_training_bar_keeps_room_to_draw_at_120_columns(processes, tmp_path, trials, postfix):
+    args = [a for a in TINY_ARGS if a != "--no-progress"]
+    lines = terminal_lines(processes, [*args, "--trials", trials, "--out", str(tmp_path / "run")], columns=120)
+    bar = [line for line in lines if "%|" in line][-1]
+    assert len(bar) < 120 and re.search(rf"ep/s, {postfix}\]$", bar), bar
+    assert len(bar.split("|")[1]) >= 30, bar  # the bar itself, between its two edges
 
 
 def test_one_trial_reports_its_evaluations_standard_error_as_strict_json(tmp_path):

@@ -17,8 +17,10 @@ import pytest
 
 from conftest import keepaway_command, read_until_match
 from keepaway.protocol import messages as m
+from keepaway.server.episode_log import read_kwy
 from keepaway.server.game_log import parse_rcg, read_rcg
 from keepaway.viewer.frames import SPEEDS, Replay, live_frame
+from keepaway.viewer.render import episode_shows
 
 DATA = Path(__file__).parent / "data" / "rcss-behaviour"
 REFERENCE = DATA / "ref_hold2_head.rcg"
@@ -91,6 +93,29 @@ def test_view_and_render_refuse_bad_input_in_one_line(processes, tmp_path):
         _, err = proc.communicate(timeout=60)
         assert proc.returncode in (1, 2), err
         assert text in err.decode() and "Traceback" not in err.decode(), err.decode()
+
+
+def test_a_runs_game_log_has_the_episodes_it_played_and_render_refuses_the_next(processes, tmp_path):
+    """The referee's message after the last episode starts no episode: five played, five replayed, each
+    drawn from its start to the cycle before its end, and a sixth refused naming the range."""
+    run = processes.popen(keepaway_command("run", "--mode", "embedded", "--episodes", "5", "--seed", "3",
+                                           "--no-progress", "--out", str(tmp_path)),
+                          stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    _, err = run.communicate(timeout=600)
+    assert run.returncode == 0, err.decode()[-2000:]
+    record = read_rcg(tmp_path / "keepaway.rcg")
+    episodes = read_kwy(tmp_path / "keepaway.kwy")
+    assert record.episode_starts == [e.start_cycle for e in episodes]
+    assert record.episodes_end == episodes[-1].end_cycle == record.shows[-1].cycle
+    assert Replay(record).info("keepaway.rcg")["episodes"] == 5
+    assert len(episode_shows(record, 5)) == episodes[-1].end_cycle - episodes[-1].start_cycle
+    proc = processes.popen(keepaway_command("render", str(tmp_path / "keepaway.rcg"), "--episode", "6",
+                                            "-o", str(tmp_path / "e6.gif")),
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 1 and err.decode().strip().splitlines() == [
+        "Error: the game log has episodes 1..5, not 6"]
+    assert not (tmp_path / "e6.gif").exists()
 
 
 def test_render_draws_an_episode_to_a_gif_and_an_mp4(tmp_path):

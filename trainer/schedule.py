@@ -108,6 +108,23 @@ def check_generations(phases: tuple[Phase, ...], eval_every: int, generation_epi
         start = end
 
 
+def denser_eval_every(phases: tuple[Phase, ...], eval_every: int, generation_episodes: int,
+                      points: int) -> int | None:
+    """An evaluation interval for a curve of about ``points`` points, evenly spread: the largest multiple of
+    a CEM generation (of an episode, without GetOpen phases) up to ``total / (points - 1)`` that
+    :func:`check_generations` accepts; None if there is none or it gives no more points than ``eval_every``."""
+    total = sum(p.episodes for p in phases)
+    unit = generation_episodes if any(p.behaviour in CEM_PHASES for p in phases) else 1
+    for every in range(total // (points - 1) // unit * unit, 0, -unit):
+        try:
+            check_generations(phases, every, generation_episodes)
+        except ValueError:
+            continue
+        more = len(evaluation_points(phases, every)) > len(evaluation_points(phases, eval_every))
+        return every if more else None
+    return None
+
+
 __all__ = [
     "ALGORITHM_3",
     "BEHAVIOURS",
@@ -120,6 +137,7 @@ __all__ = [
     "TRAINING_EPISODES",
     "Phase",
     "check_generations",
+    "denser_eval_every",
     "evaluation_points",
     "format_schedule",
     "parse_schedule",

@@ -282,7 +282,7 @@ def phase_at(schedule: tuple[Phase, ...], episodes: int) -> tuple[Phase, int]:
 
 def step(config: TrainConfig, state: TrialState, backend: Backend, progress: Progress | None = None) -> str:
     """Advance ``state`` by one step (an evaluation, a CEM generation or a Pass block) on ``backend``;
-    returns what it was, for the progress display."""
+    returns what it was (e.g. "GetOpen generation 3")."""
     return advance(config, [state], backend, progress)[0]
 
 
@@ -581,19 +581,19 @@ def load_trials(config: TrainConfig, out: Path) -> list[TrialState]:
 
 def run_trials(config: TrainConfig, out: Path, states: list[TrialState], backend: Backend,
                progress: Progress | None = None,
-               on_step: Callable[[TrialState, str], None] | None = None) -> list[TrialState]:
+               on_step: Callable[[TrialState], None] | None = None) -> list[TrialState]:
     """Train the trials ``states`` (:func:`load_trials`) of the training in ``out`` to their end on
     ``backend``; returns them. The trials advance together, a step each at a time (:func:`advance`: a
     backend plays their jobs side by side), and each ends as it would alone; a trial's ``wall_s`` is its
     share of the steps' wall time. ``progress`` hears of every episode played, ``on_step`` of every step."""
     while running := [state for state in states if not state.finished(config)]:
         start = time.perf_counter()
-        steps = advance(config, running, backend, progress)
+        advance(config, running, backend, progress)
         share = (time.perf_counter() - start) / len(running)
-        for state, what in zip(running, steps):
+        for state in running:
             record_step(config, out, state, share)
             if on_step is not None:
-                on_step(state, what)
+                on_step(state)
     for state in states:
         write_trial_outputs(config, out, state)
     return states
@@ -630,11 +630,11 @@ def train(config: TrainConfig, out: Path, resume: bool = False, progress: bool =
     else:
         write_config(config, out)
 
-    def on_step(state: TrialState, what: str) -> None:
-        last = state.curve[-1] if state.curve else None
-        step_done = f"trial {state.trial + 1}: {what} done"
-        bar.set_postfix_str(f"{step_done}; last eval {last.mean_hold_time_s:.2f} s at {last.episodes}" if last
-                            else step_done)
+    def on_step(state: TrialState) -> None:  # the last evaluation, short enough to leave the bar room
+        if state.curve:
+            last = state.curve[-1]
+            trial = f"trial {state.trial + 1} " if config.trials > 1 else ""
+            bar.set_postfix_str(f"{trial}eval {last.mean_hold_time_s:.2f} s @{last.episodes}")
 
     backend = open_training_backend(config, out, placement)
     try:

@@ -17,6 +17,7 @@ from keepaway.runner.cli import (
     Command,
     arena_count,
     game_options,
+    game_params,
     placement,
     placement_options,
     with_options,
@@ -25,8 +26,29 @@ from keepaway.trainer.schedule import POLICY_NAMES
 
 if TYPE_CHECKING:
     from keepaway.runner.job import Backend, Behaviours
+    from keepaway.trainer.train import TrainConfig
 
 POLICY_CHOICES = click.Choice(POLICY_NAMES)
+
+
+MIN_CURVE_POINTS = 5  # a learning curve of fewer evaluations has hardly a shape
+
+
+def warn_sparse_curve(config: TrainConfig) -> None:
+    """One line on stderr when ``--eval-every`` leaves the learning curve fewer than
+    :data:`MIN_CURVE_POINTS` points and a smaller one would give more, naming one that does."""
+    from keepaway.trainer.schedule import denser_eval_every, evaluation_points
+
+    points = evaluation_points(config.schedule, config.eval_every)
+    if len(points) >= MIN_CURVE_POINTS:
+        return
+    every = denser_eval_every(config.schedule, config.eval_every, config.generation_episodes, MIN_CURVE_POINTS)
+    if every is None:
+        return
+    at = ", ".join(f"{p:,}" for p in points[:-1]) + f" and {points[-1]:,}"
+    click.echo(f"keepaway train: --eval-every {config.eval_every} gives the learning curve only {len(points)} points "
+               f"(at {at} episodes); --eval-every {every} gives it "
+               f"{len(evaluation_points(config.schedule, every))}", err=True)
 
 
 def prepare_kernels(kernel_sets: tuple[str, ...]) -> None:
@@ -130,6 +152,7 @@ def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, s
             raise click.UsageError(f"--resume uses the stored configuration; drop {', '.join(given)}")
         config = None
     else:
+        game_params(parameter_set, field_size)  # the region's own one-line refusal, before the configuration's
         try:
             phases = training_schedule(pass_policy, getopen_policy, episodes,
                                        parse_schedule(schedule) if schedule else None)
@@ -143,6 +166,7 @@ def train_command(pass_policy: str, getopen_policy: str, episodes: int | None, s
                                  sarsa=hive_mind_sarsa(pass_hive_mind))
         except ValueError as exc:
             raise click.UsageError(str(exc)) from None
+        warn_sparse_curve(config)
     interrupt_on_sigterm()
     prepare_kernels(where.kernel_sets(mode))
     try:

@@ -26,12 +26,16 @@ FORMATS = (".gif", ".mp4")
 
 def episode_shows(record: GameRecord, episode: int) -> list[Show]:
     """The shows of ``episode`` (from 1): from its start to the show before the next episode's start
-    (the last show of the log for the last episode). ValueError if there is no such episode."""
+    (for the last episode, before the cycle it ended at, or the last show of a log that stops during it).
+    ValueError if there is no such episode."""
     starts = record.episode_starts
     if not 1 <= episode <= len(starts):
         raise ValueError(f"the game log has episodes 1..{len(starts)}, not {episode}")
     start = starts[episode - 1]
-    end = starts[episode] if episode < len(starts) else math.inf
+    if episode < len(starts):
+        end = starts[episode]
+    else:
+        end = math.inf if record.episodes_end is None else record.episodes_end
     return [s for s in record.shows if start <= s.cycle < end]
 
 

@@ -1,0 +1,23 @@
+"""Option types every command shares, below every package so that each package's ``cli`` can use them."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import click
+
+
+class FiniteFloatRange(click.FloatRange):
+    """click's ``FloatRange`` that also refuses ``nan`` and ``inf``: ``nan`` compares false with every
+    bound, so a plain range lets it through to a parameter check that names the parameter, not the
+    option typed."""
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> float:
+        number = super().convert(value, param, ctx)
+        if not math.isfinite(number):
+            self.fail(f"{number} is not a finite number", param, ctx)
+        return number
+
+
+__all__ = ["FiniteFloatRange"]
