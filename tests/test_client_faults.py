@@ -25,7 +25,7 @@ from keepaway.protocol.arena import ARENA_REQUEST_MAX_BYTES, StopArena, decode_f
 from keepaway.protocol.messages import SERVER_SILENCE_S
 from keepaway.server.episode_log import read_jsonl
 from scripted import ScriptedCoach, connect_all, play_chasers
-from test_server_hardening import DROPPED_RE, answer_cycle, wait_logged
+from test_server_hardening import DROPPED_RE, answer_cycle, flood_while_playing, wait_logged
 
 GONE = "is gone without coach_bye; the game goes on without it"
 ARENA_RE = re.compile(r"keepaway coach arena=(tcp://[\d.]+:\d+)")
@@ -131,16 +131,7 @@ def test_a_coach_flooding_looks_is_held_to_its_budget_and_leaves_no_backlog(proc
     coach = ScriptedCoach(srv.coach_endpoint)
     coach.init()
     players = connect_all(srv.players_endpoint)
-    look = encode(m.Look())
-    sent = 0
-    for cycle in range(flood_cycles):
-        for _ in range(per_cycle):
-            try:
-                coach.sock.send(look, zmq.NOBLOCK)
-                sent += 1
-            except zmq.Again:  # its queue is full: the server reads it no faster than it serves the game
-                break
-        answer_cycle(players, cycle, ("dash", 100.0))
+    sent = flood_while_playing(coach, encode(m.Look()), per_cycle, players, range(flood_cycles))
     for cycle in range(flood_cycles, flood_cycles + 10):  # the backlog (at most 64) is served in 8 cycles
         answer_cycle(players, cycle, ("dash", 100.0))
     bodies = [p.recv_until(m.SenseBody) for p in players]

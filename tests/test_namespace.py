@@ -5,6 +5,7 @@ shadowed by it, and ``keepaway run`` works from such a project's directory."""
 from __future__ import annotations
 
 import importlib.metadata
+import shutil
 import subprocess
 import sys
 import zipfile
@@ -20,7 +21,10 @@ def test_the_installed_distribution_provides_only_the_keepaway_import_name():
 
 
 def test_the_wheel_holds_the_keepaway_package_and_nothing_beside_it(tmp_path):
-    subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(tmp_path), str(REPO)],
+    source = tmp_path / "source"  # a copy: setuptools builds in the source tree, and leaves build/ there
+    shutil.copytree(REPO, source, ignore=shutil.ignore_patterns(".git", "build", "*.egg-info", "out", ".venv",
+                                                                "__pycache__"))
+    subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(tmp_path), str(source)],
                    check=True, capture_output=True, timeout=600)
     (wheel,) = tmp_path.glob("keepaway-*.whl")
     tops = {name.split("/")[0] for name in zipfile.ZipFile(wheel).namelist()}

@@ -42,6 +42,23 @@ def answer_cycle(players: list[ScriptedPlayer], cycle: int, *commands: tuple) ->
     return bodies
 
 
+def flood_while_playing(flooder: ScriptedClient, data: bytes, per_cycle: int, players: list[ScriptedPlayer],
+                        cycles: range) -> int:
+    """Before each cycle of ``cycles``, ``flooder`` sends ``data`` ``per_cycle`` times (fewer once its queue
+    is full: the server reads it no faster than it serves the game); then ``players`` answer the cycle with
+    a dash. Returns how many were sent."""
+    sent = 0
+    for cycle in cycles:
+        for _ in range(per_cycle):
+            try:
+                flooder.sock.send(data, zmq.NOBLOCK)
+                sent += 1
+            except zmq.Again:
+                break
+        answer_cycle(players, cycle, ("dash", 100.0))
+    return sent
+
+
 def wait_logged(srv, text: str, timeout_s: float = 120.0) -> None:
     deadline = time.monotonic() + timeout_s
     while text not in srv.stderr_text():
@@ -70,15 +87,7 @@ def test_an_unseated_flood_is_dropped_and_counted_while_every_seated_command_is_
     players = connect_all(srv.players_endpoint)
     flooder = ScriptedClient(srv.players_endpoint)
     started = time.monotonic()
-    sent = 0
-    for cycle in range(cycles):
-        for _ in range(per_cycle):
-            try:
-                flooder.sock.send(JUNK, zmq.NOBLOCK)
-                sent += 1
-            except zmq.Again:  # its queue is full: the server reads it no faster than it serves the game
-                break
-        answer_cycle(players, cycle, ("dash", 100.0))
+    sent = flood_while_playing(flooder, JUNK, per_cycle, players, range(cycles))
     bodies = [p.recv_until(m.SenseBody) for p in players]
     assert [b.cycle for b in bodies] == [cycles] * 5  # the game went on through the flood
     assert [b.counts["dash"] for b in bodies] == [cycles] * 5  # every seated command was applied
