@@ -67,6 +67,7 @@ from keepaway.protocol.params import (
     KernelParams,
     ServerParams,
     parameter_set,
+    with_square_region,
 )
 
 __all__ = [
@@ -79,5 +80,5 @@ __all__ = [
     "Reconnect", "Report", "SERVER_TO_COACH", "SERVER_TO_PLAYER", "See", "SenseBody", "ServerParams",
     "Shutdown", "Start", "Think", "Waiting", "bind", "configure", "connect_endpoint", "decode", "decode_for_coach",
     "decode_for_player", "decode_from_coach", "decode_from_player", "decode_monitor", "encode",
-    "parameter_set", "parse_endpoint",
+    "parameter_set", "parse_endpoint", "with_square_region",
 ]
