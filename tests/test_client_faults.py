@@ -83,9 +83,10 @@ def test_a_coach_that_closes_without_bye_is_forgotten_in_one_line_and_every_epis
 
 
 def test_a_thousand_coaches_that_vanish_cost_the_game_nothing(processes, tmp_path):
-    srv = processes.start_server(tmp_path, "--episodes", "6", "--seed", "4")
+    srv = processes.start_server(tmp_path, "--seed", "4")  # stopped below, once the coaches are done
     game = Game(srv.players_endpoint)
     game.start()
+    before = episodes_logged(srv)
     ctx = zmq.Context()
     hello = encode(m.CoachInit(version=PROTOCOL_VERSION, client="test-coach"))
     try:
@@ -96,31 +97,34 @@ def test_a_thousand_coaches_that_vanish_cost_the_game_nothing(processes, tmp_pat
                 sock.connect(srv.coach_endpoint)
                 sock.send(hello)
             for sock in batch:
-                assert sock.poll(20_000), "a coach was not answered"
+                assert sock.poll(60_000), "a coach was not answered"
                 sock.close()
     finally:
-        ctx.term()
+        ctx.destroy(linger=0)
+    during = episodes_logged(srv)
+    assert during > before, "no episode ended while the coaches came and went"
+    wait_episodes(srv, during + 2)  # and the game goes on after them
+    srv.proc.send_signal(signal.SIGTERM)
     game.finish()
     started = time.monotonic()
     assert srv.wait(30) == 0
-    assert episodes_logged(srv) == 6
     lines = gone_lines(srv)
     assert lines and len(lines) <= time.monotonic() - started + 30  # at most one a second, the rest counted
     assert re.search(r"and \d+ more like this", srv.stderr_text())
 
 
 def test_a_keepaway_coach_killed_mid_episode_leaves_the_server_playing(processes, tmp_path):
-    srv = processes.start_server(tmp_path, "--episodes", "40", "--seed", "5")
+    srv = processes.start_server(tmp_path, "--seed", "5")  # stopped below
     coach = processes.popen(keepaway_command("coach", "--server", srv.coach_endpoint))
     wait_logged(srv, "coach 'keepaway-coach' connected")
     game = Game(srv.players_endpoint)
     game.start()
     wait_episodes(srv, 2)
     processes.kill(coach)  # SIGKILL: no coach_bye
-    assert episodes_logged(srv) < 40, "the game ended before the coach was killed: play more episodes"
+    wait_episodes(srv, episodes_logged(srv) + 3)  # the episodes after it end as any other
+    srv.proc.send_signal(signal.SIGTERM)
     game.finish()
     assert srv.wait(30) == 0
-    assert episodes_logged(srv) == 40
     (line,) = gone_lines(srv)
     assert "coach 'keepaway-coach'" in line
 
@@ -151,6 +155,7 @@ def test_a_coach_flooding_looks_is_held_to_its_budget_and_leaves_no_backlog(proc
 
 
 @pytest.mark.slow
+@pytest.mark.timeout(900)  # about a minute on a quiet machine; far longer when other jobs share its cores
 def test_a_keeper_frozen_longer_than_its_silence_limit_plays_on_and_the_run_finishes(processes, tmp_path):
     episodes = 400
     proc = processes.popen(keepaway_command("run", "--episodes", str(episodes), "--seed", "0", "--no-progress",
@@ -170,7 +175,7 @@ def test_a_keeper_frozen_longer_than_its_silence_limit_plays_on_and_the_run_fini
     os.kill(victim, signal.SIGCONT)
     woke_at = logged()
     assert woke_at < episodes, "the run ended while the keeper was frozen: play more episodes"
-    out, _ = proc.communicate(timeout=300)
+    proc.communicate(timeout=800)
     assert proc.returncode == 0, processes.stderr_tail(proc)
     _, records = read_jsonl(jsonl)
     assert len(records) == episodes

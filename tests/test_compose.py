@@ -49,10 +49,12 @@ def test_clients_reach_the_server_by_service_name(name):
 def test_the_image_holds_every_package_and_its_compiled_kernels():
     import tomllib
 
-    packages = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"]
+    setuptools = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]
+    folders = ["keepaway", *setuptools["package-dir"].values()]  # the keepaway namespace's folders
+    assert len(folders) == len(setuptools["packages"])
     dockerfile = (REPO / "Dockerfile").read_text()
-    for package in packages:
-        assert f"COPY {package} ./{package}\n" in dockerfile, f"the image lacks the package {package}"
+    for folder in folders:
+        assert f"COPY {folder} ./{folder}\n" in dockerfile, f"the image lacks the package folder {folder}"
     command = main.get_command(click.Context(main), "compile")
     assert command is not None and "keepaway compile" in dockerfile
 

@@ -17,7 +17,6 @@ from keepaway.protocol import messages as m
 from keepaway.protocol.params import parameter_set
 from keepaway.runner.embedded import ArenaSpec, EmbeddedGame
 from keepaway.server.game_log import (
-    STATE_BALL_COLLIDE,
     STATE_KICK,
     STATE_KICK_FAULT,
     STATE_STAND,
@@ -32,6 +31,7 @@ from keepaway.server.game_log import (
     show_from_frame,
     show_line,
 )
+from keepaway.server.show_text import STATE_BALL_COLLIDE
 from keepaway.server.world import COLLIDED_BALL, COUNT_KICK, new_world
 
 DATA = Path(__file__).parent / "data" / "rcss-behaviour"

@@ -12,15 +12,15 @@ profile = importlib.util.module_from_spec(spec)
 spec.loader.exec_module(profile)
 
 MSYMBOLS = """\
-[ 0] T 0x7f0000001000 _ZN6agents6skills6travelB4v253B36c8tJTIeFIjxB2IKSgI4CrvQCltYEAA_3d_3dEdddd section .text
-[ 1] T 0x7f0000002000 _ZN6server10perception9see_arenaB4v106B40c8tJTIeFIjxB2IKSgI4CrvSCKg1MMf section .text
+[ 0] T 0x7f0000001000 _ZN8keepaway6agents6skills6travelB4v253B36c8tJTIeFIjxB2IKSgI4CrvQCltYEAA_3d_3dEdddd section .text
+[ 1] T 0x7f0000002000 _ZN8keepaway6server10perception9see_arenaB4v106B40c8tJTIeFIjxB2IKSgI4CrvSCKg1MMf section .text
 [ 2] T 0x7f0000000800 NRT_decref section .text
 """
 
 
 def test_numba_symbols_read_back_as_module_and_function():
-    assert profile.readable("_ZN6agents6skills6travelB4v253B36c8tJTIeFIjxB2IKSgI4CrvQC") == "keepaway.agents.skills.travel"
-    assert profile.readable("_ZN6runner7batched11arena_cycleB3v54B36c8tJTI") == "keepaway.runner.batched.arena_cycle"
+    assert profile.readable("_ZN8keepaway6agents6skills6travelB4v253B36c8tJTIeFIjxB2IKSgI4CrvQC") == "keepaway.agents.skills.travel"
+    assert profile.readable("_ZN8keepaway6runner7batched11arena_cycleB3v54B36c8tJTI") == "keepaway.runner.batched.arena_cycle"
     assert profile.readable("NRT_decref") == "NRT_decref"
 
 

@@ -15,22 +15,19 @@ from hypothesis import strategies as st
 from numba import njit
 
 from keepaway.protocol.params import parameter_set
-from keepaway.server.game_log import (
+from keepaway.server.game_log import N_RCG_COUNTS, PlayerShow, Show, ShowTable, WorldShows, show_line
+from keepaway.server.show_text import (
     ANGLE_PREC,
-    N_RCG_COUNTS,
+    LARGEST,
     PLAYER_NUMBERS,
     POS_PREC,
+    SMALLEST,
     STATE_BALL_COLLIDE,
     STATE_KICK,
     STATE_PLAYER_COLLIDE,
     STATE_STAND,
-    PlayerShow,
-    Show,
-    ShowTable,
-    WorldShows,
-    show_line,
+    _put_number,
 )
-from keepaway.server.show_text import LARGEST, SMALLEST, _put_number
 from keepaway.server.world import COLLIDED_BALL, COLLIDED_PLAYER, new_world
 
 SLOTS = [(side, unum) for side in "lr" for unum in range(1, 12)]
