@@ -34,7 +34,7 @@ from keepaway.runner.batched_backend import BatchedBackend
 from keepaway.runner.job import Behaviours
 from keepaway.runner.report import dump_json
 from keepaway.trainer.cem import CEMConfig
-from keepaway.trainer.curves import CurvePoint, read_curve_csv, write_atomic, write_curve_csv
+from keepaway.trainer.curves import CurvePoint, read_curve_csv, welch_p_value, write_atomic, write_curve_csv
 from keepaway.trainer.experiments import (
     Cell,
     ConfigurationRun,
@@ -44,7 +44,6 @@ from keepaway.trainer.experiments import (
     plot_figure3,
     reference_levels,
     table_cells,
-    welch_p_value,
     with_counterpart,
     write_final_evaluations,
 )
@@ -113,6 +112,9 @@ def test_welch_p_value_by_hand():
     # a = 0, 2 and b = 3, 5: t^2 = 9 / 2, df = 2; P(|T| > t) = 1 - t / sqrt(2 + t^2) = 1 - 3 / sqrt(13).
     assert welch_p_value([0, 2], [3, 5]) == pytest.approx(1 - 3 / math.sqrt(13), rel=1e-12)
     assert welch_p_value([0, 2], [3, 5]) == welch_p_value([3, 5], [0, 2])  # two-sided
+    # one-sided: half the two-sided p in the direction of the difference
+    assert welch_p_value([4, 5, 6], [1, 2, 3], alternative="greater") == pytest.approx(
+        welch_p_value([1, 2, 3], [4, 5, 6]) / 2, rel=1e-12)
 
 
 def test_welch_p_value_is_undefined_for_single_values_and_no_spread():

@@ -13,8 +13,8 @@ Table 2: a Pass policy learned with GetOpen X (``P:L-GO:X``) is tested with GetO
 policy learned with Pass X (``P:X-GO:L``) with Pass Y, for X, Y in {R, HC, L}. A learned counterpart Y is
 the one learned in ``P:L-GO:L``'s trial of the same number. Each entry is the mean over trials of the
 trials' mean hold times with its standard error; an entry marked ``*`` differs from its column's best
-(Welch's t-test over trials, ``scipy.stats.ttest_ind``, p < 0.05). The paper expects each column's best on
-the diagonal.
+(Welch's t-test over trials, ``trainer.curves.welch_p_value``, p < 0.05). The paper expects each
+column's best on the diagonal.
 
 Every configuration has its own seed, derived from the experiment's and the configuration's place in
 the 3 x 3 grid, so configurations are independent samples as the significance tests assume (with one
@@ -32,7 +32,6 @@ import csv
 import io
 import json
 import logging
-import math
 import multiprocessing
 import os
 import signal
@@ -50,8 +49,6 @@ from typing import Any
 
 import llvmlite
 import numba
-import numpy as np
-from scipy import stats
 
 from keepaway.runner.backends import Placement, open_backend
 from keepaway.runner.job import (
@@ -72,9 +69,11 @@ from keepaway.trainer.curves import (
     draw_curve,
     draw_references,
     mean_curve,
+    ratio_of_means,
     read_curve_csv,
     stderr_basis,
     stderr_over,
+    welch_p_value,
     write_atomic,
     write_curve_csv,
 )
@@ -769,13 +768,12 @@ def format_estimate(value: float, se: float | None) -> str:
 
 def ratio_text(a: Sequence[float], b: Sequence[float]) -> str:
     """mean(a) / mean(b) with its delta-method standard error over the two independent samples' means
-    and Welch's p (each only with two or more values per sample)."""
-    ratio = float(np.mean(a) / np.mean(b))
-    if len(a) < 2 or len(b) < 2:
+    (``trainer.curves.ratio_of_means``) and Welch's p (each only with two or more values per sample)."""
+    ratio, se = ratio_of_means(a, b)
+    if se is None:
         return f"{ratio:.2f}"
-    relative = [np.std(x, ddof=1) / math.sqrt(len(x)) / np.mean(x) for x in (a, b)]
     p = welch_p_value(a, b)
-    return f"{ratio:.2f} +- {ratio * math.hypot(*relative):.2f}" + ("" if p is None else f" (p = {p:.2g})")
+    return f"{ratio:.2f} +- {se:.2f}" + ("" if p is None else f" (p = {p:.2g})")
 
 
 def figure3_markdown(runs: Sequence[ConfigurationRun]) -> str:
@@ -873,15 +871,6 @@ def cross_test_trial(exp: ExperimentConfig, out: Path, trial: int, backend: Back
                                for study, trained_with, tested_with in cells], progress)
     means = iter(p.result.summary()["mean_hold_time_s"] for p in played)
     return {study: [[next(means) for _ in POLICIES] for _ in POLICIES] for study in STUDIES}
-
-
-def welch_p_value(a: Sequence[float], b: Sequence[float]) -> float | None:
-    """Two-sided p-value of Welch's t-test of equal means (unequal variances; ``scipy.stats.ttest_ind``
-    with ``equal_var=False``); None when it is undefined (fewer than two values in a sample, or both
-    samples without spread)."""
-    if len(a) < 2 or len(b) < 2 or (min(a) == max(a) and min(b) == max(b)):
-        return None
-    return float(stats.ttest_ind(a, b, equal_var=False).pvalue)
 
 
 @dataclass(frozen=True)
@@ -1040,7 +1029,6 @@ __all__ = [
     "table2",
     "table_cells",
     "trained_configuration",
-    "welch_p_value",
     "with_counterpart",
     "write_final_evaluations",
 ]
