@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import csv
 import io
+import json
 import math
 import os
 import secrets
@@ -54,6 +55,11 @@ def write_atomic(path: Path, data: bytes) -> None:
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
+
+
+def read_json(path: Path) -> Any:
+    """The JSON file at ``path``, or None if there is none."""
+    return json.loads(path.read_text()) if path.is_file() else None
 
 
 def write_curve_csv(path: Path, points: Sequence[CurvePoint]) -> None:
@@ -188,5 +194,5 @@ def plot_curves(path: Path, curves: dict[str, Sequence[CurvePoint]], title: str,
 
 
 __all__ = ["CSV_HEADER", "OVER_EPISODES", "OVER_TRIALS", "CurvePoint", "curve_summary", "draw_curve", "draw_references",
-           "mean_curve", "plot_curves", "ratio_of_means", "read_curve_csv", "stderr_basis", "stderr_over",
+           "mean_curve", "plot_curves", "ratio_of_means", "read_curve_csv", "read_json", "stderr_basis", "stderr_over",
            "welch_p_value", "write_atomic", "write_curve_csv"]
