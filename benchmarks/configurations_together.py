@@ -30,7 +30,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from keepaway.runner.batched_backend import BatchedBackend  # noqa: E402
 from keepaway.runner.job import LEARN, LEARNED  # noqa: E402
 from keepaway.trainer.cem import CEMConfig  # noqa: E402
-from keepaway.trainer.experiments import LONGEST_FIRST, ExperimentConfig, configuration_name  # noqa: E402
+from keepaway.trainer.configurations import LONGEST_FIRST, ExperimentConfig, configuration_name  # noqa: E402
 from keepaway.trainer.train import TrainConfig, TrialState, advance, advance_trainings, initial_behaviours  # noqa: E402
 
 LEARNING = [c for c in LONGEST_FIRST if LEARNED in c]

@@ -27,7 +27,6 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
-from scipy import stats
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # the repository, before benchmarks/
 
@@ -35,7 +34,7 @@ from keepaway.agents.getopen import RAW_INPUTS, SCALED_INPUTS  # noqa: E402
 from keepaway.agents.skills import AgentConfig  # noqa: E402
 from keepaway.runner.batched_backend import BatchedBackend  # noqa: E402
 from keepaway.trainer.cem import CEMConfig  # noqa: E402
-from keepaway.trainer.curves import CurvePoint  # noqa: E402
+from keepaway.trainer.curves import CurvePoint, welch_p_value  # noqa: E402
 from keepaway.trainer.schedule import GETOPEN, Phase  # noqa: E402
 from keepaway.trainer.train import TrainConfig, TrialState, evaluate, initial_behaviours, step  # noqa: E402
 
@@ -100,8 +99,9 @@ def main() -> None:
     for v in variants:
         x = finals[v]
         line = f"  {v:15s} {x.mean():5.2f} +- {x.std(ddof=1) / np.sqrt(len(x)):.2f} s ({len(x)} trials)"
-        if v != variants[0] and len(x) > 1:
-            line += f"; Welch p = {stats.ttest_ind(x, finals[variants[0]], equal_var=False).pvalue:.3f} vs {variants[0]}"
+        p = welch_p_value(x, finals[variants[0]]) if v != variants[0] else None
+        if p is not None:
+            line += f"; Welch p = {p:.3f} vs {variants[0]}"
         print(line)
 
 

@@ -28,7 +28,7 @@ from keepaway.server.arena import Arena
 from keepaway.server.perception import CLOSE, FULL, NAMELESS, PARTIAL, UNSEEN, SeeBuffers, cone_factor, see_arena, see_due, see_payload
 from keepaway.server.referee import END_OUT, END_TAKEN
 from keepaway.server.world import new_world
-from keepaway.trainer.experiments import welch_p_value
+from keepaway.trainer.curves import welch_p_value
 
 PARAMS = parameter_set("classic")
 KP = PARAMS.kernel()

@@ -20,7 +20,7 @@ from keepaway.protocol.params import parameter_set
 from keepaway.runner.batched import BatchedArenas
 from keepaway.runner.embedded import ArenaSpec, EmbeddedGame
 from keepaway.runner.job import BATCHED_SARSA
-from keepaway.trainer.experiments import welch_p_value
+from keepaway.trainer.curves import welch_p_value
 from test_batched import table_rows
 
 PARAMS = parameter_set("classic")

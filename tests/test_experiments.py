@@ -1,4 +1,6 @@
-"""``keepaway experiment figure3`` / ``table2`` (trainer/experiments.py, trainer/experiment_cli.py).
+"""``keepaway experiment figure3`` / ``table2`` (trainer/experiments.py and the modules it builds on:
+trainer/configurations.py, trainer/experiment_report.py, trainer/timing.py, trainer/worker_pool.py;
+trainer/experiment_cli.py).
 
 docs/players.md §8.3: the nine Pass x GetOpen configurations with learning curves (mean and standard
 error over trials), the specialisation cross-tests with Welch's t-test. The experiment here is tiny
@@ -27,27 +29,27 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
+import keepaway.trainer.experiment_report as experiment_report
 import keepaway.trainer.experiments as experiments
+import keepaway.trainer.timing as timing_module
+import keepaway.trainer.worker_pool as worker_pool
 from keepaway.cli import main
 from keepaway.runner.backends import Placement
 from keepaway.runner.batched_backend import BatchedBackend
 from keepaway.runner.job import Behaviours
 from keepaway.runner.report import dump_json
 from keepaway.trainer.cem import CEMConfig
-from keepaway.trainer.curves import CurvePoint, read_curve_csv, write_atomic, write_curve_csv
-from keepaway.trainer.experiments import (
+from keepaway.trainer.configurations import POLICIES, ConfigurationRun, ExperimentConfig, configuration_dir, configuration_name
+from keepaway.trainer.curves import CurvePoint, read_curve_csv, welch_p_value, write_atomic, write_curve_csv
+from keepaway.trainer.experiment_report import (
     Cell,
-    ConfigurationRun,
     CrossTable,
-    ExperimentConfig,
-    configuration_dir,
     plot_figure3,
     reference_levels,
     table_cells,
-    welch_p_value,
-    with_counterpart,
     write_final_evaluations,
 )
+from keepaway.trainer.experiments import with_counterpart
 from keepaway.trainer.schedule import GETOPEN, LEARNED, PASS, Phase
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -97,11 +99,11 @@ def forbid_playing(monkeypatch) -> None:
 
 # -- statistics --------------------------------------------------------------------------------------
 def test_figure3_tables_columns_and_ratios_by_hand():
-    assert experiments.table_columns(list(range(0, 30001, 2500))) == [0, 2500, 5000, 10000, 20000, 30000]
-    assert experiments.table_columns([0, 8, 16, 24, 32, 40, 48]) == [0, 8, 16, 32, 48]
+    assert experiment_report.table_columns(list(range(0, 30001, 2500))) == [0, 2500, 5000, 10000, 20000, 30000]
+    assert experiment_report.table_columns([0, 8, 16, 24, 32, 40, 48]) == [0, 8, 16, 32, 48]
     # 12.1 / 11.5 = 1.052; relative errors 0.3606 / sqrt(3) / 12.1 and 0.1 / sqrt(3) / 11.5: 1.052 x 0.0179
-    assert experiments.ratio_text([12.0, 12.5, 11.8], [11.5, 11.6, 11.4]).startswith("1.05 +- 0.02 (p = ")
-    assert experiments.ratio_text([3.0], [4.0]) == "0.75"  # one trial: no standard error, no test
+    assert experiment_report.ratio_text([12.0, 12.5, 11.8], [11.5, 11.6, 11.4]).startswith("1.05 +- 0.02 (p = ")
+    assert experiment_report.ratio_text([3.0], [4.0]) == "0.75"  # one trial: no standard error, no test
 
 
 def test_welch_p_value_by_hand():
@@ -113,6 +115,9 @@ def test_welch_p_value_by_hand():
     # a = 0, 2 and b = 3, 5: t^2 = 9 / 2, df = 2; P(|T| > t) = 1 - t / sqrt(2 + t^2) = 1 - 3 / sqrt(13).
     assert welch_p_value([0, 2], [3, 5]) == pytest.approx(1 - 3 / math.sqrt(13), rel=1e-12)
     assert welch_p_value([0, 2], [3, 5]) == welch_p_value([3, 5], [0, 2])  # two-sided
+    # one-sided: half the two-sided p in the direction of the difference
+    assert welch_p_value([4, 5, 6], [1, 2, 3], alternative="greater") == pytest.approx(
+        welch_p_value([1, 2, 3], [4, 5, 6]) / 2, rel=1e-12)
 
 
 def test_welch_p_value_is_undefined_for_single_values_and_no_spread():
@@ -264,9 +269,9 @@ def test_a_sitting_interrupted_right_after_its_first_record_still_ends_it(tmp_pa
         if len(written) == 1:
             raise KeyboardInterrupt
 
-    monkeypatch.setattr(experiments, "write_atomic", write_then_interrupt)
+    monkeypatch.setattr(timing_module, "write_atomic", write_then_interrupt)
     with pytest.raises(KeyboardInterrupt):
-        with experiments.timed_sitting(tmp_path):
+        with timing_module.timed_sitting(tmp_path):
             pytest.fail("the work must not start")
     (sitting,) = json.loads((tmp_path / "timing.json").read_text())["sittings"]
     assert "running" not in sitting and len(written) == 2
@@ -289,9 +294,9 @@ class _HalfStarted:
 def test_a_sitting_interrupted_while_its_refresher_starts_still_ends_it(tmp_path, monkeypatch):
     # the window an interrupted worker of `experiment --workers` hit on a busy CI machine: its record
     # stayed "running" because the end waited for a thread that could not be joined
-    monkeypatch.setattr(experiments.threading, "Thread", _HalfStarted)
+    monkeypatch.setattr(timing_module.threading, "Thread", _HalfStarted)
     with pytest.raises(KeyboardInterrupt):
-        with experiments.timed_sitting(tmp_path):
+        with timing_module.timed_sitting(tmp_path):
             pytest.fail("the work must not start")
     monkeypatch.undo()
     (sitting,) = json.loads((tmp_path / "timing.json").read_text())["sittings"]
@@ -300,28 +305,28 @@ def test_a_sitting_interrupted_while_its_refresher_starts_still_ends_it(tmp_path
 
 def test_a_sitting_is_timed_even_when_it_is_interrupted(tmp_path):
     with pytest.raises(KeyboardInterrupt):
-        with experiments.timed_sitting(tmp_path):
+        with timing_module.timed_sitting(tmp_path):
             raise KeyboardInterrupt
-    with experiments.timed_sitting(tmp_path):
+    with timing_module.timed_sitting(tmp_path):
         start = time.process_time()
         while time.process_time() - start < 0.05:  # some CPU
             pass
-    timing = experiments.Timing.read(tmp_path)
+    timing = timing_module.Timing.read(tmp_path)
     assert timing.sittings == 2 and timing.wall_s >= 0.05 and timing.cpu_s >= 0.04
-    assert experiments.Timing.read(tmp_path / "none") == experiments.Timing()
+    assert timing_module.Timing.read(tmp_path / "none") == timing_module.Timing()
     assert not any("running" in s for s in json.loads((tmp_path / "timing.json").read_text())["sittings"])
 
 
 def test_a_sitting_killed_by_sigkill_keeps_its_last_refresh(tmp_path):
     # the machine's end or a SIGKILL runs no finally: the record rewritten while the sitting runs remains
-    script = ("import sys, time; from pathlib import Path; from trainer.experiments import timed_sitting\n"
+    script = ("import sys, time; from pathlib import Path; from keepaway.trainer.timing import timed_sitting\n"
               "with timed_sitting(Path(sys.argv[1]), refresh_s=0.05):\n"
               "    while True: time.process_time()\n")
     child = subprocess.Popen([sys.executable, "-c", script, str(tmp_path)], stdout=subprocess.DEVNULL,
                              stderr=subprocess.DEVNULL)
     try:
         deadline = time.monotonic() + 60
-        while experiments.Timing.read(tmp_path).cpu_s < 0.2 and time.monotonic() < deadline:
+        while timing_module.Timing.read(tmp_path).cpu_s < 0.2 and time.monotonic() < deadline:
             time.sleep(0.05)
     finally:
         child.kill()
@@ -370,7 +375,7 @@ def test_configurations_trained_in_worker_processes_give_the_same_results(finish
         where = tmp_path / name.replace(":", "_")
         assert [read_curve_csv(where / f"trial_{t:03d}" / "curve.csv") for t in range(2)] == \
             [read_curve_csv(finished / name.replace(":", "_") / f"trial_{t:03d}" / "curve.csv") for t in range(2)]
-        assert experiments.Timing.read(where).sittings == 1
+        assert timing_module.Timing.read(where).sittings == 1
     # each configuration reported once, as it ended: the longest started first
     reported = [line.split(": ")[0] for line in result.output.splitlines() if line.startswith("P:")]
     assert sorted(reported) == sorted(NAMES)
@@ -390,7 +395,7 @@ def test_configurations_trained_together_give_the_same_results_and_table2_too(fi
         where = tmp_path / name.replace(":", "_")
         assert [read_curve_csv(where / f"trial_{t:03d}" / "curve.csv") for t in range(2)] == \
             [read_curve_csv(finished / name.replace(":", "_") / f"trial_{t:03d}" / "curve.csv") for t in range(2)]
-    assert experiments.Timing.read(tmp_path / "together").sittings == 1
+    assert timing_module.Timing.read(tmp_path / "together").sittings == 1
     reported = [line.split(": ")[0] for line in result.output.splitlines() if line.startswith("P:")]
     assert sorted(reported) == sorted(NAMES)
     assert "P:L-GO:HC: done; final evaluation" in result.output and "timed with the others" in result.output
@@ -431,13 +436,13 @@ def test_a_worker_interrupted_where_an_exception_must_not_be_raised_is_interrupt
     previous, previous_term = signal.signal(signal.SIGINT, lambda signum, frame: received.append(signum)), \
         signal.getsignal(signal.SIGTERM)
     try:
-        namespace[name](experiments._interrupt_once)  # not raised in there
+        namespace[name](worker_pool._interrupt_once)  # not raised in there
         deadline = time.monotonic() + 5.0
         while not received and time.monotonic() < deadline:
             time.sleep(0.01)
         assert received == [signal.SIGINT]  # delivered again, to be raised where it is not dropped
         with pytest.raises(KeyboardInterrupt):
-            experiments._interrupt_once(signal.SIGINT, sys._getframe())
+            worker_pool._interrupt_once(signal.SIGINT, sys._getframe())
         assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN  # later ones are ignored
     finally:
         signal.signal(signal.SIGINT, previous)
@@ -465,7 +470,7 @@ def test_an_interrupted_worker_that_ends_otherwise_is_named_with_its_exit_code(e
     process.start()
     send.close()
     with caplog.at_level(logging.WARNING, "keepaway.experiment"):
-        experiments._join_interrupted(receive, process, (LEARNED, "handcoded"))
+        worker_pool._join_interrupted(receive, process, "P:L-GO:HC")
     assert not process.is_alive()
     assert [r.getMessage().removeprefix("keepaway experiment: ") for r in caplog.records] == (
         [warning] if warning else [])
@@ -595,13 +600,13 @@ def one_trial_runs(eval_episodes: int = 4) -> list[ConfigurationRun]:
     the last point of P:R-GO:R without a standard error (an evaluation of one episode)."""
     level = {"random": 2.0, "handcoded": 8.0, LEARNED: 5.0}
     runs = []
-    for p in experiments.POLICIES:
-        for g in experiments.POLICIES:
+    for p in POLICIES:
+        for g in POLICIES:
             mean = (level[p] + level[g]) / 2
             curve = [CurvePoint(e, mean + e / 100, 0.5) for e in POINTS]
             if (p, g) == ("random", "random"):
                 curve[-1] = CurvePoint(POINTS[-1], mean, None)
-            runs.append(ConfigurationRun(experiments.configuration_name(p, g), p, g, [curve], False, eval_episodes))
+            runs.append(ConfigurationRun(configuration_name(p, g), p, g, [curve], False, eval_episodes))
     return runs
 
 

@@ -1,6 +1,7 @@
 """Learning curves: per trial a CSV of evaluations, over trials a mean with a standard-error band as PNG
 (docs/players.md §8.3: every 2,500 episodes a frozen evaluation; report mean and standard error over
-at least 20 trials).
+at least 20 trials), and the statistics that compare trials' results: Welch's t-test (the paper's
+significance test) and a ratio of means with its standard error.
 
 A standard error that is undefined (one value) is None: an empty CSV field, ``null`` in JSON, no band in a
 plot; never NaN. Over one trial there is no spread between trials, so its curve keeps the standard errors
@@ -14,6 +15,7 @@ from __future__ import annotations
 
 import csv
 import io
+import json
 import math
 import os
 import secrets
@@ -21,6 +23,8 @@ from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from keepaway.runner.report import finite_or_none
 
@@ -51,6 +55,11 @@ def write_atomic(path: Path, data: bytes) -> None:
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
+
+
+def read_json(path: Path) -> Any:
+    """The JSON file at ``path``, or None if there is none."""
+    return json.loads(path.read_text()) if path.is_file() else None
 
 
 def write_curve_csv(path: Path, points: Sequence[CurvePoint]) -> None:
@@ -93,6 +102,27 @@ def mean_curve(trials: Sequence[Sequence[CurvePoint]]) -> list[CurvePoint]:
         se = math.sqrt(sum((v - mean) ** 2 for v in values) / (len(values) - 1) / len(values))
         out.append(CurvePoint(episodes.pop(), mean, se))
     return out
+
+
+def welch_p_value(a: Sequence[float], b: Sequence[float], alternative: str = "two-sided") -> float | None:
+    """p-value of Welch's t-test of equal means (unequal variances; ``scipy.stats.ttest_ind`` with
+    ``equal_var=False``), two-sided unless ``alternative`` says ``"greater"`` or ``"less"`` (of ``a``'s
+    mean); None when it is undefined (fewer than two values in a sample, or both samples without spread)."""
+    from scipy import stats
+
+    if len(a) < 2 or len(b) < 2 or (min(a) == max(a) and min(b) == max(b)):
+        return None
+    return float(stats.ttest_ind(a, b, equal_var=False, alternative=alternative).pvalue)
+
+
+def ratio_of_means(a: Sequence[float], b: Sequence[float]) -> tuple[float, float | None]:
+    """mean(a) / mean(b) and its delta-method standard error over the two independent samples' means
+    (None unless each sample has two values or more)."""
+    ratio = float(np.mean(a) / np.mean(b))
+    if len(a) < 2 or len(b) < 2:
+        return ratio, None
+    relative = [np.std(x, ddof=1) / math.sqrt(len(x)) / np.mean(x) for x in (a, b)]
+    return ratio, ratio * math.hypot(*relative)
 
 
 def stderr_over(trials: int) -> str:
@@ -164,5 +194,5 @@ def plot_curves(path: Path, curves: dict[str, Sequence[CurvePoint]], title: str,
 
 
 __all__ = ["CSV_HEADER", "OVER_EPISODES", "OVER_TRIALS", "CurvePoint", "curve_summary", "draw_curve", "draw_references",
-           "mean_curve", "plot_curves", "read_curve_csv", "stderr_basis", "stderr_over", "write_atomic",
-           "write_curve_csv"]
+           "mean_curve", "plot_curves", "ratio_of_means", "read_curve_csv", "read_json", "stderr_basis", "stderr_over",
+           "welch_p_value", "write_atomic", "write_curve_csv"]

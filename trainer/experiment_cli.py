@@ -75,7 +75,7 @@ def _experiment(trials: int, episodes: int, eval_every: int | None, eval_episode
     """The experiment the shared options describe (:func:`experiment_options`) and where its arenas run; a
     usage error if it cannot run."""
     from keepaway.trainer.cem import CEMConfig
-    from keepaway.trainer.experiments import ExperimentConfig, default_eval_every
+    from keepaway.trainer.configurations import ExperimentConfig, default_eval_every
 
     where = placement(mode, attach, backend, ray_address, threads, keys)
     try:
@@ -92,7 +92,8 @@ def _experiment(trials: int, episodes: int, eval_every: int | None, eval_episode
 
 def _report(run: Any) -> None:
     from keepaway.runner.report import format_hold
-    from keepaway.trainer.experiments import TIMING, TOGETHER
+    from keepaway.trainer.experiments import TOGETHER
+    from keepaway.trainer.timing import TIMING
 
     final = run.final()
     state = "finished before, skipped" if run.skipped else "done"
@@ -135,7 +136,8 @@ def experiment_group() -> None:
 def figure3_command(out: Path, no_progress: bool, only: tuple[str, ...], workers: int, together: bool,
                     **settings: Any) -> None:
     """Train the nine Pass x GetOpen configurations and plot them grouped by Pass and by GetOpen."""
-    from keepaway.trainer.experiments import figure3, parse_configurations
+    from keepaway.trainer.configurations import parse_configurations
+    from keepaway.trainer.experiments import figure3
 
     exp, where = _experiment(**settings)
     try:
