@@ -1,6 +1,6 @@
 """What a deciding player believes about its arena: the input of every skill and policy kernel.
 
-The world model (`agents/worldmodel.py`) turns noisy percepts into one row of a ``Belief``; the batched mode
+The world model (`agents/tracking.py`) turns noisy percepts into one row of a ``Belief``; the batched mode
 stacks the rows of all players of all arenas. Object indexing is the server's (`core/objects.py`): 0 ball,
 1..K keepers, K+1..K+T takers. Confidence follows the keepaway world model: conf = 1 - (cycles since
 seen)/100, 1 for myself (docs/players.md §4.1).
@@ -113,7 +113,7 @@ class AgentMemory(NamedTuple):
     rng: np.ndarray  # (B,) uint64 per-agent random stream (`core/rng.py`)
     getopen_point: np.ndarray  # (B, 2) float64 the point the last GetOpen decision moved towards
     getopen_time: np.ndarray  # (B,) int64 the cycle of that decision, -1 none (for notes, never read back)
-    stuck_dashes: np.ndarray  # (B,) int64 backward dashes sent standing still since I last moved (skills.intercept)
+    stuck_dashes: np.ndarray  # (B,) int64 backward dashes sent standing still since I last moved (interception.intercept)
 
 
 def new_memory(batch: int, seeds: np.ndarray) -> AgentMemory:
@@ -147,4 +147,16 @@ def forget_episode(mem: AgentMemory, r: int) -> None:
     mem.stuck_dashes[r] = 0
 
 
-__all__ = ["AgentMemory", "Belief", "belief_from_truth", "empty_belief", "forget_episode", "new_memory"]
+@borrowing
+def write_action(
+    r: int, code: int, a1: float, a2: float, neck: float, out_main, out_a1, out_a2, out_neck
+) -> None:
+    """Store one decision (main command and neck moment) in row ``r`` of the caller's arrays."""
+    out_main[r] = code
+    out_a1[r] = a1
+    out_a2[r] = a2
+    out_neck[r] = neck
+
+
+__all__ = ["AgentMemory", "Belief", "belief_from_truth", "empty_belief", "forget_episode", "new_memory",
+           "write_action"]

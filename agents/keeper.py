@@ -15,24 +15,13 @@ the caller picks a grid point and calls ``execute_getopen_action``.
 
 from __future__ import annotations
 
-from keepaway.agents.belief import AgentMemory, Belief
+from keepaway.agents.belief import AgentMemory, Belief, write_action
+from keepaway.agents.config import GETOPEN_EXTERNAL, PASS_EXTERNAL, PASS_HANDCODED, PASS_RANDOM
+from keepaway.agents.geometry import ball_kickable
 from keepaway.agents.getopen import getopen, grid_point, move_to_spot, note_getopen
-from keepaway.agents.skills import (
-    GETOPEN_EXTERNAL,
-    PASS_EXTERNAL,
-    PASS_HANDCODED,
-    PASS_RANDOM,
-    ball_kickable,
-    fastest_to_ball,
-    hold_ball,
-    intercept,
-    neck_to_ball,
-    neck_to_point,
-    neck_with_body,
-    pass_ball,
-    search_ball,
-    write_action,
-)
+from keepaway.agents.interception import fastest_to_ball, intercept
+from keepaway.agents.kicks import hold_ball, pass_ball
+from keepaway.agents.movement import neck_to_ball, neck_to_point, neck_with_body, search_ball
 from keepaway.agents.state_vars import pass_state
 from keepaway.core.jit import borrowing
 from keepaway.core.rng import randint
@@ -93,7 +82,7 @@ def keeper_decide(
     bel: Belief, r: int, mem: AgentMemory, theta, sums, kp, cfg, out_main, out_a1, out_a2, out_neck, out_state
 ) -> int:
     """One keeper decision for row ``r`` (docs/players.md §2 steps 2-5). ``theta`` is the row's
-    GetOpen net parameters, ``sums`` the players' ``agents.skills.decay_sums``, ``out_state`` its Pass
+    GetOpen net parameters, ``sums`` the players' ``agents.interception.decay_sums``, ``out_state`` its Pass
     state row. Returns NO_PASS_DECISION, PASS_DECISION_START, PASS_DECISION_STEP or GETOPEN_DECISION
     (module docstring)."""
     me = bel.me[r]

@@ -67,8 +67,10 @@ import numpy as np
 
 from keepaway.agents.belief import forget_episode, new_memory
 from keepaway.agents.command_wire import MAIN_COMMANDS, MAX_COMMAND_BYTES
-from keepaway.agents.frames import NOT_TAKEN, SENDER, TEXT_LENGTH, TEXT_START
+from keepaway.agents.config import GETOPEN_EXTERNAL, GETOPEN_POLICIES, PASS_EXTERNAL, PASS_POLICIES, AgentConfig
+from keepaway.agents.frames import NOT_TAKEN, SENDER, SIDE_CODES, TEXT_LENGTH, TEXT_START
 from keepaway.agents.getopen import grid_size, grid_states, grid_values
+from keepaway.agents.interception import decay_sums
 from keepaway.agents.keeper import (
     GETOPEN_DECISION,
     NO_PASS_DECISION,
@@ -76,6 +78,7 @@ from keepaway.agents.keeper import (
     execute_getopen_action,
     execute_pass_action,
 )
+from keepaway.agents.movement import neck_to_ball
 from keepaway.agents.pass_wire import REPORT_BYTES, chunked, pass_arrays_from_chunks, sparse_pass_chunks
 from keepaway.agents.policy_file import (
     Policy,
@@ -86,18 +89,9 @@ from keepaway.agents.policy_file import (
 )
 from keepaway.agents.sarsa import MODE_GREEDY, MODE_LEARN, MODE_NAMES, SarsaConfig, SarsaLearner
 from keepaway.agents.say import BYTE_CODES, hear_bytes, hear_row, hear_text, new_talk
-from keepaway.agents.skills import (
-    GETOPEN_EXTERNAL,
-    GETOPEN_POLICIES,
-    PASS_EXTERNAL,
-    PASS_POLICIES,
-    AgentConfig,
-    decay_sums,
-    neck_to_ball,
-)
 from keepaway.agents.state_vars import getopen_state_size, pass_state_size
 from keepaway.agents.think import NOT_WRITTEN, finish_row, think
-from keepaway.agents.worldmodel import SIDE_CODES, WorldModel
+from keepaway.agents.worldmodel import WorldModel
 from keepaway.core.jit import SteadyCall
 from keepaway.core.objects import CMD_DASH
 from keepaway.protocol import PROTOCOL_VERSION, ProtocolError

@@ -1,7 +1,7 @@
 """A player's think, from what it heard to the frame of its command, in one kernel call.
 
 At each think a player hears its teammates' says (``agents.say.hear_row``), writes its belief
-(``agents.worldmodel.write_belief_row``), decides (``keeper_decide`` / ``taker_decide``), tells its world
+(``agents.tracking.write_belief_row``), decides (``keeper_decide`` / ``taker_decide``), tells its world
 model the commands it sends (they act in the next step) and composes its say (``agents.say.say_row``).
 The batched mode runs these steps inside its chunk loop (``runner.batched.decide``, with its learners and
 the server's slots between the decision and the rest). A player process called each step from Python, a
@@ -21,7 +21,7 @@ from keepaway.agents.command_wire import write_command
 from keepaway.agents.keeper import GETOPEN_DECISION, NO_PASS_DECISION, keeper_decide
 from keepaway.agents.say import Talk, hear_row, say_row
 from keepaway.agents.taker import taker_decide
-from keepaway.agents.worldmodel import ModelState, sent_row, write_belief_row
+from keepaway.agents.tracking import ModelState, sent_row, write_belief_row
 from keepaway.core.jit import borrowing
 
 NOT_WRITTEN = -1

@@ -11,7 +11,7 @@ over arenas. Per arena and cycle, in the distributed server's synchronous order 
    the world model's :class:`SeeBuffer` row (:func:`see_to_model_row`, the same numbers the wire carries);
 2. the decision (``keeper_decide`` / ``taker_decide``) on the player's belief row;
 3. its commands into the server's :class:`Commands` (with the server's slot rule for kicks out of reach)
-   and into the world model as the commands it sent (``agents.worldmodel.sent_row``);
+   and into the world model as the commands it sent (``agents.tracking.sent_row``);
 4. the step (``server.simulation.step_arena``).
 
 Python runs only between chunks of cycles, to collect the episodes that ended. Randomness: arena ``b``
@@ -58,8 +58,10 @@ import numba
 import numpy as np
 
 from keepaway.agents.belief import AgentMemory, Belief, empty_belief, forget_episode, new_memory
-from keepaway.agents.frames import NO_SIDE
+from keepaway.agents.config import GETOPEN_POLICIES, PASS_EXTERNAL, PASS_POLICIES, AgentConfig
+from keepaway.agents.frames import NO_SIDE, SIDE_CODES
 from keepaway.agents.getopen import net_size
+from keepaway.agents.interception import decay_sums
 from keepaway.agents.keeper import NO_PASS_DECISION, PASS_DECISION_START, execute_pass_action
 from keepaway.agents.player import agent_seed_sequence
 from keepaway.agents.player import learner_seed as player_learner_seed
@@ -81,25 +83,9 @@ from keepaway.agents.sarsa import (
     step as sarsa_step,
 )
 from keepaway.agents.say import Talk, new_talk
-from keepaway.agents.skills import (
-    GETOPEN_POLICIES,
-    PASS_EXTERNAL,
-    PASS_POLICIES,
-    AgentConfig,
-    decay_sums,
-)
 from keepaway.agents.state_vars import getopen_state_size, pass_state_size
 from keepaway.agents.think import commit_row, decide_row
-from keepaway.agents.worldmodel import (
-    SIDE_CODES,
-    ModelState,
-    SeeBuffer,
-    forget_row,
-    new_model_state,
-    new_see_buffer,
-    see_row,
-    sense_body_row,
-)
+from keepaway.agents.tracking import ModelState, SeeBuffer, forget_row, new_model_state, new_see_buffer, see_row, sense_body_row
 from keepaway.core.jit import borrowing
 from keepaway.core.objects import BALL, CMD_KICK, CMD_NONE
 from keepaway.core.rng import seed_streams
@@ -177,7 +163,7 @@ class Players(NamedTuple):
     memory: AgentMemory
     out: Decisions
     talk: Talk  # say and hear (agents/say.py)
-    decay_sums: np.ndarray  # the travel simulations' table (agents.skills.decay_sums), one for all rows
+    decay_sums: np.ndarray  # the travel simulations' table (agents.interception.decay_sums), one for all rows
     hear_scratch: np.ndarray  # (2, rows) int64: deliver_says' speakers and picks, in each arena's columns
 
 
@@ -185,7 +171,7 @@ class ArenaPolicies(NamedTuple):
     """What each arena's keepers play, one entry per arena, so arenas of different configurations share
     a batch (and its threads)."""
 
-    cfg: np.ndarray  # (B,) agents.skills.AgentConfig.kernel() records, each with its arena's policy codes
+    cfg: np.ndarray  # (B,) agents.config.AgentConfig.kernel() records, each with its arena's policy codes
     alpha: np.ndarray  # (B,) float64 the Sarsa step size of its Pass learners
     learner: np.ndarray  # (B,) int64 the Sarsa row of its keeper 1 (keeper k: + k - 1); -1: no Pass learners
 
@@ -317,7 +303,7 @@ def decide(b: int, obs: int, row: int, w: World, c: Commands, theta: np.ndarray,
     the main command and always a turn_neck) into the server's slots by the server's rules
     (``server.command_slots``: a kick that cannot reach the ball does not take the main slot unless
     ``failed_kick_uses_slot``) and
-    remembered by its world model as sent (``agents.worldmodel.sent_row``): the steps of a player process's
+    remembered by its world model as sent (``agents.tracking.sent_row``): the steps of a player process's
     think (``agents.think``: ``decide_row``, ``commit_row``) around the slots. With PASS_EXTERNAL the
     keeper's Pass decisions come from its Sarsa row (:func:`learn_pass`; ``learner``: the arena's
     keeper 1's)."""

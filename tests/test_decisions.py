@@ -8,8 +8,10 @@ import pytest
 
 from beliefs import belief
 from keepaway.agents.belief import forget_episode, new_memory
+from keepaway.agents.config import PASS_EXTERNAL, AgentConfig
 from keepaway.agents.geometry import direction
 from keepaway.agents.getopen import grid_point, handcoded_target, net_size, net_value, random_target
+from keepaway.agents.interception import decay_sums, fastest_to_ball
 from keepaway.agents.keeper import (
     NO_PASS_DECISION,
     PASS_DECISION_START,
@@ -18,7 +20,6 @@ from keepaway.agents.keeper import (
     handcoded_pass,
     keeper_decide,
 )
-from keepaway.agents.skills import PASS_EXTERNAL, AgentConfig, decay_sums, fastest_to_ball
 from keepaway.agents.taker import mark_point, taker_decide
 from keepaway.core.objects import CMD_DASH, CMD_KICK, CMD_NONE, CMD_TURN
 from keepaway.core.rng import seed_streams
