@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 
-from keepaway.agents.belief import AgentMemory, Belief, write_action
+from keepaway.agents.belief import AgentMemory, Belief, Decisions, write_action
 from keepaway.agents.geometry import ball_kickable, closest_to_ball, compared_hypot, distance, in_cone, kickable_distance
 from keepaway.agents.getopen import move_to_spot
 from keepaway.agents.interception import UNKNOWN_FIRST, fastest_to_ball, intercept
@@ -77,13 +77,13 @@ def mark_point(bel: Belief, r: int, sums, kp, cfg) -> tuple:
 
 
 @borrowing
-def taker_decide(bel: Belief, r: int, mem: AgentMemory, sums, kp, cfg, out_main, out_a1, out_a2, out_neck) -> None:
-    """One taker decision for row ``r`` (docs/players.md §3 steps 1-5); ``sums``: the players'
-    ``agents.interception.decay_sums``."""
+def taker_decide(bel: Belief, r: int, mem: AgentMemory, sums, kp, cfg, out: Decisions) -> None:
+    """One taker decision for row ``r`` (docs/players.md §3 steps 1-5), written into row ``r`` of ``out``;
+    ``sums``: the players' ``agents.interception.decay_sums``."""
     me = bel.me[r]
     if bel.conf[r, 0] < cfg.ball_conf_threshold:
         code, a1, a2 = search_ball(bel, r, mem, kp, cfg)
-        write_action(r, code, a1, a2, neck_with_body(bel, r), out_main, out_a1, out_a2, out_neck)
+        write_action(r, code, a1, a2, neck_with_body(bel, r), out)
         return
     rank = takers_closer_to_ball(bel, r, cfg)
     if rank == 0 and ball_kickable(bel, r, me, kp):
@@ -101,8 +101,8 @@ def taker_decide(bel: Belief, r: int, mem: AgentMemory, sums, kp, cfg, out_main,
                                kickable) < kickable
         ):
             code, a1, a2 = turn_to_point(bel, r, bel.pos[r, 0, 0], bel.pos[r, 0, 1], 1.0, kp)
-            write_action(r, code, a1, a2, neck_with_body(bel, r), out_main, out_a1, out_a2, out_neck)
+            write_action(r, code, a1, a2, neck_with_body(bel, r), out)
             return
         code, a1, a2 = intercept(bel, r, mem, sums, kp, cfg, UNKNOWN_FIRST)
-    write_action(r, code, a1, a2, neck_to_ball(bel, r, code, a1, kp), out_main, out_a1, out_a2, out_neck)
+    write_action(r, code, a1, a2, neck_to_ball(bel, r, code, a1, kp), out)
 

@@ -27,7 +27,7 @@ configurations share a batch. Pass learning (``pass_policy="learned"``,
 docs/players.md §6.3): every keeper of every such arena owns one row of an ``agents.sarsa.SarsaMemory``
 (rows ``l * K .. l * K + K - 1`` for the keepers of the l-th learning arena: its own weights, as in the
 original, where each keeper process learns alone).
-At ``keeper_decide``'s external decision points (``PASS_EXTERNAL``, :class:`Decisions`
+At ``keeper_decide``'s external decision points (``PASS_EXTERNAL``, ``agents.belief.Decisions``
 ``decision``/``pass_state``) the row starts its episode or steps with reward = cycles since the keeper's
 last kicking cycle (``time - t_last``; docs/players.md §2 step 3b), and the keeper executes the action; when an
 episode ends, every keeper that decided in it gets the terminal update with reward = first cycle of the
@@ -57,7 +57,7 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-from keepaway.agents.belief import AgentMemory, Belief, empty_belief, forget_episode, new_memory
+from keepaway.agents.belief import AgentMemory, Belief, Decisions, empty_belief, forget_episode, new_decisions, new_memory
 from keepaway.agents.config import GETOPEN_POLICIES, PASS_EXTERNAL, PASS_POLICIES, AgentConfig
 from keepaway.agents.frames import NO_SIDE, SIDE_CODES
 from keepaway.agents.getopen import net_size
@@ -142,17 +142,6 @@ def learner_seed(seed: int, keeper: int) -> int:
     return player_learner_seed(agent_seed_sequence(seed, _SIDE_KEEPERS, keeper).spawn(1)[0])
 
 
-class Decisions(NamedTuple):
-    """The last decision of every player row (see :class:`Players`)."""
-
-    pass_state: np.ndarray  # (R, 4K + 2T - 3) keepers' Pass state (the Pass learner's input)
-    decision: np.ndarray  # (R,) int8: keeper_decide's NO_PASS_DECISION / PASS_DECISION_*
-    main: np.ndarray  # (R,) int8 CMD_*
-    arg1: np.ndarray  # (R,) float64
-    arg2: np.ndarray  # (R,) float64
-    neck: np.ndarray  # (R,) float64 turn_neck moment
-
-
 class Players(NamedTuple):
     """Every player of every arena, one row each: row ``b * P + p`` is player object ``p + 1`` of arena
     ``b`` (``P = K + T`` players per arena). Updated in place by the kernels."""
@@ -161,7 +150,7 @@ class Players(NamedTuple):
     see: SeeBuffer
     belief: Belief  # the belief of the last decision
     memory: AgentMemory
-    out: Decisions
+    out: Decisions  # each row's last decision (agents/belief.py)
     talk: Talk  # say and hear (agents/say.py)
     decay_sums: np.ndarray  # the travel simulations' table (agents.interception.decay_sums), one for all rows
     hear_scratch: np.ndarray  # (2, rows) int64: deliver_says' speakers and picks, in each arena's columns
@@ -282,7 +271,7 @@ def learn_pass(learner: int, obs: int, row: int, kp, cfg, pl: Players, sarsa: Sa
     else:
         reward = float(pl.belief.time[row] - pl.memory.t_last[row])  # float64, as a player process's learner
         action = sarsa_step(sarsa, r, reward, out.pass_state[row], sp)
-    execute_pass_action(pl.belief, row, pl.memory, action, kp, cfg, out.main, out.arg1, out.arg2, out.neck)
+    execute_pass_action(pl.belief, row, pl.memory, action, kp, cfg, out)
 
 
 @borrowing(inline="always")
@@ -308,9 +297,9 @@ def decide(b: int, obs: int, row: int, w: World, c: Commands, theta: np.ndarray,
     keeper's Pass decisions come from its Sarsa row (:func:`learn_pass`; ``learner``: the arena's
     keeper 1's)."""
     out = pl.out
-    out.decision[row] = decide_row(row, True, pl.model, pl.talk, pl.belief, row, pl.memory, theta, pl.decay_sums, kp,
-                                   cfg, obs <= w.n_keepers, out.main, out.arg1, out.arg2, out.neck, out.pass_state)
-    if out.decision[row] != NO_PASS_DECISION and int(cfg.pass_policy) == PASS_EXTERNAL:
+    decision = decide_row(row, True, pl.model, pl.talk, pl.belief, pl.memory, theta, pl.decay_sums, kp, cfg,
+                          obs <= w.n_keepers, out)
+    if decision != NO_PASS_DECISION and int(cfg.pass_policy) == PASS_EXTERNAL:
         learn_pass(learner, obs, row, kp, cfg, pl, sarsa, sp)
     code = np.int64(out.main[row])  # int64, as a player process's think passes it on to its say
     c.main[b, obs] = CMD_NONE  # the slots as the server's step leaves them (the batched step keeps them)
@@ -540,14 +529,7 @@ class BatchedArenas:
             belief=empty_belief(rows, keepers, takers),
             memory=new_memory(rows, np.array([agent_seed(s, obj, keepers) for s in seeds
                                               for obj in range(1, n_objects)], dtype=np.uint64)),
-            out=Decisions(
-                pass_state=np.zeros((rows, pass_state_size(keepers, takers))),
-                decision=np.zeros(rows, dtype=np.int8),
-                main=np.zeros(rows, dtype=np.int8),
-                arg1=np.zeros(rows),
-                arg2=np.zeros(rows),
-                neck=np.zeros(rows),
-            ),
+            out=new_decisions(rows, pass_state_size(keepers, takers)),
             talk=new_talk(rows),
             decay_sums=decay_sums(self.kp, self.cfg),
             hear_scratch=np.zeros((2, rows), dtype=np.int64),
@@ -745,7 +727,6 @@ __all__ = [
     "CHUNK_CYCLES",
     "ArenaPolicies",
     "BatchedArenas",
-    "Decisions",
     "EpisodeTable",
     "GETOPEN_POLICIES",
     "PASS_POLICIES",
