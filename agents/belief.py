@@ -1,8 +1,10 @@
-"""What a deciding player believes about its arena: the input of every skill and policy kernel.
+"""What a deciding player believes about its arena, remembers of its own decisions and decided last: the
+rows every skill and policy kernel reads and writes.
 
-The world model (`agents/worldmodel.py`) turns noisy percepts into one row of a ``Belief``; the batched mode
-stacks the rows of all players of all arenas. Object indexing is the server's (`core/objects.py`): 0 ball,
-1..K keepers, K+1..K+T takers. Confidence follows the keepaway world model: conf = 1 - (cycles since
+The world model (`agents/tracking.py`) turns noisy percepts into one row of a ``Belief``; the decisions
+keep their memory in an ``AgentMemory`` row and write their command into a ``Decisions`` row. The batched
+mode stacks the rows of all players of all arenas. Object indexing is the server's (`core/objects.py`): 0
+ball, 1..K keepers, K+1..K+T takers. Confidence follows the keepaway world model: conf = 1 - (cycles since
 seen)/100, 1 for myself (docs/players.md §4.1).
 """
 
@@ -113,7 +115,7 @@ class AgentMemory(NamedTuple):
     rng: np.ndarray  # (B,) uint64 per-agent random stream (`core/rng.py`)
     getopen_point: np.ndarray  # (B, 2) float64 the point the last GetOpen decision moved towards
     getopen_time: np.ndarray  # (B,) int64 the cycle of that decision, -1 none (for notes, never read back)
-    stuck_dashes: np.ndarray  # (B,) int64 backward dashes sent standing still since I last moved (skills.intercept)
+    stuck_dashes: np.ndarray  # (B,) int64 backward dashes sent standing still since I last moved (interception.intercept)
 
 
 def new_memory(batch: int, seeds: np.ndarray) -> AgentMemory:
@@ -147,4 +149,40 @@ def forget_episode(mem: AgentMemory, r: int) -> None:
     mem.stuck_dashes[r] = 0
 
 
-__all__ = ["AgentMemory", "Belief", "belief_from_truth", "empty_belief", "forget_episode", "new_memory"]
+class Decisions(NamedTuple):
+    """What each deciding player decided last, one row per belief row: written by the decision kernels
+    (``keeper_decide`` / ``taker_decide`` and what they call) and read by whoever sends the command."""
+
+    pass_state: np.ndarray  # (B, 4K + 2T - 3) a keeper's Pass state at its last Pass decision point (the learner's input)
+    decision: np.ndarray  # (B,) int8 keeper_decide's NO_PASS_DECISION / PASS_DECISION_* / GETOPEN_DECISION
+    main: np.ndarray  # (B,) int8 CMD_* main command
+    arg1: np.ndarray  # (B,) float64 its first argument
+    arg2: np.ndarray  # (B,) float64 its second argument (a kick's direction)
+    neck: np.ndarray  # (B,) float64 turn_neck moment
+
+
+def new_decisions(batch: int, state_size: int) -> Decisions:
+    """Zeroed decisions of ``batch`` rows, with Pass states of ``state_size`` variables
+    (``agents.state_vars.pass_state_size``)."""
+    return Decisions(
+        pass_state=np.zeros((batch, state_size)),
+        decision=np.zeros(batch, dtype=np.int8),
+        main=np.zeros(batch, dtype=np.int8),
+        arg1=np.zeros(batch),
+        arg2=np.zeros(batch),
+        neck=np.zeros(batch),
+    )
+
+
+@borrowing
+def write_action(r: int, code: int, a1: float, a2: float, neck: float, out: Decisions) -> None:
+    """Store one decision (main command ``code`` with its arguments, and the neck's moment) in row ``r``
+    of ``out``."""
+    out.main[r] = code
+    out.arg1[r] = a1
+    out.arg2[r] = a2
+    out.neck[r] = neck
+
+
+__all__ = ["AgentMemory", "Belief", "Decisions", "belief_from_truth", "empty_belief", "forget_episode", "new_decisions",
+           "new_memory", "write_action"]

@@ -454,9 +454,9 @@ def _text(buf, n, end, values) -> int:
 def decode_frame(buf: np.ndarray, end: int, row: int, see, landmarks: int, values: np.ndarray) -> tuple:
     """The frame ``buf[:end]``, if it is one this kernel takes (module docstring): (kind, cycle), the
     kind an index of :data:`FRAME_TYPES`. A see goes into row ``row`` of the see buffer ``see``
-    (``agents.worldmodel.SeeBuffer``) as ``WorldModel.on_see`` writes it (the flags with an id into the
-    ``landmarks`` flags of init_ok's table, the ball, the players and last the cycle); a sense_body's and a
-    hear's values into their slots of ``values`` (:data:`FRAME_VALUES` floats). Returns
+    (``agents.tracking.SeeBuffer``) as ``agents.percept_wire.see_into_buffer`` writes it (the flags with an
+    id into the ``landmarks`` flags of init_ok's table, the ball, the players and last the cycle); a
+    sense_body's and a hear's values into their slots of ``values`` (:data:`FRAME_VALUES` floats). Returns
     (:data:`NOT_TAKEN`, -1) for any other frame: then the see buffer's cycle is untouched (its rows and
     ``values`` are scratch) and the caller decodes the frame in full."""
     fields, n = read_map(buf, 0, end)

@@ -2,13 +2,16 @@
 physics as in docs/rules.md §1, §2).
 
 Angles are degrees in the rcssserver frame (+y down, direction = atan2(y, x)). All functions are numba
-kernels on scalars so skills can call them inside their own per-row loops.
+kernels, on scalars so skills can call them inside their own per-row loops, and the last ones on a row of a
+``Belief``: where the ball will be, who can kick it, who is nearest to it, who are my opponents and which
+way my own frame faces.
 """
 
 from __future__ import annotations
 
 import math
 
+from keepaway.agents.belief import Belief
 from keepaway.core.jit import borrowing
 from keepaway.core.objects import CMD_DASH, CMD_TURN
 
@@ -200,7 +203,7 @@ def believed_dash_power(power: float, kp) -> float:
     reads one minimum for kicks and dashes (``ServerSettings::getMinPower``, -100), so its players believe a
     negative power dashes backwards. rcssserver clips a dash at min_dash_power, 0 with CURRENT (17.0 on),
     and such a dash then does nothing; the players keep the C++ belief, as the reference stack's do
-    (docs/design.md, "The ball in the players' world model"), and ``skills._unstuck`` ends the deadlock it
+    (docs/design.md, "The ball in the players' world model"), and ``interception._unstuck`` ends the deadlock it
     can lead to."""
     return min(kp.max_dash_power, max(kp.min_power, power))
 
@@ -285,3 +288,106 @@ def in_cone(ox: float, oy: float, tx: float, ty: float, qx: float, qy: float, ra
     along = rx * ux + ry * uy
     perp = abs(rx * uy - ry * ux)
     return 0.0 < along < length and perp < ratio * along and math.hypot(rx, ry) < length
+
+
+@borrowing
+def kickable_distance(kp) -> float:
+    """player_size + kickable_margin + ball_size = 1.085 m (docs/players.md §1)."""
+    return kp.player_size + kp.kickable_margin + kp.ball_size
+
+
+# -------------------------------------------------------------------------------- on a belief's rows
+
+
+@borrowing
+def ball_in(bel: Belief, r: int, n: float, kp) -> tuple:
+    """The believed ball position after ``n`` cycles (docs/players.md §4.3)."""
+    return rolled_out(
+        bel.pos[r, 0, 0], bel.pos[r, 0, 1], bel.vel[r, 0, 0], bel.vel[r, 0, 1], n, kp.ball_decay
+    )
+
+
+@borrowing
+def ball_kickable(bel: Belief, r: int, obj: int, kp) -> bool:
+    """Whether player ``obj`` can kick the ball (centre distance < kickable distance, docs/players.md §1)."""
+    kickable = kickable_distance(kp)
+    return compared_hypot(bel.pos[r, 0, 0] - bel.pos[r, obj, 0], bel.pos[r, 0, 1] - bel.pos[r, obj, 1],
+                          kickable) < kickable
+
+
+@borrowing
+def closest_to_ball(bel: Belief, r: int, first: int, last: int, skip: int, cfg) -> int:
+    """The usable player (conf >= threshold, not ``skip``) among objects first..last closest to the ball,
+    -1 if none; ties go to the lower index."""
+    best = -1
+    best_d = math.inf
+    for j in range(first, last + 1):
+        if j == skip or (j != bel.me[r] and bel.conf[r, j] < cfg.player_conf_threshold):
+            continue
+        d = nearer_than(bel.pos[r, 0, 0] - bel.pos[r, j, 0], bel.pos[r, 0, 1] - bel.pos[r, j, 1], best_d)
+        if d < best_d:
+            best, best_d = j, d
+    return best
+
+
+@borrowing
+def distances_from(bel: Belief, r: int, ox: float, oy: float, last: int, skip: int, out) -> None:
+    """``out[j]`` = distance((ox, oy), object j) for the players j = 1..last except ``skip``."""
+    for j in range(1, last + 1):
+        if j != skip:
+            out[j] = distance(ox, oy, bel.pos[r, j, 0], bel.pos[r, j, 1])
+
+
+@borrowing
+def sort_by_distance(dist, first: int, last: int, skip: int, out) -> int:
+    """Write the objects first..last except ``skip`` into ``out`` by increasing ``dist[j]`` (their
+    :func:`distances_from` a point; stable: lower index first on ties); returns how many were written."""
+    n = 0
+    for j in range(first, last + 1):
+        if j == skip:
+            continue
+        d = dist[j]
+        k = n
+        while k > 0 and dist[out[k - 1]] > d:
+            out[k] = out[k - 1]
+            k -= 1
+        out[k] = j
+        n += 1
+    return n
+
+
+@borrowing
+def opponent_range(obj: int, n_keepers: int, n_players: int) -> tuple:
+    """Object index range (first, last), inclusive, of the opponents of player ``obj`` among objects
+    1..n_players (keepers first): the takers for a keeper, the keepers for a taker."""
+    if 1 <= obj <= n_keepers:
+        return n_keepers + 1, n_players
+    return 1, n_keepers
+
+
+@borrowing
+def opponents(bel: Belief, obj: int) -> tuple:
+    """Object index range (first, last) of the opponents of player ``obj``."""
+    return opponent_range(obj, bel.n_keepers, bel.n_keepers + bel.n_takers)
+
+
+@borrowing
+def frame_sign(obj: int, n_keepers: int) -> float:
+    """+1 if player ``obj``'s own frame is the server's (a keeper), -1 if it is mirrored (a taker):
+    :func:`own_frame_sign` on an object index."""
+    return 1.0 if 1 <= obj <= n_keepers else -1.0
+
+
+@borrowing
+def own_frame_sign(bel: Belief, r: int) -> float:
+    """+1 if my own frame is the server's, -1 if it is mirrored. The C++ players mirror the field for the
+    right-hand team, the takers (rcssserver keepaway mode: keepers left), so where their code says
+    "global 0", "forward in x" or "the opponent goal" a taker means the server's 180 deg, -x and the
+    left goal."""
+    return frame_sign(bel.me[r], bel.n_keepers)
+
+
+@borrowing
+def forward_angle(bel: Belief, r: int) -> float:
+    """The server-frame direction that my own frame calls 0 deg (``own_frame_sign``)."""
+    return 0.0 if own_frame_sign(bel, r) > 0.0 else 180.0

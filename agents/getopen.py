@@ -17,18 +17,10 @@ from typing import Any
 import numpy as np
 
 from keepaway.agents.belief import AgentMemory, Belief
-from keepaway.agents.geometry import DECIDE_SLACK, compared_hypot, distance, in_cone, vertex_angle_below
-from keepaway.agents.skills import (
-    GETOPEN_HANDCODED,
-    GETOPEN_HANDCODED_CONE,
-    GETOPEN_LEARNED,
-    GETOPEN_RANDOM,
-    ball_in,
-    closest_to_ball,
-    fastest_to_ball,
-    go_to_point,
-    turn_to_point,
-)
+from keepaway.agents.config import GETOPEN_HANDCODED, GETOPEN_HANDCODED_CONE, GETOPEN_LEARNED, GETOPEN_RANDOM
+from keepaway.agents.geometry import DECIDE_SLACK, ball_in, closest_to_ball, compared_hypot, distance, in_cone, vertex_angle_below
+from keepaway.agents.interception import fastest_to_ball
+from keepaway.agents.movement import go_to_point, turn_to_point
 from keepaway.agents.state_vars import (
     ESTIMATE_ANGLE_ERROR,
     ESTIMATE_DISTANCE_ERROR,
@@ -468,7 +460,7 @@ def learned_target(bel: Belief, r: int, theta, ball_cycles: int, kp, cfg) -> tup
 def grid_states(bel: Belief, r: int, sums, kp, cfg, out) -> None:
     """The GetOpen variables of every grid point into ``out`` (one row per point, ``grid_point`` order,
     3K + T - 1 columns) for the deciding keeper of row ``r``: what GO:L scores (:func:`learned_target`),
-    for a GetOpen decided outside (``agents.skills.GETOPEN_EXTERNAL``)."""
+    for a GetOpen decided outside (``agents.config.GETOPEN_EXTERNAL``)."""
     _, ball_cycles = fastest_to_ball(bel, r, 1, bel.n_keepers, sums, kp, cfg)
     ox, oy = lane_origin(bel, r, ball_cycles, kp, cfg)
     s = vertex_scratch(bel.n_keepers, bel.n_takers)

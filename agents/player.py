@@ -65,10 +65,12 @@ from typing import Any, NamedTuple, Protocol
 
 import numpy as np
 
-from keepaway.agents.belief import forget_episode, new_memory
+from keepaway.agents.belief import forget_episode, new_decisions, new_memory
 from keepaway.agents.command_wire import MAIN_COMMANDS, MAX_COMMAND_BYTES
-from keepaway.agents.frames import NOT_TAKEN, SENDER, TEXT_LENGTH, TEXT_START
+from keepaway.agents.config import GETOPEN_EXTERNAL, GETOPEN_POLICIES, PASS_EXTERNAL, PASS_POLICIES, AgentConfig
+from keepaway.agents.frames import NOT_TAKEN, SENDER, SIDE_CODES, TEXT_LENGTH, TEXT_START
 from keepaway.agents.getopen import grid_size, grid_states, grid_values
+from keepaway.agents.interception import decay_sums
 from keepaway.agents.keeper import (
     GETOPEN_DECISION,
     NO_PASS_DECISION,
@@ -76,6 +78,7 @@ from keepaway.agents.keeper import (
     execute_getopen_action,
     execute_pass_action,
 )
+from keepaway.agents.movement import neck_to_ball
 from keepaway.agents.pass_wire import REPORT_BYTES, chunked, pass_arrays_from_chunks, sparse_pass_chunks
 from keepaway.agents.policy_file import (
     Policy,
@@ -86,18 +89,9 @@ from keepaway.agents.policy_file import (
 )
 from keepaway.agents.sarsa import MODE_GREEDY, MODE_LEARN, MODE_NAMES, SarsaConfig, SarsaLearner
 from keepaway.agents.say import BYTE_CODES, hear_bytes, hear_row, hear_text, new_talk
-from keepaway.agents.skills import (
-    GETOPEN_EXTERNAL,
-    GETOPEN_POLICIES,
-    PASS_EXTERNAL,
-    PASS_POLICIES,
-    AgentConfig,
-    decay_sums,
-    neck_to_ball,
-)
 from keepaway.agents.state_vars import getopen_state_size, pass_state_size
 from keepaway.agents.think import NOT_WRITTEN, finish_row, think
-from keepaway.agents.worldmodel import SIDE_CODES, WorldModel
+from keepaway.agents.worldmodel import WorldModel
 from keepaway.core.jit import SteadyCall
 from keepaway.core.objects import CMD_DASH
 from keepaway.protocol import PROTOCOL_VERSION, ProtocolError
@@ -424,14 +418,10 @@ class PlayerAgent:
         self.theta = np.zeros(getopen_theta_size(n_keepers, n_takers))
         if self.is_keeper and policy is not None and policy.getopen_theta is not None:
             self.theta[:] = policy.getopen_net  # the file's input scaling folded in
-        self.pass_state = np.zeros(pass_state_size(n_keepers, n_takers))
-        self._pass_rows = self.pass_state.reshape(1, -1)  # the think kernel's view of it
+        self.decisions = new_decisions(1, pass_state_size(n_keepers, n_takers))  # what the decision kernels write
+        self.pass_state = self.decisions.pass_state[0]  # the Pass learner's input
         self._grid_values = np.zeros((grid_size(self.cfg), 3))  # the rows of a GetOpen note's values
         self._noted_time = -1  # the getopen_time of the last GetOpen note sent
-        self._out_main = np.zeros(1, dtype=np.int8)
-        self._out_a1 = np.zeros(1)
-        self._out_a2 = np.zeros(1)
-        self._out_neck = np.zeros(1)
         factory = self._learner_factory
         if factory is None and self._external:
             factory = sarsa_pass_factory(None, n_keepers=n_keepers, n_takers=n_takers)
@@ -710,10 +700,8 @@ class PlayerAgent:
             wm.belief()
             self.awaiting = Awaiting(OUTSIDE_BODY, cycle)
             return None
-        out_main, out_a1, out_a2, out_neck = self._out_main, self._out_a1, self._out_a2, self._out_neck
         decision, n = self._think(cycle, not self.fullstate, wm.state, self.talk, wm.belief_rows, self.memory,
-                                  self.theta, self.decay_sums, self.kp, self.cfg, self.is_keeper, out_main, out_a1,
-                                  out_a2, out_neck, self._pass_rows,
+                                  self.theta, self.decay_sums, self.kp, self.cfg, self.is_keeper, self.decisions,
                                   self.learner is None and OUTSIDE_PASS not in self.outside,
                                   self.getopen_notes == "none", self._command_buf, self._note)
         if n != NOT_WRITTEN:
@@ -727,11 +715,8 @@ class PlayerAgent:
         # the learner plays only while the Pass policy is the learned one (docs/advice.md: a keeper
         # switched to another policy keeps its learner for a switch back; that policy has already acted)
         if decision != NO_PASS_DECISION and self.learner is not None and self.cfg.pass_policy == PASS_EXTERNAL:
-            self._ask_learner(wm.belief_rows, decision, self._outs())
+            self._ask_learner(wm.belief_rows, decision)
         return self._command(cycle)
-
-    def _outs(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        return self._out_main, self._out_a1, self._out_a2, self._out_neck
 
     def act(self, action: Any) -> m.Command:
         """The decision :attr:`awaiting` waits for, made: a Pass action (0 HoldBall, k PassBall to the k-th
@@ -746,21 +731,21 @@ class PlayerAgent:
         if awaiting is None:
             raise ValueError("no decision is awaited")
         bel = self.wm.belief()
-        outs = self._outs()
+        out = self.decisions
         if awaiting.decision == OUTSIDE_BODY:
             code, a1, a2 = action
             if int(code) not in MAIN_COMMANDS:
                 raise ValueError(f"the main command code {code} is not one of {sorted(MAIN_COMMANDS)}")
-            outs[0][0], outs[1][0], outs[2][0] = int(code), float(a1), float(a2)
-            outs[3][0] = neck_to_ball(bel, 0, int(code), float(a1), self.kp)
+            out.main[0], out.arg1[0], out.arg2[0] = int(code), float(a1), float(a2)
+            out.neck[0] = neck_to_ball(bel, 0, int(code), float(a1), self.kp)
         else:
             count = self.n_keepers if awaiting.decision == OUTSIDE_PASS else grid_size(self.cfg)
             if not 0 <= int(action) < count:
                 raise ValueError(f"{awaiting.decision} action {action} is not in 0..{count - 1}")
             if awaiting.decision == OUTSIDE_PASS:
-                execute_pass_action(bel, 0, self.memory, int(action), self.kp, self.cfg, *outs)
+                execute_pass_action(bel, 0, self.memory, int(action), self.kp, self.cfg, out)
             else:
-                execute_getopen_action(bel, 0, self.memory, int(action), self.kp, self.cfg, *outs)
+                execute_getopen_action(bel, 0, self.memory, int(action), self.kp, self.cfg, out)
         self.awaiting = None
         return self._command(awaiting.cycle)
 
@@ -785,17 +770,17 @@ class PlayerAgent:
         note = self._getopen_note()
         if note:
             self._note[:len(note)] = note
-        n = self._finish_row(cycle, self.wm.state, self.talk, self.n_keepers, self.kp, self.cfg, self._out_main,
-                         self._out_a1, self._out_a2, self._out_neck, self._command_buf, self._note, len(note))
+        n = self._finish_row(cycle, self.wm.state, self.talk, self.n_keepers, self.kp, self.cfg, self.decisions,
+                             self._command_buf, self._note, len(note))
         return self._sent(cycle, n)
 
     def _sent(self, cycle: int, n: int) -> bytes:
         """The command frame of ``n`` bytes just written; its commands logged for a seed advice's replay."""
-        self._record(cycle, (int(self._out_main[0]), float(self._out_a1[0]), float(self._out_a2[0]),
-                             float(self._out_neck[0])))
+        out = self.decisions
+        self._record(cycle, (int(out.main[0]), float(out.arg1[0]), float(out.arg2[0]), float(out.neck[0])))
         return self._command_buf[:n].tobytes()
 
-    def _ask_learner(self, bel: Any, decision: int, outs: tuple) -> None:
+    def _ask_learner(self, bel: Any, decision: int) -> None:
         """A Pass decision point with an external learner (agents/keeper.py docstring): start or step
         with reward = now - t_last, then execute its action."""
         if decision == PASS_DECISION_START:
@@ -804,7 +789,7 @@ class PlayerAgent:
             action = self.learner.step(float(bel.time[0] - self.memory.t_last[0]), self.pass_state)
         if not 0 <= action < self.n_keepers:
             raise ValueError(f"the Pass learner chose action {action}; actions are 0..{self.n_keepers - 1}")
-        execute_pass_action(bel, 0, self.memory, int(action), self.kp, self.cfg, *outs)
+        execute_pass_action(bel, 0, self.memory, int(action), self.kp, self.cfg, self.decisions)
 
 
 def compile_kernels(percepts: bool = True, decisions: bool = True) -> None:
@@ -843,14 +828,14 @@ def compile_kernels(percepts: bool = True, decisions: bool = True) -> None:
         agent.on_message(m.Think(cycle=0))
         agent.take_frame(think_frame)
         if agent.is_keeper:
-            execute_pass_action(agent.wm.belief(), 0, agent.memory, 0, agent.kp, agent.cfg, *agent._outs())
+            execute_pass_action(agent.wm.belief(), 0, agent.memory, 0, agent.kp, agent.cfg, agent.decisions)
             grid_values(agent.wm.belief(), 0, agent.theta, agent.decay_sums, agent.kp, agent.cfg,
                         agent._grid_values)  # notes
             # the decisions left outside (act, keepaway.env): GetOpen's grid observation and action, and
             # the neck of a low-level command
             grid_states(agent.wm.belief(), 0, agent.decay_sums, agent.kp, agent.cfg,
                         np.zeros((grid_size(agent.cfg), getopen_state_size(DEFAULT_KEEPERS, DEFAULT_TAKERS))))
-            execute_getopen_action(agent.wm.belief(), 0, agent.memory, 0, agent.kp, agent.cfg, *agent._outs())
+            execute_getopen_action(agent.wm.belief(), 0, agent.memory, 0, agent.kp, agent.cfg, agent.decisions)
             neck_to_ball(agent.wm.belief(), 0, CMD_DASH, 0.0, agent.kp)
     if decisions:
         # a decision left outside: heard from Python, its command sent by agents.think.finish_row

@@ -49,9 +49,17 @@ from typing import NamedTuple
 
 import numpy as np
 
-from keepaway.agents.geometry import ball_after_kick, compared_hypot, kick_rate, nearer_than, player_step
-from keepaway.agents.skills import frame_sign, kickable_distance, opponent_range
-from keepaway.agents.worldmodel import NEVER, ModelState, confidence
+from keepaway.agents.geometry import (
+    ball_after_kick,
+    compared_hypot,
+    frame_sign,
+    kick_rate,
+    kickable_distance,
+    nearer_than,
+    opponent_range,
+    player_step,
+)
+from keepaway.agents.tracking import NEVER, ModelState, confidence
 from keepaway.core.jit import borrowing
 from keepaway.core.objects import BALL, CMD_DASH, CMD_KICK, CMD_NONE
 

@@ -17,8 +17,16 @@ from typing import NamedTuple
 import numpy as np
 
 from keepaway.agents.belief import Belief
-from keepaway.agents.geometry import ACOS_ESTIMATE_ERROR, DECIDE_SLACK, acos_estimate, distance, ray_cosine
-from keepaway.agents.skills import closest_to_ball, distances_from, sort_by_distance
+from keepaway.agents.geometry import (
+    ACOS_ESTIMATE_ERROR,
+    DECIDE_SLACK,
+    acos_estimate,
+    closest_to_ball,
+    distance,
+    distances_from,
+    ray_cosine,
+    sort_by_distance,
+)
 from keepaway.core.jit import borrowing, njit
 
 

@@ -6,7 +6,7 @@ already controls the ball -> face it and do not interfere; else intercept. In 3v
 
 Literal, as the C++ takers: they plan their interception with the ball they believe in. Holding the
 ball still in their belief while a keeper controls it is the world model's work (the C++ rule in
-``agents/worldmodel.py``); an earlier deviation that planned with a held ball at rest is gone
+``agents/tracking.py``); an earlier deviation that planned with a held ball at rest is gone
 (docs/design.md, "The players' skills").
 """
 
@@ -14,23 +14,12 @@ from __future__ import annotations
 
 import math
 
-from keepaway.agents.belief import AgentMemory, Belief
-from keepaway.agents.geometry import compared_hypot, distance, in_cone
+from keepaway.agents.belief import AgentMemory, Belief, Decisions, write_action
+from keepaway.agents.geometry import ball_kickable, closest_to_ball, compared_hypot, distance, in_cone, kickable_distance
 from keepaway.agents.getopen import move_to_spot
-from keepaway.agents.skills import (
-    UNKNOWN_FIRST,
-    ball_kickable,
-    closest_to_ball,
-    fastest_to_ball,
-    hold_ball,
-    intercept,
-    kickable_distance,
-    neck_to_ball,
-    neck_with_body,
-    search_ball,
-    turn_to_point,
-    write_action,
-)
+from keepaway.agents.interception import UNKNOWN_FIRST, fastest_to_ball, intercept
+from keepaway.agents.kicks import hold_ball
+from keepaway.agents.movement import neck_to_ball, neck_with_body, search_ball, turn_to_point
 from keepaway.core.jit import borrowing
 
 # The chasers: the closest and the second-closest taker to the ball never mark (docs/players.md §3 step 3).
@@ -88,13 +77,13 @@ def mark_point(bel: Belief, r: int, sums, kp, cfg) -> tuple:
 
 
 @borrowing
-def taker_decide(bel: Belief, r: int, mem: AgentMemory, sums, kp, cfg, out_main, out_a1, out_a2, out_neck) -> None:
-    """One taker decision for row ``r`` (docs/players.md §3 steps 1-5); ``sums``: the players'
-    ``agents.skills.decay_sums``."""
+def taker_decide(bel: Belief, r: int, mem: AgentMemory, sums, kp, cfg, out: Decisions) -> None:
+    """One taker decision for row ``r`` (docs/players.md §3 steps 1-5), written into row ``r`` of ``out``;
+    ``sums``: the players' ``agents.interception.decay_sums``."""
     me = bel.me[r]
     if bel.conf[r, 0] < cfg.ball_conf_threshold:
         code, a1, a2 = search_ball(bel, r, mem, kp, cfg)
-        write_action(r, code, a1, a2, neck_with_body(bel, r), out_main, out_a1, out_a2, out_neck)
+        write_action(r, code, a1, a2, neck_with_body(bel, r), out)
         return
     rank = takers_closer_to_ball(bel, r, cfg)
     if rank == 0 and ball_kickable(bel, r, me, kp):
@@ -112,8 +101,8 @@ def taker_decide(bel: Belief, r: int, mem: AgentMemory, sums, kp, cfg, out_main,
                                kickable) < kickable
         ):
             code, a1, a2 = turn_to_point(bel, r, bel.pos[r, 0, 0], bel.pos[r, 0, 1], 1.0, kp)
-            write_action(r, code, a1, a2, neck_with_body(bel, r), out_main, out_a1, out_a2, out_neck)
+            write_action(r, code, a1, a2, neck_with_body(bel, r), out)
             return
         code, a1, a2 = intercept(bel, r, mem, sums, kp, cfg, UNKNOWN_FIRST)
-    write_action(r, code, a1, a2, neck_to_ball(bel, r, code, a1, kp), out_main, out_a1, out_a2, out_neck)
+    write_action(r, code, a1, a2, neck_to_ball(bel, r, code, a1, kp), out)
 

@@ -1,7 +1,7 @@
 """A player's think, from what it heard to the frame of its command, in one kernel call.
 
 At each think a player hears its teammates' says (``agents.say.hear_row``), writes its belief
-(``agents.worldmodel.write_belief_row``), decides (``keeper_decide`` / ``taker_decide``), tells its world
+(``agents.tracking.write_belief_row``), decides (``keeper_decide`` / ``taker_decide``), tells its world
 model the commands it sends (they act in the next step) and composes its say (``agents.say.say_row``).
 The batched mode runs these steps inside its chunk loop (``runner.batched.decide``, with its learners and
 the server's slots between the decision and the rest). A player process called each step from Python, a
@@ -16,12 +16,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from keepaway.agents.belief import AgentMemory, Belief
+from keepaway.agents.belief import AgentMemory, Belief, Decisions
 from keepaway.agents.command_wire import write_command
 from keepaway.agents.keeper import GETOPEN_DECISION, NO_PASS_DECISION, keeper_decide
 from keepaway.agents.say import Talk, hear_row, say_row
 from keepaway.agents.taker import taker_decide
-from keepaway.agents.worldmodel import ModelState, sent_row, write_belief_row
+from keepaway.agents.tracking import ModelState, sent_row, write_belief_row
 from keepaway.core.jit import borrowing
 
 NOT_WRITTEN = -1
@@ -29,20 +29,22 @@ NOT_WRITTEN = -1
 
 
 @borrowing(inline="always")
-def decide_row(r: int, hear: bool, model: ModelState, talk: Talk, bel: Belief, row: int, mem: AgentMemory, theta,
-               sums, kp, cfg, is_keeper: bool, out_main, out_a1, out_a2, out_neck, out_states) -> int:
-    """Model row ``r``'s decision on what it has heard (unless ``hear`` is false: the C++ ignores what
-    it hears while it has the full state), written to belief row ``row`` and decided there into the
-    output arrays (a keeper's Pass state into ``out_states[row]``). Returns ``keeper_decide``'s decision
-    (NO_PASS_DECISION for a taker)."""
+def decide_row(r: int, hear: bool, model: ModelState, talk: Talk, bel: Belief, mem: AgentMemory, theta, sums, kp, cfg,
+               is_keeper: bool, out: Decisions) -> int:
+    """Row ``r``'s decision on what it has heard (unless ``hear`` is false: the C++ ignores what it hears
+    while it has the full state): its model written to belief row ``r`` and decided there into row ``r`` of
+    ``out`` (a keeper's Pass state too). Returns ``keeper_decide``'s decision (NO_PASS_DECISION for a
+    taker), also kept in ``out.decision``."""
     if hear:
         hear_row(r, model, bel.n_keepers, cfg, talk)
-    write_belief_row(r, model, bel, row)
+    write_belief_row(r, model, bel, r)
     if is_keeper:
-        return keeper_decide(bel, row, mem, theta, sums, kp, cfg, out_main, out_a1, out_a2, out_neck,
-                             out_states[row])
-    taker_decide(bel, row, mem, sums, kp, cfg, out_main, out_a1, out_a2, out_neck)
-    return NO_PASS_DECISION
+        decision = keeper_decide(bel, r, mem, theta, sums, kp, cfg, out)
+    else:
+        taker_decide(bel, r, mem, sums, kp, cfg, out)
+        decision = NO_PASS_DECISION
+    out.decision[r] = decision
+    return decision
 
 
 @borrowing(inline="always")
@@ -55,31 +57,29 @@ def commit_row(r: int, model: ModelState, main: int, a1: float, a2: float, neck:
 
 
 @borrowing
-def finish_row(cycle: int, model: ModelState, talk: Talk, n_keepers: int, kp, cfg, out_main, out_a1, out_a2,
-               out_neck, buf: np.ndarray, note: np.ndarray, noted: int) -> int:
-    """The decision in the output arrays (row 0) sent: :func:`commit_row`, then the command's frame of
-    ``cycle`` into ``buf`` with the GetOpen note ``note[:noted]``. Returns the frame's length."""
-    main = np.int64(out_main[0])
-    a1, a2, neck = out_a1[0], out_a2[0], out_neck[0]
+def finish_row(cycle: int, model: ModelState, talk: Talk, n_keepers: int, kp, cfg, out: Decisions, buf: np.ndarray,
+               note: np.ndarray, noted: int) -> int:
+    """The decision in row 0 of ``out`` sent: :func:`commit_row`, then the command's frame of ``cycle`` into
+    ``buf`` with the GetOpen note ``note[:noted]``. Returns the frame's length."""
+    main = np.int64(out.main[0])
+    a1, a2, neck = out.arg1[0], out.arg2[0], out.neck[0]
     commit_row(0, model, main, a1, a2, neck, n_keepers, kp, cfg, talk)
     return write_command(buf, cycle, main, a1, a2, neck, talk, 0, note, noted)
 
 
 @borrowing
 def think(cycle: int, hear: bool, model: ModelState, talk: Talk, bel: Belief, mem: AgentMemory, theta, sums, kp,
-          cfg, is_keeper: bool, out_main, out_a1, out_a2, out_neck, out_states, finish_pass: bool, finish: bool,
-          buf: np.ndarray, note: np.ndarray) -> tuple[int, int]:
-    """A player's think at ``cycle`` (row 0 of its model and belief): :func:`decide_row`, then, unless the
-    decision is left to the caller, :func:`finish_row` with no GetOpen note. Left to the caller: every
-    decision if ``finish`` is false (the caller adds a note), a Pass decision point if ``finish_pass`` is
-    false (an outside decision or a learner in Python), and the GetOpen decision of GETOPEN_EXTERNAL.
+          cfg, is_keeper: bool, out: Decisions, finish_pass: bool, finish: bool, buf: np.ndarray,
+          note: np.ndarray) -> tuple[int, int]:
+    """A player's think at ``cycle`` (row 0 of its model, belief and decisions): :func:`decide_row`, then,
+    unless the decision is left to the caller, :func:`finish_row` with no GetOpen note. Left to the caller:
+    every decision if ``finish`` is false (the caller adds a note), a Pass decision point if ``finish_pass``
+    is false (an outside decision or a learner in Python), and the GetOpen decision of GETOPEN_EXTERNAL.
     Returns (decision, the frame's length or NOT_WRITTEN)."""
-    decision = decide_row(0, hear, model, talk, bel, 0, mem, theta, sums, kp, cfg, is_keeper, out_main, out_a1,
-                          out_a2, out_neck, out_states)
+    decision = decide_row(0, hear, model, talk, bel, mem, theta, sums, kp, cfg, is_keeper, out)
     if not finish or decision == GETOPEN_DECISION or (decision != NO_PASS_DECISION and not finish_pass):
         return decision, NOT_WRITTEN
-    return decision, finish_row(cycle, model, talk, bel.n_keepers, kp, cfg, out_main, out_a1, out_a2, out_neck,
-                                buf, note, 0)  # no note
+    return decision, finish_row(cycle, model, talk, bel.n_keepers, kp, cfg, out, buf, note, 0)  # no note
 
 
 __all__ = ["NOT_WRITTEN", "commit_row", "decide_row", "finish_row", "think"]

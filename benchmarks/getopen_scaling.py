@@ -28,6 +28,8 @@ from numba import njit
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # the repository, before benchmarks/
 
+from keepaway.agents.config import AgentConfig  # noqa: E402
+from keepaway.agents.geometry import ball_kickable  # noqa: E402
 from keepaway.agents.getopen import (  # noqa: E402
     NET_HIDDEN,
     SCALED_TANH_B,
@@ -38,7 +40,7 @@ from keepaway.agents.getopen import (  # noqa: E402
     net_size,
     net_value,
 )
-from keepaway.agents.skills import AgentConfig, ball_kickable, fastest_to_ball  # noqa: E402
+from keepaway.agents.interception import fastest_to_ball  # noqa: E402
 from keepaway.agents.state_vars import GETOPEN_KINDS, getopen_state, getopen_state_kinds, getopen_state_size  # noqa: E402
 from keepaway.protocol.params import parameter_set  # noqa: E402
 from keepaway.runner.batched import BatchedArenas  # noqa: E402

@@ -30,8 +30,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # the repository, before benchmarks/
 
+from keepaway.agents.config import AgentConfig  # noqa: E402
 from keepaway.agents.getopen import RAW_INPUTS, SCALED_INPUTS  # noqa: E402
-from keepaway.agents.skills import AgentConfig  # noqa: E402
 from keepaway.runner.batched_backend import BatchedBackend  # noqa: E402
 from keepaway.trainer.cem import CEMConfig  # noqa: E402
 from keepaway.trainer.curves import CurvePoint, welch_p_value  # noqa: E402

@@ -1,7 +1,7 @@
 """numba's compiled-kernel cache, keyed on the source of every kernel and everything it calls into.
 
 numba's own ``cache=True`` checks only the timestamp of the file that defines a kernel: after an edit
-to a file the kernel calls into (``agents/geometry.py`` under ``agents/skills.py``, say) it would load
+to a file the kernel calls into (``agents/geometry.py`` under ``agents/kicks.py``, say) it would load
 stale machine code. So every kernel module imports :func:`njit` from here, which first points numba's
 cache at a directory named after a digest of the kernel packages' source (content, size and mtime of
 every ``.py`` file of ``protocol``, ``core``, ``server``, ``agents``, ``runner/batched.py`` and the

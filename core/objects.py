@@ -17,7 +17,7 @@ CMD_MOVE = 5
 CMD_CATCH = 6
 
 # A colliding object's velocity is multiplied by this (rcssserver MPObject::updateCollisionVel); the
-# players' world model does the same to the ball when it guesses a collision (agents/worldmodel.py).
+# players' world model does the same to the ball when it guesses a collision (agents/tracking.py).
 COLLISION_VEL_FACTOR = -0.1
 
 __all__ = ["BALL", "CMD_CATCH", "CMD_DASH", "CMD_KICK", "CMD_MOVE", "CMD_NONE", "CMD_TACKLE", "CMD_TURN",

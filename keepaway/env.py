@@ -36,9 +36,9 @@ import numpy as np
 from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
+from keepaway.agents.config import AgentConfig
 from keepaway.agents.getopen import grid_size, grid_states
 from keepaway.agents.player import OUTSIDE_BODY, OUTSIDE_GETOPEN, OUTSIDE_PASS, PlayerAgent
-from keepaway.agents.skills import AgentConfig
 from keepaway.agents.state_vars import getopen_state_size, pass_state_size
 from keepaway.core.objects import CMD_DASH, CMD_KICK, CMD_TURN
 from keepaway.protocol.params import ServerParams, parameter_set

@@ -44,7 +44,7 @@ from keepaway.protocol.errors import ProtocolError
 from keepaway.protocol.messages import COUNT, _by_type
 
 ADVICE_TAG = "kind"  # the key naming an advice's or a report's kind
-# The names a policy advice may switch to (``keepaway player --pass/--getopen``; agents.skills maps
+# The names a policy advice may switch to (``keepaway player --pass/--getopen``; agents.config maps
 # them to the kernels' codes).
 PASS_POLICY_NAMES = ("random", "handcoded", "learned", "hold")
 GETOPEN_POLICY_NAMES = ("random", "handcoded", "handcoded-cone", "learned")

@@ -11,7 +11,7 @@ over arenas. Per arena and cycle, in the distributed server's synchronous order 
    the world model's :class:`SeeBuffer` row (:func:`see_to_model_row`, the same numbers the wire carries);
 2. the decision (``keeper_decide`` / ``taker_decide``) on the player's belief row;
 3. its commands into the server's :class:`Commands` (with the server's slot rule for kicks out of reach)
-   and into the world model as the commands it sent (``agents.worldmodel.sent_row``);
+   and into the world model as the commands it sent (``agents.tracking.sent_row``);
 4. the step (``server.simulation.step_arena``).
 
 Python runs only between chunks of cycles, to collect the episodes that ended. Randomness: arena ``b``
@@ -27,7 +27,7 @@ configurations share a batch. Pass learning (``pass_policy="learned"``,
 docs/players.md §6.3): every keeper of every such arena owns one row of an ``agents.sarsa.SarsaMemory``
 (rows ``l * K .. l * K + K - 1`` for the keepers of the l-th learning arena: its own weights, as in the
 original, where each keeper process learns alone).
-At ``keeper_decide``'s external decision points (``PASS_EXTERNAL``, :class:`Decisions`
+At ``keeper_decide``'s external decision points (``PASS_EXTERNAL``, ``agents.belief.Decisions``
 ``decision``/``pass_state``) the row starts its episode or steps with reward = cycles since the keeper's
 last kicking cycle (``time - t_last``; docs/players.md §2 step 3b), and the keeper executes the action; when an
 episode ends, every keeper that decided in it gets the terminal update with reward = first cycle of the
@@ -57,9 +57,11 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-from keepaway.agents.belief import AgentMemory, Belief, empty_belief, forget_episode, new_memory
-from keepaway.agents.frames import NO_SIDE
+from keepaway.agents.belief import AgentMemory, Belief, Decisions, empty_belief, forget_episode, new_decisions, new_memory
+from keepaway.agents.config import GETOPEN_POLICIES, PASS_EXTERNAL, PASS_POLICIES, AgentConfig
+from keepaway.agents.frames import NO_SIDE, SIDE_CODES
 from keepaway.agents.getopen import net_size
+from keepaway.agents.interception import decay_sums
 from keepaway.agents.keeper import NO_PASS_DECISION, PASS_DECISION_START, execute_pass_action
 from keepaway.agents.player import agent_seed_sequence
 from keepaway.agents.player import learner_seed as player_learner_seed
@@ -81,25 +83,9 @@ from keepaway.agents.sarsa import (
     step as sarsa_step,
 )
 from keepaway.agents.say import Talk, new_talk
-from keepaway.agents.skills import (
-    GETOPEN_POLICIES,
-    PASS_EXTERNAL,
-    PASS_POLICIES,
-    AgentConfig,
-    decay_sums,
-)
 from keepaway.agents.state_vars import getopen_state_size, pass_state_size
 from keepaway.agents.think import commit_row, decide_row
-from keepaway.agents.worldmodel import (
-    SIDE_CODES,
-    ModelState,
-    SeeBuffer,
-    forget_row,
-    new_model_state,
-    new_see_buffer,
-    see_row,
-    sense_body_row,
-)
+from keepaway.agents.tracking import ModelState, SeeBuffer, forget_row, new_model_state, new_see_buffer, see_row, sense_body_row
 from keepaway.core.jit import borrowing
 from keepaway.core.objects import BALL, CMD_KICK, CMD_NONE
 from keepaway.core.rng import seed_streams
@@ -156,17 +142,6 @@ def learner_seed(seed: int, keeper: int) -> int:
     return player_learner_seed(agent_seed_sequence(seed, _SIDE_KEEPERS, keeper).spawn(1)[0])
 
 
-class Decisions(NamedTuple):
-    """The last decision of every player row (see :class:`Players`)."""
-
-    pass_state: np.ndarray  # (R, 4K + 2T - 3) keepers' Pass state (the Pass learner's input)
-    decision: np.ndarray  # (R,) int8: keeper_decide's NO_PASS_DECISION / PASS_DECISION_*
-    main: np.ndarray  # (R,) int8 CMD_*
-    arg1: np.ndarray  # (R,) float64
-    arg2: np.ndarray  # (R,) float64
-    neck: np.ndarray  # (R,) float64 turn_neck moment
-
-
 class Players(NamedTuple):
     """Every player of every arena, one row each: row ``b * P + p`` is player object ``p + 1`` of arena
     ``b`` (``P = K + T`` players per arena). Updated in place by the kernels."""
@@ -175,9 +150,9 @@ class Players(NamedTuple):
     see: SeeBuffer
     belief: Belief  # the belief of the last decision
     memory: AgentMemory
-    out: Decisions
+    out: Decisions  # each row's last decision (agents/belief.py)
     talk: Talk  # say and hear (agents/say.py)
-    decay_sums: np.ndarray  # the travel simulations' table (agents.skills.decay_sums), one for all rows
+    decay_sums: np.ndarray  # the travel simulations' table (agents.interception.decay_sums), one for all rows
     hear_scratch: np.ndarray  # (2, rows) int64: deliver_says' speakers and picks, in each arena's columns
 
 
@@ -185,7 +160,7 @@ class ArenaPolicies(NamedTuple):
     """What each arena's keepers play, one entry per arena, so arenas of different configurations share
     a batch (and its threads)."""
 
-    cfg: np.ndarray  # (B,) agents.skills.AgentConfig.kernel() records, each with its arena's policy codes
+    cfg: np.ndarray  # (B,) agents.config.AgentConfig.kernel() records, each with its arena's policy codes
     alpha: np.ndarray  # (B,) float64 the Sarsa step size of its Pass learners
     learner: np.ndarray  # (B,) int64 the Sarsa row of its keeper 1 (keeper k: + k - 1); -1: no Pass learners
 
@@ -296,7 +271,7 @@ def learn_pass(learner: int, obs: int, row: int, kp, cfg, pl: Players, sarsa: Sa
     else:
         reward = float(pl.belief.time[row] - pl.memory.t_last[row])  # float64, as a player process's learner
         action = sarsa_step(sarsa, r, reward, out.pass_state[row], sp)
-    execute_pass_action(pl.belief, row, pl.memory, action, kp, cfg, out.main, out.arg1, out.arg2, out.neck)
+    execute_pass_action(pl.belief, row, pl.memory, action, kp, cfg, out)
 
 
 @borrowing(inline="always")
@@ -317,14 +292,14 @@ def decide(b: int, obs: int, row: int, w: World, c: Commands, theta: np.ndarray,
     the main command and always a turn_neck) into the server's slots by the server's rules
     (``server.command_slots``: a kick that cannot reach the ball does not take the main slot unless
     ``failed_kick_uses_slot``) and
-    remembered by its world model as sent (``agents.worldmodel.sent_row``): the steps of a player process's
+    remembered by its world model as sent (``agents.tracking.sent_row``): the steps of a player process's
     think (``agents.think``: ``decide_row``, ``commit_row``) around the slots. With PASS_EXTERNAL the
     keeper's Pass decisions come from its Sarsa row (:func:`learn_pass`; ``learner``: the arena's
     keeper 1's)."""
     out = pl.out
-    out.decision[row] = decide_row(row, True, pl.model, pl.talk, pl.belief, row, pl.memory, theta, pl.decay_sums, kp,
-                                   cfg, obs <= w.n_keepers, out.main, out.arg1, out.arg2, out.neck, out.pass_state)
-    if out.decision[row] != NO_PASS_DECISION and int(cfg.pass_policy) == PASS_EXTERNAL:
+    decision = decide_row(row, True, pl.model, pl.talk, pl.belief, pl.memory, theta, pl.decay_sums, kp, cfg,
+                          obs <= w.n_keepers, out)
+    if decision != NO_PASS_DECISION and int(cfg.pass_policy) == PASS_EXTERNAL:
         learn_pass(learner, obs, row, kp, cfg, pl, sarsa, sp)
     code = np.int64(out.main[row])  # int64, as a player process's think passes it on to its say
     c.main[b, obs] = CMD_NONE  # the slots as the server's step leaves them (the batched step keeps them)
@@ -554,14 +529,7 @@ class BatchedArenas:
             belief=empty_belief(rows, keepers, takers),
             memory=new_memory(rows, np.array([agent_seed(s, obj, keepers) for s in seeds
                                               for obj in range(1, n_objects)], dtype=np.uint64)),
-            out=Decisions(
-                pass_state=np.zeros((rows, pass_state_size(keepers, takers))),
-                decision=np.zeros(rows, dtype=np.int8),
-                main=np.zeros(rows, dtype=np.int8),
-                arg1=np.zeros(rows),
-                arg2=np.zeros(rows),
-                neck=np.zeros(rows),
-            ),
+            out=new_decisions(rows, pass_state_size(keepers, takers)),
             talk=new_talk(rows),
             decay_sums=decay_sums(self.kp, self.cfg),
             hear_scratch=np.zeros((2, rows), dtype=np.int64),
@@ -759,7 +727,6 @@ __all__ = [
     "CHUNK_CYCLES",
     "ArenaPolicies",
     "BatchedArenas",
-    "Decisions",
     "EpisodeTable",
     "GETOPEN_POLICIES",
     "PASS_POLICIES",

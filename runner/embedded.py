@@ -18,9 +18,9 @@ from collections.abc import Callable, Collection, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
+from keepaway.agents.config import AgentConfig
 from keepaway.agents.player import PassLearnerFactory, PlayerAgent
 from keepaway.agents.policy_file import Policy
-from keepaway.agents.skills import AgentConfig
 from keepaway.protocol import encode
 from keepaway.protocol import messages as m
 from keepaway.protocol.advice import ReportRequest, SeedAdvice, decode_report

@@ -28,10 +28,10 @@ from typing import NamedTuple, Protocol
 
 import numpy as np
 
+from keepaway.agents.config import AgentConfig
 from keepaway.agents.getopen import InputScaling
 from keepaway.agents.player import LEARNED
 from keepaway.agents.sarsa import SarsaConfig
-from keepaway.agents.skills import AgentConfig
 from keepaway.protocol.params import ServerParams
 from keepaway.runner import MODES  # the backends (module docstring)
 from keepaway.server.episode_log import EpisodeRecord

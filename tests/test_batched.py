@@ -13,10 +13,11 @@ import numpy as np
 import pytest
 
 from keepaway.agents.belief import empty_belief
+from keepaway.agents.config import AgentConfig
 from keepaway.agents.getopen import net_size
 from keepaway.agents.sarsa import SarsaConfig
-from keepaway.agents.skills import AgentConfig
-from keepaway.agents.worldmodel import WorldModel, new_model_state, new_see_buffer, see_row, write_belief_row
+from keepaway.agents.tracking import new_model_state, new_see_buffer, see_row, write_belief_row
+from keepaway.agents.worldmodel import WorldModel
 from keepaway.protocol import encode
 from keepaway.protocol import messages as m
 from keepaway.protocol.landmarks import FLAG_POSITIONS, N_FLAGS, to_wire

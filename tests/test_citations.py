@@ -285,7 +285,7 @@ FILES = [name for name in text_files() if name != Path("tests/test_citations.py"
 
 
 def test_the_repository_has_text_files_to_check():
-    assert Path("docs/players.md") in FILES and Path("agents/skills.py") in FILES
+    assert Path("docs/players.md") in FILES and Path("agents/interception.py") in FILES
 
 
 @pytest.mark.parametrize("check", [doc_citation_problems, public_source_problems], ids=lambda f: f.__name__)

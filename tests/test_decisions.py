@@ -7,9 +7,11 @@ import numpy as np
 import pytest
 
 from beliefs import belief
-from keepaway.agents.belief import forget_episode, new_memory
+from keepaway.agents.belief import forget_episode, new_decisions, new_memory
+from keepaway.agents.config import PASS_EXTERNAL, AgentConfig
 from keepaway.agents.geometry import direction
 from keepaway.agents.getopen import grid_point, handcoded_target, net_size, net_value, random_target
+from keepaway.agents.interception import decay_sums, fastest_to_ball
 from keepaway.agents.keeper import (
     NO_PASS_DECISION,
     PASS_DECISION_START,
@@ -18,7 +20,6 @@ from keepaway.agents.keeper import (
     handcoded_pass,
     keeper_decide,
 )
-from keepaway.agents.skills import PASS_EXTERNAL, AgentConfig, decay_sums, fastest_to_ball
 from keepaway.agents.taker import mark_point, taker_decide
 from keepaway.core.objects import CMD_DASH, CMD_KICK, CMD_NONE, CMD_TURN
 from keepaway.core.rng import seed_streams
@@ -30,15 +31,15 @@ SUMS = decay_sums(KP, CFG)
 
 
 def outputs():
-    return np.zeros(1, np.int8), np.zeros(1), np.zeros(1), np.zeros(1)
+    return new_decisions(1, 13)
 
 
 def decide(bel, cfg=CFG, mem=None):
+    """keeper_decide's code, its command's arrays (main, arg1, arg2, neck), the memory and the Pass state."""
     mem = new_memory(1, seed_streams(0, 1)) if mem is None else mem
     out = outputs()
-    state = np.zeros(13)
-    code = keeper_decide(bel, 0, mem, np.zeros(91), SUMS, KP, cfg, *out, state)
-    return code, out, mem, state
+    code = keeper_decide(bel, 0, mem, np.zeros(91), SUMS, KP, cfg, out)
+    return code, (out.main, out.arg1, out.arg2, out.neck), mem, out.pass_state[0]
 
 
 def pass_vector(d_k1_t1, dist2, ang2, dist3, ang3):
@@ -103,8 +104,8 @@ def test_external_policy_hands_the_decision_to_the_caller():
     code, (main, *_), mem, _ = decide(belief(PRESSED, 1), cfg=cfg, mem=mem)
     assert code == PASS_DECISION_STEP
     out = outputs()
-    execute_pass_action(belief(PRESSED, 1), 0, mem, 0, KP, cfg, *out)
-    assert out[0][0] == CMD_KICK and mem.last_action[0] == 0 and mem.t_last[0] == 100
+    execute_pass_action(belief(PRESSED, 1), 0, mem, 0, KP, cfg, out)
+    assert out.main[0] == CMD_KICK and mem.last_action[0] == 0 and mem.t_last[0] == 100
     forget_episode(mem, 0)
     assert mem.last_action[0] == -1 and mem.t_last[0] == -1
 
@@ -196,8 +197,8 @@ def test_taker_chases_a_free_ball():
     pos = [[0.0, 0.0], [-7.0, -7.0], [7.0, -7.0], [-7.0, 7.0], [5.0, 0.0], [6.0, 6.0]]
     mem = new_memory(1, seed_streams(0, 1))
     out = outputs()
-    taker_decide(belief(pos, 4, body=[0, 0, 0, 0, 180, 0]), 0, mem, SUMS, KP, CFG, *out)
-    assert out[0][0] == CMD_DASH and out[1][0] == pytest.approx(100.0)
+    taker_decide(belief(pos, 4, body=[0, 0, 0, 0, 180, 0]), 0, mem, SUMS, KP, CFG, out)
+    assert out.main[0] == CMD_DASH and out.arg1[0] == pytest.approx(100.0)
 
 
 def test_taker_holds_the_ball_it_controls():
@@ -205,10 +206,10 @@ def test_taker_holds_the_ball_it_controls():
     # rate = 0.027 (1 - 0 - 0.25 * (0.9 - 0.385)/0.7) = 0.022034; power = 0.305 / 0.022034 = 13.842, dir 180
     pos = [[0.9, 0.0], [-7.0, -7.0], [7.0, -7.0], [-7.0, 7.0], [0.0, 0.0], [6.0, 6.0]]
     out = outputs()
-    taker_decide(belief(pos, 4), 0, new_memory(1, seed_streams(0, 1)), SUMS, KP, CFG, *out)
-    assert out[0][0] == CMD_KICK
-    assert out[1][0] == pytest.approx(0.305 / (0.027 * (1.0 - 0.25 * 0.515 / 0.7)))
-    assert abs(out[2][0]) == pytest.approx(180.0)
+    taker_decide(belief(pos, 4), 0, new_memory(1, seed_streams(0, 1)), SUMS, KP, CFG, out)
+    assert out.main[0] == CMD_KICK
+    assert out.arg1[0] == pytest.approx(0.305 / (0.027 * (1.0 - 0.25 * 0.515 / 0.7)))
+    assert abs(out.arg2[0]) == pytest.approx(180.0)
 
 
 def test_taker_hold_turns_when_the_ball_is_already_in_place():
@@ -216,9 +217,9 @@ def test_taker_hold_turns_when_the_ball_is_already_in_place():
     # within 0.85 x 1.085 m: turn towards the keepers' goal (-52.5, 0), i.e. by 180 deg
     pos = [[0.5, 0.0], [-7.0, -7.0], [7.0, -7.0], [-7.0, 7.0], [0.0, 0.0], [6.0, 6.0]]
     out = outputs()
-    taker_decide(belief(pos, 4), 0, new_memory(1, seed_streams(0, 1)), SUMS, KP, CFG, *out)
-    assert out[0][0] == CMD_TURN
-    assert abs(out[1][0]) == pytest.approx(180.0)
+    taker_decide(belief(pos, 4), 0, new_memory(1, seed_streams(0, 1)), SUMS, KP, CFG, out)
+    assert out.main[0] == CMD_TURN
+    assert abs(out.arg1[0]) == pytest.approx(180.0)
 
 
 def test_taker_does_not_interfere_with_a_teammate_on_the_ball():
@@ -228,10 +229,10 @@ def test_taker_does_not_interfere_with_a_teammate_on_the_ball():
     bel = belief(pos, 5)
     bel.neck[0, 5] = 20.0
     out = outputs()
-    taker_decide(bel, 0, new_memory(1, seed_streams(0, 1)), SUMS, KP, CFG, *out)
-    assert out[0][0] == CMD_TURN
-    assert out[1][0] == pytest.approx(direction(0.5, -3.0))
-    assert out[3][0] == pytest.approx(-20.0)
+    taker_decide(bel, 0, new_memory(1, seed_streams(0, 1)), SUMS, KP, CFG, out)
+    assert out.main[0] == CMD_TURN
+    assert out.arg1[0] == pytest.approx(direction(0.5, -3.0))
+    assert out.neck[0] == pytest.approx(-20.0)
 
 
 # 3v3: keeper 3 holds the ball at (0, 0); taker 4 near the lane to keeper 1 (-8, 8), taker 5 pressing the
@@ -248,17 +249,17 @@ def test_third_taker_marks_the_least_covered_keeper():
     assert mark_point(bel, 0, SUMS, KP, CFG) == pytest.approx((5.2643, 5.0819), abs=1e-4)
     out = outputs()
     bel.body[0, 6] = direction(5.2643, 13.0819)  # facing the mark point -> dash
-    taker_decide(bel, 0, new_memory(1, seed_streams(0, 1)), SUMS, KP, CFG, *out)
-    assert out[0][0] == CMD_DASH and out[1][0] == pytest.approx(100.0)
+    taker_decide(bel, 0, new_memory(1, seed_streams(0, 1)), SUMS, KP, CFG, out)
+    assert out.main[0] == CMD_DASH and out.arg1[0] == pytest.approx(100.0)
 
 
 def test_two_closest_takers_never_mark():
     # taker 4 is the second closest of three: it chases (turns to the ball) instead of marking
     bel = belief(MARKING, 4, n_takers=3, body=[0, 0, 0, 0, 0, 0, 0])
     out = outputs()
-    taker_decide(bel, 0, new_memory(1, seed_streams(0, 1)), SUMS, KP, CFG, *out)
-    assert out[0][0] == CMD_TURN
-    assert out[1][0] == pytest.approx(direction(3.5, -3.0), abs=1.0)
+    taker_decide(bel, 0, new_memory(1, seed_streams(0, 1)), SUMS, KP, CFG, out)
+    assert out.main[0] == CMD_TURN
+    assert out.arg1[0] == pytest.approx(direction(3.5, -3.0), abs=1.0)
 
 
 @pytest.mark.parametrize("ball_speed, expected", [(0.0, CMD_DASH), (1.0, CMD_TURN)])
@@ -271,5 +272,5 @@ def test_taker_plans_with_the_ball_it_believes(ball_speed, expected):
     bel = belief(pos, 4, body=[0, 0, 0, 0, -90, 0])
     bel.vel[0, 0] = [ball_speed, 0.0]
     out = outputs()
-    taker_decide(bel, 0, new_memory(1, seed_streams(0, 1)), SUMS, KP, CFG, *out)
-    assert out[0][0] == expected
+    taker_decide(bel, 0, new_memory(1, seed_streams(0, 1)), SUMS, KP, CFG, out)
+    assert out.main[0] == expected

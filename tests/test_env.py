@@ -16,9 +16,9 @@ from pettingzoo.test import parallel_api_test
 
 from conftest import REPO, keepaway_command
 from keepaway.agents.getopen import grid_point, handcoded_target
+from keepaway.agents.interception import fastest_to_ball
 from keepaway.agents.keeper import handcoded_pass
 from keepaway.agents.player import OUTSIDE_BODY, OUTSIDE_PASS, PlayerAgent
-from keepaway.agents.skills import fastest_to_ball
 from keepaway.env import parallel_env, random_action
 from keepaway.protocol.params import parameter_set
 from keepaway.runner.embedded import ArenaSpec, embedded_episodes

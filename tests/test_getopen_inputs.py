@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from beliefs import belief
+from keepaway.agents.config import AgentConfig
 from keepaway.agents.getopen import (
     RAW_INPUTS,
     SCALED_INPUTS,
@@ -21,7 +22,6 @@ from keepaway.agents.getopen import (
     net_value,
 )
 from keepaway.agents.policy_file import POLICY_VERSION, PolicyFileError, load_policy, save_policy
-from keepaway.agents.skills import AgentConfig
 from keepaway.agents.state_vars import getopen_state_kinds, getopen_state_size
 from keepaway.protocol.params import parameter_set
 from keepaway.runner.coached import policy_advice

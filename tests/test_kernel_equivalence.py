@@ -1,8 +1,8 @@
 """The optimised decision and world-model kernels decide exactly as the straightforward code they replaced.
 
-``agents/skills.py`` fuses the interception travel simulation (decay sums from a table, the body's cosine
+``agents/interception.py`` fuses the interception travel simulation (decay sums from a table, the body's cosine
 and sine kept between turns, an early stop once the target is provably out of reach), a keeper reuses its
-``fastest_to_ball`` result in ``interception_point``, ``agents/worldmodel.py`` computes each flag's
+``fastest_to_ball`` result in ``interception_point``, ``agents/tracking.py`` computes each flag's
 trigonometry once in ``localise_row``, the travel simulation, GO:HC's lane and congestion tests and the
 dash's speed cap decide their comparisons on sqrt estimates unless they are within a hair of the
 threshold (``agents.geometry.DECIDE_SLACK``), the Sarsa tile hashing sums each tile's table words from
@@ -24,9 +24,11 @@ import pytest
 from numba import njit
 
 from keepaway.agents.belief import AgentMemory, belief_from_truth, new_memory
+from keepaway.agents.config import AgentConfig
 from keepaway.agents.geometry import (
     ACOS_ESTIMATE_ERROR,
     acos_estimate,
+    closest_to_ball,
     compared_hypot,
     direction,
     distance,
@@ -50,6 +52,7 @@ from keepaway.agents.getopen import (
     predicted_ball_pos,
     tanh_estimate,
 )
+from keepaway.agents.interception import UNKNOWN_FIRST, _longest_run, decay_sums, fastest_to_ball, interception_point, travel
 from keepaway.agents.sarsa import (
     CHECK_INCREMENT,
     EMPTY_SLOT,
@@ -64,16 +67,6 @@ from keepaway.agents.sarsa import (
     unh_hash,
 )
 from keepaway.agents.sarsa import new_memory as new_sarsa_memory
-from keepaway.agents.skills import (
-    UNKNOWN_FIRST,
-    AgentConfig,
-    _longest_run,
-    closest_to_ball,
-    decay_sums,
-    fastest_to_ball,
-    interception_point,
-    travel,
-)
 from keepaway.agents.state_vars import (
     ESTIMATE_ANGLE_ERROR,
     ESTIMATE_DISTANCE_ERROR,
@@ -84,7 +77,7 @@ from keepaway.agents.state_vars import (
     pass_state,
     vertex_scratch,
 )
-from keepaway.agents.worldmodel import ModelState, SeeBuffer, localise_row, whole_degree_table
+from keepaway.agents.tracking import ModelState, SeeBuffer, localise_row, whole_degree_table
 from keepaway.core.objects import CMD_DASH, CMD_TURN
 from keepaway.core.rng import seed_streams
 from keepaway.protocol.landmarks import FLAG_POSITIONS

@@ -12,6 +12,7 @@ import math
 import numpy as np
 import pytest
 
+from keepaway.agents.config import GETOPEN_POLICIES, PASS_POLICIES
 from keepaway.agents.player import PlayerAgent, agent_seed_sequence, greedy_pass_factory
 from keepaway.agents.policy_file import (
     PolicyFileError,
@@ -22,7 +23,6 @@ from keepaway.agents.policy_file import (
     save_policy,
     unpack_pass_arrays,
 )
-from keepaway.agents.skills import GETOPEN_POLICIES, PASS_POLICIES
 from keepaway.protocol import PROTOCOL_VERSION, encode
 from keepaway.protocol import messages as m
 from keepaway.protocol.messages import decode_for_player, decode_from_player
@@ -573,7 +573,7 @@ def test_a_keepers_own_pass_arrays_of_the_wrong_size_are_a_one_line_error(tmp_pa
 def test_takers_with_the_exact_state_take_a_held_ball():
     # With the fullstate the takers used to see every small kick of a keeper that holds the ball and turn
     # after it for ever: always hold, CURRENT, seed 5 ended no episode in 40,000 cycles. The exact ball is
-    # now believed still where a keeper controls it, as after a see (agents.worldmodel.hold_exact_ball_row).
+    # now believed still where a keeper controls it, as after a see (agents.tracking.hold_exact_ball_row).
     game = Game(seed=5, fullstate=True, keeper_kw={"pass_policy": "hold"})
     ended = [record for _ in range(600) if (record := game.cycle()[1]) is not None]
     assert len(ended) >= 5

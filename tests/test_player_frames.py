@@ -104,7 +104,7 @@ def test_the_think_kernel_writes_what_its_steps_called_from_python_write(game):
 
     def counted(think, finish: bool):
         def call(*args):
-            decision, n = think(*args[:17], finish, *args[18:])
+            decision, n = think(*args[:13], finish, *args[14:])
             written[finish] += n != NOT_WRITTEN
             return decision, n
         return call

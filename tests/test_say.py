@@ -9,6 +9,7 @@ import math
 import numpy as np
 import pytest
 
+from keepaway.agents.config import AgentConfig
 from keepaway.agents.say import (
     BYTE_CODES,
     MAX_CHARS,
@@ -27,8 +28,7 @@ from keepaway.agents.say import (
     say_row,
     to_text,
 )
-from keepaway.agents.skills import AgentConfig
-from keepaway.agents.worldmodel import new_model_state
+from keepaway.agents.tracking import new_model_state
 from keepaway.core.objects import BALL, CMD_DASH, CMD_KICK, CMD_TURN
 from keepaway.protocol.codec import encode
 from keepaway.protocol.messages import Hear

@@ -10,8 +10,10 @@ import pytest
 
 from beliefs import belief
 from keepaway.agents.belief import belief_from_truth, new_memory
+from keepaway.agents.config import AgentConfig
 from keepaway.agents.geometry import (
     ball_after_kick,
+    forward_angle,
     geometric_sum,
     kick_rate,
     normalize_angle,
@@ -20,24 +22,18 @@ from keepaway.agents.geometry import (
     vertex_angle,
     vertex_angle_below,
 )
-from keepaway.agents.skills import (
+from keepaway.agents.interception import (
     UNKNOWN_FIRST,
-    AgentConfig,
     _longest_run,
     close_intercept,
     decay_sums,
     fastest_to_ball,
-    forward_angle,
-    go_to_point,
-    hold_ball,
     intercept,
     intercept_move,
     interception_point,
-    kick_close_to_body,
-    pass_ball,
-    pass_initial_speed,
-    search_ball,
 )
+from keepaway.agents.kicks import hold_ball, kick_close_to_body, pass_ball, pass_initial_speed
+from keepaway.agents.movement import go_to_point, search_ball
 from keepaway.core.objects import CMD_DASH, CMD_KICK, CMD_TURN
 from keepaway.core.rng import seed_streams
 from keepaway.protocol.params import parameter_set

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from beliefs import belief
-from keepaway.agents.skills import AgentConfig
+from keepaway.agents.config import AgentConfig
 from keepaway.agents.state_vars import getopen_state, getopen_state_size, pass_state, pass_state_size, smallest_angle
 
 CFG = AgentConfig().kernel()

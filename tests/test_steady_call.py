@@ -12,7 +12,7 @@ import numba
 import numpy as np
 import pytest
 
-from keepaway.agents.skills import AgentConfig
+from keepaway.agents.config import AgentConfig
 from keepaway.core.jit import SteadyCall, borrowing
 from keepaway.core.records import KernelTable
 from keepaway.protocol.params import parameter_set

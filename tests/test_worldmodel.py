@@ -1,4 +1,4 @@
-"""The players' world model (agents/worldmodel.py): localisation, tracking, prediction, confidence.
+"""The players' world model (agents/tracking.py, agents/worldmodel.py): localisation, tracking, prediction, confidence.
 
 Percepts come from the server's own perception code (`server/perception.py`) applied to exact worlds,
 or are written by hand where a formula is pinned. docs/rules.md §1, §2, §5; docs/players.md §4.
@@ -12,8 +12,9 @@ import numpy as np
 import pytest
 
 from keepaway.agents.belief import belief_from_truth
-from keepaway.agents.skills import AgentConfig
-from keepaway.agents.worldmodel import CONF_HORIZON_CYCLES, WorldModel, new_model_state, new_see_buffer, see_row
+from keepaway.agents.config import AgentConfig
+from keepaway.agents.tracking import CONF_HORIZON_CYCLES, new_model_state, new_see_buffer, see_row
+from keepaway.agents.worldmodel import WorldModel
 from keepaway.core.objects import CMD_DASH, CMD_KICK, CMD_NONE, CMD_TURN
 from keepaway.protocol import landmarks
 from keepaway.protocol.params import parameter_set

@@ -44,7 +44,7 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import bootstrap
 
-from keepaway.agents.skills import AgentConfig
+from keepaway.agents.config import AgentConfig
 from keepaway.core.objects import BALL
 from keepaway.protocol.params import ServerParams
 from keepaway.runner.batched import BatchedArenas

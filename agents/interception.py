@@ -1,25 +1,22 @@
-"""The players' skills: intercept, HoldBall, kicks, PassBall, GoToPoint, ball search, travel time.
+"""Interception: who reaches the ball first, where I meet it, and the moves that take me there.
 
-A re-creation of the UvA Trilearn / keepaway-framework skills (docs/players.md §5; keepaway-0.6
-player/BasicPlayer.cc); the section numbers below are those of docs/players.md. Every skill is a numba kernel
-on one row ``r`` of a ``Belief`` and returns a command triple ``(code, arg1, arg2)`` with the CMD_* codes of
-`core/objects.py` (dash: power; turn: moment; kick: power, direction relative to the body). The neck is chosen
-separately (``neck_to_point``/``neck_with_body``) by the decision loops. Constants come from the server
-parameter record ``kp`` and from ``AgentConfig.kernel()`` (``cfg``).
+The keepaway-framework's intercept (docs/players.md §4.3, §5.2): the travel-time simulation that decides who
+is fastest to the ball, the interception point with its stability rule, the close interception
+(``BasicPlayer::interceptClose``, keepaway-0.6 player/BasicPlayer.cc) and the move towards the point
+(``predictCommandToMoveToPos``, ``predictCommandToInterceptBall``, keepaway-0.6 player/WorldModelPredict.cc).
+Skills as in `agents/movement.py`: kernels on a belief row that return a command triple.
 """
 
 from __future__ import annotations
 
 import math
-from collections import namedtuple
-from dataclasses import dataclass, fields
 
 import numpy as np
 
 from keepaway.agents.belief import AgentMemory, Belief
 from keepaway.agents.geometry import (
     DECIDE_SLACK,
-    ball_after_kick,
+    ball_in,
     compared_hypot,
     dash_power_along,
     dash_power_for,
@@ -27,326 +24,21 @@ from keepaway.agents.geometry import (
     direction,
     distance,
     final_position,
+    forward_angle,
     geometric_sum,
-    kick_rate,
+    kickable_distance,
     near,
-    nearer_than,
     normalize_angle,
+    opponents,
+    own_frame_sign,
     player_step,
     rolled_out,
     turn_effect,
     turn_moment,
 )
+from keepaway.agents.movement import turn_to_point
 from keepaway.core.jit import borrowing, njit
-from keepaway.core.objects import CMD_DASH, CMD_KICK, CMD_TURN
-from keepaway.core.records import kernel_record
-from keepaway.protocol.advice import GETOPEN_POLICY_NAMES, PASS_POLICY_NAMES
-
-# Pass policies (docs/players.md §6.2); EXTERNAL: the caller's learner picks the action.
-PASS_RANDOM = 0
-PASS_HANDCODED = 1
-PASS_EXTERNAL = 2
-PASS_HOLD = 3
-# GetOpen policies (docs/players.md §7; HANDCODED_CONE: the framework variant, docs/players.md §7.2).
-GETOPEN_RANDOM = 0
-GETOPEN_HANDCODED = 1
-GETOPEN_HANDCODED_CONE = 2
-GETOPEN_LEARNED = 3
-GETOPEN_EXTERNAL = 4  # the caller picks the grid point (agents.player, outside decisions); no CLI name
-# The policies' names on the command line, in configurations and in the coach's advice (declared with
-# the advice, protocol.advice), shared by every mode, and their codes.
-PASS_POLICIES = dict(zip(PASS_POLICY_NAMES, (PASS_RANDOM, PASS_HANDCODED, PASS_EXTERNAL, PASS_HOLD), strict=True))
-GETOPEN_POLICIES = dict(zip(GETOPEN_POLICY_NAMES,
-                            (GETOPEN_RANDOM, GETOPEN_HANDCODED, GETOPEN_HANDCODED_CONE, GETOPEN_LEARNED), strict=True))
-
-
-@dataclass(frozen=True)
-class AgentConfig:
-    """The players' own constants (not the server's), each with the section of docs/players.md or the C++
-    function it comes from."""
-
-    pass_policy: int = PASS_HANDCODED  # docs/players.md §6
-    getopen_policy: int = GETOPEN_HANDCODED  # docs/players.md §7
-    ball_conf_threshold: float = 0.90  # docs/players.md §4.1: ball "known"
-    player_conf_threshold: float = 0.88  # docs/players.md §4.1: player usable
-    pass_end_speed: float = 1.2  # docs/players.md §5.4: PlayerSettings default
-    hold_ratio_keeper: float = 0.7  # docs/players.md §5.3
-    hold_ratio_taker: float = 0.3  # docs/players.md §5.3
-    hold_opponent_radius: float = 5.0  # docs/players.md §5.3 step 1
-    hold_escape_angle: float = 45.0  # docs/players.md §5.3 step 1
-    hold_ball_tolerance: float = 0.3  # docs/players.md §5.3 step 2
-    hold_turn_safety: float = 0.85  # docs/players.md §5.3 step 2 (x kickable distance)
-    still_ball_speed: float = 0.1  # docs/players.md §5.3 step 3
-    freeze_keep_ratio: float = 0.8  # docs/players.md §5.3 step 3 (x kickable distance)
-    freeze_target_ratio: float = 0.7  # docs/players.md §5.3 step 3 (x kickable distance)
-    freeze_inset: float = 0.1  # BasicPlayer::freezeBall, docs/players.md §5.3 step 3
-    pitch_pullback: float = 0.2  # BasicPlayer::kickBallCloseToBody, docs/players.md §5.3 step 3
-    pass_speed_ratio: float = 0.85  # BasicPlayer::kickTo, PlayerWhenToKick (x ball_accel_max)
-    pass_kick_rate_ratio: float = 0.85  # docs/players.md §5.4 (x kick_power_rate)
-    reposition_ratio: float = 0.16  # docs/players.md §5.4
-    pass_power_ok: float = 105.0  # docs/players.md §5.4
-    pass_power_pressed: float = 130.0  # docs/players.md §5.4
-    pass_pressure_radius: float = 2.0  # docs/players.md §5.4
-    turn_threshold: float = 7.0  # docs/players.md §5.5 (GetOpen's moveToPos angle)
-    max_sim_turns: float = 5.0  # docs/players.md §5.5
-    max_direct_turns: float = 2.0  # docs/players.md §5.5: 1-2 turns -> turn, 3+ -> brake
-    turn_aim_cycles: float = 2.0  # docs/players.md §5.5: turn aimed at my position 2 cycles ahead
-    intercept_horizon: float = 30.0  # docs/players.md §4.3, §5.2 step 2
-    no_intercept_cycles: float = 100.0  # predictCommandToInterceptBall: no point reachable -> the ball 100 ahead
-    intercept_roll_cycles: float = 4.0  # WorldModel::predictCommandTurnTowards: position min(i, 4) ahead
-    intercept_back_distance: float = 2.5  # WorldModel::predictCommandToMoveToPos default dDistBack
-    turn_ratio_near: float = 0.9  # WorldModel::predictCommandTurnTowards dRatioTurn (<= 10 m)
-    turn_ratio_mid: float = 2.0  # same (10-20 m)
-    turn_ratio_far: float = 3.0  # same (> 20 m)
-    turn_mid_distance: float = 10.0  # same
-    turn_far_distance: float = 20.0  # same
-    close_radius_margin: float = 1.0 / 6.0  # docs/players.md §5.2 step 1 (x kickable_margin)
-    close_margin: float = 0.95  # BasicPlayer::interceptClose: one dash succeeds (x kickable distance)
-    close_turn_margin: float = 0.8  # same: a turn (or a stopping dash) keeps the ball (x kickable distance)
-    close_near_margin: float = 0.7  # same, ball beyond close range: ball already at my feet (x kickable)
-    close_heading_tolerance: float = 25.0  # same, angThreshold: body close enough to the desired heading
-    close_opponent_radius: float = 3.0  # same, bOppClose: an opponent this near -> dash first
-    close_range_dash_cycles: float = 3.0  # same: close range 3 player_speed_max + (1 + ball_decay)
-    back_turn_margin: float = 0.9  # WorldModel::predictCommandTurnTowards: turn with the back (x kickable)
-    back_turn_max_cycles: float = 4.0  # same: only when arriving in fewer cycles
-    close_max_cycle: float = 3.0  # docs/players.md §5.2 step 3
-    stability_radius: float = 1.0  # docs/players.md §5.2 step 2
-    stability_margin: float = 0.7  # docs/players.md §5.2 step 2 (x kickable distance)
-    stability_ball_speed: float = 0.6  # docs/players.md §5.2 step 2
-    stability_window: float = 2.0  # docs/players.md §5.2 step 2 (cycles)
-    intercept_stay_radius: float = 0.5  # docs/players.md §5.2 step 3
-    # Not in the framework (a deviation, docs/design.md, "The players' skills"): a player that has sent this
-    # many backward dashes while standing still, since it last moved, turns to its interception point instead
-    # of the next one.
-    stuck_dash_limit: float = 30.0
-    still_speed: float = 0.01  # standing still: sensed speed below this (m/cycle)
-    search_turn: float = 60.0  # docs/players.md §5.6
-    search_memory: float = 3.0  # BasicPlayer::searchBall: side kept for 3 cycles
-    hc_hold_distance: float = 5.0  # docs/players.md §6.2, P:HC C1
-    hc_angle_weight: float = 0.25  # docs/players.md §6.2, P:HC C2
-    hc_pass_threshold: float = 22.5  # docs/players.md §6.2, P:HC C3
-    go_safety_angle: float = 18.4  # docs/players.md §7.2, GO:HC
-    go_cone_ratio: float = 0.3  # docs/players.md §7.2
-    grid_points: float = 5.0  # docs/players.md §7.1 (per side)
-    grid_margin: float = 0.15  # docs/players.md §7.1
-    arrival_radius: float = 1.5  # docs/players.md §7.5, §7.3
-    mark_distance: float = 4.0  # docs/players.md §3 step 3
-    mark_cone_ratio: float = 0.3  # docs/players.md §3 step 3
-    # Not in the paper (an option, off by default): GO:L's variables 9-10 measured from predictedBallPos
-    # (as GO:HC's lane test) instead of from the keeper now closest to the ball (docs/players.md §7);
-    # the measurements that kept the paper's definition: docs/design.md, "Learning options".
-    getopen_lane_from_predicted_ball: bool = False
-    # Say and hear (agents/say.py; KeepawayPlayer::makeSayMessage, WorldModelSayMsgTypes.cc). Off: silent
-    # players that hear nothing, to measure what talking changes.
-    say_messages: bool = True
-    say_ball_range: float = 20.0  # makeSayMessage: a ball seen with its change pair within this is said
-    say_pass_margin: float = 0.2  # same: a kick taking the ball this far beyond kickable distance is a pass
-    hear_ball_near: float = 3.0  # WMBallInfo::process: a heard ball is not taken this close to me
-    hear_ball_stale_cycles: float = 3.0  # same: a ball whose change pair is older than this is replaced
-    hear_velocity_gap: float = 0.3  # same, and processPerfectHearInfoBall: a velocity this different
-
-    def kernel(self) -> np.record:
-        """The fields (:data:`AgentKernel`) as a record of floats, the form numba kernels take
-        (``core.records``)."""
-        return kernel_record(AgentKernel(*(float(getattr(self, n)) for n in AgentKernel._fields)))
-
-
-AgentKernel = namedtuple("AgentKernel", [f.name for f in fields(AgentConfig)])
-AgentKernel.__module__ = __name__
-
-
-@borrowing
-def kickable_distance(kp) -> float:
-    """player_size + kickable_margin + ball_size = 1.085 m (docs/players.md §1)."""
-    return kp.player_size + kp.kickable_margin + kp.ball_size
-
-
-@borrowing
-def ball_in(bel: Belief, r: int, n: float, kp) -> tuple:
-    """The believed ball position after ``n`` cycles (docs/players.md §4.3)."""
-    return rolled_out(
-        bel.pos[r, 0, 0], bel.pos[r, 0, 1], bel.vel[r, 0, 0], bel.vel[r, 0, 1], n, kp.ball_decay
-    )
-
-
-@borrowing
-def ball_kickable(bel: Belief, r: int, obj: int, kp) -> bool:
-    """Whether player ``obj`` can kick the ball (centre distance < kickable distance, docs/players.md §1)."""
-    kickable = kickable_distance(kp)
-    return compared_hypot(bel.pos[r, 0, 0] - bel.pos[r, obj, 0], bel.pos[r, 0, 1] - bel.pos[r, obj, 1],
-                          kickable) < kickable
-
-
-@borrowing
-def closest_to_ball(bel: Belief, r: int, first: int, last: int, skip: int, cfg) -> int:
-    """The usable player (conf >= threshold, not ``skip``) among objects first..last closest to the ball,
-    -1 if none; ties go to the lower index."""
-    best = -1
-    best_d = math.inf
-    for j in range(first, last + 1):
-        if j == skip or (j != bel.me[r] and bel.conf[r, j] < cfg.player_conf_threshold):
-            continue
-        d = nearer_than(bel.pos[r, 0, 0] - bel.pos[r, j, 0], bel.pos[r, 0, 1] - bel.pos[r, j, 1], best_d)
-        if d < best_d:
-            best, best_d = j, d
-    return best
-
-
-@borrowing
-def distances_from(bel: Belief, r: int, ox: float, oy: float, last: int, skip: int, out) -> None:
-    """``out[j]`` = distance((ox, oy), object j) for the players j = 1..last except ``skip``."""
-    for j in range(1, last + 1):
-        if j != skip:
-            out[j] = distance(ox, oy, bel.pos[r, j, 0], bel.pos[r, j, 1])
-
-
-@borrowing
-def sort_by_distance(dist, first: int, last: int, skip: int, out) -> int:
-    """Write the objects first..last except ``skip`` into ``out`` by increasing ``dist[j]`` (their
-    :func:`distances_from` a point; stable: lower index first on ties); returns how many were written."""
-    n = 0
-    for j in range(first, last + 1):
-        if j == skip:
-            continue
-        d = dist[j]
-        k = n
-        while k > 0 and dist[out[k - 1]] > d:
-            out[k] = out[k - 1]
-            k -= 1
-        out[k] = j
-        n += 1
-    return n
-
-
-@borrowing
-def opponent_range(obj: int, n_keepers: int, n_players: int) -> tuple:
-    """Object index range (first, last), inclusive, of the opponents of player ``obj`` among objects
-    1..n_players (keepers first): the takers for a keeper, the keepers for a taker."""
-    if 1 <= obj <= n_keepers:
-        return n_keepers + 1, n_players
-    return 1, n_keepers
-
-
-@borrowing
-def opponents(bel: Belief, obj: int) -> tuple:
-    """Object index range (first, last) of the opponents of player ``obj``."""
-    return opponent_range(obj, bel.n_keepers, bel.n_keepers + bel.n_takers)
-
-
-@borrowing
-def frame_sign(obj: int, n_keepers: int) -> float:
-    """+1 if player ``obj``'s own frame is the server's (a keeper), -1 if it is mirrored (a taker):
-    :func:`own_frame_sign` on an object index."""
-    return 1.0 if 1 <= obj <= n_keepers else -1.0
-
-
-@borrowing
-def own_frame_sign(bel: Belief, r: int) -> float:
-    """+1 if my own frame is the server's, -1 if it is mirrored. The C++ players mirror the field for the
-    right-hand team, the takers (rcssserver keepaway mode: keepers left), so where their code says
-    "global 0", "forward in x" or "the opponent goal" a taker means the server's 180 deg, -x and the
-    left goal."""
-    return frame_sign(bel.me[r], bel.n_keepers)
-
-
-@borrowing
-def forward_angle(bel: Belief, r: int) -> float:
-    """The server-frame direction that my own frame calls 0 deg (``own_frame_sign``)."""
-    return 0.0 if own_frame_sign(bel, r) > 0.0 else 180.0
-
-
-# ----------------------------------------------------------------------------------------------- neck
-
-
-@borrowing
-def neck_to_point(bel: Belief, r: int, cmd: int, a1: float, tx: float, ty: float, kp) -> float:
-    """turn_neck moment that points the head at (tx, ty) after this cycle's main command, the neck
-    clipped to its range (BasicPlayer::turnNeckToPoint)."""
-    me = bel.me[r]
-    px, py, _, _, body = player_step(
-        bel.pos[r, me, 0], bel.pos[r, me, 1], bel.vel[r, me, 0], bel.vel[r, me, 1], bel.body[r, me],
-        bel.effort[r], cmd, a1, kp,
-    )
-    want = normalize_angle(direction(tx - px, ty - py) - body)
-    want = min(kp.max_neck_angle, max(kp.min_neck_angle, want))
-    return want - bel.neck[r, me]
-
-
-@borrowing
-def neck_to_ball(bel: Belief, r: int, cmd: int, a1: float, kp) -> float:
-    """turn_neck moment towards the believed ball position."""
-    return neck_to_point(bel, r, cmd, a1, bel.pos[r, 0, 0], bel.pos[r, 0, 1], kp)
-
-
-@borrowing
-def neck_with_body(bel: Belief, r: int) -> float:
-    """turn_neck moment that aligns the neck with the body (docs/players.md §5.6)."""
-    return -bel.neck[r, bel.me[r]]
-
-
-@borrowing
-def write_action(
-    r: int, code: int, a1: float, a2: float, neck: float, out_main, out_a1, out_a2, out_neck
-) -> None:
-    """Store one decision (main command and neck moment) in row ``r`` of the caller's arrays."""
-    out_main[r] = code
-    out_a1[r] = a1
-    out_a2[r] = a2
-    out_neck[r] = neck
-
-
-# ------------------------------------------------------------------------------------------ movement
-
-
-@borrowing
-def turn_to_point(bel: Belief, r: int, tx: float, ty: float, cycles: float, kp) -> tuple:
-    """Turn the body towards (tx, ty) as seen from my position ``cycles`` ahead, compensating inertia
-    (BasicPlayer::turnBodyToPoint; turn inertia, docs/players.md §5.1)."""
-    me = bel.me[r]
-    vx, vy = bel.vel[r, me, 0], bel.vel[r, me, 1]
-    px, py = rolled_out(bel.pos[r, me, 0], bel.pos[r, me, 1], vx, vy, cycles, kp.player_decay)
-    angle = normalize_angle(direction(tx - px, ty - py) - bel.body[r, me])
-    return CMD_TURN, turn_moment(angle, math.hypot(vx, vy), kp), 0.0
-
-
-@borrowing
-def move_command(
-    px: float, py: float, vx: float, vy: float, body: float, effort: float,
-    tx: float, ty: float, cycles: float, kp, cfg,
-) -> tuple:
-    """GoToPoint for any player state (docs/players.md §5.5): from the rolled-out reference position dash if the
-    target is within the 7 deg threshold of the body direction, else count the turns needed (up to 5):
-    1-2 -> turn (aimed from my position 2 cycles ahead), 3+ -> brake with a dash to stand still.
-    Dash power covers the forward distance in ``cycles`` cycles. Returns (code, arg1)."""
-    fx, fy = final_position(px, py, vx, vy, kp.player_decay)
-    goal_dir = direction(tx - fx, ty - fy)
-    angle = normalize_angle(goal_dir - body)
-    if abs(angle) <= cfg.turn_threshold:
-        return CMD_DASH, dash_power_for(tx - px, ty - py, body, vx, vy, effort, cycles, kp)
-    sx, sy, svx, svy, sb = px, py, vx, vy, body
-    turns = 0
-    while abs(angle) > cfg.turn_threshold and turns < cfg.max_sim_turns:
-        turns += 1
-        sx, sy, svx, svy, sb = player_step(
-            sx, sy, svx, svy, sb, effort, CMD_TURN, turn_moment(angle, math.hypot(svx, svy), kp), kp
-        )
-        angle = normalize_angle(goal_dir - sb)
-    if turns <= cfg.max_direct_turns:
-        ax, ay = rolled_out(px, py, vx, vy, cfg.turn_aim_cycles, kp.player_decay)
-        aim = normalize_angle(direction(tx - ax, ty - ay) - body)
-        return CMD_TURN, turn_moment(aim, math.hypot(vx, vy), kp)
-    return CMD_DASH, dash_power_for(0.0, 0.0, body, vx, vy, effort, 1.0, kp)
-
-
-@borrowing
-def go_to_point(bel: Belief, r: int, tx: float, ty: float, kp, cfg) -> tuple:
-    """GoToPoint(target, 7 deg) for row ``r`` (docs/players.md §5.5)."""
-    me = bel.me[r]
-    code, a1 = move_command(
-        bel.pos[r, me, 0], bel.pos[r, me, 1], bel.vel[r, me, 0], bel.vel[r, me, 1], bel.body[r, me],
-        bel.effort[r], tx, ty, 1.0, kp, cfg,
-    )
-    return code, a1, 0.0
+from keepaway.core.objects import CMD_DASH, CMD_TURN
 
 
 @borrowing
@@ -592,217 +284,6 @@ def fastest_to_ball(bel: Belief, r: int, first: int, last: int, sums, kp, cfg) -
         if best >= 0:
             return best, i
     return -1, horizon + 1
-
-
-@borrowing
-def search_ball(bel: Belief, r: int, mem: AgentMemory, kp, cfg) -> tuple:
-    """Turn 60 deg towards the side where the ball was last seen; the side is re-chosen only after
-    3 cycles without searching (docs/players.md §5.6, BasicPlayer::searchBall)."""
-    me = bel.me[r]
-    now = bel.time[r]
-    px, py, body = bel.pos[r, me, 0], bel.pos[r, me, 1], bel.body[r, me]
-    if mem.search_time[r] < 0 or now - mem.search_time[r] > cfg.search_memory:
-        rel = normalize_angle(direction(bel.pos[r, 0, 0] - px, bel.pos[r, 0, 1] - py) - body)
-        mem.search_sign[r] = 1.0 if rel >= 0.0 else -1.0
-    mem.search_time[r] = now
-    aim = math.radians(body + cfg.search_turn * mem.search_sign[r])
-    return turn_to_point(bel, r, px + math.cos(aim), py + math.sin(aim), 1.0, kp)
-
-
-# ------------------------------------------------------------------------------------------- kicking
-
-
-@borrowing
-def _my_kick_rate(bel: Belief, r: int, kp) -> float:
-    me = bel.me[r]
-    return kick_rate(
-        bel.pos[r, me, 0], bel.pos[r, me, 1], bel.body[r, me], bel.pos[r, 0, 0], bel.pos[r, 0, 1], kp
-    )
-
-
-@borrowing
-def _power_for_speed(speed: float, rate: float) -> float:
-    """Kick power giving a velocity change ``speed`` at effective ``rate`` (docs/players.md §5.1)."""
-    return speed / rate if rate > 0.0 else math.inf
-
-
-@borrowing
-def accelerate_ball_to(bel: Belief, r: int, wx: float, wy: float, kp) -> tuple:
-    """Kick that gives the ball velocity (wx, wy); if one kick cannot, a full-power kick that aligns the
-    ball's new velocity with it (BasicPlayer::accelerateBallToVelocity, docs/players.md §5.4)."""
-    me = bel.me[r]
-    body = bel.body[r, me]
-    bvx, bvy = bel.vel[r, 0, 0], bel.vel[r, 0, 1]
-    rate = _my_kick_rate(bel, r, kp)
-    ax, ay = wx - bvx, wy - bvy
-    acc = math.hypot(ax, ay)
-    if acc < kp.ball_accel_max:
-        power = _power_for_speed(acc, rate)
-        if power <= kp.max_power:
-            return CMD_KICK, power, normalize_angle(direction(ax, ay) - body)
-    speed = rate * kp.max_power
-    want = direction(wx, wy)
-    rad = math.radians(-want)
-    side = bvx * math.sin(rad) + bvy * math.cos(rad)
-    ratio = min(1.0, max(-1.0, side / speed)) if speed > 0.0 else 0.0
-    kick_dir = want - math.degrees(math.asin(ratio))
-    return CMD_KICK, kp.max_power, normalize_angle(kick_dir - body)
-
-
-@borrowing
-def freeze_ball(bel: Belief, r: int, kp, cfg) -> tuple:
-    """Stop the ball: kick against its velocity; if that would leave it beyond 0.8 x kickable distance of
-    my next position, kick it towards a point inside 0.7 x kickable distance instead (docs/players.md §5.3 step 3)."""
-    me = bel.me[r]
-    body = bel.body[r, me]
-    bx, by = bel.pos[r, 0, 0], bel.pos[r, 0, 1]
-    bvx, bvy = bel.vel[r, 0, 0], bel.vel[r, 0, 1]
-    rate = _my_kick_rate(bel, r, kp)
-    power = min(_power_for_speed(math.hypot(bvx, bvy), rate), kp.max_power)
-    kick_dir = normalize_angle(direction(bvx, bvy) + 180.0 - body)
-    nx, ny = bel.pos[r, me, 0] + bel.vel[r, me, 0], bel.pos[r, me, 1] + bel.vel[r, me, 1]
-    fx, fy, _, _ = ball_after_kick(bx, by, bvx, bvy, rate, power, kick_dir, body, kp)
-    kickable = kickable_distance(kp)
-    if distance(fx, fy, nx, ny) < cfg.freeze_keep_ratio * kickable:
-        return CMD_KICK, power, kick_dir
-    reach = min(cfg.freeze_target_ratio * kickable, distance(bx, by, nx, ny) - cfg.freeze_inset)
-    aim = math.radians(direction(bx - nx, by - ny))
-    return accelerate_ball_to(bel, r, nx + reach * math.cos(aim) - bx, ny + reach * math.sin(aim) - by, kp)
-
-
-@borrowing
-def kick_close_to_body(bel: Belief, r: int, angle: float, ratio: float, kp, cfg) -> tuple:
-    """Kick the ball to my next position + (player_size + ball_size + kickable_margin * ratio) at
-    ``angle`` relative to my body, pulled back inside the pitch; freeze if one kick cannot compensate a
-    moving ball, kick at full power if the ball is still (docs/players.md §5.3 step 3)."""
-    me = bel.me[r]
-    body = bel.body[r, me]
-    nx, ny = bel.pos[r, me, 0] + bel.vel[r, me, 0], bel.pos[r, me, 1] + bel.vel[r, me, 1]
-    reach = kp.player_size + kp.ball_size + kp.kickable_margin * ratio
-    aim = math.radians(normalize_angle(body + angle))
-    cs, sn = math.cos(aim), math.sin(aim)
-    half_l, half_w = kp.pitch_length / 2.0, kp.pitch_width / 2.0
-    if abs(ny + reach * sn) > half_w and sn != 0.0:
-        reach = (math.copysign(half_w, sn) - ny) / sn - cfg.pitch_pullback
-    elif abs(nx + reach * cs) > half_l and cs != 0.0:
-        reach = (math.copysign(half_l, cs) - nx) / cs - cfg.pitch_pullback
-    bvx, bvy = bel.vel[r, 0, 0], bel.vel[r, 0, 1]
-    kx = nx + reach * cs - bel.pos[r, 0, 0] - bvx
-    ky = ny + reach * sn - bel.pos[r, 0, 1] - bvy
-    power = _power_for_speed(math.hypot(kx, ky), _my_kick_rate(bel, r, kp))
-    if power > kp.max_power:
-        if math.hypot(bvx, bvy) > cfg.still_ball_speed:
-            return freeze_ball(bel, r, kp, cfg)
-        power = kp.max_power
-    return CMD_KICK, power, normalize_angle(direction(kx, ky) - body)
-
-
-@borrowing
-def hold_ball(bel: Belief, r: int, ratio: float, kp, cfg) -> tuple:
-    """HoldBall (docs/players.md §5.3): keep the ball ``ratio`` x kickable_margin from the body, away from the
-    opponent closest to the ball (rotated 45 deg against its heading) when it is within 5 m; if the ball
-    already sits there, turn towards the opponent goal as long as the ball stays controllable."""
-    me = bel.me[r]
-    px, py, body = bel.pos[r, me, 0], bel.pos[r, me, 1], bel.body[r, me]
-    first, last = opponents(bel, me)
-    opp = closest_to_ball(bel, r, first, last, -1, cfg)
-    desired = 0.0
-    if opp >= 0:
-        ox, oy = bel.pos[r, opp, 0], bel.pos[r, opp, 1]
-        if distance(ox, oy, bel.pos[r, 0, 0], bel.pos[r, 0, 1]) < cfg.hold_opponent_radius:
-            phi = direction(px - ox, py - oy)
-            side = -1.0 if normalize_angle(bel.body[r, opp] - phi) > 0.0 else 1.0
-            desired = normalize_angle(phi + cfg.hold_escape_angle * side - body)
-    # The framework tests the relative angle as if it were global (a quirk kept, docs/players.md §5.3 step 2).
-    spot_x = px + ratio * math.cos(math.radians(desired))
-    spot_y = py + ratio * math.sin(math.radians(desired))
-    if distance(spot_x, spot_y, bel.pos[r, 0, 0], bel.pos[r, 0, 1]) < cfg.hold_ball_tolerance:
-        goal_x = own_frame_sign(bel, r) * kp.pitch_length / 2.0
-        code, a1, a2 = turn_to_point(bel, r, goal_x, 0.0, 1.0, kp)
-        mx, my, _, _, _ = player_step(
-            px, py, bel.vel[r, me, 0], bel.vel[r, me, 1], body, bel.effort[r], code, a1, kp
-        )
-        bx, by = ball_in(bel, r, 1.0, kp)
-        if distance(mx, my, bx, by) < cfg.hold_turn_safety * kickable_distance(kp):
-            return code, a1, a2
-    return kick_close_to_body(bel, r, desired, ratio, kp, cfg)
-
-
-@borrowing
-def pass_initial_speed(dist: float, end_speed: float, decay: float) -> tuple:
-    """(n, v0): cycles and initial speed for a ball to arrive after ``dist`` with ``end_speed``:
-    n = round(log(dist (1/d - 1)/end + 1) / log(1/d)), v0 = end (1/d)^n (docs/players.md §5.4)."""
-    inv = 1.0 / decay
-    n = math.floor(math.log(dist * (inv - 1.0) / end_speed + 1.0) / math.log(inv) + 0.5)
-    return n, end_speed * inv**n
-
-
-@borrowing
-def _full_kick_speed(bvx: float, bvy: float, ux: float, uy: float, kick_speed: float) -> float:
-    """The ball speed the C++ kickTo predicts for a full-power kick along (ux, uy): the kick (speed
-    ``kick_speed``) aimed so that it cancels the ball's velocity across the line, no caps applied; 0 when
-    it cannot (the C++'s asin is then undefined and its test fails)."""
-    across = -bvx * uy + bvy * ux
-    if abs(across) > kick_speed:
-        return 0.0
-    return abs(bvx * ux + bvy * uy + math.sqrt(kick_speed**2 - across**2))
-
-
-@borrowing
-def kick_to(bel: Belief, r: int, tx: float, ty: float, end_speed: float, kp, cfg) -> tuple:
-    """kickTo(target, end speed) (docs/players.md §5.4): the initial speed that makes the ball arrive at ``end_speed``;
-    if the ball's first step would end on my next position, it is shortened/extended to end 0.385 m
-    before/after my projection on its line (BasicPlayer::kickTo); too fast -> full-power kick, freeze or
-    reposition; too much power -> reposition in front (kick next cycle)."""
-    me = bel.me[r]
-    bx, by = bel.pos[r, 0, 0], bel.pos[r, 0, 1]
-    dist = distance(bx, by, tx, ty)
-    if dist == 0.0:
-        return kick_close_to_body(bel, r, 0.0, cfg.reposition_ratio, kp, cfg)
-    _, v0 = pass_initial_speed(dist, end_speed, kp.ball_decay)
-    ux, uy = (tx - bx) / dist, (ty - by) / dist
-    nx, ny = bel.pos[r, me, 0] + bel.vel[r, me, 0], bel.pos[r, me, 1] + bel.vel[r, me, 1]
-    body_clear = kp.player_size + kp.ball_size
-    if distance(bx + v0 * ux, by + v0 * uy, nx, ny) < body_clear:
-        along = abs((bel.pos[r, me, 0] - bx) * ux + (bel.pos[r, me, 1] - by) * uy)
-        v0 = along - body_clear if v0 < along else along + body_clear
-    if v0 > kp.ball_speed_max:
-        rate = _my_kick_rate(bel, r, kp)
-        if _full_kick_speed(bel.vel[r, 0, 0], bel.vel[r, 0, 1], ux, uy, rate * kp.max_power) > (
-            cfg.pass_speed_ratio * kp.ball_accel_max
-        ):
-            return accelerate_ball_to(bel, r, v0 * ux, v0 * uy, kp)
-        if rate > cfg.pass_kick_rate_ratio * kp.kick_power_rate:
-            return freeze_ball(bel, r, kp, cfg)
-        return kick_close_to_body(bel, r, 0.0, cfg.reposition_ratio, kp, cfg)
-    power = _power_for_speed(
-        math.hypot(v0 * ux - bel.vel[r, 0, 0], v0 * uy - bel.vel[r, 0, 1]), _my_kick_rate(bel, r, kp)
-    )
-    pressed = False
-    if power <= cfg.pass_power_pressed:
-        first, last = opponents(bel, me)
-        opp = closest_to_ball(bel, r, first, last, -1, cfg)
-        if opp >= 0:
-            pressed = distance(bel.pos[r, opp, 0], bel.pos[r, opp, 1], bx, by) < cfg.pass_pressure_radius
-    if power <= cfg.pass_power_ok or pressed:
-        return accelerate_ball_to(bel, r, v0 * ux, v0 * uy, kp)
-    return kick_close_to_body(bel, r, 0.0, cfg.reposition_ratio, kp, cfg)
-
-
-@njit(cache=True)
-def pass_ball(bel: Belief, r: int, k: int, kp, cfg) -> tuple:
-    """PassBall-k (docs/players.md §2 step 3d, §5.4): kickTo the k-th nearest keeper from me (k = 1 nearest teammate),
-    resolved from the current positions, at the pass end speed."""
-    me = bel.me[r]
-    order = np.empty(bel.n_keepers, dtype=np.int64)
-    dist = np.empty(bel.n_keepers + 1)
-    distances_from(bel, r, bel.pos[r, me, 0], bel.pos[r, me, 1], bel.n_keepers, me, dist)
-    sort_by_distance(dist, 1, bel.n_keepers, me, order)
-    target = order[k - 1]
-    return kick_to(bel, r, bel.pos[r, target, 0], bel.pos[r, target, 1], cfg.pass_end_speed, kp, cfg)
-
-
-# ----------------------------------------------------------------------------------------- intercept
 
 
 @borrowing
@@ -1068,3 +549,7 @@ def _unstuck(bel: Belief, r: int, mem: AgentMemory, code: int, a1: float, x: flo
             mem.stuck_dashes[r] = 0
             return turn_to_point(bel, r, x, y, 1.0, kp)
     return code, a1, 0.0
+
+
+__all__ = ["UNKNOWN_FIRST", "close_intercept", "collide_with_ball", "decay_sums", "fastest_to_ball", "intercept",
+           "intercept_move", "interception_point", "player_travel", "travel"]
