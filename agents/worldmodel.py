@@ -89,7 +89,7 @@ COLLISION_SPEED_DROP = 0.25  # ... and the speed below this fraction of the pred
 # WorldModel::updateBallForCollision: the ball is put this far from my centre (m), towards where it was.
 COLLISION_BALL_DISTANCE = 0.2
 # The largest frame on_frame's kernel reads (bytes): the server's sees, its largest per-cycle
-# frames, are at most 3,444 bytes in 3v2, 4,991 in 11v11 (server.perception.see_frame_bytes). A larger
+# frames, are at most 3,444 bytes in 3v2, 4,991 in 11v11 (server.percept_wire.see_frame_bytes). A larger
 # one is decoded in full.
 FRAME_BYTES = 8192
 # seen/obs time of an object never seen since the last forget.

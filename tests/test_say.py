@@ -1,6 +1,6 @@
 """Say and hear as the keepaway-0.6 C++ players (agents/say.py): the saymsglib code against hand-computed
 values, what a player says, what a listener takes in, who hears whom (server.perception.hear_picks) and the
-hear frames the server writes (server.perception.hear_frames)."""
+hear frames the server writes (server.percept_wire.hear_frames)."""
 
 from __future__ import annotations
 
@@ -33,7 +33,8 @@ from keepaway.core.objects import BALL, CMD_DASH, CMD_KICK, CMD_TURN
 from keepaway.protocol.codec import encode
 from keepaway.protocol.messages import Hear
 from keepaway.protocol.params import parameter_set
-from keepaway.server.perception import HEAR_FRAME_BYTES, HEAR_SENDERS, hear_frames, hear_picks, write_hear
+from keepaway.server.percept_wire import HEAR_FRAME_BYTES, HEAR_SENDERS, hear_frames, write_hear
+from keepaway.server.perception import hear_picks
 from keepaway.server.world import new_world
 
 K, T = 3, 2
