@@ -387,20 +387,8 @@ class Arena:
                 s.hears.append(QueuedHear("coach", frame))
 
     def _hear_buffers(self, says: int) -> None:
-        """The buffers of ``_deliver_says``' kernel call, for up to ``says`` says a cycle: the speakers,
-        their texts, the listeners, each listener's picks, and the hear frames (each listener hears at
-        most every say as its own and every other one)."""
-        listeners, text = len(self.slots), int(self.params.say_msg_size)
-        self._speakers = np.empty(says, dtype=np.int64)
-        self._texts = np.empty(says * text, dtype=np.uint8)
-        self._text_ends = np.empty(says, dtype=np.int64)
-        self._listeners = np.empty(listeners, dtype=np.int64)
-        self._picks = np.empty((listeners, says), dtype=np.int64)
-        frames = listeners * 2 * says
-        self._hear_out = np.empty(frames * (percept_wire.HEAR_FRAME_BYTES + text), dtype=np.uint8)
-        self._frame_listener = np.empty(frames, dtype=np.int64)
-        self._frame_sender = np.empty(frames, dtype=np.int64)
-        self._frame_end = np.empty(frames, dtype=np.int64)
+        """The buffers of ``_deliver_says``' kernel call, for up to ``says`` says a cycle."""
+        self._hears = percept_wire.HearBuffers.empty(says, len(self.slots), int(self.params.say_msg_size))
 
     def _deliver_says(self) -> None:
         """Says of cycle t are heard in t+1 (docs/rules.md §5.5): self always, others as
@@ -411,25 +399,24 @@ class Arena:
         if not says:
             return
         says.sort(key=lambda said: said[0])  # arrival order must not matter (determinism)
-        if len(says) > self._speakers.shape[0]:
+        if len(says) > self._hears.speakers.shape[0]:
             self._hear_buffers(len(says))
+        hears = self._hears
         listeners = self.connected_slots()
         texts = "".join(text for _, text in says).encode("ascii")
-        self._texts[:len(texts)] = np.frombuffer(texts, dtype=np.uint8)
+        hears.texts[:len(texts)] = np.frombuffer(texts, dtype=np.uint8)
         end = 0
         for i, (speaker, text) in enumerate(says):
             end += len(text)
-            self._speakers[i], self._text_ends[i] = speaker, end
+            hears.speakers[i], hears.text_ends[i] = speaker, end
         for k, listener in enumerate(listeners):
-            self._listeners[k] = listener.obj
+            hears.listeners[k] = listener.obj
         p = self.params
-        n = self._hear_frames(0, self.world, self._speakers, len(says), self._texts, self._text_ends,
-                              self._listeners, len(listeners), p.hear_max, p.audio_cut_dist, self._picks,
-                              self.cycle, self._hear_out, self._frame_listener, self._frame_sender, self._frame_end)
-        ends = self._frame_end[:n].tolist()
-        frames = self._hear_out[:ends[-1] if n else 0].tobytes()
+        n = self._hear_frames(0, self.world, hears, len(says), len(listeners), p.hear_max, p.audio_cut_dist, self.cycle)
+        ends = hears.frame_end[:n].tolist()
+        frames = hears.frames[:ends[-1] if n else 0].tobytes()
         start = 0
-        for k, sender, end in zip(self._frame_listener[:n].tolist(), self._frame_sender[:n].tolist(), ends):
+        for k, sender, end in zip(hears.frame_listener[:n].tolist(), hears.frame_sender[:n].tolist(), ends):
             listeners[k].hears.append(QueuedHear(percept_wire.HEAR_SENDERS[sender], frames[start:end]))
             start = end
         says.clear()

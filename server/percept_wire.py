@@ -7,15 +7,15 @@ most of the server's time per cycle (docs/design.md, "Processes and sockets"). H
 bytes straight from the perception model's records (``server.perception``) with ``core.msgpack_out``'s
 writers: :func:`write_see` and :func:`write_sense_body` turn one observer's record into its frame,
 :func:`see_frame` and :func:`sense_body_frame` compute the record and write it in one call from the
-server's loop, and :func:`hear_frames` writes a cycle's hears for every listener, with the draws of
-``server.perception.hear_picks``. The ``*_payload`` functions give
+server's loop, and :func:`hear_frames` writes a cycle's hears for every listener into
+:class:`HearBuffers`, with the draws of ``server.perception.hear_picks``. The ``*_payload`` functions give
 the map a frame holds. ``tests/test_perception.py`` and ``tests/test_say.py`` check the frames against
 ``encode``.
 """
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, NamedTuple
 
 import msgpack
 import numpy as np
@@ -306,18 +306,50 @@ def _say_text(texts: np.ndarray, text_ends: np.ndarray, i: int) -> np.ndarray:
     return texts[text_ends[i - 1] if i > 0 else 0:text_ends[i]]
 
 
+class HearBuffers(NamedTuple):
+    """What :func:`hear_frames` takes and writes, for up to ``S`` says and ``L`` listeners a cycle: the says
+    and listeners (filled in by the caller), each listener's draws, and the hear frames. A listener hears
+    at most every say, as its own or another's, so ``F = 2 L S`` frames are room enough."""
+
+    speakers: np.ndarray  # (S,) int64: the speaker of each say, in object order
+    texts: np.ndarray  # (S * say_msg_size,) uint8: the says' ASCII texts one after another
+    text_ends: np.ndarray  # (S,) int64: where each say's text ends in texts
+    listeners: np.ndarray  # (L,) int64: the listeners' player objects
+    picks: np.ndarray  # (L, S) int64: row k, the says drawn for listener k (hear_picks)
+    frames: np.ndarray  # (F * (HEAR_FRAME_BYTES + say_msg_size),) uint8: the hear frames one after another
+    frame_listener: np.ndarray  # (F,) int64: frame f's listener, an index into listeners
+    frame_sender: np.ndarray  # (F,) int64: frame f's sender, HEAR_SELF, HEAR_OUR or HEAR_OPP
+    frame_end: np.ndarray  # (F,) int64: where frame f ends in frames
+
+    @classmethod
+    def empty(cls, says: int, listeners: int, say_msg_size: int) -> "HearBuffers":
+        """Buffers for ``says`` says of at most ``say_msg_size`` characters and ``listeners`` listeners."""
+        frames = listeners * 2 * says
+        return cls(
+            speakers=np.empty(says, dtype=np.int64),
+            texts=np.empty(says * say_msg_size, dtype=np.uint8),
+            text_ends=np.empty(says, dtype=np.int64),
+            listeners=np.empty(listeners, dtype=np.int64),
+            picks=np.empty((listeners, says), dtype=np.int64),
+            frames=np.empty(frames * (HEAR_FRAME_BYTES + say_msg_size), dtype=np.uint8),
+            frame_listener=np.empty(frames, dtype=np.int64),
+            frame_sender=np.empty(frames, dtype=np.int64),
+            frame_end=np.empty(frames, dtype=np.int64),
+        )
+
+
 @njit(cache=True)
-def hear_frames(b: int, w: World, speakers: np.ndarray, n_speakers: int, texts: np.ndarray,
-                text_ends: np.ndarray, listeners: np.ndarray, n_listeners: int, hear_max: float, cut: float,
-                picks: np.ndarray, cycle: int, buf: np.ndarray, frame_listener: np.ndarray, frame_sender: np.ndarray,
-                frame_end: np.ndarray) -> int:
-    """The hears of this cycle's says (``speakers[:n_speakers]``, each say's text ``texts`` up to its
-    ``text_ends``), for each of ``listeners[:n_listeners]`` in turn: its own says (``self``), then the
-    says :func:`hear_picks` draws for it (the draws in that order, into row k of ``picks``), with the
-    direction and, from a teammate, the number. Written one after another into ``buf`` (:func:`write_hear`);
-    frame f is for listener index ``frame_listener[f]``, from a sender ``frame_sender[f]`` and ends at
-    ``frame_end[f]``. Returns the number of frames. The server's one kernel call a cycle
-    (``server.arena.Arena``), on buffers it keeps."""
+def hear_frames(b: int, w: World, hears: HearBuffers, n_speakers: int, n_listeners: int, hear_max: float,
+                cut: float, cycle: int) -> int:
+    """The hears of this cycle's says (``hears.speakers[:n_speakers]``, each say's text in ``hears.texts``
+    up to its ``text_ends``), for each of ``hears.listeners[:n_listeners]`` in turn: its own says
+    (``self``), then the says :func:`hear_picks` draws for it (the draws in that order, into row k of
+    ``picks``), with the direction and, from a teammate, the number. Written one after another into
+    ``hears.frames`` (:func:`write_hear`); frame f is for listener index ``frame_listener[f]``, from a
+    sender ``frame_sender[f]`` and ends at ``frame_end[f]``. Returns the number of frames. The server's one
+    kernel call a cycle (``server.arena.Arena``), on buffers it keeps."""
+    speakers, texts, text_ends, listeners, picks = hears.speakers, hears.texts, hears.text_ends, hears.listeners, hears.picks
+    buf, frame_listener, frame_sender, frame_end = hears.frames, hears.frame_listener, hears.frame_sender, hears.frame_end
     keepers = w.n_keepers
     n = 0
     f = 0
@@ -339,7 +371,6 @@ def hear_frames(b: int, w: World, speakers: np.ndarray, n_speakers: int, texts: 
     return f
 
 
-
 __all__ = [
     "COUNT_NAMES",
     "HEAR_FRAME_BYTES",
@@ -348,6 +379,7 @@ __all__ = [
     "HEAR_OUR",
     "HEAR_SELF",
     "HEAR_SENDERS",
+    "HearBuffers",
     "packed_view_mode",
     "see_frame",
     "see_frame_bytes",
