@@ -2,7 +2,7 @@
 writes it, for the values a percept holds: nil, ints, doubles, array headers and constant fragments.
 
 The server writes each cycle's ``see`` and ``sense_body`` straight from the perception buffers with these
-(``server/perception.py``), instead of building Python lists, a message object and a map for the packer
+(``server/percept_wire.py``), instead of building Python lists, a message object and a map for the packer
 every time: the message path that cost most of the server's time per cycle. Because the bytes are the
 packer's own (the smallest int form, every float a double, tested against ``msgpack.packb``), the wire
 and what the players decode stay exactly what they were (docs/protocol.md §1).

@@ -20,7 +20,7 @@ from keepaway.protocol import messages as m
 from keepaway.protocol.codec import encode
 from keepaway.protocol.landmarks import to_wire as landmarks_to_wire
 from keepaway.protocol.params import ServerParams
-from keepaway.server import perception
+from keepaway.server import percept_wire, perception
 from keepaway.server.command_frame import MAX_FRAME_BYTES, SAY, CommandBuffer
 from keepaway.server.command_slots import (
     COMMAND_CODES,
@@ -96,9 +96,9 @@ class Arena:
         self.pending_says: list[tuple[int, str]] = []
         self.see_out = perception.SeeBuffers.empty(1, self.world.n_objects, self.kp)
         self.body_out = perception.SenseBodyBuffers.empty(1, self.world.n_objects)
-        self.see_buf = np.empty(perception.see_frame_bytes(self.world.n_objects), dtype=np.uint8)
-        self.body_buf = np.empty(perception.SENSE_BODY_FRAME_BYTES, dtype=np.uint8)
-        self.view_modes = {width: perception.packed_view_mode("high", width) for width in VIEW_WIDTHS}
+        self.see_buf = np.empty(percept_wire.see_frame_bytes(self.world.n_objects), dtype=np.uint8)
+        self.body_buf = np.empty(percept_wire.SENSE_BODY_FRAME_BYTES, dtype=np.uint8)
+        self.view_modes = {width: percept_wire.packed_view_mode("high", width) for width in VIEW_WIDTHS}
         # the kernels of every cycle, called without numba's typing of their arguments at each call
         self._simulate_cycle = SteadyCall(simulate_cycle)
         self._take_frame = SteadyCall(take_command_frame)
@@ -106,9 +106,9 @@ class Arena:
         self._say_allowed = SteadyCall(say_allowed)
         self._frame = CommandBuffer.empty()  # a player's commands as the slot rules' kernel takes them
         self._say_dropped = f"say dropped: at most {int(params.say_msg_size)} characters from {SAY_ALPHABET}"
-        self._see_frame = SteadyCall(perception.see_frame)
-        self._sense_body_frame = SteadyCall(perception.sense_body_frame)
-        self._hear_frames = SteadyCall(perception.hear_frames)
+        self._see_frame = SteadyCall(percept_wire.see_frame)
+        self._sense_body_frame = SteadyCall(percept_wire.sense_body_frame)
+        self._hear_frames = SteadyCall(percept_wire.hear_frames)
         self._hear_buffers(len(self.slots))
         # what the referee said since the owner last took it (``take_referee_log``); None: not kept
         self.referee_log: list[str] | None = None
@@ -387,50 +387,37 @@ class Arena:
                 s.hears.append(QueuedHear("coach", frame))
 
     def _hear_buffers(self, says: int) -> None:
-        """The buffers of ``_deliver_says``' kernel call, for up to ``says`` says a cycle: the speakers,
-        their texts, the listeners, each listener's picks, and the hear frames (each listener hears at
-        most every say as its own and every other one)."""
-        listeners, text = len(self.slots), int(self.params.say_msg_size)
-        self._speakers = np.empty(says, dtype=np.int64)
-        self._texts = np.empty(says * text, dtype=np.uint8)
-        self._text_ends = np.empty(says, dtype=np.int64)
-        self._listeners = np.empty(listeners, dtype=np.int64)
-        self._picks = np.empty((listeners, says), dtype=np.int64)
-        frames = listeners * 2 * says
-        self._hear_out = np.empty(frames * (perception.HEAR_FRAME_BYTES + text), dtype=np.uint8)
-        self._frame_listener = np.empty(frames, dtype=np.int64)
-        self._frame_sender = np.empty(frames, dtype=np.int64)
-        self._frame_end = np.empty(frames, dtype=np.int64)
+        """The buffers of ``_deliver_says``' kernel call, for up to ``says`` says a cycle."""
+        self._hears = percept_wire.HearBuffers.empty(says, len(self.slots), int(self.params.say_msg_size))
 
     def _deliver_says(self) -> None:
         """Says of cycle t are heard in t+1 (docs/rules.md §5.5): self always, others as
         ``perception.hear_picks`` draws them. One kernel call draws them for every connected listener and
-        writes their frames (``perception.hear_frames``; a say's text was checked when it was taken,
+        writes their frames (``percept_wire.hear_frames``; a say's text was checked when it was taken,
         :meth:`submit`); here they are only cut apart and queued."""
         says = self.pending_says
         if not says:
             return
         says.sort(key=lambda said: said[0])  # arrival order must not matter (determinism)
-        if len(says) > self._speakers.shape[0]:
+        if len(says) > self._hears.speakers.shape[0]:
             self._hear_buffers(len(says))
+        hears = self._hears
         listeners = self.connected_slots()
         texts = "".join(text for _, text in says).encode("ascii")
-        self._texts[:len(texts)] = np.frombuffer(texts, dtype=np.uint8)
+        hears.texts[:len(texts)] = np.frombuffer(texts, dtype=np.uint8)
         end = 0
         for i, (speaker, text) in enumerate(says):
             end += len(text)
-            self._speakers[i], self._text_ends[i] = speaker, end
+            hears.speakers[i], hears.text_ends[i] = speaker, end
         for k, listener in enumerate(listeners):
-            self._listeners[k] = listener.obj
+            hears.listeners[k] = listener.obj
         p = self.params
-        n = self._hear_frames(0, self.world, self._speakers, len(says), self._texts, self._text_ends,
-                              self._listeners, len(listeners), p.hear_max, p.audio_cut_dist, self._picks,
-                              self.cycle, self._hear_out, self._frame_listener, self._frame_sender, self._frame_end)
-        ends = self._frame_end[:n].tolist()
-        frames = self._hear_out[:ends[-1] if n else 0].tobytes()
+        n = self._hear_frames(0, self.world, hears, len(says), len(listeners), p.hear_max, p.audio_cut_dist, self.cycle)
+        ends = hears.frame_end[:n].tolist()
+        frames = hears.frames[:ends[-1] if n else 0].tobytes()
         start = 0
-        for k, sender, end in zip(self._frame_listener[:n].tolist(), self._frame_sender[:n].tolist(), ends):
-            listeners[k].hears.append(QueuedHear(perception.HEAR_SENDERS[sender], frames[start:end]))
+        for k, sender, end in zip(hears.frame_listener[:n].tolist(), hears.frame_sender[:n].tolist(), ends):
+            listeners[k].hears.append(QueuedHear(percept_wire.HEAR_SENDERS[sender], frames[start:end]))
             start = end
         says.clear()
 
@@ -444,13 +431,13 @@ class Arena:
                                   s.see_period_ms(self.params.send_step_ms), s.see_phase_ms)
 
     def see_frame(self, s: PlayerSlot) -> bytes:
-        """``s``'s see of this cycle, encoded (``perception.see_frame``: the bytes of ``encode(m.See(...))``)."""
+        """``s``'s see of this cycle, encoded (``percept_wire.see_frame``: the bytes of ``encode(m.See(...))``)."""
         factor = perception.cone_factor(s.view_width, s.synch_see)
         n = self._see_frame(0, self.world, s.obj, factor, self.kp, self.see_out, self.cycle, self.see_buf)
         return self.see_buf[:n].tobytes()
 
     def sense_body_frame(self, s: PlayerSlot) -> bytes:
-        """``s``'s sense_body of this cycle, encoded (``perception.sense_body_frame``)."""
+        """``s``'s sense_body of this cycle, encoded (``percept_wire.sense_body_frame``)."""
         n = self._sense_body_frame(0, self.world, s.obj, self.body_out, self.cycle, self.view_modes[s.view_width],
                                    self.body_buf)
         return self.body_buf[:n].tobytes()

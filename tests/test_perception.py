@@ -1,4 +1,5 @@
-"""Perception (server/perception.py) and the landmark table (protocol/landmarks.py).
+"""Perception (server/perception.py), its frames (server/percept_wire.py) and the landmark table
+(protocol/landmarks.py).
 
 Formulas are pinned with numbers computed by hand from docs/rules.md §5; the replay at the end
 compares our sees with the raw sees of rcssserver 19.0.0 (``tests/data/see-samples.json``, or the file
@@ -22,6 +23,15 @@ from keepaway.protocol import encode
 from keepaway.protocol import messages as m
 from keepaway.protocol.landmarks import FLAG_INDEX, FLAG_POSITIONS, FLAGS, LINES, N_FLAGS, to_wire
 from keepaway.protocol.params import parameter_set
+from keepaway.server.percept_wire import (
+    SENSE_BODY_FRAME_BYTES,
+    packed_view_mode,
+    see_frame_bytes,
+    see_payload,
+    sense_body_payload,
+    write_see,
+    write_sense_body,
+)
 from keepaway.server.perception import (
     ATAN_ESTIMATE_ERROR,
     BEARING_SLACK,
@@ -31,7 +41,6 @@ from keepaway.server.perception import (
     NAMELESS,
     PARTIAL,
     RAD2DEG,
-    SENSE_BODY_FRAME_BYTES,
     UNSEEN,
     SeeBuffers,
     SenseBodyBuffers,
@@ -40,21 +49,15 @@ from keepaway.server.perception import (
     distance_table,
     fullstate,
     normalize_rad,
-    packed_view_mode,
     quantize,
     quantize_distance,
     round_deg,
     see_arena,
     see_batch,
     see_bearing,
-    see_frame_bytes,
-    see_payload,
     sense_body_arena,
-    sense_body_payload,
     table_distance,
     trunc_deg,
-    write_see,
-    write_sense_body,
 )
 from keepaway.server.world import COLLIDED_BALL, COLLIDED_PLAYER, COUNT_DASH, COUNT_TURN_NECK, new_world
 

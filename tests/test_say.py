@@ -1,6 +1,6 @@
 """Say and hear as the keepaway-0.6 C++ players (agents/say.py): the saymsglib code against hand-computed
 values, what a player says, what a listener takes in, who hears whom (server.perception.hear_picks) and the
-hear frames the server writes (server.perception.hear_frames)."""
+hear frames the server writes (server.percept_wire.hear_frames)."""
 
 from __future__ import annotations
 
@@ -33,7 +33,8 @@ from keepaway.core.objects import BALL, CMD_DASH, CMD_KICK, CMD_TURN
 from keepaway.protocol.codec import encode
 from keepaway.protocol.messages import Hear
 from keepaway.protocol.params import parameter_set
-from keepaway.server.perception import HEAR_FRAME_BYTES, HEAR_SENDERS, hear_frames, hear_picks, write_hear
+from keepaway.server.percept_wire import HEAR_FRAME_BYTES, HEAR_SENDERS, HearBuffers, hear_frames, write_hear
+from keepaway.server.perception import hear_picks
 from keepaway.server.world import new_world
 
 K, T = 3, 2
@@ -322,18 +323,16 @@ def test_the_hear_frames_of_a_cycle_are_the_draws_directions_and_texts_of_the_ru
     expected = _hears_by_hand(w, says, listeners, cycle)
     drawn = w.rng.copy()
     w.rng[:] = before
-    # writable, as the server's buffer is: a read-only array would compile the kernels again
-    texts = np.frombuffer(bytearray("".join(text for _, text in says), "ascii"), dtype=np.uint8)
-    ends = np.cumsum([len(text) for _, text in says]).astype(np.int64)
-    frames = 2 * len(says) * len(listeners)
-    buf = np.empty(frames * (HEAR_FRAME_BYTES + 10), dtype=np.uint8)
-    frame_listener, frame_sender, frame_end = (np.empty(frames, dtype=np.int64) for _ in range(3))
-    n = hear_frames(0, w, np.array([speaker for speaker, _ in says], dtype=np.int64), len(says), texts, ends,
-                    np.array(listeners, dtype=np.int64), len(listeners), KP.hear_max, KP.audio_cut_dist,
-                    np.empty((len(listeners), len(says)), dtype=np.int64), cycle, buf, frame_listener, frame_sender,
-                    frame_end)
+    hears = HearBuffers.empty(len(says), len(listeners), int(PARAMS.say_msg_size))
+    texts = "".join(text for _, text in says).encode("ascii")
+    hears.texts[:len(texts)] = np.frombuffer(texts, dtype=np.uint8)
+    hears.text_ends[:len(says)] = np.cumsum([len(text) for _, text in says])
+    hears.speakers[:len(says)] = [speaker for speaker, _ in says]
+    hears.listeners[:len(listeners)] = listeners
+    n = hear_frames(0, w, hears, len(says), len(listeners), KP.hear_max, KP.audio_cut_dist, cycle)
+    frame_listener, frame_sender, frame_end = hears.frame_listener, hears.frame_sender, hears.frame_end
     starts = [0, *frame_end[:n - 1].tolist()]
-    got = [(listeners[frame_listener[f]], HEAR_SENDERS[frame_sender[f]], buf[starts[f]:frame_end[f]].tobytes())
+    got = [(listeners[frame_listener[f]], HEAR_SENDERS[frame_sender[f]], hears.frames[starts[f]:frame_end[f]].tobytes())
            for f in range(n)]
     assert got == expected
     np.testing.assert_array_equal(w.rng, drawn)

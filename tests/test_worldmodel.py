@@ -18,16 +18,8 @@ from keepaway.agents.worldmodel import WorldModel
 from keepaway.core.objects import CMD_DASH, CMD_KICK, CMD_NONE, CMD_TURN
 from keepaway.protocol import landmarks
 from keepaway.protocol.params import parameter_set
-from keepaway.server.perception import (
-    SeeBuffers,
-    SenseBodyBuffers,
-    cone_factor,
-    fullstate,
-    see_arena,
-    see_payload,
-    sense_body_arena,
-    sense_body_payload,
-)
+from keepaway.server.percept_wire import see_payload, sense_body_payload
+from keepaway.server.perception import SeeBuffers, SenseBodyBuffers, cone_factor, fullstate, see_arena, sense_body_arena
 from keepaway.server.world import new_world
 
 PARAMS = parameter_set("classic")  # keepaway launch: visible_angle 360
