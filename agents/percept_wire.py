@@ -32,7 +32,7 @@ from keepaway.core.jit import borrowing
 from keepaway.core.objects import BALL
 
 # The largest frame on_frame's kernel reads (bytes): the server's sees, its largest per-cycle
-# frames, are at most 3,444 bytes in 3v2, 4,991 in 11v11 (server.perception.see_frame_bytes). A larger
+# frames, are at most 3,444 bytes in 3v2, 4,991 in 11v11 (server.percept_wire.see_frame_bytes). A larger
 # one is decoded in full.
 FRAME_BYTES = 8192
 
