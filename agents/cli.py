@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING, Any
 
 import click
 
+from keepaway.core.options import FiniteFloatRange
 from keepaway.protocol.endpoints import DEFAULT_PORTS, parse_endpoint
 from keepaway.protocol.messages import MAX_SEED, SERVER_SILENCE_S
 from keepaway.protocol.security import KeyDir, SecurityError, keys_option, no_answer, open_keys, secure_client
@@ -226,11 +227,11 @@ def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop
                    "killed, hung, or given up by the server), instead of joining anew; while the server "
                    "still waits for the old player the player asks again every second until "
                    "--connect-timeout. The seat keeps the settings of its first init (--fullstate).")
-@click.option("--connect-timeout", "connect_timeout_s", type=click.FloatRange(min=0.0, min_open=True), default=60.0,
+@click.option("--connect-timeout", "connect_timeout_s", type=FiniteFloatRange(min=0.0, min_open=True), default=60.0,
               show_default=True,
               help="Seconds to wait for the server's init_ok (with --reconnect: for the seat) before giving up "
                    "(exit 2).")
-@click.option("--server-silence", "silence_s", type=click.FloatRange(min=0.0, min_open=True),
+@click.option("--server-silence", "silence_s", type=FiniteFloatRange(min=0.0, min_open=True),
               default=SERVER_SILENCE_S, show_default=True,
               help="Seconds spent waiting for a message from the server, in vain, after which a joined player "
                    "gives it up "

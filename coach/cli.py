@@ -9,6 +9,7 @@ from pathlib import Path
 
 import click
 
+from keepaway.core.options import FiniteFloatRange
 from keepaway.protocol.endpoints import parse_endpoint
 from keepaway.protocol.security import SecurityError, keys_option, open_keys
 
@@ -24,7 +25,7 @@ from keepaway.protocol.security import SecurityError, keys_option, open_keys
                    "plays freely until then).")
 @click.option("--episodes", "stop_after", type=click.IntRange(min=1), default=None,
               help="Stop the server after this many episodes.")
-@click.option("--connect-timeout", type=click.FloatRange(min=0.0, min_open=True), default=60.0, show_default=True,
+@click.option("--connect-timeout", type=FiniteFloatRange(min=0.0, min_open=True), default=60.0, show_default=True,
               help="Seconds to wait for the server.")
 @click.option("--json", "as_json", is_flag=True, help="Print the episode record as JSON at the end.")
 @keys_option

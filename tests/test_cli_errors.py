@@ -331,3 +331,19 @@ def test_an_interrupt_before_a_command_catches_it_exits_130_in_one_line(processe
     assert proc.returncode == 130, err
     assert err.strip() == line
     assert not (tmp_path / "keys").exists()
+
+
+@pytest.mark.parametrize("args, option", [
+    (["player", "--team", "keepers", "--connect-timeout", "nan"], "--connect-timeout"),
+    (["player", "--team", "keepers", "--server-silence", "inf"], "--server-silence"),
+    (["coach", "--server", "tcp://127.0.0.1:9", "--connect-timeout", "nan"], "--connect-timeout"),
+    (["train", "--cem-extra-noise", "nan"], "--cem-extra-noise"),
+    (["view", "{rcg}", "--field-size", "nan"], "--field-size"),
+    (["render", "{rcg}", "--scale", "nan"], "--scale"),
+    (["render", "{rcg}", "--fps", "nan"], "--fps"),
+])
+def test_a_number_that_is_not_finite_is_refused_naming_its_option(processes, tmp_path, args, option):
+    rcg = tmp_path / "game.rcg"
+    rcg.write_text("ULG5\n")
+    line = refused(processes, *(arg.format(rcg=rcg) for arg in args))
+    assert option in line and "is not a finite number" in line

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 
 import click
 
+from keepaway.core.options import FiniteFloatRange
 from keepaway.runner.cli import (
     ARENAS_HELP,
     COUNT_TYPE,
@@ -70,7 +71,7 @@ def learning_options(command: Command) -> Command:
         click.option("--pass-hive-mind", is_flag=True,
                      help="Learned Pass, batched: the keepers of an arena learn one shared Sarsa table "
                           "(tjpalmer's hive mind; the paper: one table each)."),
-        click.option("--cem-extra-noise", type=click.FloatRange(min=0.0), default=0.0, show_default=True,
+        click.option("--cem-extra-noise", type=FiniteFloatRange(min=0.0), default=0.0, show_default=True,
                      help="Noisy CEM: variance added to each refit (0: the paper's CEM)."),
         click.option("--cem-noise-generations", type=click.IntRange(min=0), default=0, show_default=True,
                      help="Generations over which --cem-extra-noise falls linearly to 0 (0: it stays)."),

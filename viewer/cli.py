@@ -7,10 +7,11 @@ from pathlib import Path
 
 import click
 
+from keepaway.core.options import FiniteFloatRange
 from keepaway.protocol.endpoints import parse_endpoint
 from keepaway.protocol.security import is_loopback, keys_option, open_keys
 
-FIELD_SIZE_TYPE = click.FloatRange(min=0.0, min_open=True)
+FIELD_SIZE_TYPE = FiniteFloatRange(min=0.0, min_open=True)
 
 
 def _read(path: Path, kwy: Path | None):
@@ -75,9 +76,9 @@ def view_command(game_log: Path | None, monitor: str | None, host: str, port: in
 @click.option("--episode", type=click.IntRange(min=1), default=1, show_default=True, help="Episode to draw (from 1).")
 @click.option("-o", "--out", type=click.Path(dir_okay=False, path_type=Path), required=True,
               help="Output file: .gif (Pillow) or .mp4 (pip install 'keepaway[render]').")
-@click.option("--scale", type=click.FloatRange(min=2.0, max=200.0), default=24.0, show_default=True,
+@click.option("--scale", type=FiniteFloatRange(min=2.0, max=200.0), default=24.0, show_default=True,
               help="Pixels per metre.")
-@click.option("--fps", type=click.FloatRange(min=1.0, max=100.0), default=10.0, show_default=True,
+@click.option("--fps", type=FiniteFloatRange(min=1.0, max=100.0), default=10.0, show_default=True,
               help="Frames per second (10: real time).")
 @click.option("--kwy", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Episode log for a game log without referee messages [the .kwy beside it, if any].")
