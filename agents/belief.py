@@ -115,7 +115,8 @@ class AgentMemory(NamedTuple):
     rng: np.ndarray  # (B,) uint64 per-agent random stream (`core/rng.py`)
     getopen_point: np.ndarray  # (B, 2) float64 the point the last GetOpen decision moved towards
     getopen_time: np.ndarray  # (B,) int64 the cycle of that decision, -1 none (for notes, never read back)
-    stuck_dashes: np.ndarray  # (B,) int64 backward dashes sent standing still since I last moved (interception.intercept)
+    # (B,) int64 backward dashes sent standing still since I last moved (interception.intercept)
+    stuck_dashes: np.ndarray
 
 
 def new_memory(batch: int, seeds: np.ndarray) -> AgentMemory:
@@ -153,7 +154,8 @@ class Decisions(NamedTuple):
     """What each deciding player decided last, one row per belief row: written by the decision kernels
     (``keeper_decide`` / ``taker_decide`` and what they call) and read by whoever sends the command."""
 
-    pass_state: np.ndarray  # (B, 4K + 2T - 3) a keeper's Pass state at its last Pass decision point (the learner's input)
+    # (B, 4K + 2T - 3) a keeper's Pass state at its last Pass decision point (the learner's input)
+    pass_state: np.ndarray
     decision: np.ndarray  # (B,) int8 keeper_decide's NO_PASS_DECISION / PASS_DECISION_* / GETOPEN_DECISION
     main: np.ndarray  # (B,) int8 CMD_* main command
     arg1: np.ndarray  # (B,) float64 its first argument

@@ -9,10 +9,10 @@ server has sent nothing for ``--server-silence`` seconds (it sends a ``waiting``
 cycle is played, so only a dead or frozen server is silent that long). That silence is the time the player
 waited in receives that found nothing, not the time on the clock: a player that was itself frozen (SIGSTOP,
 then SIGCONT) first reads what waits for it, and its own sleep never counts as the server's silence.
-Expected conditions end with one line on stderr, never a traceback. With ``--reconnect UNUM`` the player takes back the seat of a player of its
-team that is gone (crashed, killed, or given up by the server) instead of joining anew
-(docs/protocol.md §12, "Rejoin"). A seat whose old client the server still waits for (a hung process it
-has not yet given up after ``max_missed_cycles``, a crash it has not yet noticed) is refused with
+Expected conditions end with one line on stderr, never a traceback. With ``--reconnect UNUM`` the player takes
+back the seat of a player of its team that is gone (crashed, killed, or given up by the server) instead of
+joining anew (docs/protocol.md §12, "Rejoin"). A seat whose old client the server still waits for (a hung
+process it has not yet given up after ``max_missed_cycles``, a crash it has not yet noticed) is refused with
 ``cannot_reconnect``; the player asks again every :data:`RECONNECT_RETRY_S` until ``--connect-timeout``,
 so a replacement can be started as soon as the old process is found dead or stuck.
 """

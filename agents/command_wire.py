@@ -5,8 +5,8 @@ turn, its say and, when the server asks for them, a GetOpen note. Built as ``Ato
 ``Command``, then packed, that cost a keeper about 16 of its 49 us of a think (docs/design.md, "Processes
 and sockets"). :func:`write_command` writes the same bytes from the decision's output arrays and the
 say's codes into a buffer; ``tests/test_command_wire.py`` checks them against ``encode`` for every kind of
-command, and ``tests/test_player_frames.py`` for every command of a game. A caller that wants the message decodes the frame
-(``protocol.messages.decode_from_player``): the frame is the one definition of a player's command.
+command, and ``tests/test_player_frames.py`` for every command of a game. A caller that wants the message decodes the
+frame (``protocol.messages.decode_from_player``): the frame is the one definition of a player's command.
 """
 
 from __future__ import annotations
@@ -15,7 +15,16 @@ import numpy as np
 
 from keepaway.agents.say import CHAR_BYTES, MAX_CHARS, Talk
 from keepaway.core.jit import borrowing
-from keepaway.core.msgpack_out import FLOAT_BYTES, MAX_ARRAY_HEADER_BYTES, MAX_INT_BYTES, packed, put_array, put_float, put_int, put_raw
+from keepaway.core.msgpack_out import (
+    FLOAT_BYTES,
+    MAX_ARRAY_HEADER_BYTES,
+    MAX_INT_BYTES,
+    packed,
+    put_array,
+    put_float,
+    put_int,
+    put_raw,
+)
 from keepaway.core.objects import CMD_DASH, CMD_KICK, CMD_TURN
 from keepaway.protocol import messages as m
 from keepaway.protocol.messages import MAX_NOTE_NUMBERS

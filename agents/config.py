@@ -130,5 +130,6 @@ AgentKernel = namedtuple("AgentKernel", [f.name for f in fields(AgentConfig)])
 AgentKernel.__module__ = __name__
 
 
-__all__ = ["GETOPEN_EXTERNAL", "GETOPEN_HANDCODED", "GETOPEN_HANDCODED_CONE", "GETOPEN_LEARNED", "GETOPEN_POLICIES", "GETOPEN_RANDOM",
-           "PASS_EXTERNAL", "PASS_HANDCODED", "PASS_HOLD", "PASS_POLICIES", "PASS_RANDOM", "AgentConfig", "AgentKernel"]
+__all__ = ["GETOPEN_EXTERNAL", "GETOPEN_HANDCODED", "GETOPEN_HANDCODED_CONE", "GETOPEN_LEARNED", "GETOPEN_POLICIES",
+           "GETOPEN_RANDOM", "PASS_EXTERNAL", "PASS_HANDCODED", "PASS_HOLD", "PASS_POLICIES", "PASS_RANDOM",
+           "AgentConfig", "AgentKernel"]

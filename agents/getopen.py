@@ -18,7 +18,15 @@ import numpy as np
 
 from keepaway.agents.belief import AgentMemory, Belief
 from keepaway.agents.config import GETOPEN_HANDCODED, GETOPEN_HANDCODED_CONE, GETOPEN_LEARNED, GETOPEN_RANDOM
-from keepaway.agents.geometry import DECIDE_SLACK, ball_in, closest_to_ball, compared_hypot, distance, in_cone, vertex_angle_below
+from keepaway.agents.geometry import (
+    DECIDE_SLACK,
+    ball_in,
+    closest_to_ball,
+    compared_hypot,
+    distance,
+    in_cone,
+    vertex_angle_below,
+)
 from keepaway.agents.interception import fastest_to_ball
 from keepaway.agents.movement import go_to_point, turn_to_point
 from keepaway.agents.state_vars import (

@@ -223,4 +223,5 @@ def pass_ball(bel: Belief, r: int, k: int, kp, cfg) -> tuple:
     return kick_to(bel, r, bel.pos[r, target, 0], bel.pos[r, target, 1], cfg.pass_end_speed, kp, cfg)
 
 
-__all__ = ["accelerate_ball_to", "freeze_ball", "hold_ball", "kick_close_to_body", "kick_to", "pass_ball", "pass_initial_speed"]
+__all__ = ["accelerate_ball_to", "freeze_ball", "hold_ball", "kick_close_to_body", "kick_to", "pass_ball",
+           "pass_initial_speed"]

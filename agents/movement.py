@@ -118,4 +118,5 @@ def search_ball(bel: Belief, r: int, mem: AgentMemory, kp, cfg) -> tuple:
     return turn_to_point(bel, r, px + math.cos(aim), py + math.sin(aim), 1.0, kp)
 
 
-__all__ = ["go_to_point", "move_command", "neck_to_ball", "neck_to_point", "neck_with_body", "search_ball", "turn_to_point"]
+__all__ = ["go_to_point", "move_command", "neck_to_ball", "neck_to_point", "neck_with_body", "search_ball",
+           "turn_to_point"]

@@ -15,7 +15,14 @@ from __future__ import annotations
 import math
 
 from keepaway.agents.belief import AgentMemory, Belief, Decisions, write_action
-from keepaway.agents.geometry import ball_kickable, closest_to_ball, compared_hypot, distance, in_cone, kickable_distance
+from keepaway.agents.geometry import (
+    ball_kickable,
+    closest_to_ball,
+    compared_hypot,
+    distance,
+    in_cone,
+    kickable_distance,
+)
 from keepaway.agents.getopen import move_to_spot
 from keepaway.agents.interception import UNKNOWN_FIRST, fastest_to_ball, intercept
 from keepaway.agents.kicks import hold_ball

@@ -63,7 +63,8 @@ class SymbolMap:
 
 
 def readable(symbol: str) -> str:
-    """``_ZN8keepaway6agents12interception6travelB4v253B36...`` -> ``keepaway.agents.interception.travel``; other names unchanged."""
+    """``_ZN8keepaway6agents12interception6travelB4v253B36...`` -> ``keepaway.agents.interception.travel``; other names
+    unchanged."""
     m = _NUMBA_NAME.match(symbol)
     if not m:
         return symbol

@@ -122,12 +122,13 @@ elapsed = time.perf_counter() - first
 print(f"{cycles} {elapsed}", flush=True)
 '''
 
-NULL_SERVER = r'''
+NULL_SERVER = (r'''
 import sys, msgpack, zmq
 n_players, cycles = int(sys.argv[1]), int(sys.argv[2])
 sock = zmq.Context().socket(zmq.ROUTER); sock.setsockopt(zmq.LINGER, 0)
 port = sock.bind_to_random_port("tcp://127.0.0.1")
-print(f"keepaway server listening players=tcp://127.0.0.1:{port} coach=tcp://127.0.0.1:0 monitor=tcp://127.0.0.1:0", flush=True)
+print(f"keepaway server listening players=tcp://127.0.0.1:{port} coach=tcp://127.0.0.1:0 '''
+               r'''monitor=tcp://127.0.0.1:0", flush=True)
 pack, unpack = msgpack.packb, msgpack.unpackb
 ids = []
 while len(ids) < n_players:
@@ -142,7 +143,7 @@ for t in range(cycles):
         ident, data = sock.recv_multipart(); unpack(data); answered += 1
 for ident in ids:
     sock.send_multipart([ident, pack({"type": "shutdown", "cycle": cycles, "reason": "done"})])
-'''
+''')
 
 
 def sync_cycles_per_second(server_args: list[str], n_players: int = 5) -> float:

@@ -49,13 +49,15 @@ def trial_cycles(training: Path | None) -> tuple[float, float, str]:
     if training is None:
         cycles_per_episode = DEFAULT_HOLD_S * 10
         return (TRIAL_EPISODES * cycles_per_episode, EVALUATIONS * EVAL_EPISODES * cycles_per_episode,
-                f"{TRIAL_EPISODES} episodes + {EVALUATIONS} x {EVAL_EPISODES} evaluation episodes of {DEFAULT_HOLD_S} s")
+                f"{TRIAL_EPISODES} episodes + {EVALUATIONS} x {EVAL_EPISODES} evaluation episodes"
+                f" of {DEFAULT_HOLD_S} s")
     summary = json.loads((training / "summary.json").read_text())
     config = summary["config"]
     trial = training / "trial_000"
     trace = [json.loads(line) for line in (trial / "trace.jsonl").read_text().splitlines()]
     learning = sum(t["block_episodes"] * t["mean_hold_time_s"] * 10 for t in trace if t["phase"] == "pass")
-    frozen = sum(sum(t["fitness"]) * config["cem"]["episodes_per_candidate"] * 10 for t in trace if t["phase"] == "getopen")
+    frozen = sum(sum(t["fitness"]) * config["cem"]["episodes_per_candidate"] * 10
+                 for t in trace if t["phase"] == "getopen")
     frozen += sum(p["mean_hold_time_s"] * config["eval_episodes"] * 10 for p in summary["trials"][0]["curve"])
     return learning, frozen, f"trial 0 of {training} ({summary['name']})"
 

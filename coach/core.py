@@ -306,5 +306,5 @@ class CoachCore:
                              for e, s, t, c in self.episodes]}
 
 
-__all__ = ["HEARTBEAT_S", "LOOK_INTERVAL_S", "REPORT_TIMEOUT_S", "SERVER", "STOPPING", "CoachCore", "Outgoing", "PendingRun",
-           "coach_init"]
+__all__ = ["HEARTBEAT_S", "LOOK_INTERVAL_S", "REPORT_TIMEOUT_S", "SERVER", "STOPPING", "CoachCore", "Outgoing",
+           "PendingRun", "coach_init"]

@@ -46,8 +46,9 @@ KERNEL_SOURCES = ("protocol", "core", "server", "agents", "runner/__init__.py", 
 # configuration, security): an edit there leaves the compiled kernels as they are. (The files that list
 # the kernels a set compiles, server/game_log.py and agents/player.py, stay in: a new kernel call there
 # warms the set anew.)
-NOT_KERNEL_SOURCES = ("agents/cli.py", "core/exits.py", "core/log_limit.py", "protocol/arena.py", "protocol/security.py",
-                      "server/app.py", "server/cli.py", "server/config.py", "server/intake.py", "server/trace_replay.py")
+NOT_KERNEL_SOURCES = ("agents/cli.py", "core/exits.py", "core/log_limit.py", "protocol/arena.py",
+                      "protocol/security.py", "server/app.py", "server/cli.py", "server/config.py", "server/intake.py",
+                      "server/trace_replay.py")
 KEEP_DIRECTORIES = 5  # the most recently used cache directories kept (a developer switching branches)
 LAST_USED = "last-used"
 

@@ -65,7 +65,8 @@ def main(train=train, doc: str = __doc__) -> None:
     for b, column in enumerate(blocks.T):
         se = column.std(ddof=1) / np.sqrt(len(column)) if len(column) > 1 else float("nan")
         trials = " ".join(f"{v:5.2f}" for v in column)
-        print(f"episodes {b * args.block + 1:5d}-{(b + 1) * args.block:5d}: {column.mean():5.2f} +- {se:.2f} s  ({trials})")
+        print(f"episodes {b * args.block + 1:5d}-{(b + 1) * args.block:5d}: "
+              f"{column.mean():5.2f} +- {se:.2f} s  ({trials})")
 
 
 if __name__ == "__main__":

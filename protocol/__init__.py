@@ -73,8 +73,8 @@ from keepaway.protocol.params import (
 __all__ = [
     "Advice", "AtomicCommand", "Bye", "CLASSIC", "COACH_TO_SERVER", "CODEC_ERROR_CODES", "COMMAND_ARGUMENTS",
     "CURRENT", "CoachBye", "CoachInit", "CoachInitOk", "Command", "DEFAULT_MAX_MESSAGE_BYTES",
-    "DEFAULT_PORTS", "ERROR_CODES", "EpisodeControl", "EpisodeEnd", "Error", "Frame", "Fullstate", "Hear", "Init", "InitOk",
-    "KEEPAWAY_LAUNCH", "KernelParams", "Look", "LookOk", "MAX_COMMANDS", "MAX_PAYLOAD_DEPTH",
+    "DEFAULT_PORTS", "ERROR_CODES", "EpisodeControl", "EpisodeEnd", "Error", "Frame", "Fullstate", "Hear", "Init",
+    "InitOk", "KEEPAWAY_LAUNCH", "KernelParams", "Look", "LookOk", "MAX_COMMANDS", "MAX_PAYLOAD_DEPTH",
     "MONITOR_EPISODE_TOPIC", "MONITOR_FRAME_TOPIC", "MONITOR_TOPICS", "Message", "NOISE_AXIS", "NOISE_POLAR",
     "PARAMETER_SETS", "PLAYER_TO_SERVER", "PROTOCOL_VERSION", "PlayerReport", "PlayerSaid", "ProtocolError",
     "Reconnect", "Report", "SERVER_TO_COACH", "SERVER_TO_PLAYER", "See", "SenseBody", "ServerParams",

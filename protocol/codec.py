@@ -201,8 +201,8 @@ def fixed(*items: Loader) -> Loader:
 
 
 def row(accept: Callable[[Any], bool], load: Loader) -> Loader:
-    """``load`` (a :func:`fixed` row, maybe :func:`optional`) with a fast path: a value ``accept`` passes as already valid is
-    returned as a tuple without calling a loader per element. ``accept`` must only pass values ``load``
+    """``load`` (a :func:`fixed` row, maybe :func:`optional`) with a fast path: a value ``accept`` passes as already
+    valid is returned as a tuple without calling a loader per element. ``accept`` must only pass values ``load``
     returns unchanged (as a tuple); anything else goes through ``load``, so results and error messages
     are the same. Used for the percepts a client decodes every cycle."""
 

@@ -26,8 +26,8 @@ from keepaway.core.exports import lazy_exports
 MODES = ("batched", "embedded", "distributed")
 
 _EXPORTS = {
-    "keepaway.runner.job": ("BATCHED_SARSA", "GREEDY", "LEARN", "LEARNED", "Backend", "Behaviours", "EpisodeTable", "Game",
-                   "Played", "Progress", "RunResult", "chunk_seeds", "derive_seed"),
+    "keepaway.runner.job": ("BATCHED_SARSA", "GREEDY", "LEARN", "LEARNED", "Backend", "Behaviours", "EpisodeTable",
+                            "Game", "Played", "Progress", "RunResult", "chunk_seeds", "derive_seed"),
     "keepaway.runner.backends": ("Placement", "open_backend"),
     "keepaway.runner.batched": ("BatchedArenas",),
     "keepaway.runner.batched_backend": ("BatchedBackend",),

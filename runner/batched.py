@@ -57,7 +57,15 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-from keepaway.agents.belief import AgentMemory, Belief, Decisions, empty_belief, forget_episode, new_decisions, new_memory
+from keepaway.agents.belief import (
+    AgentMemory,
+    Belief,
+    Decisions,
+    empty_belief,
+    forget_episode,
+    new_decisions,
+    new_memory,
+)
 from keepaway.agents.config import GETOPEN_POLICIES, PASS_EXTERNAL, PASS_POLICIES, AgentConfig
 from keepaway.agents.frames import NO_SIDE, SIDE_CODES
 from keepaway.agents.getopen import net_size
@@ -85,7 +93,15 @@ from keepaway.agents.sarsa import (
 from keepaway.agents.say import Talk, new_talk
 from keepaway.agents.state_vars import getopen_state_size, pass_state_size
 from keepaway.agents.think import commit_row, decide_row
-from keepaway.agents.tracking import ModelState, SeeBuffer, forget_row, new_model_state, new_see_buffer, see_row, sense_body_row
+from keepaway.agents.tracking import (
+    ModelState,
+    SeeBuffer,
+    forget_row,
+    new_model_state,
+    new_see_buffer,
+    see_row,
+    sense_body_row,
+)
 from keepaway.core.jit import borrowing
 from keepaway.core.objects import BALL, CMD_KICK, CMD_NONE
 from keepaway.core.rng import seed_streams

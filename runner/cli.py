@@ -77,7 +77,8 @@ RAY_ADDRESS_OPTION = click.option("--ray-address", default=None,
 def check_ray_address(backend: str, ray_address: str | None) -> None:
     """A usage error in one line for ``--ray-address`` without ``--backend ray``, which would ignore it."""
     if ray_address is not None and backend != "ray":
-        raise click.UsageError("--ray-address names the Ray cluster of --backend ray: add --backend ray or leave it out")
+        raise click.UsageError("--ray-address names the Ray cluster of --backend ray:"
+                               " add --backend ray or leave it out")
 
 
 def placement_options(command: Command) -> Command:
@@ -285,7 +286,8 @@ def arena_list(text: str, batch: int, option: str) -> tuple[int, ...]:
     try:
         arenas = tuple(sorted({int(part) for part in text.split(",")}))
     except ValueError:
-        raise click.UsageError(f"{option}: expected arena numbers separated by commas, e.g. 0,3; got {text!r}") from None
+        raise click.UsageError(f"{option}: expected arena numbers separated by commas, e.g. 0,3;"
+                               f" got {text!r}") from None
     if arenas[0] < 0 or arenas[-1] >= batch:
         raise click.UsageError(f"{option}: arenas are numbered 0..{batch - 1} (--batch {batch}); got {text!r}")
     return arenas

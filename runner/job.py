@@ -232,6 +232,7 @@ class Backend(Protocol):
         ...
 
 
-__all__ = ["BATCHED_SARSA", "CHUNK_EPISODES", "GREEDY", "LEARN", "LEARNED", "MODES", "STREAM_CEM", "STREAM_CROSS_TEST", "STREAM_EVALUATION",
-           "STREAM_GENERATION", "STREAM_INITIAL_NET", "STREAM_PASS_BLOCK", "Backend", "Behaviours", "EpisodeTable",
-           "Game", "Job", "PassArrays", "Played", "Progress", "RunResult", "Transitions", "chunk_seeds", "derive_seed"]
+__all__ = ["BATCHED_SARSA", "CHUNK_EPISODES", "GREEDY", "LEARN", "LEARNED", "MODES", "STREAM_CEM", "STREAM_CROSS_TEST",
+           "STREAM_EVALUATION", "STREAM_GENERATION", "STREAM_INITIAL_NET", "STREAM_PASS_BLOCK", "Backend", "Behaviours",
+           "EpisodeTable", "Game", "Job", "PassArrays", "Played", "Progress", "RunResult", "Transitions", "chunk_seeds",
+           "derive_seed"]

@@ -94,7 +94,8 @@ class Member:
 
     def describe_exit(self) -> str:
         code = self.proc.returncode
-        how = f"was killed by {signal.Signals(-code).name}" if code is not None and code < 0 else f"exited with code {code}"
+        how = (f"was killed by {signal.Signals(-code).name}" if code is not None and code < 0
+               else f"exited with code {code}")
         return f"{self.name} (pid {self.proc.pid}) {how}"
 
 

@@ -348,8 +348,10 @@ def hear_frames(b: int, w: World, hears: HearBuffers, n_speakers: int, n_listene
     ``hears.frames`` (:func:`write_hear`); frame f is for listener index ``frame_listener[f]``, from a
     sender ``frame_sender[f]`` and ends at ``frame_end[f]``. Returns the number of frames. The server's one
     kernel call a cycle (``server.arena.Arena``), on buffers it keeps."""
-    speakers, texts, text_ends, listeners, picks = hears.speakers, hears.texts, hears.text_ends, hears.listeners, hears.picks
-    buf, frame_listener, frame_sender, frame_end = hears.frames, hears.frame_listener, hears.frame_sender, hears.frame_end
+    speakers, texts, text_ends, listeners, picks = (hears.speakers, hears.texts, hears.text_ends, hears.listeners,
+                                                    hears.picks)
+    buf, frame_listener, frame_sender, frame_end = (hears.frames, hears.frame_listener, hears.frame_sender,
+                                                    hears.frame_end)
     keepers = w.n_keepers
     n = 0
     f = 0

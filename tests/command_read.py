@@ -5,7 +5,14 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
-from keepaway.server.command_frame import COMMAND_NAMES, MAX_FRAME_BYTES, SAY, TEXT_COMMAND, CommandBuffer, read_command_frame
+from keepaway.server.command_frame import (
+    COMMAND_NAMES,
+    MAX_FRAME_BYTES,
+    SAY,
+    TEXT_COMMAND,
+    CommandBuffer,
+    read_command_frame,
+)
 
 
 class Read(NamedTuple):

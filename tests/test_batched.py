@@ -27,7 +27,17 @@ from keepaway.runner.batched import CHUNK_CYCLES, BatchedArenas, see_to_model_ro
 from keepaway.runner.embedded import ArenaSpec, EmbeddedGame
 from keepaway.server.arena import Arena
 from keepaway.server.percept_wire import see_payload
-from keepaway.server.perception import CLOSE, FULL, NAMELESS, PARTIAL, UNSEEN, SeeBuffers, cone_factor, see_arena, see_due
+from keepaway.server.perception import (
+    CLOSE,
+    FULL,
+    NAMELESS,
+    PARTIAL,
+    UNSEEN,
+    SeeBuffers,
+    cone_factor,
+    see_arena,
+    see_due,
+)
 from keepaway.server.referee import END_OUT, END_TAKEN
 from keepaway.server.world import new_world
 from keepaway.trainer.curves import welch_p_value

@@ -37,7 +37,8 @@ def refused(processes, *args: str, code: int = 2, timeout_s: float = QUICK_S) ->
 def test_the_command_line_loads_without_numba_so_usage_errors_come_at_once(processes):
     """Loading numba takes a third of a second or more: ``keepaway --help`` and every refusal before
     anything plays must not pay it (each package's cli imports its kernels only inside commands)."""
-    probe = "import sys, keepaway.cli; print(sorted(m for m in sys.modules if m.split('.')[0] in ('numba', 'llvmlite')))"
+    probe = ("import sys, keepaway.cli; "
+             "print(sorted(m for m in sys.modules if m.split('.')[0] in ('numba', 'llvmlite')))")
     proc = processes.popen([sys.executable, "-c", probe], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     out, err = proc.communicate(timeout=QUICK_S)
     assert proc.returncode == 0, err.decode()
@@ -164,7 +165,8 @@ def test_unknown_toml_settings_are_named_with_the_known_ones(processes, tmp_path
     config = tmp_path / "server.toml"
     config.write_text("warp = 1\n")
     line = refused(processes, "server", *FREE_PORTS, "--config", str(config))
-    assert line.startswith(f"Error: {config}: unknown setting(s) warp; known: coach_budget, coach_port, ") and "seed" in line
+    assert (line.startswith(f"Error: {config}: unknown setting(s) warp; known: coach_budget, coach_port, ")
+            and "seed" in line)
 
 
 # -- keepaway player and coach ---------------------------------------------------------------------
@@ -223,7 +225,14 @@ def training(tmp_path):
     """A training directory as ``keepaway train`` leaves it after its first step (P:HC-GO:L, one trial)."""
     from keepaway.trainer.cem import CEMConfig
     from keepaway.trainer.schedule import GETOPEN, Phase
-    from keepaway.trainer.train import TrainConfig, TrialState, initial_behaviours, save_checkpoint, trial_dir, write_config
+    from keepaway.trainer.train import (
+        TrainConfig,
+        TrialState,
+        initial_behaviours,
+        save_checkpoint,
+        trial_dir,
+        write_config,
+    )
 
     config = TrainConfig("handcoded", "learned", (Phase(GETOPEN, 50),), eval_every=50, eval_episodes=2, arenas=2,
                          cem=CEMConfig(n_params=getopen_theta_size(), population=2, elite=1,

@@ -180,7 +180,8 @@ class FakeServer:
     def stand_still(self) -> None:
         self.take(m.Look)
         self.send(m.LookOk(cycle=7, paused=True, state={"ball": [0.0, 0.0, 0.0, 0.0], "players": [],
-                                                        "play_mode": "play_on", "episode": 1, "episode_start": 0, "take_count": 0}))
+                                                        "play_mode": "play_on", "episode": 1, "episode_start": 0,
+                                                        "take_count": 0}))
 
     def actions(self, n: int) -> list[str]:
         return [self.take(m.EpisodeControl).action for _ in range(n)]

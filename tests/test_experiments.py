@@ -39,7 +39,13 @@ from keepaway.runner.batched_backend import BatchedBackend
 from keepaway.runner.job import Behaviours
 from keepaway.runner.report import dump_json
 from keepaway.trainer.cem import CEMConfig
-from keepaway.trainer.configurations import POLICIES, ConfigurationRun, ExperimentConfig, configuration_dir, configuration_name
+from keepaway.trainer.configurations import (
+    POLICIES,
+    ConfigurationRun,
+    ExperimentConfig,
+    configuration_dir,
+    configuration_name,
+)
 from keepaway.trainer.curves import CurvePoint, read_curve_csv, welch_p_value, write_atomic, write_curve_csv
 from keepaway.trainer.experiment_report import (
     Cell,

@@ -26,7 +26,15 @@ from keepaway.agents.state_vars import getopen_state_kinds, getopen_state_size
 from keepaway.protocol.params import parameter_set
 from keepaway.runner.coached import policy_advice
 from keepaway.trainer.curves import CurvePoint
-from keepaway.trainer.train import TrainConfig, TrialState, initial_behaviours, load_checkpoint, save_checkpoint, trial_dir, write_trial_outputs
+from keepaway.trainer.train import (
+    TrainConfig,
+    TrialState,
+    initial_behaviours,
+    load_checkpoint,
+    save_checkpoint,
+    trial_dir,
+    write_trial_outputs,
+)
 
 KP = parameter_set("classic").kernel()
 CFG = AgentConfig().kernel()

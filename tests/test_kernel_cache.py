@@ -16,7 +16,17 @@ from pathlib import Path
 import numpy as np
 
 from conftest import REPO, keepaway_command
-from keepaway.core.jit import KERNEL_SOURCES, NOT_KERNEL_SOURCES, ROOT, Kernel, borrowing, configure_cache, njit, source_digest, source_files
+from keepaway.core.jit import (
+    KERNEL_SOURCES,
+    NOT_KERNEL_SOURCES,
+    ROOT,
+    Kernel,
+    borrowing,
+    configure_cache,
+    njit,
+    source_digest,
+    source_files,
+)
 from test_imports import MODULES, PROJECT, imported_names
 
 # Runs pkg.a.f() with numba's cache in CACHE_ROOT/numba-<digest of pkg's source>, as core.jit does.
@@ -84,7 +94,8 @@ def imports_numba_njit(tree: ast.AST) -> bool:
     if imports_njit(tree, "numba"):
         return True
     for node in ast.walk(tree):
-        if isinstance(node, ast.Attribute) and node.attr == "njit" and getattr(node.value, "id", None) in ("numba", "nb"):
+        if (isinstance(node, ast.Attribute) and node.attr == "njit"
+                and getattr(node.value, "id", None) in ("numba", "nb")):
             return True
     return False
 
@@ -107,7 +118,8 @@ def test_every_module_a_kernel_module_imports_is_in_the_key():
     own module imports, directly or through others: an edit there must select a fresh cache as well."""
     assert all((ROOT / name).is_file() for name in NOT_KERNEL_SOURCES)
     keyed = {path.resolve() for path in source_files(ROOT, KERNEL_SOURCES, NOT_KERNEL_SOURCES)}
-    kernel_modules = [name for name, path in MODULES.items() if imports_njit(ast.parse(path.read_text()), "keepaway.core.jit")]
+    kernel_modules = [name for name, path in MODULES.items()
+                      if imports_njit(ast.parse(path.read_text()), "keepaway.core.jit")]
     assert "keepaway.server.physics" in kernel_modules and "keepaway.runner.batched" in kernel_modules
     reached: set[str] = set()
     todo = list(kernel_modules)

@@ -52,7 +52,14 @@ from keepaway.agents.getopen import (
     predicted_ball_pos,
     tanh_estimate,
 )
-from keepaway.agents.interception import UNKNOWN_FIRST, _longest_run, decay_sums, fastest_to_ball, interception_point, travel
+from keepaway.agents.interception import (
+    UNKNOWN_FIRST,
+    _longest_run,
+    decay_sums,
+    fastest_to_ball,
+    interception_point,
+    travel,
+)
 from keepaway.agents.sarsa import (
     CHECK_INCREMENT,
     EMPTY_SLOT,

@@ -148,7 +148,8 @@ SAMPLES = [
     EpisodeEnd(cycle=93, episode=4, start_cycle=28, end_cycle=93, end="out", missed=(("keeper 1", 12),)),
     PlayerReport(cycle=93, side="l", unum=1, payload=PAYLOAD),
     PlayerSaid(cycle=93, side="r", unum=2, message="hello"),
-    FRAME := Frame(cycle=55, ball=BALL, players=PLAYERS, play_mode="play_on", episode=3, episode_start=40, take_count=2),
+    FRAME := Frame(cycle=55, ball=BALL, players=PLAYERS, play_mode="play_on", episode=3, episode_start=40,
+                   take_count=2),
     Frame(cycle=55, ball=BALL, players=PLAYERS, play_mode="play_on", episode=3, episode_start=40, take_count=2,
           getopen=((1, (3.5, -7.0)), (2, (0.0, 0.0, 3.5, 3.5, -0.5)))),
 ]

@@ -41,5 +41,6 @@ def test_a_taker_written_from_the_protocol_alone_plays_every_cycle_of_whole_epis
     assert len(episodes) == 3
     assert all(not e.missed for e in episodes)  # it answered every cycle in time
     played = episodes[-1].end_cycle
-    assert lines[-1].startswith("protocol-taker: the server shut down (") and lines[-1].endswith(f"after {played} cycles")
+    assert (lines[-1].startswith("protocol-taker: the server shut down (")
+            and lines[-1].endswith(f"after {played} cycles"))
     assert err.decode() == ""

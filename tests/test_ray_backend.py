@@ -36,7 +36,8 @@ HAVE_RAY = importlib.util.find_spec("ray") is not None
 @pytest.mark.parametrize("command", ["train", "run"])
 def test_without_ray_the_backend_is_refused_in_one_line(tmp_path, monkeypatch, command):
     monkeypatch.setitem(sys.modules, "ray", None)  # as if Ray were not installed: its import fails
-    done = CliRunner().invoke(main, [command, "--mode", "distributed", "--backend", "ray", "--out", str(tmp_path / "t")])
+    done = CliRunner().invoke(main, [command, "--mode", "distributed", "--backend", "ray",
+                                     "--out", str(tmp_path / "t")])
     assert done.exit_code == 2
     assert "pip install 'keepaway[ray]'" in done.output
 
@@ -74,7 +75,8 @@ def test_a_run_on_ray_plays_the_games_of_a_local_run_and_brings_its_logs_back(pr
     assert len(key(on_ray)) == 4 and key(on_ray) == key(here)
     assert on_ray["cycles_per_s"] > 0  # measured on the node, between its first and last episode end
     for log in ("ray", "here"):
-        assert {p.name for p in (tmp_path / log / "processes").glob("*.log")} >= {"server.log", "coach.log", "taker_2.log"}
+        assert ({p.name for p in (tmp_path / log / "processes").glob("*.log")}
+                >= {"server.log", "coach.log", "taker_2.log"})
     assert (tmp_path / "ray" / "keepaway.kwy").read_bytes() == (tmp_path / "here" / "keepaway.kwy").read_bytes()
     # every cycle of the game log, but the result line, which carries the time of day
     game_log = lambda out: [l for l in (out / "keepaway.rcg").read_text().splitlines() if "(result " not in l]

@@ -191,7 +191,8 @@ def test_a_ball_never_seen_is_taken_rolled_on_by_cycleno():
 
 def test_an_opponent_heard_is_taken_only_when_mine_is_older_and_our_pos_changes_nothing():
     s = model(2, {4: (5.0, 5.0), 5: (1.0, 1.0)}, seen={4: NOW - 3, 5: NOW - 1}, vel={4: (0.5, 0.0)})
-    opp = "8" + VALID_CHARS[encode_position(6.0, X_LOW, X_SPAN)] + VALID_CHARS[encode_position(6.0, Y_LOW, Y_SPAN)] + "1"
+    opp = ("8" + VALID_CHARS[encode_position(6.0, X_LOW, X_SPAN)] + VALID_CHARS[encode_position(6.0, Y_LOW, Y_SPAN)]
+           + "1")
     opp2 = "9" + opp[1:]
     heard(s, opp + "0AA")
     assert s.pos[0, 4, 0] == pytest.approx(decode_value(encode_position(6.0, X_LOW, X_SPAN), X_LOW, X_SPAN))
@@ -298,7 +299,8 @@ def _hears_by_hand(w, says, listeners, cycle):
             ours = (speaker <= K) == (listener <= K)
             heard.append((listener, "our" if ours else "opp",
                           encode(Hear(cycle=cycle, sender="our" if ours else "opp", direction=direction,
-                                      unum=(speaker if speaker <= K else speaker - K) if ours else None, message=text))))
+                                      unum=(speaker if speaker <= K else speaker - K) if ours else None,
+                                      message=text))))
     return heard
 
 

@@ -333,7 +333,8 @@ def test_a_second_server_on_a_log_directory_keeps_the_first_ones_logs(processes,
     assert (srv.log_dir / "keepaway.1.kwy").read_text() == kwys[0]  # set aside, whole
     assert read_jsonl(srv.log_dir / "keepaway.1.jsonl")[0]["seed"] == 5
     assert read_jsonl(srv.log_dir / "keepaway.jsonl")[0]["seed"] == 6
-    assert len(read_jsonl(srv.log_dir / "keepaway.1.jsonl")[1]) == len(read_jsonl(srv.log_dir / "keepaway.jsonl")[1]) == 2
+    assert (len(read_jsonl(srv.log_dir / "keepaway.1.jsonl")[1]) == len(read_jsonl(srv.log_dir / "keepaway.jsonl")[1])
+            == 2)
 
 
 def test_a_player_that_cannot_take_a_seat_back_asks_again_then_exits_with_one_line(processes, tmp_path):

@@ -178,7 +178,8 @@ def test_the_number_writer_prints_what_printf_prints():
     bits = rng.integers(0, 2**63, n, dtype=np.int64).view(np.float64)
     values = np.concatenate((
         ties, np.nextafter(ties, np.inf), np.nextafter(ties, -np.inf),
-        np.rint(rng.uniform(-60, 60, n) / POS_PREC) * POS_PREC, np.rint(rng.uniform(-180, 180, n) / ANGLE_PREC) * ANGLE_PREC,
+        np.rint(rng.uniform(-60, 60, n) / POS_PREC) * POS_PREC,
+        np.rint(rng.uniform(-180, 180, n) / ANGLE_PREC) * ANGLE_PREC,
         bits[np.isfinite(bits)], 10.0 ** rng.uniform(-17, 27, n) * rng.choice([-1.0, 1.0], n),
         [0.0, -0.0, 1e-5, 1e-4, 999999.5, 9999995.0, 0.000999995, 130600.0, SMALLEST, np.nextafter(SMALLEST, 0.0),
          LARGEST, np.nextafter(LARGEST, 0.0), 5e-324, math.inf, -math.inf, math.nan]))

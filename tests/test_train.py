@@ -31,7 +31,15 @@ from keepaway.runner.backends import Placement
 from keepaway.runner.batched_backend import BatchedBackend
 from keepaway.runner.job import LEARN
 from keepaway.trainer.cem import CEMConfig
-from keepaway.trainer.curves import CSV_HEADER, CurvePoint, mean_curve, plot_curves, read_curve_csv, welch_p_value, write_curve_csv
+from keepaway.trainer.curves import (
+    CSV_HEADER,
+    CurvePoint,
+    mean_curve,
+    plot_curves,
+    read_curve_csv,
+    welch_p_value,
+    write_curve_csv,
+)
 from keepaway.trainer.schedule import (
     ALGORITHM_3,
     BOTH,
@@ -562,7 +570,8 @@ def test_a_hive_mind_training_saves_one_table_for_every_keeper_and_plays_back(tm
     weights = [policy.pass_arrays[f"pass{suffix}_weights"] for suffix in ("", "_keeper2", "_keeper3")]
     assert weights[0].any() and all(np.array_equal(w, weights[0]) for w in weights)
     for mode in ("batched", "embedded"):  # a lone keeper plays a hive mind's copy of the table
-        played = CliRunner().invoke(main, ["evaluate", "--policy", str(out), "--episodes", "2", "--mode", mode, "--no-progress", "--json"])
+        played = CliRunner().invoke(main, ["evaluate", "--policy", str(out), "--episodes", "2", "--mode", mode,
+                                           "--no-progress", "--json"])
         assert played.exit_code == 0, played.output
     # A configuration stored before the option existed reads back with it off.
     stored = pass_config().to_dict()
@@ -585,7 +594,8 @@ def test_evaluate_plays_each_trials_policy_frozen_and_prints_the_summary(tmp_pat
     out = tmp_path / "run"
     assert CliRunner().invoke(main, TINY_ARGS + ["--out", str(out), "--episodes", "16"]).exit_code == 0
     runner = CliRunner()
-    table = runner.invoke(main, ["evaluate", "--policy", str(out), "--episodes", "6", "--threads", "1", "--no-progress"])
+    table = runner.invoke(main, ["evaluate", "--policy", str(out), "--episodes", "6", "--threads", "1",
+                                 "--no-progress"])
     assert table.exit_code == 0, table.output
     assert table.output.count("mean hold time") == 2  # one table per trial
     assert "(Pass random, GetOpen learned)" in table.output
@@ -613,7 +623,8 @@ def test_evaluate_plays_a_learned_pass_file_with_another_pass_in_its_place(tmp_p
     trained = CliRunner().invoke(main, args + ["--out", str(out)])
     assert trained.exit_code == 0, trained.output
     for other in ("handcoded", "random"):
-        played = CliRunner().invoke(main, ["evaluate", "--policy", str(out), "--episodes", "4", "--threads", "1", "--pass", other, "--json"])
+        played = CliRunner().invoke(main, ["evaluate", "--policy", str(out), "--episodes", "4", "--threads", "1",
+                                           "--pass", other, "--json"])
         assert played.exit_code == 0, played.output
         summary = strict_json(played.output)
         assert (summary["pass"], summary["getopen"], len(summary["episodes"])) == (other, "handcoded", 4)

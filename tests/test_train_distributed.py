@@ -81,7 +81,8 @@ def test_a_refused_run_is_named_with_the_coach_error(fake_coach):
         def refuse():
             ident, data = sock.recv_multipart()
             assert isinstance(decode_from_trainer(data), RunEpisodes)
-            sock.send_multipart([ident, encode(m.Error(cycle=0, code="reports_missing", message="keeper 2's snapshot"))])
+            sock.send_multipart([ident, encode(m.Error(cycle=0, code="reports_missing",
+                                                       message="keeper 2's snapshot"))])
 
         thread = threading.Thread(target=refuse)
         thread.start()

@@ -43,7 +43,13 @@ from keepaway.trainer.configurations import (
     configuration_name,
 )
 from keepaway.trainer.curves import CurvePoint, curve_summary, read_curve_csv, read_json, write_atomic, write_curve_csv
-from keepaway.trainer.experiment_report import CrossTable, plot_figure3, table_cells, write_final_evaluations, write_table2
+from keepaway.trainer.experiment_report import (
+    CrossTable,
+    plot_figure3,
+    table_cells,
+    write_final_evaluations,
+    write_table2,
+)
 from keepaway.trainer.schedule import GETOPEN, LEARNED, PASS
 from keepaway.trainer.timing import Timing, timed_sitting
 from keepaway.trainer.train import (
