@@ -37,6 +37,10 @@ def test_the_readme_is_short():
     assert not long_lines, f"README lines over 200 characters: {long_lines}"
 
 
+def test_the_design_notes_stay_within_800_lines():
+    assert len((REPO / "docs" / "design.md").read_text(encoding="utf-8").splitlines()) <= 800
+
+
 def test_every_repository_path_the_readme_names_exists():
     paths = named_paths(README) + re.findall(r"\]\(((?:docs|benchmarks|tests)/[^)#]+)", README)
     assert len(paths) > 10

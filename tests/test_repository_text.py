@@ -19,13 +19,12 @@ FORBIDDEN = {
     "a machine path": r"(?<![\w.~-])/(?:work|root|home)/\w",
     "a folder beside the repository": r"\.\./shared\b",
     "a workplace folder": r"\bshared/(?:spec|rcss-traces|rcss-behaviour|reference-stack|tools)\b",
-    "someone's jobs": r"\banother engineer|\bsomeone else",
+    "someone's jobs": r"\banother\s+engineer|\bsomeone\s+else",
     "a document the repository lacks": (r"\b[Ss]pec [`\d]|\bspec: \"|\bstyle guide\b|\bserver-physics\.md"
                                         r"|\bkeepaway-(?:agents|task)\.md|\barchitecture\.md"),
 }
 PATTERNS = {name: re.compile(pattern) for name, pattern in FORBIDDEN.items()}
-# This file names the patterns themselves.
-FILES = [name for name in text_files() if name != Path("tests/test_repository_text.py")]
+FILES = text_files()  # this file too: its examples below are split so that none reads as what it shows
 
 
 def findings(name: Path, text: str) -> list[str]:
@@ -45,15 +44,15 @@ def test_no_tracked_file_speaks_of_how_the_project_was_made():
 
 
 @pytest.mark.parametrize("line, what", [
-    ("# measured in session 33", "a work session"),
-    ("(issue 12, item 1)", "a tracker issue"),
-    ("see item 2 of the list", "an item of an issue"),
-    ("BUILD=/work/rcss-build/b", "a machine path"),
-    ("../shared/tools/build-rcss.sh", "a folder beside the repository"),
-    ("`shared/rcss-traces`", "a workplace folder"),
-    ("another engineer's jobs", "someone's jobs"),
-    ("(spec `keepaway-agents.md` 2.2)", "a document the repository lacks"),
-    ("(style guide, \"Sockets at the edge\")", "a document the repository lacks"),
+    ("# measured in sess" "ion 33", "a work session"),
+    ("(iss" "ue 12)", "a tracker issue"),
+    ("see it" "em 2 of the list", "an item of an issue"),
+    ("BUILD=/" "work/rcss-build/b", "a machine path"),
+    ("../sh" "ared/build.sh", "a folder beside the repository"),
+    ("`sh" "ared/rcss-traces`", "a workplace folder"),
+    ("another engin" "eer's jobs", "someone's jobs"),
+    ("(sp" "ec `keepaway-ag" "ents.md` 2.2)", "a document the repository lacks"),
+    ("(style gu" "ide, \"Sockets at the edge\")", "a document the repository lacks"),
 ])
 def test_each_pattern_catches_what_it_names(line, what):
     assert any(f": {what}: " in finding for finding in findings(Path("x.py"), line))
