@@ -365,7 +365,6 @@ class Server:
 
     # -- the cycle -----------------------------------------------------------------------------------
     def _step(self) -> None:
-        self.look_answer = None
         self._count_absent()
         record = self.arena.step()
         self._close_budget_windows(seated=True)
@@ -675,8 +674,8 @@ class Server:
     # -- coach port ----------------------------------------------------------------------------------
     def _look_ok(self) -> bytes:
         """The encoded answer to a ``look``, made once for all the looks of one state: the true state
-        changes only by a step, a start, or a message that is served (a player's, a coach's other than a
-        look), and each of those clears it; a pause or resume is in the key."""
+        changes only by a step (the cycle is in the key), a start or a message that is served (a player's,
+        a coach's other than a look), which clear it; a pause or resume is in the key too."""
         key = (self.arena.cycle, self.standing_still)
         if self.look_answer is None or self.look_answer[0] != key:
             self.look_answer = key, encode(m.LookOk(cycle=self.arena.cycle, state=truth_state(self.arena),
