@@ -13,16 +13,17 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-PROJECT = ("agents", "coach", "core", "keepaway", "protocol", "runner", "server", "trainer", "viewer")
+PROJECT = ("agents", "coach", "core", "keepaway", "protocol", "rcss", "runner", "server", "trainer", "viewer")
 # package -> the project's packages it may import (besides itself)
 ALLOWED = {
     "core": set(),
     "protocol": {"core"},
-    "agents": {"core", "protocol"},
+    "rcss": {"core", "protocol"},
+    "agents": {"core", "protocol", "rcss"},
     "coach": {"core", "protocol"},
-    "server": {"core", "protocol"},
-    "runner": {"core", "protocol", "agents", "server"},
-    "trainer": {"core", "protocol", "agents", "server", "runner"},
+    "server": {"core", "protocol", "rcss"},
+    "runner": {"core", "protocol", "agents", "server", "rcss"},
+    "trainer": {"core", "protocol", "agents", "server", "runner", "rcss"},
     "viewer": {"core", "protocol", "server"},
 }
 
