@@ -283,8 +283,8 @@ def test_a_hear_frame_is_the_encoded_hear():
 
 def _hears_by_hand(w, says, listeners, cycle):
     """What each listener hears of ``says`` ((speaker, text) in object order), as the server's rule says:
-    its own says, then ``hear_picks``' draws with the direction from its body (whole degrees, half to
-    even) and, from a teammate, the number; encoded as ``Hear`` messages."""
+    its own says, then ``hear_picks``' draws with the direction from its body (whole degrees towards
+    zero, rcssserver's Rad2IDeg) and, from a teammate, the number; encoded as ``Hear`` messages."""
     speakers = np.array([speaker for speaker, _ in says], dtype=np.int64)
     picks = np.empty(len(says), dtype=np.int64)
     heard = []
@@ -294,8 +294,9 @@ def _hears_by_hand(w, says, listeners, cycle):
         for pick in picks[:hear_picks(0, w, speakers, listener, KP.hear_max, KP.audio_cut_dist, picks)]:
             speaker, text = says[pick]
             (lx, ly), (sx, sy) = w.pos[0, listener].tolist(), w.pos[0, speaker].tolist()
-            a = math.fmod(math.degrees(math.atan2(sy - ly, sx - lx)) - float(w.body[0, listener]) + 180.0, 360.0)
-            direction = int(round((a + 360.0 if a < 0 else a) - 180.0))
+            a = math.atan2(sy - ly, sx - lx) - float(w.body[0, listener]) * math.pi / 180.0
+            a = math.remainder(a, 2 * math.pi)  # into [-pi, pi]
+            direction = int(a * 180.0 / math.pi)  # towards zero
             ours = (speaker <= K) == (listener <= K)
             heard.append((listener, "our" if ours else "opp",
                           encode(Hear(cycle=cycle, sender="our" if ours else "opp", direction=direction,
