@@ -220,6 +220,7 @@ class Init(Message):
     client: str = wire(CLIENT, default="")
     fullstate: bool = wire(boolean, default=False)
     synch_see: bool = wire(boolean, default=False)
+    pre_kick_off: bool = wire(boolean, default=False)
 
 
 @message

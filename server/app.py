@@ -134,6 +134,7 @@ class Server:
         self.pause_after: int | None = None  # pause once this many more episodes have ended
         self.next_see: dict[bytes, float] = {}  # real-time mode: each player's next see (monotonic s)
         self.next_waiting = 0.0  # when the next ``waiting`` is due while no cycle is played (monotonic s)
+        self.next_pre_kick_off = 0.0  # when the next pre-kick-off sense_body is due (monotonic s)
         self.intakes = {self.players: Intake(cfg.player_budget, cfg.unseated_budget),
                         self.coach: Intake(cfg.coach_budget, cfg.unseated_budget)}
         self.window_opened = time.monotonic()  # of the wall-time budget window (server/intake.py)
@@ -191,6 +192,7 @@ class Server:
                 poller.register(sock, zmq.POLLIN)
             while self.stop_reason is None and not self._ready_to_start():
                 self._send_waiting_if_due(self.config.start_on)
+                self._send_pre_kick_off_if_due()
                 self._poll(poller, 50)
             if self.stop_reason is None:
                 self._start_game()
@@ -323,6 +325,23 @@ class Server:
                                 connected=len(self.arena.connected_slots()), expected=len(self.arena.slots)))
         for conn in sorted(self.conns.values(), key=lambda c: c.slot.obj):
             self._send_raw(self.players, conn.identity, data)
+
+    def _send_pre_kick_off_if_due(self) -> None:
+        """Before the kick-off, to the players that asked for it in ``init`` (``pre_kick_off``): a
+        ``sense_body`` every simulator_step_ms of wall time, and a ``think`` in synchronous mode, as
+        rcssserver's timers send them while the clock stands at 0 (src/synctimer.cpp, src/stadium.cpp
+        ``doSendThink``). The game has not begun, so the commands that answer them are dropped
+        (:meth:`_on_player`)."""
+        now = time.monotonic()
+        if now < self.next_pre_kick_off:
+            return
+        self.next_pre_kick_off = now + self.config.params.simulator_step_ms / 1000.0
+        think = encode(m.Think(cycle=self.arena.cycle)) if self.config.mode == "sync" else None
+        for conn in sorted(self.conns.values(), key=lambda c: c.slot.obj):
+            if conn.slot.pre_kick_off:
+                self._send_raw(self.players, conn.identity, self.arena.sense_body_frame(conn.slot))
+                if think is not None:
+                    self._send_raw(self.players, conn.identity, think)
 
     def _ready_to_start(self) -> bool:
         if self.config.start_on == "players":
@@ -578,7 +597,7 @@ class Server:
     def _on_player(self, ident: bytes, data: bytes) -> None:
         self.look_answer = None  # a player that joins or leaves changes the true state
         conn = self.conns.get(ident)
-        if conn is not None and len(data) <= self.config.max_message_bytes:
+        if conn is not None and len(data) <= self.config.max_message_bytes and self.arena.started:
             # a command frame read and taken by the kernel (``Arena.submit_frame``); any other in full
             taken = self.arena.submit_frame(conn.slot.obj, data)
             if taken is not None:
@@ -594,7 +613,8 @@ class Server:
         elif conn is None:
             self._error_raw(self.players, ident, "not_initialised", "send init (or reconnect) first")
         elif isinstance(msg, m.Command):
-            self._answered(conn, msg.cycle, self.arena.submit_command(conn.slot.obj, msg))
+            if self.arena.started:  # before the kick-off: an answer to a pre-kick-off think, dropped
+                self._answered(conn, msg.cycle, self.arena.submit_command(conn.slot.obj, msg))
         elif isinstance(msg, m.Report):
             self._to_coaches(encode(m.PlayerReport(cycle=self.arena.cycle, side=conn.slot.side,
                                                    unum=conn.slot.unum, payload=msg.payload)))
@@ -612,7 +632,8 @@ class Server:
         try:
             if isinstance(msg, m.Init):
                 slot = self.arena.connect(msg.team, msg.unum, fullstate=msg.fullstate,
-                                          synch_see=msg.synch_see, now_ms=now_ms)
+                                          synch_see=msg.synch_see, pre_kick_off=msg.pre_kick_off,
+                                          now_ms=now_ms)
             else:
                 self._release_if_gone(msg.team, msg.unum)
                 slot = self.arena.reconnect(msg.team, msg.unum, now_ms=now_ms)

@@ -71,6 +71,7 @@ class PlayerSlot:
     connected: bool = False
     fullstate: bool = False
     synch_see: bool = False
+    pre_kick_off: bool = False  # sense_body (and think) while waiting for the kick-off, as rcssserver
     view_width: str = DEFAULT_VIEW_WIDTH
     see_phase_ms: float = 0.0  # virtual time of this player's first see (connect time, as rcssserver)
     hears: list[QueuedHear] = field(default_factory=list)
@@ -129,7 +130,7 @@ class Arena:
         return self.slots[obj - 1]
 
     def connect(self, team: str, unum: int | None = None, *, fullstate: bool = False,
-                synch_see: bool = False, now_ms: float = 0.0) -> PlayerSlot:
+                synch_see: bool = False, pre_kick_off: bool = False, now_ms: float = 0.0) -> PlayerSlot:
         """Give a new client a uniform number of ``team`` (the requested one if free)."""
         side = TEAMS.get(team)
         if side is None:
@@ -141,6 +142,7 @@ class Arena:
                 raise ArenaError("no_more_player", f"{team} {unum} is taken or does not exist")
         if not free:
             raise ArenaError("no_more_player", f"all {team} are connected")
+        free[0].pre_kick_off = pre_kick_off
         return self._enable(free[0], fullstate, synch_see, now_ms)
 
     def reconnect(self, team: str, unum: int, *, now_ms: float = 0.0) -> PlayerSlot:

@@ -131,6 +131,41 @@ def test_waiting_tells_joined_players_why_no_cycle_is_played(processes, tmp_path
     assert isinstance(keeper.recv_until(m.Waiting, 5), m.Waiting)  # again while it lasts
 
 
+def test_pre_kick_off_percepts_come_as_rcssserver_sends_them_and_their_answers_do_not_act(processes, tmp_path):
+    """A player that asked for ``pre_kick_off`` gets sense_body + think of cycle 0 while the server waits
+    for the kick-off (another player gets only ``waiting``); its answers then are dropped: a turn sent
+    before the kick-off has not turned it when the game is played."""
+    srv = processes.start_server(tmp_path, "--start-on", "coach", "--max-cycles", "200", "--param", "player_rand=0")
+    early = ScriptedPlayer(srv.players_endpoint)
+    early.init("keepers", pre_kick_off=True)
+    plain = ScriptedPlayer(srv.players_endpoint)
+    plain.init("takers")
+    thinks = 0
+    while thinks < 5:
+        msg = early.recv(5)
+        if isinstance(msg, m.SenseBody):
+            assert msg.cycle == 0
+        elif isinstance(msg, m.Think):
+            assert msg.cycle == 0 and isinstance(early.received[-2], m.SenseBody)
+            early.answer(0, ("turn", 90.0))
+            thinks += 1
+    assert all(isinstance(msg, m.Waiting) for msg in plain.until_barrier())
+    coach = ScriptedCoach(srv.coach_endpoint)
+    coach.init()
+    coach.send(m.Start())
+    while not (isinstance(heard := early.recv_until(m.Hear, 5), m.Hear) and heard.message == "play_on"):
+        pass
+    coach.send(m.Look())
+    body_at_kick_off = next(p for p in coach.recv_until(m.LookOk).state["players"] if tuple(p[:2]) == ("l", 1))[6]
+    for p in (early, plain):
+        p.play_cycles(1)  # no command in cycle 0
+    early.recv_until(m.SenseBody, 5)
+    coach.send(m.Look())
+    look = coach.recv_until(m.LookOk)
+    assert look.cycle == 1
+    assert next(p for p in look.state["players"] if tuple(p[:2]) == ("l", 1))[6] == body_at_kick_off
+
+
 def test_reconnect_takes_back_the_uniform_number(processes, tmp_path):
     srv = processes.start_server(tmp_path, "--start-on", "coach", "--max-cycles", "3")
     p = ScriptedPlayer(srv.players_endpoint)
