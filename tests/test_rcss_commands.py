@@ -99,6 +99,7 @@ def test_numbers_are_the_scanners_ints_and_reals(text, tokens):
     ('""', [("error", '"'), ("error", '"')]),  # an empty string is no string
     ("a\rb", [("str", "a"), ("error", "\r"), ("str", "b")]),  # blanks are space, tab and newline
     ("a\xe9", [("str", "a"), ("error", "\xe9")]),  # beyond ASCII: rcssserver's 7-bit scanner is undefined
+    ("a" * 8193 + " b", [("error", "a"), ("str", "b")]),  # longer than STR_MAX (player_command_tok.h)
 ])
 def test_keywords_words_and_strings(text, tokens):
     assert list(command_tokens(text)) == tokens
@@ -435,7 +436,7 @@ def assert_well_formed(reading: ParsedDatagram) -> None:
     Command(cycle=0, commands=reading.commands[:MAX_COMMANDS])  # our protocol takes every command
 
 
-def assert_read_or_refused(datagram: bytes) -> None:
+def assert_read_or_refused(datagram: bytes | str) -> None:
     try:
         assert isinstance(parse_connect(datagram), InitRequest | ReconnectRequest)
     except ConnectRefused as refused:
@@ -454,6 +455,13 @@ PIECES = st.sampled_from([
 @given(st.binary(max_size=300))
 def test_random_bytes(datagram):
     assert_read_or_refused(datagram)
+
+
+@FUZZ
+@given(st.text(st.characters(exclude_categories=()), max_size=300))
+def test_random_text(text):
+    """A ``str`` is read as the UTF-8 a client would send, lone surrogates too."""
+    assert_read_or_refused(text)
 
 
 @FUZZ
