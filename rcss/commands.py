@@ -277,7 +277,8 @@ Request = SenseBodyRequest | ScoreRequest | SynchSeeRequest | EarRequest | Atten
 
 @dataclass(frozen=True, slots=True)
 class ParsedDatagram:
-    """One datagram of a seated player. ``commands``: those our protocol takes, in order; ``answers``:
+    """One datagram of a seated player. ``commands``: those our protocol takes, in order (as many as the
+    datagram holds, which may be more than a ``command`` message's MAX_COMMANDS); ``answers``:
     in rcssserver's order, reply texts to send as they are and the requests the front answers from its
     state; ``bye``: the player leaves (rcssserver closes its connection: nothing after the ``(bye)`` is
     done or answered)."""
@@ -356,8 +357,6 @@ def _statements(text: str) -> Iterator[tuple[str, tuple]]:
 
 
 _LARGEST = sys.float_info.max
-_SIDES = ("our", "opp", "l", "r")
-_MODES = ("partial", "complete")
 
 
 def _finite(value: float) -> float:
@@ -368,7 +367,7 @@ def _finite(value: float) -> float:
 
 def _team(word: str) -> tuple[str, str]:
     """A team token: ``(side, "")`` for our/opp/l/r (left, right), ``("", word)`` for a name."""
-    return (word, "") if word in _SIDES else ("", word)
+    return (word, "") if word in _SIDE else ("", word)
 
 
 def _answer(name: str, values: tuple) -> AtomicCommand | str | Request | None:
@@ -406,7 +405,7 @@ def _answer(name: str, values: tuple) -> AtomicCommand | str | Request | None:
         case "attentionto", _:
             return AttentiontoRequest(False)
         case "ear", (switch, *rest):
-            mode = rest.pop() if rest and rest[-1] in _MODES else ""
+            mode = rest.pop() if rest and rest[-1] in _MODE else ""
             return EarRequest(switch == "on", *(_team(rest[0]) if rest else ("", "")), mode)
     return None  # long_kick: rcssserver 19's does nothing
 

@@ -3,6 +3,9 @@
 A list is a Python list, an atom a ``str``; a quoted string keeps its quotes (``'"hello"'``) so a reader
 can tell ``(say "x")`` from ``(say x)``, as rcssserver's grammar does. Untrusted text is bounded: nesting
 at most ``MAX_DEPTH`` levels; anything that is not one balanced expression is ``SexpError``.
+
+What a player sends rcssserver is not read as s-expressions but by rcssserver's own scanner, whose tokens
+``command_tokens`` gives exactly (``(say hi)(done)`` is one token there, ``1.5.3`` two).
 """
 
 from __future__ import annotations
@@ -105,19 +108,22 @@ def atoi(digits: str) -> int:
 def _token_at(text: str, pos: int) -> tuple[str, str | int | float, int]:
     """The token starting at ``pos`` (no blank there): kind, value, end."""
     char = text[pos]
+
+    def capped(kind: str, value: str, end: int, length: int) -> tuple[str, str, int]:
+        return (kind, value, end) if length <= STR_MAX else ("error", char, end)
+
     if char == "(":
         if text.startswith("(say ", pos):  # "(say MESSAGE)" is one token, up to the last ')' of the run
             close = text.rfind(")", pos + 5, SAY_CHARACTERS.match(text, pos + 5).end())
             if close > pos + 5:
-                return ("unquoted_say", text[pos + 5:close], close + 1) if close - pos - 4 <= STR_MAX else (
-                    "error", char, close + 1)
+                return capped("unquoted_say", text[pos + 5:close], close + 1, close - pos - 4)
         return "(", char, pos + 1
     if char == ")":
         return ")", char, pos + 1
     if char == '"':
         end = SAY_CHARACTERS.match(text, pos + 1).end()
         if end > pos + 1 and text.startswith('"', end):
-            return ("str", text[pos:end + 1], end + 1) if end + 1 - pos <= STR_MAX else ("error", char, end + 1)
+            return capped("str", text[pos:end + 1], end + 1, end + 1 - pos)
         return "error", char, pos + 1
     number_end, kind = pos, "int"
     for rule, name in ((_INT, "int"), (_REAL, "real"), (_EXP, "real")):
@@ -130,10 +136,8 @@ def _token_at(text: str, pos: int) -> tuple[str, str | int | float, int]:
         return kind, atoi(lexeme) if kind == "int" else float(lexeme), number_end
     if word_end > pos:
         word = text[pos:word_end]
-        if word_end - pos > STR_MAX:
-            return "error", char, word_end
         keyword = COMMAND_KEYWORDS.get(word)
-        return (keyword, keyword, word_end) if keyword else ("str", word, word_end)
+        return (keyword, keyword, word_end) if keyword else capped("str", word, word_end, word_end - pos)
     return "error", char, pos + 1
 
 
@@ -144,8 +148,9 @@ def command_tokens(text: str) -> Iterator[tuple[str, str | int | float]]:
     ``("str", text)`` (a word, or a quoted string with its quotes), ``("unquoted_say", message)`` for
     ``(say MESSAGE)`` whose message runs to the last ``)`` of the say characters that follow (so
     ``(say hi)(done)`` says ``hi)(done``), ``("error", char)`` for anything else (rcssserver
-    src/player_command_tok.lpp). Any character beyond ASCII is an error token: rcssserver's scanner is
-    built 7-bit."""
+    src/player_command_tok.lpp). Any character beyond ASCII is an error token here; rcssserver's scanner,
+    built 7-bit, reads such a byte with the wrong table rows (``"\\xe9"`` as a word; a datagram ending with
+    byte 0x80 hangs it)."""
     pos = _BLANKS.match(text).end()
     while pos < len(text):
         kind, value, pos = _token_at(text, pos)

@@ -6,9 +6,11 @@ answers with a datagram's reading or rcssserver's refusal, in bounded time."""
 
 from __future__ import annotations
 
+import json
 import math
 import sys
 import time
+from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -28,6 +30,7 @@ from keepaway.rcss.commands import (
     NO_SUCH_TEAM_OR_PLAYER,
     NOT_NULL_TERMINATED,
     OK_GAUSSIAN_SEE,
+    OK_SYNCH_SEE,
     UNKNOWN_COMMAND,
     AttentiontoRequest,
     ChangeFocusRequest,
@@ -96,6 +99,7 @@ def test_numbers_are_the_scanners_ints_and_reals(text, tokens):
     ('""', [("error", '"'), ("error", '"')]),  # an empty string is no string
     ("a\rb", [("str", "a"), ("error", "\r"), ("str", "b")]),  # blanks are space, tab and newline
     ("a\xe9", [("str", "a"), ("error", "\xe9")]),  # beyond ASCII: rcssserver's 7-bit scanner is undefined
+    ("a" * 8193 + " b", [("error", "a"), ("str", "b")]),  # longer than STR_MAX (player_command_tok.h)
 ])
 def test_keywords_words_and_strings(text, tokens):
     assert list(command_tokens(text)) == tokens
@@ -259,7 +263,7 @@ def test_a_longer_datagram_is_cut_at_rcssservers_buffer():
 
 
 @pytest.mark.parametrize("datagram, asked", [
-    (b"(init keepers (version 12.000000))\0", InitRequest("keepers", 12.0)),  # keepaway-0.6 KeepawayPlayer.cc
+    (b"(init keepers (version 12.000000))\0", InitRequest("keepers", 12.0)),  # keepaway-0.6 player/KeepawayPlayer.cc
     ("(init takers)", InitRequest("takers", 3.0)),  # no version: 3
     ("(init takers (goalie) (version 19))", InitRequest("takers", 19.0, goalie=True)),
     ("(init takers(version 7)(goalie))\n", InitRequest("takers", 7.0, goalie=True)),
@@ -375,6 +379,53 @@ def test_our_commands_read_back_as_sent(commands):
     assert parse_commands(text.encode() + b"\0", 19) == ParsedDatagram(tuple(commands))
 
 
+# ----------------------------------------------------------------------- against rcssserver's own answers
+
+RECORDED = json.loads((Path(__file__).parent / "data" / "rcss-command-replies.json").read_text())["cases"]
+RECORDED_TEAMS = ("keepers", "takers")  # the recording seats a player of each, keepers on the left
+
+
+def recorded_answers(answer: str | object) -> list[str]:
+    """What the recording's server answers a request with, as the front would: before the kick-off, at
+    time 0, for a player of keepers (a sense_body by its head only)."""
+    match answer:
+        case str():
+            return [answer]
+        case ScoreRequest():
+            return ["(score 0 0 0)"]
+        case SenseBodyRequest():
+            return ["(sense_body"]
+        case SynchSeeRequest():
+            return [OK_SYNCH_SEE]
+        case EarRequest(team_name=name) if name and name not in RECORDED_TEAMS:
+            return [answer.unknown_team_reply]
+    return []
+
+
+def seat_answers(asked: InitRequest | ReconnectRequest) -> list[str]:
+    """What a fresh server answers a well-formed init or reconnect: it seats the first player on the left
+    (a client of version 18 or later in synch see mode), and has no player to give back."""
+    if isinstance(asked, ReconnectRequest):
+        return [NO_SUCH_TEAM_OR_PLAYER]
+    return ["(init l 1 before_kick_off)"] + ([OK_SYNCH_SEE] if asked.version >= 18 else [])
+
+
+@pytest.mark.parametrize("case", RECORDED, ids=lambda case: f"{case['port']}:{case['datagram'][:40]!r}")
+def test_we_answer_as_rcssserver_answered(case):
+    """tests/data/rcss-command-replies.json: rcssserver 19.0.0's answers to tricky datagrams, recorded by
+    tools/record_rcss_commands.py (where a case crashed rcssserver, the answers it sent before)."""
+    datagram = case["datagram"].encode("latin-1")
+    if case["port"] == "init":
+        try:
+            ours = seat_answers(parse_connect(datagram))
+        except ConnectRefused as refused:
+            ours = list(refused.replies)
+    else:
+        ours = [reply for answer in parse_commands(datagram, case["version"]).answers
+                for reply in recorded_answers(answer)]
+    assert ours == [reply.split(" ")[0] if reply.startswith("(sense_body ") else reply for reply in case["replies"]]
+
+
 # ------------------------------------------------------------------------------------------- fuzzing
 
 
@@ -385,7 +436,7 @@ def assert_well_formed(reading: ParsedDatagram) -> None:
     Command(cycle=0, commands=reading.commands[:MAX_COMMANDS])  # our protocol takes every command
 
 
-def assert_read_or_refused(datagram: bytes) -> None:
+def assert_read_or_refused(datagram: bytes | str) -> None:
     try:
         assert isinstance(parse_connect(datagram), InitRequest | ReconnectRequest)
     except ConnectRefused as refused:
@@ -404,6 +455,13 @@ PIECES = st.sampled_from([
 @given(st.binary(max_size=300))
 def test_random_bytes(datagram):
     assert_read_or_refused(datagram)
+
+
+@FUZZ
+@given(st.text(st.characters(exclude_categories=()), max_size=300))
+def test_random_text(text):
+    """A ``str`` is read as the UTF-8 a client would send, lone surrogates too."""
+    assert_read_or_refused(text)
 
 
 @FUZZ
