@@ -10,7 +10,8 @@ rcssserver's clients do from version 8 on. It keeps the last ball it saw (`((b) 
 `see`, the direction relative to its head) and its neck angle (`head_angle` of `sense_body`), and acts
 once a cycle: on `(think)` in synchronous mode, ending with `(done)`; on `sense_body` in real-time mode.
 It turns towards the ball when it is more than 10 degrees off the body, dashes at it otherwise, stands
-still next to it, turns to look for it when it has seen none. It exits 0 after `--cycles` cycles, or when
+still next to it, turns to look for it when it has seen none; a cycle without a new `see` it dashes on
+if it was dashing, else waits (a turn on a stale direction would overshoot). It exits 0 after `--cycles` cycles, or when
 the server has been silent for 10 s.
 """
 
@@ -29,9 +30,11 @@ HEAD_ANGLE = re.compile(r"\(head_angle ([-\d.e]+)\)")
 TIME = re.compile(r"^\((?:sense_body|see) (\d+)")
 
 
-def decide(ball: tuple[float, float] | None, neck: float) -> str:
-    """The cycle's command from the last ball seen (distance, direction relative to the head) and the
-    neck angle (relative to the body)."""
+def decide(ball: tuple[float, float] | None, neck: float, fresh: bool, last: str) -> str:
+    """The cycle's command from the last ball seen (distance, direction relative to the head), the neck
+    angle (relative to the body), whether that see is new since the last command, and the last command."""
+    if not fresh:
+        return last if last == "(dash 100)" else "(turn 0)"
     if ball is None:
         return "(turn 60)"
     dist, to_ball = ball[0], ball[1] + neck
@@ -53,6 +56,7 @@ def play(host: str, port: int, team: str, version: float, cycles: int) -> int:
     synchronous = True
     ball: tuple[float, float] | None = None
     neck, last_time, acted = 0.0, -1, 0
+    fresh, last = False, ""
     while acted < cycles:
         try:
             data, server = sock.recvfrom(8192)
@@ -67,13 +71,16 @@ def play(host: str, port: int, team: str, version: float, cycles: int) -> int:
         if text.startswith("(see"):
             found = BALL.search(text)
             ball = None if found is None else (float(found.group(1)), float(found.group(2)))
+            fresh = True
         elif text.startswith("(sense_body"):
             neck = float(HEAD_ANGLE.search(text).group(1))
             if not synchronous and last_time > 0:
-                sock.sendto(f"{decide(ball, neck)}\0".encode(), server)
+                last, fresh = decide(ball, neck, fresh, last), False
+                sock.sendto(f"{last}\0".encode(), server)
                 acted += 1
         elif text.startswith("(think") and synchronous:
-            sock.sendto(f"{decide(ball, neck)}\0".encode(), server)
+            last, fresh = decide(ball, neck, fresh, last), False
+            sock.sendto(f"{last}\0".encode(), server)
             sock.sendto(b"(done)\0", server)
             acted += last_time > 0
     sock.sendto(b"(bye)\0", server)

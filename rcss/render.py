@@ -186,16 +186,24 @@ def see(msg: See, view: TextView) -> str:
     ``team_far_length`` is ``(P)``. A flag without an id is ``(F)``: rcssserver writes ``(G)`` for a goal
     so close, but our row does not say which landmark it is."""
     parts = [f"(see {msg.cycle}"]
+    names = view.flag_names
     for flag_id, dist, direction, dist_chg, dir_chg in msg.flags:
-        parts.append(_seen("F" if flag_id is None else view.flag_names[flag_id], dist, direction, dist_chg, dir_chg))
+        name = "F" if flag_id is None else names[flag_id]
+        if dist_chg is None and dir_chg is None:  # the common rows written at once, as _seen writes them
+            parts.append("((%s) %.6g %d)" % (name, dist, direction))
+        elif dist_chg is not None and dir_chg is not None:
+            parts.append("((%s) %.6g %d %.6g %.6g)" % (name, dist, direction, dist_chg, dir_chg))
+        else:
+            parts.append(_seen(name, dist, direction, dist_chg, dir_chg))
     if msg.ball is not None:
         dist, direction, dist_chg, dir_chg = msg.ball
         close = dist_chg is None and dist <= view.unum_far_length
         parts.append(_seen("B" if close else "b", dist, direction, dist_chg, dir_chg))
     for side, unum, dist, direction, dist_chg, dir_chg, body, head in msg.players:
         parts.append(_seen(_player_name(view, side, unum, dist), dist, direction, dist_chg, dir_chg, body, head))
+    lines = view.line_names
     for line_id, dist, direction in msg.lines:
-        parts.append(_seen(view.line_names[line_id], dist, direction))
+        parts.append("((%s) %.6g %d)" % (lines[line_id], dist, direction))
     return " ".join(parts) + ")"
 
 

@@ -10,7 +10,7 @@ team names it sees, the cycle the server is at, the commands of the answer under
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import NamedTuple
 
 from keepaway.protocol import PROTOCOL_VERSION
@@ -19,29 +19,24 @@ from keepaway.protocol.codec import Message
 from keepaway.protocol.params import ServerParams
 from keepaway.rcss import render
 from keepaway.rcss.commands import (
-    CommandTextError,
+    NO_MORE_PLAYER,
+    NO_SUCH_TEAM_OR_PLAYER,
+    OK_SYNCH_SEE,
+    EarRequest,
     InitRequest,
-    ParsedDatagram,
     ReconnectRequest,
+    ScoreRequest,
+    SenseBodyRequest,
+    SynchSeeRequest,
     parse_commands,
 )
 
 log = logging.getLogger("keepaway.rcss")
+# Our server sets a player's synch_see at its init (version 18 and later ask for it there, as rcssserver
+# turns it on for them); a (synch_see) of an older client later cannot switch it, and is refused.
+UNSWITCHED_SYNCH_SEE = "(error unknown_command)"
 
 CLIENT_PREFIX = "rcss-text"  # our ``init.client``: "rcss-text v12 keepers"
-# Our error codes a text client is told of, as rcssserver words the same refusal (src/stadium.cpp,
-# src/player.cpp); the others (budgets, missed cycles, a command for a later cycle) have no rcssserver
-# counterpart and are logged only.
-REFUSALS = {
-    "no_more_player": "(error no_more_team_or_player_or_goalie)",
-    "no_such_player": "(error reconnect)",
-    "cannot_reconnect": "(error reconnect)",
-    "illegal_teamname": "(error no_more_team_or_player_or_goalie)",
-}
-# our error code -> rcssserver's answer to the command it refuses, once the client is seated
-COMMAND_ERRORS = {
-    "dropped": "(error illegal_command_form)",  # a say rcssserver's grammar or say_msg_size would refuse
-}
 
 
 SIDE_TEAMS = {"l": "keepers", "r": "takers"}
@@ -52,26 +47,38 @@ class TeamNames:
     """The team names of the text clients, and which of our teams each is. As in rcssserver the first
     name the front hears gets the left side, which the Keepaway referee makes the keepers, the second
     the right side, and a third is refused; but ``"keepers"`` and ``"takers"`` (the keepaway-0.6 players'
-    ``-t`` names, our players' teams) always name their own side, whichever joins first. A side no text
-    client has named is seen under our team's name."""
+    ``-t`` names, our players' teams) always name their own side, whichever joins first. A name holds its
+    side while a text client of it is joining or seated; a side no text client names is seen under our
+    team's name."""
 
-    claims: dict[str, str] = field(default_factory=dict)  # side -> the name a text client gave it
+    claims: dict[str, tuple[str, int]] = field(default_factory=dict)  # side -> (name, its clients)
 
-    def team_of(self, name: str) -> str | None:
-        """Our team (``"keepers"`` / ``"takers"``) for a text client's team ``name``; None: no side left."""
-        for side, claimed in self.claims.items():
+    def join(self, name: str) -> str | None:
+        """Our team (``"keepers"`` / ``"takers"``) for a joining text client of team ``name``, which it
+        now holds; None: no side is left for the name."""
+        for side, (claimed, clients) in self.claims.items():
             if claimed == name:
+                self.claims[side] = (name, clients + 1)
                 return SIDE_TEAMS[side]
         own = {team: side for side, team in SIDE_TEAMS.items()}.get(name)
         for side in (own,) if own else ("l", "r"):
             if side not in self.claims:
-                self.claims[side] = name
+                self.claims[side] = (name, 1)
                 return SIDE_TEAMS[side]
         return None
 
+    def leave(self, team: str) -> None:
+        """A text client of our ``team`` is gone (refused, or left)."""
+        side = {t: s for s, t in SIDE_TEAMS.items()}[team]
+        name, clients = self.claims[side]
+        if clients > 1:
+            self.claims[side] = (name, clients - 1)
+        else:
+            del self.claims[side]
+
     def names(self) -> tuple[str, str]:
         """The names of side l and side r, as a text client sees them."""
-        return self.claims.get("l", SIDE_TEAMS["l"]), self.claims.get("r", SIDE_TEAMS["r"])
+        return tuple(self.claims.get(side, (SIDE_TEAMS[side], 0))[0] for side in ("l", "r"))
 
 
 class Out(NamedTuple):
@@ -96,6 +103,8 @@ class TextSeat:
         self.pending: list[m.AtomicCommand] = []  # the commands of the answer under way (until done)
         self.pending_cycle = 0
         self.gone = False  # refused, the server shut down, or the client said bye
+        self.synch_see = False
+        self.last_sense_body = ""
 
     @property
     def seated(self) -> bool:
@@ -107,82 +116,106 @@ class TextSeat:
         if isinstance(self.request, ReconnectRequest):
             return m.Reconnect(version=PROTOCOL_VERSION, team=self.team, unum=self.request.unum)
         client = f"{CLIENT_PREFIX} v{self.version:g} {self.request.team}"[:m.MAX_CLIENT_CHARS]
-        return m.Init(version=PROTOCOL_VERSION, team=self.team, client=client, pre_kick_off=True)
+        return m.Init(version=PROTOCOL_VERSION, team=self.team, client=client, pre_kick_off=True,
+                      synch_see=int(self.version) >= render.SYNCH_SEE_VERSION)
 
     # -- server -> client --------------------------------------------------------------------------------
     def on_server(self, msg: Message) -> Out:
         """The texts ``msg`` from our server becomes for the client (none for what rcssserver would not
-        send), and the commands still waiting for a ``(done)`` when the server has stepped without it."""
+        send), and the commands still waiting for a ``(done)`` when the server has stepped without it.
+        Dispatched on ``msg.TYPE``: the front hands the cycle's percepts over as namespaces of their
+        fields (``rcss.front.percept``)."""
         out = Out([], [])
-        if isinstance(msg, m.InitOk):
+        kind = msg.TYPE
+        if kind == m.InitOk.TYPE:
             out.texts.extend(self._seated(msg))
-        elif isinstance(msg, m.Error):
+        elif kind == m.Error.TYPE:
             out.texts.extend(self._error(msg))
-        elif isinstance(msg, m.Shutdown):
+        elif kind == m.Shutdown.TYPE:
             self.gone = True
         elif self.view is None:
             pass
-        elif isinstance(msg, m.SenseBody):
+        elif kind == m.SenseBody.TYPE:
             if self.pending and msg.cycle > self.pending_cycle:  # they act late, as they would have come
                 out.to_server.append(self._take_pending())
             self.cycle = msg.cycle
-            out.texts.append(render.sense_body(msg, self.view))
-        elif isinstance(msg, m.See):
+            self.last_sense_body = render.sense_body(msg, self.view)
+            out.texts.append(self.last_sense_body)
+        elif kind == m.See.TYPE:
+            names = self.names.names()
+            if names != self.view.team_names:  # a team named itself since: players are seen under it
+                self.view = replace(self.view, team_names=names)
             out.texts.append(render.see(msg, self.view))
-        elif isinstance(msg, m.Hear):
+        elif kind == m.Hear.TYPE:
             text = render.hear(msg, self.view)
             if text is not None:
                 out.texts.append(text)
-        elif isinstance(msg, m.Think) and self.sync:  # rcssserver sends (think) in synchronous mode only
+        elif kind == m.Think.TYPE and self.sync:  # rcssserver sends (think) in synchronous mode only
             self.cycle = msg.cycle
             out.texts.append(render.think())
         return out  # waiting, fullstate (never asked for): rcssserver sends no such text
 
     def _seated(self, msg: m.InitOk) -> list[str]:
-        self.view = render.TextView(
-            version=self.version, side=msg.side, team_names=self.names.names(),
-            flag_names=tuple(name for name, _, _ in msg.landmarks["flags"]),
-            line_names=tuple(name for name, _, _ in msg.landmarks["lines"]),
-        )
+        self.view = view = render.TextView.of(msg, self.version, self.names.names())
         self.sync = msg.config.get("mode", "sync") == "sync"
+        self.synch_see = int(self.version) >= render.SYNCH_SEE_VERSION
         self.cycle, self.unum = msg.cycle, msg.unum
+        params = ServerParams.from_dict(msg.params)
+        settings = {"synch_mode": self.sync}
         if isinstance(self.request, ReconnectRequest):
-            first = render.reconnect_reply(self.view, msg.play_mode)
-        else:
-            first = render.init_reply(self.view, msg.unum, msg.play_mode)
-        return [first, *render.parameter_messages(ServerParams.from_dict(msg.params), self.view)]
+            return render.reconnect_messages(params, view, msg.play_mode, settings)
+        return render.init_messages(params, view, msg.unum, msg.play_mode, settings)
 
     def _error(self, msg: m.Error) -> list[str]:
-        if self.view is None:  # the server refused the seat
-            self.gone = True
-            return [REFUSALS.get(msg.code, REFUSALS["no_more_player"])]
-        reply = COMMAND_ERRORS.get(msg.code)
-        if reply is None:
+        """A refused seat gets rcssserver's refusal; once seated, our warnings (a dropped say, a missed
+        cycle, a spent budget) have no rcssserver counterpart (rcssserver ignores a say beyond
+        say_msg_size silently) and are logged only."""
+        if self.view is not None:
             log.info("%s: %s: %s", self.describe(), msg.code, msg.message)
             return []
+        self.gone = True
+        reply = render.error(msg)
+        if reply is None:
+            reply = NO_SUCH_TEAM_OR_PLAYER if isinstance(self.request, ReconnectRequest) else NO_MORE_PLAYER
         return [reply]
 
     # -- client -> server --------------------------------------------------------------------------------
-    def on_datagram(self, text: str) -> Out:
+    def on_datagram(self, data: bytes) -> Out:
         """One datagram of the seated client: replies for it, messages for our server. In synchronous mode
         the commands wait for ``(done)``, which ends the client's answer to the cycle (one ``command``
         message, as our protocol answers a ``think``); in real-time mode each datagram's commands go at
         once."""
-        try:
-            parsed: ParsedDatagram = parse_commands(text, self.version)
-        except CommandTextError as exc:
-            return Out([exc.reply], [])
-        out = Out(list(parsed.replies), [])
-        if parsed.commands:
+        parsed = parse_commands(data, self.version)
+        out = Out([text for text in map(self._answer, parsed.answers) if text], [])
+        commands = [command for command in parsed.commands if command.name != "done"]
+        if commands:
             if not self.pending:
                 self.pending_cycle = self.cycle
-            self.pending.extend(parsed.commands)
-        if parsed.done or (self.pending and not self.sync):
+            self.pending.extend(commands)
+        if (parsed.done and self.sync) or (self.pending and not self.sync):
             out.to_server.append(self._take_pending())
         if parsed.bye:
             out.to_server.append(m.Bye())
             self.gone = True
         return out
+
+    def _answer(self, answer) -> str:
+        """rcssserver's reply to one answer of a datagram: its text, or what a request asks of the state
+        (src/player.cpp): the last sense_body again, the score (Keepaway keeps none: 0 0), synch_see (as
+        asked, or refused as an unknown command where our server cannot switch it), an unknown team's
+        ear; nothing for the requests rcssserver does not answer."""
+        if isinstance(answer, str):
+            return answer
+        if isinstance(answer, SenseBodyRequest):
+            return self.last_sense_body
+        if isinstance(answer, ScoreRequest):
+            return f"(score {self.cycle} 0 0)"
+        if isinstance(answer, SynchSeeRequest):
+            return OK_SYNCH_SEE if self.synch_see else UNSWITCHED_SYNCH_SEE
+        if isinstance(answer, EarRequest) and answer.team_name:
+            known = answer.team_name.strip('"') in self.view.team_names
+            return "" if known else answer.unknown_team_reply
+        return ""
 
     def _take_pending(self) -> m.Command:
         """The waiting commands as one ``command`` (at most MAX_COMMANDS: beyond, rcssserver's slot rule

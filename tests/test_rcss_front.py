@@ -49,6 +49,14 @@ class TextClient:
         self.sock.close()
 
 
+def play(players: list[ScriptedPlayer], cycles: int) -> None:
+    """Our scripted players answer ``cycles`` cycles together (in synchronous mode none waits for another's
+    timeout)."""
+    for _ in range(cycles):
+        for player in players:
+            player.play_cycles(1)
+
+
 def game_with_text_seat(processes, tmp_path, *extra: str):
     """A server with the front, taker 1 left free for a text client, our scripted players in the other
     seats (keepers 1-3 and taker 2)."""
@@ -71,8 +79,7 @@ def test_a_text_client_of_rcssserver_protocol_plays_beside_our_players(processes
         assert isinstance(player.init(team), m.InitOk)
     taker = processes.popen([sys.executable, str(REPO / "examples" / "rcss_text_taker.py"), "--port",
                              str(srv.rcss_port), "--version", str(version), "--cycles", "30"])
-    for player in ours:
-        player.play_cycles(39)
+    play(ours, 39)
     assert taker.wait(timeout=60) == 0, processes.stderr_tail(taker)
     assert srv.proc.wait(timeout=60) == 0
     shows = [line for line in (srv.log_dir / "keepaway.rcg").read_text().splitlines() if line.startswith("(show 39 ")]
@@ -102,11 +109,9 @@ def test_hostile_text_gets_rcssserver_errors_and_the_game_goes_on(processes, tmp
     for _ in range(3000):  # a flood: the others still play every cycle
         seated.send("(dash 100)(turn 30)(kick 100 0)")
         stranger.send("(init flooders (version 12))")
-    for player in ours:
-        player.play_cycles(20)
+    play(ours, 20)
     seated.send("(bye)")
-    for player in ours:
-        player.play_cycles(30)
+    play(ours, 30)
     assert srv.proc.wait(timeout=60) == 0
     stranger.close()
     seated.close()
