@@ -21,7 +21,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from keepaway.runner.launch import ArenaFailure, ArenaProcesses, Member
+from keepaway.runner.launch import ArenaFailure, ArenaProcesses, Member, keepaway_argv
 from keepaway.server.episode_log import EpisodeRecord, read_kwy
 from keepaway.server.game_log import GameRecord, read_rcg
 
@@ -107,37 +107,86 @@ def finished_episodes(kwy: Path) -> int:
         return 0
 
 
-def play_reference(stack: ReferenceStack, pass_policy: str, episodes: int, seed: int,
-                   log_dir: Path) -> tuple[GameRecord, list[EpisodeRecord]]:
-    """Play ``episodes`` episodes on the reference stack with the keepers' ``pass_policy`` ("hold",
-    "random", "handcoded") and server seed ``seed``, logs in ``log_dir`` (an earlier ``game.rcg`` there
-    is overwritten); return the game log and the first ``episodes`` episodes of the ``.kwy``.
+@dataclass(frozen=True)
+class Cell:
+    """One cell of the players x server table: which server plays the game (``"rcssserver"`` or
+    ``"ours"``, our server with its rcssserver-protocol front) and whose players keep and take
+    (``"cpp"``, keepaway-0.6's ``keepaway_player``, or ``"ours"``, ``keepaway player``; on rcssserver
+    ours speak its text protocol with ``--rcss``)."""
+
+    server: str = "rcssserver"
+    keepers: str = "cpp"
+    takers: str = "cpp"
+
+    @property
+    def name(self) -> str:
+        players = self.keepers if self.keepers == self.takers else f"{self.keepers} keepers, {self.takers} takers"
+        return f"{players} on {self.server}"
+
+
+REFERENCE = Cell()
+
+
+def play_campaign(stack: ReferenceStack, cell: Cell, pass_policy: str, episodes: int, seed: int,
+                  log_dir: Path) -> tuple[GameRecord, list[EpisodeRecord]]:
+    """Play ``episodes`` episodes of ``cell`` with the keepers' ``pass_policy`` ("hold", "random",
+    "handcoded") and server seed ``seed``, logs in ``log_dir`` (an earlier ``game.rcg`` there is
+    overwritten); return the game log and the first ``episodes`` episodes of the ``.kwy``.
     :class:`runner.launch.ArenaFailure` if a process dies or the game stalls."""
     stack.check()
     log_dir = log_dir.resolve()
     kwy = log_dir / f"{LOG_NAME}.kwy"
-    port = free_udp_ports()
     with ArenaProcesses(log_dir) as arena:
         kwy.unlink(missing_ok=True)
-        # rcssserver writes its configuration to "~/.rcssserver" without expanding the tilde: in log_dir
-        server = arena.start("server", server_argv(stack, port, log_dir, seed), cwd=log_dir)
-        wait_until_bound(port, server)
-        for team, count, policy in (("keepers", KEEPERS, CPP_POLICY[pass_policy]), ("takers", TAKERS, "hand")):
+        if cell.server == "rcssserver":
+            port = free_udp_ports()
+            # rcssserver writes its configuration to "~/.rcssserver" without expanding the tilde: in log_dir
+            server = arena.start("server", server_argv(stack, port, log_dir, seed), cwd=log_dir)
+            wait_until_bound(port, server)
+            players = None
+        else:
+            port = free_udp_ports(1)
+            server, players, _, _ = arena.start_server(our_server_args(port, log_dir, seed, episodes))
+        for team, count in (("keepers", KEEPERS), ("takers", TAKERS)):
+            kind = cell.keepers if team == "keepers" else cell.takers
+            policy = pass_policy if team == "keepers" else "handcoded"
             for i in range(1, count + 1):
-                arena.start(f"{team[:-1]} {i}", player_argv(stack, port, team, policy, episodes), cwd=log_dir)
+                name = f"{team[:-1]} {i}"
+                if kind == "cpp":
+                    arena.start(name, player_argv(stack, port, team, CPP_POLICY[policy], episodes), cwd=log_dir)
+                else:
+                    where = ["--server", players] if players else ["--rcss", f"127.0.0.1:{port}"]
+                    arena.start(name, keepaway_argv("player", "--team", team, "--pass", policy, *where))
         done, progress_at = 0, time.monotonic()
         while done <= episodes:
             time.sleep(1.0)
+            now_done = finished_episodes(kwy)
+            if now_done > episodes:
+                break
             dead = next((m for m in arena.members if m.proc.poll() is not None), None)
             if dead is not None:
-                raise ArenaFailure(f"reference stack: {dead.describe_exit()}; logs in {log_dir}")
-            now_done = finished_episodes(kwy)
+                raise ArenaFailure(f"{cell.name}: {dead.describe_exit()}; logs in {log_dir}")
             if now_done > done:
                 done, progress_at = now_done, time.monotonic()
             elif time.monotonic() - progress_at > STALL_S:
-                raise ArenaFailure(f"reference stack: no episode finished in {STALL_S:.0f} s (after {done}); "
+                raise ArenaFailure(f"{cell.name}: no episode finished in {STALL_S:.0f} s (after {done}); "
                                    f"logs in {log_dir}")
     return read_rcg(log_dir / f"{LOG_NAME}.rcg", kwy), read_kwy(kwy)[:episodes]
+
+
+def play_reference(stack: ReferenceStack, pass_policy: str, episodes: int, seed: int,
+                   log_dir: Path) -> tuple[GameRecord, list[EpisodeRecord]]:
+    """The reference cell, the C++ players on rcssserver (:func:`play_campaign`)."""
+    return play_campaign(stack, REFERENCE, pass_policy, episodes, seed, log_dir)
+
+
+def our_server_args(rcss_port: int, log_dir: Path, seed: int, episodes: int) -> list[str]:
+    """``keepaway server`` as the reference's rcssserver is launched: CURRENT parameters with keepaway.sh's
+    settings (our server's defaults for ``--params current``), synchronous, 3v2 on 20 m, the front on
+    ``rcss_port``; it plays one episode beyond ``episodes``, as the C++ players never stop."""
+    return ["--params", "current", "--keepers", str(KEEPERS), "--takers", str(TAKERS), "--seed", str(seed),
+            "--rcss-port", str(rcss_port), "--log-dir", str(log_dir), "--kwy-name", LOG_NAME,
+            "--episodes", str(episodes + 1)]
 
 
 def wait_until_bound(port: int, server: Member, timeout_s: float = 30.0) -> None:

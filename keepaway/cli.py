@@ -34,6 +34,7 @@ def _register() -> None:
     from keepaway.agents.cli import commands as agent_commands
     from keepaway.coach.cli import commands as coach_commands
     from keepaway.protocol.security import keys_command
+    from keepaway.rcss.cli import commands as rcss_commands
     from keepaway.runner.cli import commands as runner_commands
     from keepaway.server.cli import commands as server_commands
     from keepaway.trainer.experiment_cli import commands as experiment_commands
@@ -41,7 +42,7 @@ def _register() -> None:
     from keepaway.viewer.cli import commands as viewer_commands
 
     for command in (server_commands + agent_commands + coach_commands + runner_commands + train_commands
-                    + experiment_commands + viewer_commands + [keys_command]):
+                    + experiment_commands + viewer_commands + rcss_commands + [keys_command]):
         main.add_command(command)
 
 

@@ -109,14 +109,19 @@ def build_config(config_file: Path | None, parameter_set_name: str | None, overr
               help="Ask the keepers for notes of their GetOpen decisions, written to the game log and "
                    "published in monitor frames for viewers: their target point, or target and the grid "
                    "points' values (default none).")
+@click.option("--rcss-port", type=PORT_TYPE, default=None,
+              help="Also seat rcssserver's UDP text clients (e.g. the keepaway-0.6 C++ players) through an "
+                   "rcssserver-protocol front on this UDP port (0 = free port; docs/protocol.md §16).")
 @click.option("-v", "--verbose", count=True, help="More log output (-v info, -vv debug).")
 def server_command(config_file: Path | None, parameter_set_name: str | None, param_pairs: tuple[str, ...],
-                   no_keepaway_launch: bool, field_size: float | None, no_game_log: bool, verbose: int,
-                   **settings: Any) -> None:
+                   no_keepaway_launch: bool, field_size: float | None, no_game_log: bool, rcss_port: int | None,
+                   verbose: int, **settings: Any) -> None:
     """Run the Keepaway simulation server (one arena) until its episodes are done or it is stopped.
 
     Prints one line with the bound endpoints (useful with port 0), then logs to stderr.
     """
+    from keepaway.protocol.security import open_keys
+    from keepaway.rcss.front import FrontConfig, FrontThread
     from keepaway.server.app import Server  # imported here so `keepaway --help` does not compile kernels
 
     logging.basicConfig(level=logging.WARNING - 10 * min(verbose, 2) if verbose else logging.WARNING,
@@ -129,10 +134,18 @@ def server_command(config_file: Path | None, parameter_set_name: str | None, par
     except ValueError as exc:
         raise click.UsageError(str(exc)) from None
 
+    front: FrontThread | None = None
+
     def announce(ports: Any) -> None:
+        nonlocal front
         h = config.host
+        text = ""
+        if rcss_port is not None:
+            front = FrontThread(FrontConfig(server=f"tcp://{h}:{ports.players}", host=h, port=rcss_port,
+                                            keys=open_keys(config.keys)))
+            text = f" rcss=udp://{h}:{front.port}"
         click.echo(f"keepaway server listening players=tcp://{h}:{ports.players} "
-                   f"coach=tcp://{h}:{ports.coach} monitor=tcp://{h}:{ports.monitor}")
+                   f"coach=tcp://{h}:{ports.coach} monitor=tcp://{h}:{ports.monitor}{text}")
         sys.stdout.flush()
 
     server = Server(config, on_ready=announce)
@@ -141,9 +154,13 @@ def server_command(config_file: Path | None, parameter_set_name: str | None, par
         server.bind()
     except SecurityError as exc:
         raise click.BadParameter(str(exc), param_hint="--keys") from None
-    except Exception as exc:  # zmq.ZMQError: address in use etc.
+    except Exception as exc:  # zmq.ZMQError, OSError: address in use etc.
         raise click.ClickException(f"cannot bind: {exc}") from None
-    code = server.run()
+    try:
+        code = server.run()
+    finally:
+        if front is not None:
+            front.stop()
     if code:
         click.echo(f"keepaway server: {server.stop_reason}", err=True)
     sys.exit(code)

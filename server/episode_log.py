@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any, Mapping, Self, TextIO
 
 from keepaway.protocol.params import CLASSIC
+from keepaway.rcss.param_text import cpp_number
 
 END_OUT = "out"
 END_TAKEN = "taken"
@@ -63,11 +64,6 @@ class EpisodeRecord:
     def hold_time_s(self) -> float:
         """Hold time in simulated seconds (docs/players.md §1: cycles / 10 at 100 ms per step)."""
         return self.duration * self.simulator_step_ms / 1000.0
-
-
-def cpp_number(value: float) -> str:
-    """A number as a default C++ ostream prints it (6 significant digits, no trailing zeros)."""
-    return format(value, ".6g")
 
 
 def numbered(path: Path, number: int) -> Path:

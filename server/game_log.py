@@ -48,6 +48,7 @@ import numpy as np
 from keepaway.core.jit import SteadyCall
 from keepaway.protocol import messages as m
 from keepaway.protocol.params import ServerParams
+from keepaway.rcss.param_text import our_server_params, param_line
 from keepaway.server.arena import REFEREE_EPISODE_MESSAGE, VIEW_WIDTHS, Arena
 from keepaway.server.arena import compile_kernels as compile_arena_kernels
 from keepaway.server.episode_log import EpisodeRecord, LineLog, cpp_number, read_kwy
@@ -78,20 +79,6 @@ REFEREE_NAME = "referee"
 GETOPEN_NOTE = "getopen"
 PLAY_ON = "play_on"
 
-# Our parameter names that rcssserver's server_param spells otherwise; parameters rcssserver does not
-# have (our modelling switches, the pitch size) are left out of the server_param line.
-RCSS_PARAM_NAMES = {
-    "simulator_step_ms": "simulator_step", "sense_body_step_ms": "sense_body_step", "send_step_ms": "send_step",
-    "min_moment": "minmoment", "max_moment": "maxmoment", "min_neck_moment": "minneckmoment",
-    "max_neck_moment": "maxneckmoment", "min_neck_angle": "minneckang", "max_neck_angle": "maxneckang",
-    "min_power": "minpower", "max_power": "maxpower",
-}
-NOT_IN_RCSSSERVER = frozenset({
-    "name", "pitch_length", "pitch_width", "movement_noise", "kick_noise", "failed_kick_uses_slot", "effort_max",
-    "effort_inc_uses_dec_thr", "dir_chg_step", "dist_chg_step", "unum_far_length", "unum_too_far_length",
-    "team_far_length", "team_too_far_length", "team_loss_probabilistic", "see_behind_strict", "take_cycles",
-    "reset_restores_stamina",
-})
 # The heterogeneous type every player of ours is (type 0, rcssserver's default type), from our table.
 PLAYER_TYPE_PARAMS = ("player_speed_max", "stamina_inc_max", "player_decay", "inertia_moment", "dash_power_rate",
                       "player_size", "kickable_margin", "kick_rand", "extra_stamina", "effort_max", "effort_min",
@@ -318,14 +305,14 @@ class RcgFormatter:
     play_mode: str | None = field(default=None, init=False)
 
     def header(self) -> list[str]:
-        """``ULG5``, ``server_param``, ``player_param`` and the one ``player_type`` (``InitSenderLoggerV5``)."""
+        """``ULG5``, ``server_param`` (our parameters under rcssserver's names), ``player_param`` and the one
+        ``player_type`` (``InitSenderLoggerV5``)."""
         values = self.params.to_dict()
-        server = {RCSS_PARAM_NAMES.get(k, k): v for k, v in values.items() if k not in NOT_IN_RCSSSERVER}
-        server.update(keepaway=1, game_log_version=5, game_logging=1)
+        server = {**our_server_params(self.params), "keepaway": 1, "game_log_version": 5, "game_logging": 1}
         player_type = {"id": 0, **{k: values[k] for k in PLAYER_TYPE_PARAMS}}
-        return [RCG_VERSION_LINE, _param_line("server_param", server),
-                _param_line("player_param", {"player_types": 1, "pt_max": 1, "subs_max": 0}),
-                _param_line("player_type", player_type)]
+        return [RCG_VERSION_LINE, param_line("server_param", server),
+                param_line("player_param", {"player_types": 1, "pt_max": 1, "subs_max": 0}),
+                param_line("player_type", player_type)]
 
     def start_game(self, show: Show | ShowTable, referee: Iterable[str] = (), mode: str = PLAY_ON) -> list[str]:
         """The kick-off: play mode, teams, the referee's words, the first show."""
@@ -356,15 +343,6 @@ class RcgFormatter:
 
     def _team_line(self, cycle: int, left_score: int = 0, right_score: int = 0) -> str:
         return f"(team {cycle} {self.left} {self.right} {left_score} {right_score})"
-
-
-def _param_line(name: str, values: dict) -> str:
-    def text(v: object) -> str:
-        if isinstance(v, bool):
-            return str(int(v))
-        return cpp_number(v) if isinstance(v, float) else str(v)
-
-    return f"({name} " + "".join(f"({k} {text(v)})" for k, v in values.items()) + ")"
 
 
 class RcgLog(LineLog):

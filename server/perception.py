@@ -572,8 +572,8 @@ def hear_picks(b: int, w: World, speakers: np.ndarray, listener: int, hear_max: 
 @borrowing
 def hear_direction(b: int, w: World, listener: int, speaker: int) -> int:
     """Where ``listener`` hears ``speaker`` from: the direction to it relative to the listener's body,
-    normalised to [-pi, pi] and truncated to whole degrees towards zero, as rcssserver's audio of protocol
-    v8+ does (``Rad2IDeg(angleFromBody(player))``, src/audio.cpp)."""
+    in whole degrees truncated towards zero (-180..180), as rcssserver 8+ writes it to a player
+    (src/audio.cpp, AudioSenderPlayerv8::sendCachedNonSelfPlayerAudio: Rad2IDeg of angleFromBody)."""
     dx = w.pos[b, speaker, 0] - w.pos[b, listener, 0]
     dy = w.pos[b, speaker, 1] - w.pos[b, listener, 1]
     return trunc_deg(normalize_rad(math.atan2(dy, dx) - w.body[b, listener] * DEG2RAD))

@@ -21,7 +21,8 @@ from pathlib import Path
 import pytest
 
 REPO = Path(__file__).resolve().parent.parent
-LISTEN_RE = re.compile(r"players=tcp://([\d.]+):(\d+) coach=tcp://[\d.]+:(\d+) monitor=tcp://[\d.]+:(\d+)\n")
+LISTEN_RE = re.compile(r"players=tcp://([\d.]+):(\d+) coach=tcp://[\d.]+:(\d+) monitor=tcp://[\d.]+:(\d+)"
+                       r"(?: rcss=udp://[\d.]+:(\d+))?\n")
 START_TIMEOUT_S = 120.0  # a server compiles (or loads) its numba kernels before it announces its ports
 FOLLOW_INTERVAL_S = 0.02  # how often a stderr file is looked at for new output (stderr=PIPE callers)
 TAIL_CHARS = 3000  # how much of a process's stderr a failure message shows
@@ -36,6 +37,7 @@ class ServerProcess:
     monitor_port: int
     log_dir: Path
     stderr_path: Path
+    rcss_port: int | None = None  # the rcssserver-protocol front's UDP port (``--rcss-port``)
 
     @property
     def players_endpoint(self) -> str:
@@ -219,8 +221,9 @@ class ProcessGroup:
         except (TimeoutError, EOFError) as exc:
             self.kill(proc)
             raise RuntimeError(f"server did not start: {exc}\n{self.stderr_tail(proc)}") from None
-        host, p, c, mon = match.groups()
-        return ServerProcess(proc, host, int(p), int(c), int(mon), log_dir, self.stderr_path(proc))
+        host, p, c, mon, rcss = match.groups()
+        return ServerProcess(proc, host, int(p), int(c), int(mon), log_dir, self.stderr_path(proc),
+                             None if rcss is None else int(rcss))
 
     def cleanup(self) -> None:
         for proc in self.procs:

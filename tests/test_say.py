@@ -283,8 +283,9 @@ def test_a_hear_frame_is_the_encoded_hear():
 
 def _hears_by_hand(w, says, listeners, cycle):
     """What each listener hears of ``says`` ((speaker, text) in object order), as the server's rule says:
-    its own says, then ``hear_picks``' draws with the direction from its body (whole degrees towards
-    zero, rcssserver's Rad2IDeg) and, from a teammate, the number; encoded as ``Hear`` messages."""
+    its own says, then ``hear_picks``' draws with the direction from its body (rcssserver's: the angle in
+    radians normalised to [-pi, pi], then whole degrees truncated towards zero) and, from a teammate, the
+    number; encoded as ``Hear`` messages."""
     speakers = np.array([speaker for speaker, _ in says], dtype=np.int64)
     picks = np.empty(len(says), dtype=np.int64)
     heard = []
@@ -294,9 +295,9 @@ def _hears_by_hand(w, says, listeners, cycle):
         for pick in picks[:hear_picks(0, w, speakers, listener, KP.hear_max, KP.audio_cut_dist, picks)]:
             speaker, text = says[pick]
             (lx, ly), (sx, sy) = w.pos[0, listener].tolist(), w.pos[0, speaker].tolist()
-            a = math.atan2(sy - ly, sx - lx) - float(w.body[0, listener]) * math.pi / 180.0
-            a = math.remainder(a, 2 * math.pi)  # into [-pi, pi]
-            direction = int(a * 180.0 / math.pi)  # towards zero
+            a = math.atan2(sy - ly, sx - lx) - float(w.body[0, listener]) * (math.pi / 180.0)
+            a = a + 2 * math.pi if a < -math.pi else a - 2 * math.pi if a > math.pi else a
+            direction = int(a * (180.0 / math.pi))
             ours = (speaker <= K) == (listener <= K)
             heard.append((listener, "our" if ours else "opp",
                           encode(Hear(cycle=cycle, sender="our" if ours else "opp", direction=direction,
@@ -315,7 +316,7 @@ def test_the_hear_frames_of_a_cycle_are_the_draws_directions_and_texts_of_the_ru
     w.pos[0, 1:] = rng.uniform(-30, 30, size=(K + T, 2))
     w.body[0, 1:] = rng.uniform(-180, 180, size=K + T)
     w.pos[0, 2] = w.pos[0, 1] + [3.0, 3.0]  # a direction of exactly 45 degrees from keeper 1 before its body
-    w.body[0, 1] = 0.5 * rng.integers(-360, 360)  # a half-degree body: directions that end in .5
+    w.body[0, 1] = 0.5 * rng.integers(-360, 360)  # a half-degree body: directions ending in .5 (truncated)
     speakers = sorted(rng.choice(np.arange(1, K + T + 1), size=rng.integers(1, K + T + 1), replace=False).tolist())
     says = [(speaker, "".join(rng.choice(list("0123456789abcXYZ (.)"), size=rng.integers(0, 11))))
             for speaker in speakers]

@@ -1,0 +1,161 @@
+"""The rcssserver-protocol front (``keepaway server --rcss-port``) with real processes over real UDP and
+ZeroMQ: a text client written from rcssserver's protocol alone plays beside our players; hostile text
+on the UDP ports gets rcssserver's error replies and never stops the game; and the unmodified keepaway-0.6
+C++ players play their Keepaway on our server (where the reference stack is built,
+``KEEPAWAY_REFERENCE_STACK``; tools/build-reference-stack.sh)."""
+
+from __future__ import annotations
+
+import json
+import os
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from keepaway.protocol import messages as m
+from scripted import ScriptedPlayer
+
+REPO = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(REPO))
+from benchmarks.reference_stack import Cell, ReferenceStack, play_campaign  # noqa: E402
+
+
+class TextClient:
+    """A bare UDP client of the front: datagrams out, NUL-terminated text in."""
+
+    def __init__(self, port: int) -> None:
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.settimeout(20.0)
+        self.server = ("127.0.0.1", port)
+
+    def send(self, text: str | bytes) -> None:
+        self.sock.sendto(text if isinstance(text, bytes) else text.encode() + b"\0", self.server)
+
+    def recv(self) -> str:
+        data, self.server = self.sock.recvfrom(65536)
+        assert data.endswith(b"\0"), data[-20:]
+        return data[:-1].decode()
+
+    def recv_until(self, prefix: str) -> str:
+        while not (text := self.recv()).startswith(prefix):
+            pass
+        return text
+
+    def close(self) -> None:
+        self.sock.close()
+
+
+def play(players: list[ScriptedPlayer], cycles: int) -> None:
+    """Our scripted players answer ``cycles`` cycles together (in synchronous mode none waits for another's
+    timeout)."""
+    for _ in range(cycles):
+        for player in players:
+            player.play_cycles(1)
+
+
+def game_with_text_seat(processes, tmp_path, *extra: str):
+    """A server with the front, taker 1 left free for a text client, our scripted players in the other
+    seats (keepers 1-3 and taker 2)."""
+    srv = processes.start_server(tmp_path, "--rcss-port", "0", "--max-cycles", "60", *extra)
+    assert srv.rcss_port is not None
+    ours = [ScriptedPlayer(srv.players_endpoint) for _ in range(4)]
+    for player, team in zip(ours, ("keepers", "keepers", "keepers", "takers")):
+        assert isinstance(player.init(team), m.InitOk)
+    return srv, ours
+
+
+@pytest.mark.parametrize("version", [8, 12, 19])
+def test_a_text_client_of_rcssserver_protocol_plays_beside_our_players(processes, tmp_path, version):
+    """examples/rcss_text_taker.py, written from rcssserver's protocol alone, joins through the front as
+    taker 2 and plays its cycles in synchronous mode beside scripted ZeroMQ players: the game runs to its
+    end and the text taker dashed (our server counted its dashes in the game log)."""
+    srv = processes.start_server(tmp_path, "--rcss-port", "0", "--max-cycles", "40", "--takers", "2")
+    ours = [ScriptedPlayer(srv.players_endpoint) for _ in range(4)]
+    for player, team in zip(ours, ("keepers", "keepers", "keepers", "takers")):
+        assert isinstance(player.init(team), m.InitOk)
+    taker = processes.popen([sys.executable, str(REPO / "examples" / "rcss_text_taker.py"), "--port",
+                             str(srv.rcss_port), "--version", str(version), "--cycles", "30"])
+    play(ours, 39)
+    assert taker.wait(timeout=60) == 0, processes.stderr_tail(taker)
+    assert srv.proc.wait(timeout=60) == 0
+    shows = [line for line in (srv.log_dir / "keepaway.rcg").read_text().splitlines() if line.startswith("(show 39 ")]
+    assert shows, "no show of cycle 39"
+    text_taker = shows[0].split("((r 2)")[1]
+    dashes = int(text_taker.split("(c ")[1].split()[1])
+    assert dashes > 0
+    assert "Traceback" not in srv.stderr_path.read_text()
+
+
+def test_hostile_text_gets_rcssserver_errors_and_the_game_goes_on(processes, tmp_path):
+    """Garbage, unknown commands, oversized and deep datagrams, NUL bytes, a flood on the init port and on
+    a seated client's own port: the senders get rcssserver's error texts (or nothing), the front and the
+    server stay up, and the other players' cycles keep coming."""
+    srv, ours = game_with_text_seat(processes, tmp_path, "--cycle-timeout", "0.05")
+    stranger = TextClient(srv.rcss_port)
+    for bad in ["(init)", "init keepers", "(init a b c d e f)", "((((((((((((((((((((x))))))))))))))))))))",
+                "(reconnect takers 99)", "\x00\x01\x02", "(init " + "x" * 9000 + ")", ")("]:
+        stranger.send(bad)
+        assert stranger.recv().startswith("(error ")
+    seated = TextClient(srv.rcss_port)
+    seated.send("(init takers (version 12))")
+    assert seated.recv().startswith("(init r 2 ")
+    for bad in ["(dash)", "(dash abc)", "(fly 3)", "(dash 100", "(turn nan)", "(say " + "y" * 9000 + ")"]:
+        seated.send(bad)
+        assert seated.recv_until("(error ").startswith("(error ")
+    for _ in range(3000):  # a flood: the others still play every cycle
+        seated.send("(dash 100)(turn 30)(kick 100 0)")
+        stranger.send("(init flooders (version 12))")
+    play(ours, 20)
+    seated.send("(bye)")
+    play(ours, 30)
+    assert srv.proc.wait(timeout=60) == 0
+    stranger.close()
+    seated.close()
+
+
+# -------------------------------------------------------------------------------- the C++ players
+
+
+def reference_stack() -> ReferenceStack:
+    build = os.environ.get("KEEPAWAY_REFERENCE_STACK")
+    if not build:
+        pytest.skip("the reference stack is not built here: set KEEPAWAY_REFERENCE_STACK to the directory "
+                    "tools/build-reference-stack.sh built (.ci/run does)")
+    stack = ReferenceStack(Path(build))
+    try:
+        stack.check()
+    except ValueError as exc:
+        pytest.skip(str(exc))
+    return stack
+
+
+@pytest.mark.parametrize("cell", [Cell("ours", "cpp", "cpp"), Cell("ours", "cpp", "ours")], ids=lambda c: c.name)
+def test_the_keepaway_0_6_cpp_players_play_on_our_server(tmp_path, cell):
+    """The unmodified C++ players (keepers with hand-coded Pass; their takers or ours) play three episodes
+    on our server through the front: every episode ends, no cycle is missed, no process fails, and the
+    C++ players print nothing on stderr, as on rcssserver."""
+    stack = reference_stack()
+    _, episodes = play_campaign(stack, cell, "handcoded", 3, seed=5, log_dir=tmp_path)
+    assert [e.episode for e in episodes] == [1, 2, 3]
+    assert all(e.end_cycle > e.start_cycle for e in episodes)
+    lines = [json.loads(line) for line in (tmp_path / "game.jsonl").read_text().splitlines()[1:]]
+    assert all(line["missed"] == {} for line in lines[:3]), lines
+    for name in ("keeper_1", "keeper_2", "keeper_3", *(("taker_1", "taker_2") if cell.takers == "cpp" else ())):
+        assert (tmp_path / f"{name}.log").read_text() == "", name
+    server_log = (tmp_path / "server.log").read_text()
+    assert " ERROR " not in server_log and "Traceback" not in server_log, server_log[-2000:]
+
+
+def test_cpp_players_leave_no_process_behind(tmp_path):
+    """After a campaign every process it started is gone (the harness stops the C++ players, which never
+    stop by themselves)."""
+    stack = reference_stack()
+    before = set(subprocess.run(["pgrep", "-f", "keepaway_player"], capture_output=True, text=True).stdout.split())
+    play_campaign(stack, Cell("ours", "cpp", "cpp"), "hold", 1, seed=1, log_dir=tmp_path)
+    time.sleep(0.5)
+    after = set(subprocess.run(["pgrep", "-f", "keepaway_player"], capture_output=True, text=True).stdout.split())
+    assert after <= before
