@@ -337,6 +337,7 @@ def test_the_recordings_hold_every_kind_of_see_object():
     sees = " ".join(case.values[2] for case in play_cases("see"))
     for name in ("((F) ", "((G) ", "((b) ", "((B) ", '((p "keepers" 2) ', '((p "takers") ', "((p) ", "((P) ", "((l "):
         assert name in sees, name
+    assert re.search(r"\(\(b\) [0-9.]+ -?[0-9]+\)", sees), "a far ball without its changes"
 
 
 @pytest.mark.parametrize("run, window, text", list(play_cases("see")))

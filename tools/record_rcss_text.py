@@ -249,9 +249,10 @@ SETUP = ["(move (ball) 5 3 0 0 0)", "(move (player keepers 1) 0 0 0 0 0)", "(mov
 SCENARIOS = (
     Scenario(
         "play", "360 degree vision; the observer dashes, turns, turns its neck and says; the teammate and the "
-        "opponent say; the online coach says a freeform message before the kick-off; the trainer starts play",
+        "opponent say; the online coach says a freeform message before the kick-off; the trainer starts play "
+        "and later sends the ball far away",
         {"visible_angle": 360, "fullstate_r": 1}, 24,
-        trainer={0: [*SETUP, "(change_mode play_on)"]},
+        trainer={0: [*SETUP, "(change_mode play_on)"], 18: ["(move (ball) -40 20 0 0 0)"]},
         observer={0: ["(clang (ver 7 16))"], 1: ["(dash 60)"], 2: ["(turn_neck 30)"], 3: ["(turn 40)"],
                   4: ["(dash 100)", "(say me too)"], 6: ["(turn_neck -70)", "(dash 80)"], 8: ["(turn -120)"],
                   10: ["(dash 100)"], 11: ["(dash 100)"], 12: ["(turn_neck 50)"], 14: ["(turn 30)"],
