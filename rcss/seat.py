@@ -35,6 +35,10 @@ log = logging.getLogger("keepaway.rcss")
 # Our server sets a player's synch_see at its init (version 18 and later ask for it there, as rcssserver
 # turns it on for them); a (synch_see) of an older client later cannot switch it, and is refused.
 UNSWITCHED_SYNCH_SEE = "(error unknown_command)"
+# The datagram a synchronous client sends every cycle, read once (a NUL-terminated one reads the same in
+# every version).
+DONE_DATAGRAM = b"(done)\0"
+DONE = parse_commands(DONE_DATAGRAM, 19.0)
 
 CLIENT_PREFIX = "rcss-text"  # our ``init.client``: "rcss-text v12 keepers"
 
@@ -185,7 +189,7 @@ class TextSeat:
         the commands wait for ``(done)``, which ends the client's answer to the cycle (one ``command``
         message, as our protocol answers a ``think``); in real-time mode each datagram's commands go at
         once."""
-        parsed = parse_commands(data, self.version)
+        parsed = DONE if data == DONE_DATAGRAM else parse_commands(data, self.version)
         out = Out([text for text in map(self._answer, parsed.answers) if text], [])
         commands = [command for command in parsed.commands if command.name != "done"]
         if commands:
