@@ -1,5 +1,6 @@
 """The reference stack (rcssserver 19.0.0 + the keepaway-0.6 C++ players) played from Python, for the
-side-by-side harness (``benchmarks/side_by_side.py --reference BUILD``); not run in CI.
+side-by-side harness (``benchmarks/side_by_side.py --reference BUILD``) and for our players on rcssserver
+(``benchmarks/rcss_players.py``, ``tests/test_rcss_client.py``); not run in CI without a build.
 
 ``BUILD`` is the directory ``tools/build-reference-stack.sh`` builds into (its ``PREFIX``):
 ``BUILD/rcssserver/build/rcssserver`` and ``BUILD/keepaway/player/keepaway_player``. One campaign is the
@@ -7,20 +8,29 @@ server and five players (3 keepers with the given Pass policy, 2 hand-coded take
 in synchronous mode with the launch settings of keepaway-0.6's ``keepaway.sh``, CURRENT parameters
 (rcssserver 19's defaults), 3v2 on 20 m, 360 deg vision, the server's ``random_seed`` (which the build
 script's patch makes settable) set, game log version 5 and the episode log written to the log directory.
-keepaway-0.6 parses the players' ``-x EPISODES`` but never stops, so the campaign stops when the
-``.kwy`` lists one episode more than asked for (then every asked-for episode's last show, which carries
-its last step's kicks, is in the game log). The processes run through ``runner.launch.ArenaProcesses``:
-each in its own session, SIGTERM when this process dies, all stopped (SIGTERM, then SIGKILL) on the way
-out whatever happens, Ctrl-C included; rcssserver closes its logs on SIGTERM.
+Either team may be ours instead (``keepaway player --rcss``, docs/cli.md), the same team names and
+policies. The keepers join first (rcssserver seats the first team on the left, the keepers' side), then
+the takers; a monitor (``(dispinit version 3)`` on the player port, as rcssmonitor connects) watches the
+players take their seats and kicks off with ``(dispstart)`` once all five have, which in Keepaway mode
+starts play at once (``Stadium::kickOff``): ``keepaway.sh`` waits ``keepaway_start`` seconds instead, which
+a player that loads its compiled kernels may overrun. keepaway-0.6 parses the players' ``-x EPISODES`` but
+never stops, so the campaign stops when the ``.kwy`` lists one episode more than asked for (then every
+asked-for episode's last show, which carries its last step's kicks, is in the game log). The processes run
+through ``runner.launch.ArenaProcesses``: each in its own session, SIGTERM when this process dies, all
+stopped (SIGTERM, then SIGKILL) on the way out whatever happens, Ctrl-C included; rcssserver closes its
+logs on SIGTERM, our players say ``(bye)``.
 """
 
 from __future__ import annotations
 
+import re
 import socket
 import time
+from collections.abc import Collection
 from dataclasses import dataclass
 from pathlib import Path
 
+from keepaway.agents.rcss_client import DEFAULT_VERSION
 from keepaway.runner.launch import ArenaFailure, ArenaProcesses, Member
 from keepaway.server.episode_log import EpisodeRecord, read_kwy
 from keepaway.server.game_log import GameRecord, read_rcg
@@ -38,8 +48,13 @@ SERVER_SETTINGS = {
     "game_log_version": 5, "game_log_fixed": 1, "game_log_fixed_name": LOG_NAME, "text_logging": 0,
     "visible_angle": 360, "coach": 0,
 }
+KICK_OFF_SETTINGS = {"keepaway_start": -1}  # no kick-off on a timer: the monitor kicks off (module docstring)
 KEEPERS, TAKERS = 3, 2
+TEAMS = (("keepers", "l", KEEPERS), ("takers", "r", TAKERS))  # in the order they join
 STALL_S = 120.0  # no new episode for this long: the campaign is stuck (a player gone, the server hung)
+SEATED_S = 120.0  # longest wait for a team to take its seats (our players load their kernels first)
+# A player in a monitor's show (serializermonitor.cpp, v3): ((side unum) type state ...); state 0: no seat
+SHOW_PLAYER = re.compile(r"\(\(([lr]) \d+\) \d+ (0x[0-9a-f]+|0) ")
 
 
 @dataclass(frozen=True)
@@ -89,14 +104,62 @@ def free_udp_ports(count: int = 3, host: str = "127.0.0.1") -> int:
 
 
 def server_argv(stack: ReferenceStack, port: int, log_dir: Path, seed: int) -> list[str]:
-    settings = {**SERVER_SETTINGS, "port": port, "coach_port": port + 1, "olcoach_port": port + 2,
-                "keepaway_log_dir": log_dir, "game_log_dir": log_dir, "random_seed": seed}
+    settings = {**SERVER_SETTINGS, **KICK_OFF_SETTINGS, "port": port, "coach_port": port + 1,
+                "olcoach_port": port + 2, "keepaway_log_dir": log_dir, "game_log_dir": log_dir, "random_seed": seed}
     return [str(stack.server), *(f"server::{name}={value}" for name, value in settings.items())]
 
 
 def player_argv(stack: ReferenceStack, port: int, team: str, policy: str, episodes: int) -> list[str]:
     return [str(stack.player), "-p", str(port), "-k", str(KEEPERS), "-j", str(TAKERS), "-x", str(episodes),
             "-y", "-1", "-t", team, "-e", "0", "-q", policy]
+
+
+def our_player_args(port: int, team: str, policy: str, seed: int, version: int) -> list[str]:
+    """``keepaway player`` on rcssserver (docs/cli.md): the same team, the same policy."""
+    return ["--team", team, "--rcss", f"127.0.0.1:{port}", "--rcss-version", str(version), "--pass", policy,
+            "--seed", str(seed), "-v"]
+
+
+class Monitor:
+    """A monitor on rcssserver's player port (module docstring): the seats taken, and the kick-off."""
+
+    def __init__(self, port: int) -> None:
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.settimeout(0.1)
+        self.address: tuple[str, int] | None = None  # the monitor's own port on rcssserver, once it answers
+        self.seats = {"l": 0, "r": 0}
+        self.sock.sendto(b"(dispinit version 3)\0", ("127.0.0.1", port))
+
+    def look(self, wait_s: float = 0.2) -> dict[str, int]:
+        """The seats taken on each side, from the shows that come within ``wait_s``."""
+        until = time.monotonic() + wait_s
+        while time.monotonic() < until:
+            try:
+                data, self.address = self.sock.recvfrom(65536)
+            except TimeoutError:
+                continue
+            if data.startswith(b"(show "):
+                states = SHOW_PLAYER.findall(data.decode("latin-1"))
+                self.seats = {side: sum(s == side and state != "0" for s, state in states) for side in "lr"}
+        return self.seats
+
+    def kick_off(self) -> None:
+        """Start the game, and leave (a monitor slows a synchronous rcssserver down a little)."""
+        for message in (b"(dispstart)\0", b"(dispbye)\0"):
+            self.sock.sendto(message, self.address)
+        self.sock.close()
+
+
+def wait_seated(monitor: Monitor, side: str, count: int, arena: ArenaProcesses, log_dir: Path) -> None:
+    """Until ``count`` players sit on ``side``; ArenaFailure if a process dies or it takes too long."""
+    deadline = time.monotonic() + SEATED_S
+    while monitor.look()[side] < count:
+        dead = next((m for m in arena.members if m.proc.poll() is not None), None)
+        if dead is not None:
+            raise ArenaFailure(f"reference stack: {dead.describe_exit()}; logs in {log_dir}")
+        if time.monotonic() > deadline:
+            raise ArenaFailure(f"reference stack: {count} players did not take their seats on side {side} in "
+                               f"{SEATED_S:.0f} s; logs in {log_dir}")
 
 
 def finished_episodes(kwy: Path) -> int:
@@ -107,12 +170,13 @@ def finished_episodes(kwy: Path) -> int:
         return 0
 
 
-def play_reference(stack: ReferenceStack, pass_policy: str, episodes: int, seed: int,
-                   log_dir: Path) -> tuple[GameRecord, list[EpisodeRecord]]:
-    """Play ``episodes`` episodes on the reference stack with the keepers' ``pass_policy`` ("hold",
-    "random", "handcoded") and server seed ``seed``, logs in ``log_dir`` (an earlier ``game.rcg`` there
-    is overwritten); return the game log and the first ``episodes`` episodes of the ``.kwy``.
-    :class:`runner.launch.ArenaFailure` if a process dies or the game stalls."""
+def play_campaign(stack: ReferenceStack, pass_policy: str, episodes: int, seed: int, log_dir: Path,
+                  ours: Collection[str] = (), version: int = DEFAULT_VERSION) -> list[Member]:
+    """Play ``episodes`` episodes on rcssserver with the keepers' ``pass_policy`` ("hold", "random",
+    "handcoded") and server seed ``seed``, logs in ``log_dir`` (an earlier ``game.rcg`` there is
+    overwritten, each process's stderr appended to ``log_dir/NAME.log``); the teams named in ``ours``
+    ("keepers", "takers") are our players (protocol ``version``), the others keepaway-0.6's. Returns the
+    processes, stopped. :class:`runner.launch.ArenaFailure` if a process dies or the game stalls."""
     stack.check()
     log_dir = log_dir.resolve()
     kwy = log_dir / f"{LOG_NAME}.kwy"
@@ -122,9 +186,17 @@ def play_reference(stack: ReferenceStack, pass_policy: str, episodes: int, seed:
         # rcssserver writes its configuration to "~/.rcssserver" without expanding the tilde: in log_dir
         server = arena.start("server", server_argv(stack, port, log_dir, seed), cwd=log_dir)
         wait_until_bound(port, server)
-        for team, count, policy in (("keepers", KEEPERS, CPP_POLICY[pass_policy]), ("takers", TAKERS, "hand")):
+        monitor = Monitor(port)
+        for team, side, count in TEAMS:
+            policy = pass_policy if team == "keepers" else "handcoded"
             for i in range(1, count + 1):
-                arena.start(f"{team[:-1]} {i}", player_argv(stack, port, team, policy, episodes), cwd=log_dir)
+                name = f"{team[:-1]} {i}"
+                if team in ours:
+                    arena.start_player(name, our_player_args(port, team, policy, seed, version))
+                else:
+                    arena.start(name, player_argv(stack, port, team, CPP_POLICY[policy], episodes), cwd=log_dir)
+            wait_seated(monitor, side, count, arena, log_dir)
+        monitor.kick_off()
         done, progress_at = 0, time.monotonic()
         while done <= episodes:
             time.sleep(1.0)
@@ -137,6 +209,16 @@ def play_reference(stack: ReferenceStack, pass_policy: str, episodes: int, seed:
             elif time.monotonic() - progress_at > STALL_S:
                 raise ArenaFailure(f"reference stack: no episode finished in {STALL_S:.0f} s (after {done}); "
                                    f"logs in {log_dir}")
+    return arena.members
+
+
+def play_reference(stack: ReferenceStack, pass_policy: str, episodes: int, seed: int,
+                   log_dir: Path) -> tuple[GameRecord, list[EpisodeRecord]]:
+    """:func:`play_campaign` of the C++ players; return the game log and the first ``episodes`` episodes
+    of the ``.kwy``."""
+    play_campaign(stack, pass_policy, episodes, seed, log_dir)
+    log_dir = log_dir.resolve()
+    kwy = log_dir / f"{LOG_NAME}.kwy"
     return read_rcg(log_dir / f"{LOG_NAME}.rcg", kwy), read_kwy(kwy)[:episodes]
 
 

@@ -48,6 +48,7 @@ import numpy as np
 from keepaway.core.jit import SteadyCall
 from keepaway.protocol import messages as m
 from keepaway.protocol.params import ServerParams
+from keepaway.rcss.params import NOT_IN_RCSSSERVER, PLAYER_TYPE_PARAMS, RCSS_PARAM_NAMES
 from keepaway.server.arena import REFEREE_EPISODE_MESSAGE, VIEW_WIDTHS, Arena
 from keepaway.server.arena import compile_kernels as compile_arena_kernels
 from keepaway.server.episode_log import EpisodeRecord, LineLog, cpp_number, read_kwy
@@ -77,25 +78,6 @@ LOG_BOARD = 2
 REFEREE_NAME = "referee"
 GETOPEN_NOTE = "getopen"
 PLAY_ON = "play_on"
-
-# Our parameter names that rcssserver's server_param spells otherwise; parameters rcssserver does not
-# have (our modelling switches, the pitch size) are left out of the server_param line.
-RCSS_PARAM_NAMES = {
-    "simulator_step_ms": "simulator_step", "sense_body_step_ms": "sense_body_step", "send_step_ms": "send_step",
-    "min_moment": "minmoment", "max_moment": "maxmoment", "min_neck_moment": "minneckmoment",
-    "max_neck_moment": "maxneckmoment", "min_neck_angle": "minneckang", "max_neck_angle": "maxneckang",
-    "min_power": "minpower", "max_power": "maxpower",
-}
-NOT_IN_RCSSSERVER = frozenset({
-    "name", "pitch_length", "pitch_width", "movement_noise", "kick_noise", "failed_kick_uses_slot", "effort_max",
-    "effort_inc_uses_dec_thr", "dir_chg_step", "dist_chg_step", "unum_far_length", "unum_too_far_length",
-    "team_far_length", "team_too_far_length", "team_loss_probabilistic", "see_behind_strict", "take_cycles",
-    "reset_restores_stamina",
-})
-# The heterogeneous type every player of ours is (type 0, rcssserver's default type), from our table.
-PLAYER_TYPE_PARAMS = ("player_speed_max", "stamina_inc_max", "player_decay", "inertia_moment", "dash_power_rate",
-                      "player_size", "kickable_margin", "kick_rand", "extra_stamina", "effort_max", "effort_min",
-                      "kick_power_rate")
 
 
 class PlayerShow(NamedTuple):
