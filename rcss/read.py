@@ -11,9 +11,7 @@ the parameters until its ``init_ok`` is complete) and turns every datagram into 
   type (``initsendercommon``: ``(name value)`` lists from protocol version 8 on) make the ``init_ok``: our
   parameter table from rcssserver's names (``rcss.params``; the rest keep rcssserver 19's defaults, the
   ``current`` set), our landmarks (rcssserver's default landmark file, ``protocol.landmarks``), and the
-  timing mode from ``synch_mode``. rcssserver sends no parameters after a reconnect: the player then
-  plays with rcssserver 19's defaults and keepaway.sh's launch settings, and learns the timing mode from
-  the first cycle (a ``(think)``: synchronous; a second cycle without one: real time);
+  timing mode from ``synch_mode`` (rcssserver sends them after a reconnect too);
 * ``(sense_body ...)`` of versions 8 to 19 (``bodysender.cpp``: stamina capacity from 13, collisions from
   12; the arm, focus, tackle and foul fields are not ours);
 * ``(see ...)`` (``visualsenderplayer.cpp``): flags and goals by name, ``(F)`` and ``(G)`` nameless, lines,
@@ -310,7 +308,6 @@ class PlayerReader:
         self.cycle = 0  # the time of the last sense_body: the cycle a (think) answers
         self.ready = False  # init_ok made
         self._server: dict[str, str] | None = None
-        self._first_cycle: int | None = None  # after a reconnect: the cycle of the first sense_body
         self._readers = {
             "init": self._on_joined, "reconnect": self._on_joined, "server_param": self._on_server_param,
             "player_type": self._on_player_type, "sense_body": self._on_sense_body, "see": self._on_see,
@@ -362,38 +359,22 @@ class PlayerReader:
     def _on_player_type(self, expr: Sexp) -> list:
         """The default type (id 0) completes the init_ok (module docstring)."""
         values = read_params(expr)
-        if values.get("id") != "0" or self._server is None or self.joined is None or self.ready:
-            return []
-        mode = "sync" if _float(self._server.get("synch_mode", "0"), "synch_mode") else "realtime"
-        return [self._init_ok(server_params(self._server, values), mode)]
-
-    def _init_ok(self, params: ServerParams, mode: str) -> m.InitOk:
         joined = self.joined
+        if values.get("id") != "0" or self._server is None or joined is None or self.ready:
+            return []
+        params = server_params(self._server, values)
+        mode = "sync" if _float(self._server.get("synch_mode", "0"), "synch_mode") else "realtime"
         init_ok = _built(m.InitOk, {
             "version": PROTOCOL_VERSION, "cycle": self.cycle, "side": joined.side, "unum": joined.unum,
             "team": self.team, "play_mode": joined.play_mode, "params": params.to_dict(), "landmarks": to_wire(),
             "config": {"mode": mode}})
         self.ready = True
-        return init_ok
-
-    def _reconnected_mode(self, think: bool) -> list:
-        """After a reconnect, which sends no parameters: the init_ok once the timing mode shows (module
-        docstring), with rcssserver 19's defaults and keepaway.sh's launch settings."""
-        if self.joined is None or self.ready or self._server is not None:
-            return []
-        if think:
-            mode = "sync"
-        elif self._first_cycle is None or self._first_cycle == self.cycle:
-            self._first_cycle = self.cycle
-            return []
-        else:
-            mode = "realtime"
-        return [self._init_ok(parameter_set("current"), mode)]
+        return [init_ok]
 
     def _on_sense_body(self, expr: Sexp) -> list:
         body = read_sense_body(expr)
         self.cycle = body.cycle
-        return [*self._reconnected_mode(think=False), body]
+        return [body]
 
     def _on_see(self, expr: Sexp) -> list:
         return [read_see(expr, self.team, self.joined.side)] if self.joined is not None else []
@@ -404,7 +385,7 @@ class PlayerReader:
 
     def _on_think(self, expr: Sexp) -> list:
         """Every (think) is reported, before the init_ok too: a synchronous server waits for its (done)."""
-        return [*self._reconnected_mode(think=True), _built(m.Think, {"cycle": self.cycle})]
+        return [_built(m.Think, {"cycle": self.cycle})]
 
     def _on_error(self, expr: Sexp) -> list:
         """``(error NAME)`` or ``(warning NAME)``: an ``error`` whose code is the name."""
