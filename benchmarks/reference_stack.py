@@ -24,6 +24,7 @@ logs on SIGTERM, our players say ``(bye)``.
 from __future__ import annotations
 
 import re
+import signal
 import socket
 import time
 from collections.abc import Collection
@@ -209,7 +210,23 @@ def play_campaign(stack: ReferenceStack, pass_policy: str, episodes: int, seed: 
             elif time.monotonic() - progress_at > STALL_S:
                 raise ArenaFailure(f"reference stack: no episode finished in {STALL_S:.0f} s (after {done}); "
                                    f"logs in {log_dir}")
+        stop_server_idle(server, [m for m in arena.members if m is not server])
     return arena.members
+
+
+def stop_server_idle(server: Member, players: list[Member]) -> None:
+    """Stop rcssserver while it waits for its players' ``(done)``: its SIGTERM handler closes the logs at
+    once (``src/main.cpp``, ``Stadium::finalize``), and a server caught writing a show then crashes
+    (SIGSEGV). So the players are frozen first (SIGSTOP), the server, its cycle's ``(think)`` unanswered,
+    is stopped and waited for, then the players are let go and stopped (ours say ``(bye)``)."""
+    for player in players:
+        player.proc.send_signal(signal.SIGSTOP)
+    time.sleep(0.2)  # the server finishes its cycle and waits for the players' (done)
+    server.proc.terminate()
+    server.proc.wait(timeout=30)
+    for player in players:
+        player.proc.send_signal(signal.SIGCONT)
+        player.proc.terminate()
 
 
 def play_reference(stack: ReferenceStack, pass_policy: str, episodes: int, seed: int,
