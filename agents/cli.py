@@ -40,12 +40,12 @@ from keepaway.agents.edge import (
     StopFlag,
 )
 from keepaway.agents.rcss_client import DEFAULT_VERSION as RCSS_DEFAULT_VERSION
-from keepaway.agents.rcss_client import VERSIONS as RCSS_VERSIONS
 from keepaway.agents.rcss_client import rcss_address, run_rcss_player
 from keepaway.core.options import FiniteFloatRange
 from keepaway.protocol.endpoints import DEFAULT_PORTS, parse_endpoint
 from keepaway.protocol.messages import MAX_SEED, SERVER_SILENCE_S
 from keepaway.protocol.security import KeyDir, SecurityError, keys_option, no_answer, open_keys, secure_client
+from keepaway.rcss.read import VERSIONS as RCSS_VERSIONS
 
 # Sockets have LINGER 0, except after a bye: closing then waits this long for the bye to leave, so it
 # is not discarded unsent (and never longer, should the server be gone).

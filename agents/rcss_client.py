@@ -48,9 +48,9 @@ from keepaway.core.log_limit import KIND_ATTR, RepeatLimit
 from keepaway.protocol import messages as m
 from keepaway.protocol.endpoints import parse_endpoint
 from keepaway.protocol.messages import SERVER_SILENCE_S
-from keepaway.rcss import read
 from keepaway.rcss.commands import commands_text
 from keepaway.rcss.read import MAX_TEXT_CHARS, Joined, PlayerReader
+from keepaway.rcss.read import repeat_limit as read_repeat_limit
 
 if TYPE_CHECKING:
     from keepaway.agents.player import PlayerAgent
@@ -59,7 +59,6 @@ if TYPE_CHECKING:
 # asynchronous see timer, the one keepaway-0.6's players (version 12) and our server's synchronous mode
 # play with; from 18 on rcssserver turns synch_see on for every player (src/player.cpp).
 DEFAULT_VERSION = 15
-VERSIONS = read.VERSIONS
 SIDE_OF_TEAM = {"keepers": "l", "takers": "r"}
 CANNOT_RECONNECT = "cannot_reconnect_while_playon"  # rcssserver's refusal of a reconnect in play
 
@@ -177,4 +176,4 @@ def run_rcss_player(agent: PlayerAgent, address: tuple[str, int], connect_timeou
     finally:
         sock.close()
         repeat_limit.flush()
-        read.repeat_limit.flush()
+        read_repeat_limit.flush()

@@ -2,13 +2,14 @@
 players play on a real rcssserver (``keepaway player --rcss``).
 
 One datagram of rcssserver holds one s-expression, NUL-terminated (rcssserver ``src/player.cpp``,
-``src/serializerplayerstdv*.cpp``). The pure functions below read each kind; :class:`PlayerReader` keeps
-the little a player must remember between datagrams (its team and side, the cycle a ``(think)`` answers,
-the parameters until its ``init_ok`` is complete) and turns every datagram into our messages:
+``src/serializerplayerstdv8.cpp`` and its successors). The pure functions below read each kind;
+:class:`PlayerReader` keeps the little a player must remember between datagrams (its team and side, the
+cycle a ``(think)`` answers, the parameters until its ``init_ok`` is complete) and turns every datagram
+into our messages:
 
 * ``(init l 1 before_kick_off)`` / ``(reconnect l before_kick_off)`` (``initsenderplayer.cpp``) is
   :class:`Joined`; then ``(server_param ...)`` and the ``(player_type (id 0) ...)`` of rcssserver's default
-  type (``initsendercommon``: ``(name value)`` lists from protocol version 8 on) make the ``init_ok``: our
+  type (``initsender.cpp``: ``(name value)`` lists from protocol version 8 on) make the ``init_ok``: our
   parameter table from rcssserver's names (``rcss.params``; the rest keep rcssserver 19's defaults, the
   ``current`` set), our landmarks (rcssserver's default landmark file, ``protocol.landmarks``), and the
   timing mode from ``synch_mode`` (rcssserver sends them after a reconnect too);
@@ -53,7 +54,7 @@ log.addFilter(repeat_limit)
 
 MAX_TEXT_CHARS = 8192  # rcssserver's MaxMesg (param.h): the longest datagram it sends
 VERSIONS = range(8, 20)  # the protocol versions read here: (name value) parameter lists (8) to rcssserver 19's
-SIDES = {"l": "r", "r": "l"}  # a side and the other one
+OTHER_SIDE = {"l": "r", "r": "l"}
 COACHES = ("coach", "online_coach_left", "online_coach_right")  # audio.cpp's names of the coaches
 VISUAL_MARKS = ("k", "t")  # a seen player kicking or tackling (serializerplayerstdv13.cpp)
 _NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
@@ -122,7 +123,7 @@ def read_joined(expr: Sexp) -> Joined:
     if len(expr) != (3 if reconnect else 4):
         raise RcssReadError(f"{expr[0]} takes {2 if reconnect else 3} words, got {len(expr) - 1}")
     side = _atom(expr[1], "the side")
-    if side not in SIDES:
+    if side not in OTHER_SIDE:
         raise RcssReadError(f"the side {side[:20]!r} is neither l nor r")
     unum = None if reconnect else _int(expr[2], "the uniform number")
     if unum is not None and not 1 <= unum <= m.MAX_UNUM:
@@ -223,7 +224,7 @@ def _seen_player(name: list, values: list, our_team: str, our_side: str) -> list
     if name[0] == "P" or len(name) == 1:
         side = None
     else:
-        side = our_side if unquote(_atom(name[1], "a team name")) == our_team else SIDES[our_side]
+        side = our_side if unquote(_atom(name[1], "a team name")) == our_team else OTHER_SIDE[our_side]
     unum = _int(name[2], "a player's uniform number") if len(name) >= 3 else None
     numbers = [_float(values[0], "a player's distance"), _int(values[1], "a player's direction")]
     if len(values) >= 6:
@@ -246,11 +247,11 @@ def read_see(expr: Sexp, our_team: str, our_side: str) -> m.See:
         kind = _atom(name[0], "an object's kind")
         if len(values) == 1:
             continue  # low quality: a direction alone
-        if kind in ("f", "g", "F", "G"):
+        if kind in ("F", "G") and len(name) == 1:
+            flags.append([None, *_seen_values(values, "a flag")])
+        elif kind in ("f", "g"):
             flag_id = FLAG_INDEX.get(" ".join(_atom(word, "a flag's name") for word in name))
-            if kind in ("F", "G") and len(name) == 1:
-                flags.append([None, *_seen_values(values, "a flag")])
-            elif flag_id is not None:
+            if flag_id is not None:
                 flags.append([flag_id, *_seen_values(values, "a flag")])
         elif kind == "l":
             line_id = LINE_INDEX.get(" ".join(_atom(word, "a line's name") for word in name))
