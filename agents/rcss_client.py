@@ -25,6 +25,13 @@ ends with exit code 2.
 it answers every ``(think)`` with one datagram, its commands and ``(done)``, as keepaway-0.6's players do
 (``player/KeepawayPlayer.cc``); in real-time mode its commands go out when it decides, on the cycle's
 ``sense_body``. Every message ends with the NUL byte rcssserver expects from protocol version 8 on.
+
+**Late sees.** Below version 18 rcssserver's synchronous timer (``synctimer.cpp``) sends a player's see
+when the player's own timer says so, every 150 ms of simulated time counted from when it joined, and the
+``(think)`` 80 ms into each cycle (``synch_offset``): a see due in the cycle's last 20 ms comes after the
+``(think)`` it belongs to, and the agent takes it in at the next cycle's decision. Which players' timers do
+so is drawn when they join (one in four, for every other see); keepaway-0.6's players draw the same. The
+player logs, when it ends, how many of its sees came late.
 """
 
 from __future__ import annotations
@@ -110,6 +117,8 @@ def run_rcss_player(agent: PlayerAgent, address: tuple[str, int], connect_timeou
         silent_s = 0.0  # the server's silence, counted as agents/cli.py counts it
         retry_at: float | None = None  # when to ask for the seat again after a refused reconnect
         refused: str | None = None  # the last refusal of a reconnect, for the message should time run out
+        thought = -1  # the cycle of the last (think)
+        sees = late = 0  # the sees after the kick-off, and those that came after their cycle's (think)
         while True:
             if stop.signal_name is not None:
                 log.info("%s: saying bye", stop.signal_name)
@@ -168,12 +177,18 @@ def run_rcss_player(agent: PlayerAgent, address: tuple[str, int], connect_timeou
                 if isinstance(item, m.InitOk):
                     log.info("joined as %s %d (%s mode, protocol version %d)", agent.team, agent.unum, agent.mode,
                              version)
+                if isinstance(item, m.See) and item.cycle > 0:
+                    sees += 1
+                    late += item.cycle == thought
                 text = "" if command is None else commands_text(command.commands)
                 if isinstance(item, m.Think):
                     send(f"{text}(done)")  # a synchronous server waits for it, whether or not we act
+                    thought = item.cycle
                 elif text:
                     send(text)
     finally:
+        if sees:
+            log.info("%d of its %d sees came after their cycle's (think), taken in a cycle later", late, sees)
         sock.close()
         repeat_limit.flush()
         read_repeat_limit.flush()

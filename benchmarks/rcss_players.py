@@ -7,8 +7,10 @@ in the teams ``--ours`` names (both by default; the others are keepaway-0.6's), 
 ``--version``. Prints per policy the number of episodes, the mean hold time ± its standard error and the
 standard deviation, and what tells a player that falls behind or misreads: the cycles played per second,
 the cycles rcssserver waited for a player in vain ("Someone missed a cycle", the shutdown's own one not
-counted: ``reference_stack.stop_server_idle``) and the lines our players logged at WARNING or above
-(a skipped message, a refused command). Logs in ``--log-dir`` (default a temporary directory).
+counted: ``reference_stack.stop_server_idle``), the lines our players logged at WARNING or above (a
+skipped message, a refused command) and the share of each of our players' sees that came after the
+``(think)`` of their cycle (``agents/rcss_client.py``, "Late sees"). Logs in ``--log-dir`` (default a
+temporary directory).
 
     python benchmarks/rcss_players.py BUILD [--episodes 200] [--seed 7] [--policies hold,random,handcoded]
                                       [--ours keepers,takers] [--version 15] [--log-dir DIR]
@@ -18,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 import sys
 import tempfile
 import time
@@ -35,6 +38,7 @@ POLICIES = ("hold", "random", "handcoded")
 TEAMS = ("keepers", "takers")
 MISSED = "Someone missed a cycle"  # rcssserver's line for a cycle a player did not answer in time (stadium.cpp)
 LOGGED = (" WARNING ", " ERROR ", "Traceback")
+LATE_SEES = re.compile(r"(\d+) of its (\d+) sees came after")  # agents/rcss_client.py, "Late sees"
 
 
 def measure(stack: ReferenceStack, policy: str, episodes: int, seed: int, ours: tuple[str, ...], version: int,
@@ -49,12 +53,14 @@ def measure(stack: ReferenceStack, policy: str, episodes: int, seed: int, ours: 
     sd = math.sqrt(sum((h - mean) ** 2 for h in hold) / (len(hold) - 1))
     cycles = kwy[-1].end_cycle
     missed = (log_dir / "server.log").read_text(errors="replace").count(MISSED) - 1
-    logs = [log_dir / f"{member.name.replace(' ', '_')}.log" for member in members
-            if member.name.split()[0] + "s" in ours]
-    logged = sum(any(word in line for word in LOGGED) for log in logs for line in log.read_text().splitlines())
+    logs = {member.name: (log_dir / f"{member.name.replace(' ', '_')}.log").read_text() for member in members
+            if member.name.split()[0] + "s" in ours}
+    logged = sum(any(word in line for word in LOGGED) for log in logs.values() for line in log.splitlines())
+    late = [f"{name} {100 * int(found[1]) / max(int(found[2]), 1):.0f} %" for name, log in logs.items()
+            if (found := LATE_SEES.search(log))]
     return (f"{policy}: {len(hold)} episodes, {mean:.2f} ± {sd / math.sqrt(len(hold)):.2f} s (sd {sd:.2f}); "
             f"{cycles} cycles in {elapsed:.0f} s ({cycles / elapsed:.0f} a second), {missed} missed, "
-            f"{logged} player lines at WARNING or above")
+            f"{logged} player lines at WARNING or above; late sees: {', '.join(late) or 'none'}")
 
 
 def main() -> None:
