@@ -14,7 +14,9 @@ back the seat of a player of its team that is gone (crashed, killed, or given up
 joining anew (docs/protocol.md §12, "Rejoin"). A seat whose old client the server still waits for (a hung
 process it has not yet given up after ``max_missed_cycles``, a crash it has not yet noticed) is refused with
 ``cannot_reconnect``; the player asks again every :data:`RECONNECT_RETRY_S` until ``--connect-timeout``,
-so a replacement can be started as soon as the old process is found dead or stuck.
+so a replacement can be started as soon as the old process is found dead or stuck. With ``--rcss HOST:PORT``
+the same agent plays on a real rcssserver instead, through the UDP edge of ``agents/rcss_client.py``, which
+ends alike (``agents/edge.py``).
 """
 
 from __future__ import annotations
