@@ -8,17 +8,20 @@ server and five players (3 keepers with the given Pass policy, 2 hand-coded take
 in synchronous mode with the launch settings of keepaway-0.6's ``keepaway.sh``, CURRENT parameters
 (rcssserver 19's defaults), 3v2 on 20 m, 360 deg vision, the server's ``random_seed`` (which the build
 script's patch makes settable) set, game log version 5 and the episode log written to the log directory.
+The keepaway-0.6 players join at once and play kicks off after keepaway.sh's ``keepaway_start``.
+
 Either team may be ours instead (``keepaway player --rcss``, docs/cli.md), the same team names and
-policies. The keepers join first (rcssserver seats the first team on the left, the keepers' side), then
-the takers; a monitor (``(dispinit version 3)`` on the player port, as rcssmonitor connects) watches the
-players take their seats and kicks off with ``(dispstart)`` once all five have, which in Keepaway mode
-starts play at once (``Stadium::kickOff``): ``keepaway.sh`` waits ``keepaway_start`` seconds instead, which
-a player that loads its compiled kernels may overrun. keepaway-0.6 parses the players' ``-x EPISODES`` but
-never stops, so the campaign stops when the ``.kwy`` lists one episode more than asked for (then every
-asked-for episode's last show, which carries its last step's kicks, is in the game log). The processes run
-through ``runner.launch.ArenaProcesses``: each in its own session, SIGTERM when this process dies, all
-stopped (SIGTERM, then SIGKILL) on the way out whatever happens, Ctrl-C included; rcssserver closes its
-logs on SIGTERM, our players say ``(bye)``.
+policies. The keepers must join first (rcssserver seats the first team on the left, the keepers' side),
+and ours load their compiled kernels before they join, which may overrun ``keepaway_start``: so a
+monitor (``(dispinit version 3)`` on the player port, as rcssmonitor connects) watches the keepers take
+their seats before the takers start, and kicks off with ``(dispstart)`` once all five have, which in
+Keepaway mode starts play at once (``Stadium::kickOff``). rcssserver then logs no show of cycle 0, so
+``trainer.behaviour.game_log_episodes`` leaves the first episode out. keepaway-0.6 parses the players'
+``-x EPISODES`` but never stops, so the campaign stops when the ``.kwy`` lists one episode more than asked
+for (then every asked-for episode's last show, which carries its last step's kicks, is in the game log).
+The processes run through ``runner.launch.ArenaProcesses``: each in its own session, SIGTERM when this
+process dies, all stopped (SIGTERM, then SIGKILL) on the way out whatever happens, Ctrl-C included;
+rcssserver closes its logs on SIGTERM (:func:`stop_server_idle`), our players say ``(bye)``.
 """
 
 from __future__ import annotations
@@ -49,7 +52,7 @@ SERVER_SETTINGS = {
     "game_log_version": 5, "game_log_fixed": 1, "game_log_fixed_name": LOG_NAME, "text_logging": 0,
     "visible_angle": 360, "coach": 0,
 }
-KICK_OFF_SETTINGS = {"keepaway_start": -1}  # no kick-off on a timer: the monitor kicks off (module docstring)
+KICK_OFF_SETTINGS = {"keepaway_start": -1}  # no kick-off on a timer where a monitor kicks off (module docstring)
 KEEPERS, TAKERS = 3, 2
 TEAMS = (("keepers", "l", KEEPERS), ("takers", "r", TAKERS))  # in the order they join
 STALL_S = 120.0  # no new episode for this long: the campaign is stuck (a player gone, the server hung)
@@ -104,9 +107,11 @@ def free_udp_ports(count: int = 3, host: str = "127.0.0.1") -> int:
     raise RuntimeError("no free run of UDP ports on loopback")
 
 
-def server_argv(stack: ReferenceStack, port: int, log_dir: Path, seed: int) -> list[str]:
-    settings = {**SERVER_SETTINGS, **KICK_OFF_SETTINGS, "port": port, "coach_port": port + 1,
-                "olcoach_port": port + 2, "keepaway_log_dir": log_dir, "game_log_dir": log_dir, "random_seed": seed}
+def server_argv(stack: ReferenceStack, port: int, log_dir: Path, seed: int, monitor_kicks_off: bool = False
+                ) -> list[str]:
+    settings = {**SERVER_SETTINGS, **(KICK_OFF_SETTINGS if monitor_kicks_off else {}), "port": port,
+                "coach_port": port + 1, "olcoach_port": port + 2, "keepaway_log_dir": log_dir,
+                "game_log_dir": log_dir, "random_seed": seed}
     return [str(stack.server), *(f"server::{name}={value}" for name, value in settings.items())]
 
 
@@ -185,9 +190,9 @@ def play_campaign(stack: ReferenceStack, pass_policy: str, episodes: int, seed: 
     with ArenaProcesses(log_dir) as arena:
         kwy.unlink(missing_ok=True)
         # rcssserver writes its configuration to "~/.rcssserver" without expanding the tilde: in log_dir
-        server = arena.start("server", server_argv(stack, port, log_dir, seed), cwd=log_dir)
+        server = arena.start("server", server_argv(stack, port, log_dir, seed, bool(ours)), cwd=log_dir)
         wait_until_bound(port, server)
-        monitor = Monitor(port)
+        monitor = Monitor(port) if ours else None
         for team, side, count in TEAMS:
             policy = pass_policy if team == "keepers" else "handcoded"
             for i in range(1, count + 1):
@@ -196,8 +201,10 @@ def play_campaign(stack: ReferenceStack, pass_policy: str, episodes: int, seed: 
                     arena.start_player(name, our_player_args(port, team, policy, seed, version))
                 else:
                     arena.start(name, player_argv(stack, port, team, CPP_POLICY[policy], episodes), cwd=log_dir)
-            wait_seated(monitor, side, count, arena, log_dir)
-        monitor.kick_off()
+            if monitor is not None:
+                wait_seated(monitor, side, count, arena, log_dir)
+        if monitor is not None:
+            monitor.kick_off()
         done, progress_at = 0, time.monotonic()
         while done <= episodes:
             time.sleep(1.0)
