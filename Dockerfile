@@ -11,6 +11,7 @@ COPY coach ./coach
 COPY runner ./runner
 COPY trainer ./trainer
 COPY viewer ./viewer
+COPY rcss ./rcss
 # every kernel compiled once into the image's cache: containers start playing at once
 RUN pip install --no-cache-dir . && keepaway compile
 ENTRYPOINT ["keepaway"]

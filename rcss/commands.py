@@ -6,19 +6,21 @@ from __future__ import annotations
 from keepaway.protocol.messages import AtomicCommand
 
 
-def _number(value: float) -> str:
-    """A number as rcssserver's lexer reads it back exactly: an integral value as an integer, any other as
-    Python's shortest round-trip form (``0.1``, ``1e-05``)."""
-    if float(value).is_integer() and abs(value) < 2**53:
-        return str(int(value))
-    return repr(float(value))
-
-
 def command_text(command: AtomicCommand) -> str:
-    """One command: numbers exact, a say's message quoted, the other words (a view width) as they are."""
-    args = " ".join(f'"{arg}"' if command.name == "say" else arg if isinstance(arg, str) else _number(arg)
-                    for arg in command.args)
-    return f"({command.name} {args})" if args else f"({command.name})"
+    """One command: a say's message quoted, a word (a view width) as it is, a number as rcssserver's lexer
+    reads it back exactly (an integral value as an integer, any other in Python's shortest round-trip form,
+    ``0.1``, ``1e-05``)."""
+    words = [command.name]
+    for arg in command.args:
+        if command.name == "say":
+            words.append(f'"{arg}"')
+        elif isinstance(arg, str):
+            words.append(arg)
+        elif float(arg).is_integer() and abs(arg) < 2**53:
+            words.append(str(int(arg)))
+        else:
+            words.append(repr(float(arg)))
+    return f"({' '.join(words)})"
 
 
 def commands_text(commands: tuple[AtomicCommand, ...]) -> str:
