@@ -14,7 +14,9 @@ back the seat of a player of its team that is gone (crashed, killed, or given up
 joining anew (docs/protocol.md §12, "Rejoin"). A seat whose old client the server still waits for (a hung
 process it has not yet given up after ``max_missed_cycles``, a crash it has not yet noticed) is refused with
 ``cannot_reconnect``; the player asks again every :data:`RECONNECT_RETRY_S` until ``--connect-timeout``,
-so a replacement can be started as soon as the old process is found dead or stuck.
+so a replacement can be started as soon as the old process is found dead or stuck. With ``--rcss HOST:PORT``
+the same agent plays on a real rcssserver instead, through the UDP edge of ``agents/rcss_client.py``, which
+ends alike (``agents/edge.py``).
 """
 
 from __future__ import annotations
@@ -27,26 +29,29 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import click
+from click.core import ParameterSource
 
+from keepaway.agents.edge import (
+    EXIT_OK,
+    EXIT_SERVER_SILENT,
+    EXIT_START_FAILED,
+    MAX_SILENT_WAIT_S,
+    POLL_MS,
+    RECONNECT_RETRY_S,
+    PlayerExit,
+    StopFlag,
+)
+from keepaway.agents.rcss_client import DEFAULT_VERSION as RCSS_DEFAULT_VERSION
+from keepaway.agents.rcss_client import rcss_address, run_rcss_player
 from keepaway.core.options import FiniteFloatRange
 from keepaway.protocol.endpoints import DEFAULT_PORTS, parse_endpoint
 from keepaway.protocol.messages import MAX_SEED, SERVER_SILENCE_S
 from keepaway.protocol.security import KeyDir, SecurityError, keys_option, no_answer, open_keys, secure_client
+from keepaway.rcss.read import VERSIONS as RCSS_VERSIONS
 
-EXIT_OK = 0
-EXIT_START_FAILED = 2
-EXIT_SERVER_SILENT = 4
-POLL_MS = 100  # longest wait between checks of the stop flag and the connect deadline (receive timeout)
-# The most one empty receive adds to the server's silence: a receive that took longer was held up by the
-# player's own process (frozen by SIGSTOP, starved of CPU), not by the server.
-MAX_SILENT_WAIT_S = 2 * POLL_MS / 1000
 # Sockets have LINGER 0, except after a bye: closing then waits this long for the bye to leave, so it
 # is not discarded unsent (and never longer, should the server be gone).
 BYE_LINGER_MS = 1000
-# Between two ``reconnect``s refused with ``cannot_reconnect``. A server gives a hung player up after
-# max_missed_cycles cycle timeouts (20 x 1.25 s by default, within --connect-timeout's default 60 s);
-# asking once a second costs the server one probe of the old client a second.
-RECONNECT_RETRY_S = 1.0
 CLIENT_NAME = "keepaway-player"
 DEFAULT_SERVER = f"tcp://127.0.0.1:{DEFAULT_PORTS['players']}"
 
@@ -56,31 +61,7 @@ if TYPE_CHECKING:
 log = logging.getLogger("keepaway.player")
 
 
-class PlayerExit(Exception):
-    """Ends the player with ``code``; a non-empty ``message`` is printed as one stderr line."""
-
-    def __init__(self, code: int, message: str = "") -> None:
-        super().__init__(message)
-        self.code = code
-        self.message = message
-
-
-class _StopFlag:
-    """The SIGTERM/SIGINT handler. Before the socket loop runs (loading the policy, compiling the
-    kernels) there is nobody to say bye to: the player ends at once, with exit code 0. In the loop the
-    signal only sets the flag, which the loop checks between polls."""
-
-    def __init__(self) -> None:
-        self.signal_name: str | None = None
-        self.in_loop = False
-
-    def __call__(self, signum: int, _frame: Any) -> None:
-        self.signal_name = signal.Signals(signum).name
-        if not self.in_loop:
-            raise PlayerExit(EXIT_OK)
-
-
-def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop: _StopFlag,
+def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop: StopFlag,
                reconnect: int | None = None, silence_s: float = SERVER_SILENCE_S,
                keys: KeyDir | None = None) -> int:
     """Connect (with ``keys``, over CURVE), send ``init`` (or with ``reconnect`` a uniform number,
@@ -237,10 +218,19 @@ def run_player(agent: PlayerAgent, endpoint: str, connect_timeout_s: float, stop
                    "gives it up "
                    "(exit 4); a live server sends something at least every second.")
 @keys_option
+@click.option("--rcss", "rcss", default=None, metavar="HOST:PORT",
+              help="Play on a real rcssserver at HOST:PORT (its player port, UDP) instead of our server, over "
+                   "rcssserver's text protocol. rcssserver seats the team that joins first on the left side, "
+                   "which must be the keepers: start them before the takers.")
+@click.option("--rcss-version", type=click.IntRange(min(RCSS_VERSIONS), max(RCSS_VERSIONS)),
+              default=RCSS_DEFAULT_VERSION, show_default=True,
+              help="The rcssserver protocol version the player asks for with --rcss (from 18 on rcssserver "
+                   "sends every see in step with the cycle, synch_see).")
 @click.option("-v", "--verbose", count=True, help="More log output (-v info, -vv debug).")
-def player_command(team: str, pass_policy: str, getopen_policy: str, policy_path: Path | None, endpoint: str,
-                   seed: int, fullstate: bool, reconnect: int | None, connect_timeout_s: float,
-                   silence_s: float, keys: Path | None, verbose: int) -> None:
+@click.pass_context
+def player_command(ctx: click.Context, team: str, pass_policy: str, getopen_policy: str, policy_path: Path | None,
+                   endpoint: str, seed: int, fullstate: bool, reconnect: int | None, connect_timeout_s: float,
+                   silence_s: float, keys: Path | None, rcss: str | None, rcss_version: int, verbose: int) -> None:
     """Run one Keepaway player: connect to the server, play until it ends, exit.
 
     Exits 0 when the server shuts down or on SIGTERM/SIGINT (after saying bye), 2 when it cannot start,
@@ -252,7 +242,17 @@ def player_command(team: str, pass_policy: str, getopen_policy: str, policy_path
         parse_endpoint(endpoint)
     except ValueError as exc:
         raise click.BadParameter(str(exc), param_hint="--server") from None
-    stop = _StopFlag()
+    if rcss is not None:
+        try:
+            rcss_server = rcss_address(rcss)
+        except ValueError as exc:
+            raise click.BadParameter(str(exc), param_hint="--rcss") from None
+        for name, given in (("--server", ctx.get_parameter_source("endpoint") is not ParameterSource.DEFAULT),
+                            ("--keys", keys is not None), ("--fullstate", fullstate)):
+            if given:
+                raise click.BadParameter(f"{name} is for our server: rcssserver speaks plain UDP and sends no "
+                                         f"fullstate to a player that asks", param_hint="--rcss")
+    stop = StopFlag()
     signal.signal(signal.SIGTERM, stop)
     signal.signal(signal.SIGINT, stop)
 
@@ -266,7 +266,10 @@ def player_command(team: str, pass_policy: str, getopen_policy: str, policy_path
             log.warning("--getopen learned without --policy: GetOpen uses zero weights until the coach "
                         "sends a policy")
         compile_kernels()
-        code = run_player(agent, endpoint, connect_timeout_s, stop, reconnect, silence_s, open_keys(keys))
+        if rcss is None:
+            code = run_player(agent, endpoint, connect_timeout_s, stop, reconnect, silence_s, open_keys(keys))
+        else:
+            code = run_rcss_player(agent, rcss_server, connect_timeout_s, stop, reconnect, silence_s, rcss_version)
     except (PolicyFileError, SecurityError) as exc:
         click.echo(f"keepaway player: {exc}", err=True)
         sys.exit(EXIT_START_FAILED)

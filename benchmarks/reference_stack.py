@@ -1,5 +1,7 @@
 """The reference stack (rcssserver 19.0.0 + the keepaway-0.6 C++ players) played from Python, for the
-side-by-side harness (``benchmarks/side_by_side.py --reference BUILD``); not run in CI.
+side-by-side harness (``benchmarks/side_by_side.py --reference BUILD``), for our players on rcssserver
+(``benchmarks/rcss_players.py``, ``tests/test_rcss_client.py``) and for the C++ players on our server
+(:class:`Cell`, ``benchmarks/players_servers.py``, ``tests/test_rcss_front.py``).
 
 ``BUILD`` is the directory ``tools/build-reference-stack.sh`` builds into (its ``PREFIX``):
 ``BUILD/rcssserver/build/rcssserver`` and ``BUILD/keepaway/player/keepaway_player``. One campaign is the
@@ -7,21 +9,33 @@ server and five players (3 keepers with the given Pass policy, 2 hand-coded take
 in synchronous mode with the launch settings of keepaway-0.6's ``keepaway.sh``, CURRENT parameters
 (rcssserver 19's defaults), 3v2 on 20 m, 360 deg vision, the server's ``random_seed`` (which the build
 script's patch makes settable) set, game log version 5 and the episode log written to the log directory.
-keepaway-0.6 parses the players' ``-x EPISODES`` but never stops, so the campaign stops when the
-``.kwy`` lists one episode more than asked for (then every asked-for episode's last show, which carries
-its last step's kicks, is in the game log). The processes run through ``runner.launch.ArenaProcesses``:
-each in its own session, SIGTERM when this process dies, all stopped (SIGTERM, then SIGKILL) on the way
-out whatever happens, Ctrl-C included; rcssserver closes its logs on SIGTERM.
+The keepaway-0.6 players join at once and play kicks off after keepaway.sh's ``keepaway_start``.
+
+Either team may be ours instead (``keepaway player --rcss``, docs/cli.md), the same team names and
+policies. The keepers must join first (rcssserver seats the first team on the left, the keepers' side),
+and ours load their compiled kernels before they join, which may overrun ``keepaway_start``: so a
+monitor (``(dispinit version 3)`` on the player port, as rcssmonitor connects) watches the keepers take
+their seats before the takers start, and kicks off with ``(dispstart)`` once all five have, which in
+Keepaway mode starts play at once (``Stadium::kickOff``). rcssserver then logs no show of cycle 0, so
+``trainer.behaviour.game_log_episodes`` leaves the first episode out. keepaway-0.6 parses the players'
+``-x EPISODES`` but never stops, so the campaign stops when the ``.kwy`` lists one episode more than asked
+for (then every asked-for episode's last show, which carries its last step's kicks, is in the game log).
+The processes run through ``runner.launch.ArenaProcesses``: each in its own session, SIGTERM when this
+process dies, all stopped (SIGTERM, then SIGKILL) on the way out whatever happens, Ctrl-C included;
+rcssserver closes its logs on SIGTERM (:func:`stop_server_idle`), our players say ``(bye)``.
 """
 
 from __future__ import annotations
 
+import re
+import signal
 import socket
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from keepaway.runner.launch import ArenaFailure, ArenaProcesses, Member, keepaway_argv
+from keepaway.agents.rcss_client import DEFAULT_VERSION
+from keepaway.runner.launch import ArenaFailure, ArenaProcesses, Member
 from keepaway.server.episode_log import EpisodeRecord, read_kwy
 from keepaway.server.game_log import GameRecord, read_rcg
 
@@ -38,8 +52,13 @@ SERVER_SETTINGS = {
     "game_log_version": 5, "game_log_fixed": 1, "game_log_fixed_name": LOG_NAME, "text_logging": 0,
     "visible_angle": 360, "coach": 0,
 }
+KICK_OFF_SETTINGS = {"keepaway_start": -1}  # no kick-off on a timer where a monitor kicks off (module docstring)
 KEEPERS, TAKERS = 3, 2
+TEAMS = (("keepers", "l", KEEPERS), ("takers", "r", TAKERS))  # in the order they join
 STALL_S = 120.0  # no new episode for this long: the campaign is stuck (a player gone, the server hung)
+SEATED_S = 120.0  # longest wait for a team to take its seats (our players load their kernels first)
+# A player in a monitor's show (serializermonitor.cpp, v3): ((side unum) type state ...); state 0: no seat
+SHOW_PLAYER = re.compile(r"\(\(([lr]) \d+\) \d+ (0x[0-9a-f]+|0) ")
 
 
 @dataclass(frozen=True)
@@ -88,15 +107,65 @@ def free_udp_ports(count: int = 3, host: str = "127.0.0.1") -> int:
     raise RuntimeError("no free run of UDP ports on loopback")
 
 
-def server_argv(stack: ReferenceStack, port: int, log_dir: Path, seed: int) -> list[str]:
-    settings = {**SERVER_SETTINGS, "port": port, "coach_port": port + 1, "olcoach_port": port + 2,
-                "keepaway_log_dir": log_dir, "game_log_dir": log_dir, "random_seed": seed}
+def server_argv(stack: ReferenceStack, port: int, log_dir: Path, seed: int, monitor_kicks_off: bool = False
+                ) -> list[str]:
+    settings = {**SERVER_SETTINGS, **(KICK_OFF_SETTINGS if monitor_kicks_off else {}), "port": port,
+                "coach_port": port + 1, "olcoach_port": port + 2, "keepaway_log_dir": log_dir,
+                "game_log_dir": log_dir, "random_seed": seed}
     return [str(stack.server), *(f"server::{name}={value}" for name, value in settings.items())]
 
 
 def player_argv(stack: ReferenceStack, port: int, team: str, policy: str, episodes: int) -> list[str]:
     return [str(stack.player), "-p", str(port), "-k", str(KEEPERS), "-j", str(TAKERS), "-x", str(episodes),
             "-y", "-1", "-t", team, "-e", "0", "-q", policy]
+
+
+def our_player_args(port: int, team: str, policy: str, seed: int, version: int) -> list[str]:
+    """``keepaway player`` on rcssserver (docs/cli.md): the same team, the same policy."""
+    return ["--team", team, "--rcss", f"127.0.0.1:{port}", "--rcss-version", str(version), "--pass", policy,
+            "--seed", str(seed), "-v"]
+
+
+class Monitor:
+    """A monitor on rcssserver's player port (module docstring): the seats taken, and the kick-off."""
+
+    def __init__(self, port: int) -> None:
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.settimeout(0.1)
+        self.address: tuple[str, int] | None = None  # the monitor's own port on rcssserver, once it answers
+        self.seats = {"l": 0, "r": 0}
+        self.sock.sendto(b"(dispinit version 3)\0", ("127.0.0.1", port))
+
+    def look(self, wait_s: float = 0.2) -> dict[str, int]:
+        """The seats taken on each side, from the shows that come within ``wait_s``."""
+        until = time.monotonic() + wait_s
+        while time.monotonic() < until:
+            try:
+                data, self.address = self.sock.recvfrom(65536)
+            except TimeoutError:
+                continue
+            if data.startswith(b"(show "):
+                states = SHOW_PLAYER.findall(data.decode("latin-1"))
+                self.seats = {side: sum(s == side and state != "0" for s, state in states) for side in "lr"}
+        return self.seats
+
+    def kick_off(self) -> None:
+        """Start the game, and leave (a monitor slows a synchronous rcssserver down a little)."""
+        for message in (b"(dispstart)\0", b"(dispbye)\0"):
+            self.sock.sendto(message, self.address)
+        self.sock.close()
+
+
+def wait_seated(monitor: Monitor, side: str, count: int, arena: ArenaProcesses, log_dir: Path) -> None:
+    """Until ``count`` players sit on ``side``; ArenaFailure if a process dies or it takes too long."""
+    deadline = time.monotonic() + SEATED_S
+    while monitor.look()[side] < count:
+        dead = next((m for m in arena.members if m.proc.poll() is not None), None)
+        if dead is not None:
+            raise ArenaFailure(f"reference stack: {dead.describe_exit()}; logs in {log_dir}")
+        if time.monotonic() > deadline:
+            raise ArenaFailure(f"reference stack: {count} players did not take their seats on side {side} in "
+                               f"{SEATED_S:.0f} s; logs in {log_dir}")
 
 
 def finished_episodes(kwy: Path) -> int:
@@ -109,14 +178,19 @@ def finished_episodes(kwy: Path) -> int:
 
 @dataclass(frozen=True)
 class Cell:
-    """One cell of the players x server table: which server plays the game (``"rcssserver"`` or
-    ``"ours"``, our server with its rcssserver-protocol front) and whose players keep and take
-    (``"cpp"``, keepaway-0.6's ``keepaway_player``, or ``"ours"``, ``keepaway player``; on rcssserver
-    ours speak its text protocol with ``--rcss``)."""
+    """One cell of the players x servers table: which server plays the game (``"rcssserver"`` or ``"ours"``,
+    our server with its rcssserver-protocol front) and whose players keep and take (``"cpp"``,
+    keepaway-0.6's ``keepaway_player``, or ``"ours"``, ``keepaway player``, which on rcssserver speaks its
+    text protocol with ``--rcss``)."""
 
     server: str = "rcssserver"
     keepers: str = "cpp"
     takers: str = "cpp"
+
+    @property
+    def ours(self) -> tuple[str, ...]:
+        """The teams our players play."""
+        return tuple(team for team, kind in (("keepers", self.keepers), ("takers", self.takers)) if kind == "ours")
 
     @property
     def name(self) -> str:
@@ -127,41 +201,49 @@ class Cell:
 REFERENCE = Cell()
 
 
-def play_campaign(stack: ReferenceStack, cell: Cell, pass_policy: str, episodes: int, seed: int,
-                  log_dir: Path) -> tuple[GameRecord, list[EpisodeRecord]]:
+def play_campaign(stack: ReferenceStack, cell: Cell, pass_policy: str, episodes: int, seed: int, log_dir: Path,
+                  version: int = DEFAULT_VERSION) -> list[Member]:
     """Play ``episodes`` episodes of ``cell`` with the keepers' ``pass_policy`` ("hold", "random",
     "handcoded") and server seed ``seed``, logs in ``log_dir`` (an earlier ``game.rcg`` there is
-    overwritten); return the game log and the first ``episodes`` episodes of the ``.kwy``.
-    :class:`runner.launch.ArenaFailure` if a process dies or the game stalls."""
+    overwritten, each process's stderr appended to ``log_dir/NAME.log``); our players on rcssserver ask for
+    protocol ``version``. Returns the processes, stopped. :class:`runner.launch.ArenaFailure` if a process
+    dies or the game stalls."""
     stack.check()
     log_dir = log_dir.resolve()
     kwy = log_dir / f"{LOG_NAME}.kwy"
+    on_rcssserver = cell.server == "rcssserver"
     with ArenaProcesses(log_dir) as arena:
         kwy.unlink(missing_ok=True)
-        if cell.server == "rcssserver":
+        monitor = None
+        if on_rcssserver:
             port = free_udp_ports()
             # rcssserver writes its configuration to "~/.rcssserver" without expanding the tilde: in log_dir
-            server = arena.start("server", server_argv(stack, port, log_dir, seed), cwd=log_dir)
+            server = arena.start("server", server_argv(stack, port, log_dir, seed, bool(cell.ours)), cwd=log_dir)
             wait_until_bound(port, server)
-            players = None
+            monitor = Monitor(port) if cell.ours else None
         else:
             port = free_udp_ports(1)
-            server, players, _, _ = arena.start_server(our_server_args(port, log_dir, seed, episodes))
-        for team, count in (("keepers", KEEPERS), ("takers", TAKERS)):
-            kind = cell.keepers if team == "keepers" else cell.takers
+            server, endpoint, _, _ = arena.start_server(our_server_args(port, log_dir, seed, episodes))
+        for team, side, count in TEAMS:
             policy = pass_policy if team == "keepers" else "handcoded"
             for i in range(1, count + 1):
                 name = f"{team[:-1]} {i}"
-                if kind == "cpp":
+                if team not in cell.ours:
                     arena.start(name, player_argv(stack, port, team, CPP_POLICY[policy], episodes), cwd=log_dir)
+                elif on_rcssserver:
+                    arena.start_player(name, our_player_args(port, team, policy, seed, version))
                 else:
-                    where = ["--server", players] if players else ["--rcss", f"127.0.0.1:{port}"]
-                    arena.start(name, keepaway_argv("player", "--team", team, "--pass", policy, *where))
+                    arena.start_player(name, ["--team", team, "--server", endpoint, "--pass", policy, "--seed",
+                                              str(seed)])
+            if monitor is not None:
+                wait_seated(monitor, side, count, arena, log_dir)
+        if monitor is not None:
+            monitor.kick_off()
         done, progress_at = 0, time.monotonic()
         while done <= episodes:
             time.sleep(1.0)
             now_done = finished_episodes(kwy)
-            if now_done > episodes:
+            if now_done > episodes:  # our server then ends the run by itself
                 break
             dead = next((m for m in arena.members if m.proc.poll() is not None), None)
             if dead is not None:
@@ -171,13 +253,9 @@ def play_campaign(stack: ReferenceStack, cell: Cell, pass_policy: str, episodes:
             elif time.monotonic() - progress_at > STALL_S:
                 raise ArenaFailure(f"{cell.name}: no episode finished in {STALL_S:.0f} s (after {done}); "
                                    f"logs in {log_dir}")
-    return read_rcg(log_dir / f"{LOG_NAME}.rcg", kwy), read_kwy(kwy)[:episodes]
-
-
-def play_reference(stack: ReferenceStack, pass_policy: str, episodes: int, seed: int,
-                   log_dir: Path) -> tuple[GameRecord, list[EpisodeRecord]]:
-    """The reference cell, the C++ players on rcssserver (:func:`play_campaign`)."""
-    return play_campaign(stack, REFERENCE, pass_policy, episodes, seed, log_dir)
+        if on_rcssserver:
+            stop_server_idle(server, [m for m in arena.members if m is not server])
+    return arena.members
 
 
 def our_server_args(rcss_port: int, log_dir: Path, seed: int, episodes: int) -> list[str]:
@@ -187,6 +265,34 @@ def our_server_args(rcss_port: int, log_dir: Path, seed: int, episodes: int) -> 
     return ["--params", "current", "--keepers", str(KEEPERS), "--takers", str(TAKERS), "--seed", str(seed),
             "--rcss-port", str(rcss_port), "--log-dir", str(log_dir), "--kwy-name", LOG_NAME,
             "--episodes", str(episodes + 1)]
+
+
+def campaign_logs(log_dir: Path, episodes: int) -> tuple[GameRecord, list[EpisodeRecord]]:
+    """A campaign's game log and the first ``episodes`` episodes of its ``.kwy``."""
+    kwy = log_dir / f"{LOG_NAME}.kwy"
+    return read_rcg(log_dir / f"{LOG_NAME}.rcg", kwy), read_kwy(kwy)[:episodes]
+
+
+def stop_server_idle(server: Member, players: list[Member]) -> None:
+    """Stop rcssserver while it waits for its players' ``(done)``: its SIGTERM handler closes the logs at
+    once (``src/main.cpp``, ``Stadium::finalize``), and a server caught writing a show then crashes
+    (SIGSEGV). So the players are frozen first (SIGSTOP), the server, its cycle's ``(think)`` unanswered,
+    is stopped and waited for, then the players are let go and stopped (ours say ``(bye)``)."""
+    for player in players:
+        player.proc.send_signal(signal.SIGSTOP)
+    time.sleep(0.2)  # the server finishes its cycle and waits for the players' (done)
+    server.proc.terminate()
+    server.proc.wait(timeout=30)
+    for player in players:
+        player.proc.send_signal(signal.SIGCONT)
+        player.proc.terminate()
+
+
+def play_reference(stack: ReferenceStack, pass_policy: str, episodes: int, seed: int,
+                   log_dir: Path) -> tuple[GameRecord, list[EpisodeRecord]]:
+    """:func:`play_campaign` of the C++ players on rcssserver; return its logs (:func:`campaign_logs`)."""
+    play_campaign(stack, REFERENCE, pass_policy, episodes, seed, log_dir)
+    return campaign_logs(log_dir.resolve(), episodes)
 
 
 def wait_until_bound(port: int, server: Member, timeout_s: float = 30.0) -> None:

@@ -1,4 +1,5 @@
-"""rcssserver's UDP text protocol: the front that seats text clients (the keepaway-0.6 C++ players, any
-rcssserver client) at our server, and the client edge that seats our players at a real rcssserver
-(docs/protocol.md §16). Sans-IO text codecs (``sexp``, ``render``, ``commands``, ``read``) and the socket
-edges (``front``) are separate modules."""
+"""rcssserver's UDP text protocol (docs/protocol.md §16), both ways: the front that seats text clients (the
+keepaway-0.6 C++ players, any rcssserver client) at our server, and what our players need to play on a real
+rcssserver (their socket edge is ``keepaway.agents.rcss_client``). Sans-IO text codecs (``sexp``,
+``commands``, ``render``, ``param_text``, ``read``) and the seat's translation (``seat``) apart from the
+front's sockets (``front``)."""

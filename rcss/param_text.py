@@ -297,6 +297,9 @@ PLAYER_TYPE_FIELDS: tuple[tuple[str, int], ...] = (
     ("land_focus_dist_noise_rate", 19),
 )
 DEFAULT_TYPE = 0
+# The player_type fields our table holds, those of every version (the perception lengths of 18 and later stay
+# our perception's): what a player of ours reads from rcssserver's (player_type (id 0) ...) (``rcss.read``).
+PLAYER_TYPE_PARAMS = tuple(name for name, since in PLAYER_TYPE_FIELDS if since < 18 and hasattr(ServerParams, name))
 
 
 def cpp_number(value: float) -> str:

@@ -21,7 +21,7 @@ from scripted import ScriptedPlayer
 
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
-from benchmarks.reference_stack import Cell, ReferenceStack, play_campaign  # noqa: E402
+from benchmarks.reference_stack import Cell, ReferenceStack, campaign_logs, play_campaign  # noqa: E402
 
 
 class TextClient:
@@ -139,7 +139,8 @@ def test_the_keepaway_0_6_cpp_players_play_on_our_server(tmp_path, cell):
     on our server through the front: every episode ends, no cycle is missed, no process fails, and the
     C++ players print nothing on stderr, as on rcssserver."""
     stack = reference_stack()
-    _, episodes = play_campaign(stack, cell, "handcoded", 3, seed=5, log_dir=tmp_path)
+    play_campaign(stack, cell, "handcoded", 3, seed=5, log_dir=tmp_path)
+    _, episodes = campaign_logs(tmp_path, 3)
     assert [e.episode for e in episodes] == [1, 2, 3]
     assert all(e.end_cycle > e.start_cycle for e in episodes)
     lines = [json.loads(line) for line in (tmp_path / "game.jsonl").read_text().splitlines()[1:]]
