@@ -12,7 +12,7 @@ from typing import Any
 
 import click
 
-from keepaway.protocol.endpoints import DEFAULT_PORTS
+from keepaway.protocol.endpoints import DEFAULT_PORTS, parse_endpoint
 from keepaway.protocol.security import SecurityError, keys_option, open_keys
 
 DEFAULT_SERVER = f"tcp://127.0.0.1:{DEFAULT_PORTS['players']}"
@@ -33,6 +33,10 @@ def rcss_front_command(server: str, host: str, port: int, keys: Any, verbose: in
 
     logging.basicConfig(level=logging.WARNING - 10 * min(verbose, 2) if verbose else logging.WARNING,
                         format="%(asctime)s %(name)s %(levelname)s %(message)s", stream=sys.stderr)
+    try:
+        parse_endpoint(server)
+    except ValueError as exc:
+        raise click.BadParameter(str(exc), param_hint="--server") from None
     try:
         key_dir = open_keys(keys)
     except SecurityError as exc:

@@ -160,3 +160,43 @@ def test_cpp_players_leave_no_process_behind(tmp_path):
     time.sleep(0.5)
     after = set(subprocess.run(["pgrep", "-f", "keepaway_player"], capture_output=True, text=True).stdout.split())
     assert after <= before
+
+
+def test_the_front_as_a_process_of_its_own_seats_a_text_client(processes, tmp_path):
+    """``keepaway rcss-front`` in front of a server started without it: the text taker plays through it."""
+    srv = processes.start_server(tmp_path, "--max-cycles", "40")
+    front = processes.popen([sys.executable, "-m", "keepaway", "rcss-front", "--server", srv.players_endpoint,
+                             "--port", "0"], stdout=subprocess.PIPE)
+    line = front.stdout.readline().decode()
+    assert line.startswith("keepaway rcss-front listening rcss=udp://127.0.0.1:"), line
+    port = int(line.split("rcss=udp://127.0.0.1:")[1].split()[0])
+    ours = [ScriptedPlayer(srv.players_endpoint) for _ in range(4)]
+    for player, team in zip(ours, ("keepers", "keepers", "keepers", "takers")):
+        assert isinstance(player.init(team), m.InitOk)
+    taker = processes.popen([sys.executable, str(REPO / "examples" / "rcss_text_taker.py"), "--port", str(port),
+                             "--version", "12", "--cycles", "30"])
+    play(ours, 39)
+    assert taker.wait(timeout=60) == 0, processes.stderr_tail(taker)
+    assert srv.proc.wait(timeout=60) == 0
+    front.terminate()
+    assert front.wait(timeout=10) == 0
+    assert "Traceback" not in processes.stderr_tail(front)
+
+
+@pytest.mark.parametrize("args, says", [
+    (["--server", "tcp://127.0.0.1:"], "Invalid value for --server"),
+    (["--port", "70000"], "Invalid value for '--port'"),
+])
+def test_rcss_front_refuses_bad_options_in_one_line(args, says):
+    run = subprocess.run([sys.executable, "-m", "keepaway", "rcss-front", *args], capture_output=True, text=True,
+                         timeout=60)
+    assert run.returncode == 2 and says in run.stderr, run.stderr
+
+
+def test_rcss_front_says_when_its_port_is_taken():
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as taken:
+        taken.bind(("127.0.0.1", 0))
+        run = subprocess.run([sys.executable, "-m", "keepaway", "rcss-front", "--port", str(taken.getsockname()[1])],
+                             capture_output=True, text=True, timeout=60)
+    assert run.returncode == 1 and "cannot bind udp://127.0.0.1:" in run.stderr, run.stderr
+    assert "Traceback" not in run.stderr
