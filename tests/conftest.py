@@ -278,3 +278,23 @@ def pytest_sessionstart(session: pytest.Session) -> None:
         ensure_compiled(KERNEL_SETS, announce=None if reporter is None else reporter.write_line)
     except CompileError as exc:
         pytest.exit(str(exc), returncode=pytest.ExitCode.INTERNAL_ERROR)
+
+
+@pytest.fixture
+def reference_stack():
+    """The reference stack that tools/build-reference-stack.sh built into ``$KEEPAWAY_REFERENCE_STACK``
+    (rcssserver 19.0.0 and the keepaway-0.6 C++ players; .ci/run builds it); the test says so and skips
+    where it is not built."""
+    sys.path.insert(0, str(REPO))
+    from benchmarks.reference_stack import ReferenceStack
+
+    build = os.environ.get("KEEPAWAY_REFERENCE_STACK")
+    if not build:
+        pytest.skip("the reference stack is not built here: set KEEPAWAY_REFERENCE_STACK to the directory "
+                    "tools/build-reference-stack.sh built into (.ci/run does)")
+    stack = ReferenceStack(Path(build))
+    try:
+        stack.check()
+    except ValueError as exc:
+        pytest.skip(str(exc))
+    return stack

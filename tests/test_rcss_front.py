@@ -7,7 +7,6 @@ C++ players play their Keepaway on our server (where the reference stack is buil
 from __future__ import annotations
 
 import json
-import os
 import socket
 import subprocess
 import sys
@@ -21,7 +20,7 @@ from scripted import ScriptedPlayer
 
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
-from benchmarks.reference_stack import Cell, ReferenceStack, campaign_logs, play_campaign  # noqa: E402
+from benchmarks.reference_stack import Cell, campaign_logs, play_campaign  # noqa: E402
 
 
 class TextClient:
@@ -120,25 +119,12 @@ def test_hostile_text_gets_rcssserver_errors_and_the_game_goes_on(processes, tmp
 # -------------------------------------------------------------------------------- the C++ players
 
 
-def reference_stack() -> ReferenceStack:
-    build = os.environ.get("KEEPAWAY_REFERENCE_STACK")
-    if not build:
-        pytest.skip("the reference stack is not built here: set KEEPAWAY_REFERENCE_STACK to the directory "
-                    "tools/build-reference-stack.sh built (.ci/run does)")
-    stack = ReferenceStack(Path(build))
-    try:
-        stack.check()
-    except ValueError as exc:
-        pytest.skip(str(exc))
-    return stack
-
-
 @pytest.mark.parametrize("cell", [Cell("ours", "cpp", "cpp"), Cell("ours", "cpp", "ours")], ids=lambda c: c.name)
-def test_the_keepaway_0_6_cpp_players_play_on_our_server(tmp_path, cell):
+def test_the_keepaway_0_6_cpp_players_play_on_our_server(reference_stack, tmp_path, cell):
     """The unmodified C++ players (keepers with hand-coded Pass; their takers or ours) play three episodes
     on our server through the front: every episode ends, no cycle is missed, no process fails, and the
     C++ players print nothing on stderr, as on rcssserver."""
-    stack = reference_stack()
+    stack = reference_stack
     play_campaign(stack, cell, "handcoded", 3, seed=5, log_dir=tmp_path)
     _, episodes = campaign_logs(tmp_path, 3)
     assert [e.episode for e in episodes] == [1, 2, 3]
@@ -151,10 +137,10 @@ def test_the_keepaway_0_6_cpp_players_play_on_our_server(tmp_path, cell):
     assert " ERROR " not in server_log and "Traceback" not in server_log, server_log[-2000:]
 
 
-def test_cpp_players_leave_no_process_behind(tmp_path):
+def test_cpp_players_leave_no_process_behind(reference_stack, tmp_path):
     """After a campaign every process it started is gone (the harness stops the C++ players, which never
     stop by themselves)."""
-    stack = reference_stack()
+    stack = reference_stack
     before = set(subprocess.run(["pgrep", "-f", "keepaway_player"], capture_output=True, text=True).stdout.split())
     play_campaign(stack, Cell("ours", "cpp", "cpp"), "hold", 1, seed=1, log_dir=tmp_path)
     time.sleep(0.5)
