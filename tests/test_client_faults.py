@@ -19,6 +19,7 @@ from zmq.utils.monitor import recv_monitor_message
 
 from conftest import keepaway_command, process_tree, read_until_match
 from keepaway.coach.core import STOPPING
+from keepaway.core.exits import EXIT_INTERRUPTED
 from keepaway.protocol import PROTOCOL_VERSION, encode
 from keepaway.protocol import messages as m
 from keepaway.protocol.arena import ARENA_REQUEST_MAX_BYTES, StopArena, decode_for_trainer
@@ -156,8 +157,12 @@ def test_a_coach_flooding_looks_is_held_to_its_budget_and_leaves_no_backlog(proc
 
 @pytest.mark.slow
 @pytest.mark.timeout(900)  # about a minute on a quiet machine; far longer when other jobs share its cores
-def test_a_keeper_frozen_longer_than_its_silence_limit_plays_on_and_the_run_finishes(processes, tmp_path):
-    episodes = 400
+def test_a_keeper_frozen_longer_than_its_silence_limit_plays_on_once_awake(processes, tmp_path):
+    """A keeper frozen beyond its silence limit: the others play on without it meanwhile (its episodes are
+    marked), it plays again once awake rather than giving the server up, and the run then ends as asked
+    (here by SIGINT, some episodes after the wake: the episodes played while it is frozen depend on the
+    machine's speed)."""
+    episodes = 100_000
     proc = processes.popen(keepaway_command("run", "--episodes", str(episodes), "--seed", "0", "--no-progress",
                                             "--no-game-log", "--out", str(tmp_path)), stdout=subprocess.PIPE)
     jsonl = tmp_path / "keepaway.jsonl"
@@ -174,11 +179,14 @@ def test_a_keeper_frozen_longer_than_its_silence_limit_plays_on_and_the_run_fini
     time.sleep(SERVER_SILENCE_S + 3)  # longer than the keeper's silence limit
     os.kill(victim, signal.SIGCONT)
     woke_at = logged()
-    assert woke_at < episodes, "the run ended while the keeper was frozen: play more episodes"
-    proc.communicate(timeout=800)
-    assert proc.returncode == 0, processes.stderr_tail(proc)
+    deadline = time.monotonic() + 600
+    while logged() < woke_at + 40 and time.monotonic() < deadline:
+        time.sleep(0.5)
+    proc.send_signal(signal.SIGINT)
+    proc.communicate(timeout=120)
+    assert proc.returncode == EXIT_INTERRUPTED, processes.stderr_tail(proc)
     _, records = read_jsonl(jsonl)
-    assert len(records) == episodes
+    assert len(records) >= woke_at + 40
     short = [r for r in records if r.missed]
     assert short and all(len(r.missed) == 1 for r in short)  # the frozen keeper's episodes are marked
     (frozen,) = {r.missed[0][0] for r in short}
