@@ -109,6 +109,7 @@ class TextSeat:
         self.gone = False  # refused, the server shut down, or the client said bye
         self.synch_see = False
         self.last_sense_body = ""
+        self.held: str | None = None  # this cycle's sense_body, until the referee has spoken (on_server)
 
     @property
     def seated(self) -> bool:
@@ -128,9 +129,22 @@ class TextSeat:
         """The texts ``msg`` from our server becomes for the client (none for what rcssserver would not
         send), and the commands still waiting for a ``(done)`` when the server has stepped without it.
         Dispatched on ``msg.TYPE``: the front hands the cycle's percepts over as namespaces of their
-        fields (``rcss.front.percept``)."""
+        fields (``rcss.front.percept``).
+
+        A cycle's ``sense_body`` is held until the next message: the referee's words of the cycle go out
+        before it, as rcssserver writes them inside the step (src/stadium.cpp, ``sendRefereeAudio``), the
+        players' says and the rest after it, as rcssserver flushes them after the body (``doSendSenseBody``).
+        Our server sends a ``think`` after every cycle's percepts, in real-time mode too, so nothing is held
+        past its cycle."""
         out = Out([], [])
         kind = msg.TYPE
+        held, self.held = self.held, None
+        if kind == m.Hear.TYPE and msg.sender == "referee" and held is not None:
+            text = render.hear(msg, self.view)
+            self.held = held
+            return Out([text], [])
+        if held is not None:
+            out.texts.append(held)
         if kind == m.InitOk.TYPE:
             out.texts.extend(self._seated(msg))
         elif kind == m.Error.TYPE:
@@ -143,8 +157,7 @@ class TextSeat:
             if self.pending and msg.cycle > self.pending_cycle:  # they act late, as they would have come
                 out.to_server.append(self._take_pending())
             self.cycle = msg.cycle
-            self.last_sense_body = render.sense_body(msg, self.view)
-            out.texts.append(self.last_sense_body)
+            self.last_sense_body = self.held = render.sense_body(msg, self.view)
         elif kind == m.See.TYPE:
             names = self.names.names()
             if names != self.view.team_names:  # a team named itself since: players are seen under it

@@ -46,7 +46,8 @@ def test_team_names_keep_their_sides_and_others_take_the_free_one_left_first():
 def test_a_synchronous_answer_is_one_command_once_done_comes():
     seat = seated()
     seat.on_server(body(7))
-    assert seat.on_server(m.Think(cycle=7)).texts == ["(think)"]
+    sensed, think = seat.on_server(m.Think(cycle=7)).texts
+    assert sensed.startswith("(sense_body 7 ") and think == "(think)"
     first = seat.on_datagram(b"(dash 100)(turn_neck -19)\0")
     assert first.to_server == [] and first.texts == []
     done = seat.on_datagram(b"(done)\0")
@@ -61,25 +62,38 @@ def test_commands_without_done_go_late_when_the_server_has_stepped():
     seat.on_datagram(b"(turn 30)\0")
     late = seat.on_server(body(4))
     assert late.to_server == [m.Command(cycle=3, commands=(m.AtomicCommand("turn", (30.0,)),))]
-    assert late.texts[0].startswith("(sense_body 4 ")
+    assert late.texts[0].startswith("(sense_body 3 ")  # the held body of cycle 3 goes; cycle 4's is held
 
 
 def test_real_time_commands_go_at_once_and_no_think_is_sent():
     seat = seated("realtime")
     seat.on_server(body(5))
-    assert seat.on_server(m.Think(cycle=5)).texts == []
+    assert [text.split()[0] for text in seat.on_server(m.Think(cycle=5)).texts] == ["(sense_body"]  # no think
     assert seat.on_datagram(b"(kick 50 0)\0").to_server == [m.Command(cycle=5, commands=(
         m.AtomicCommand("kick", (50.0, 0.0)),))]
 
 
 def test_requests_are_answered_from_the_seat():
     seat = seated()
-    sensed = seat.on_server(body(9)).texts[0]
+    seat.on_server(body(9))
+    (sensed,) = seat.on_server(m.Think(cycle=9)).texts[:1]
     assert seat.on_datagram(b"(score)(sense_body)\0").texts == ["(score 9 0 0)", sensed]
     assert seat.on_datagram(b"(synch_see)\0").texts == ["(error unknown_command)"]  # v12: set at init only
     assert seated(version=19).on_datagram(b"(synch_see)\0").texts == ["(ok synch_see)"]
     assert seat.on_datagram(b"(ear (on nobody))\0").texts == ["(error no team with name nobody)"]
     assert seat.on_datagram(b"(fly)\0").texts == ["(error illegal_command_form)"]
+
+
+def test_the_referees_words_come_before_the_cycles_body_and_the_players_says_after_it():
+    """rcssserver writes the referee's words inside the step, before the cycle's sense_body, and flushes the
+    players' says after it; our server sends sense_body, then the hears, then see and think."""
+    seat = seated()
+    texts = []
+    for msg in (body(54), m.Hear(cycle=54, sender="referee", message="training Keepaway 1"),
+                m.Hear(cycle=54, sender="our", direction=12, unum=2, message="abc"), m.Think(cycle=54)):
+        texts += seat.on_server(msg).texts
+    assert texts[0] == "(hear 54 referee training Keepaway 1)"
+    assert texts[1].startswith("(sense_body 54 ") and texts[2] == '(hear 54 12 our 2 "abc")' and texts[3] == "(think)"
 
 
 def test_bye_leaves_and_a_refused_seat_gets_rcssservers_refusal():
