@@ -2,7 +2,7 @@
 (rcss/commands.py), on what rcssserver 19.0.0 really sends: the recorded sees and sense_bodies of
 ``tests/data/see-samples.json`` (versions 15 and 19, with the exact world of each) and the joining,
 parameters and first cycles of five players of versions 8 to 19 in ``tests/data/rcss-messages.json``
-(``tools/record-rcss-messages.py``). Hostile text is read to messages or skipped, never an exception."""
+(``tools/record_rcss_messages.py``). Hostile text is read to messages or skipped, never an exception."""
 
 from __future__ import annotations
 

@@ -1,7 +1,7 @@
 """Record what rcssserver sends a player, for ``tests/test_rcss_read.py``: the answers to joining (and to
 refused attempts), the parameter messages, and every percept of the first cycles of a Keepaway game.
 
-Usage: python tools/record-rcss-messages.py RCSSSERVER [OUT]   (OUT: tests/data/rcss-messages.json)
+Usage: python tools/record_rcss_messages.py RCSSSERVER [OUT]   (OUT: tests/data/rcss-messages.json)
 
 RCSSSERVER is the binary ``tools/build-reference-stack.sh`` builds (``PREFIX/rcssserver/build/rcssserver``).
 The server runs in a temporary directory with the settings of ``benchmarks/reference_stack.py``
@@ -75,7 +75,7 @@ def exchange(clients: list[Client], until, kicked_off: bool, act=None) -> None:
     deadline = time.monotonic() + TIMEOUT_S
     while not until():
         if time.monotonic() > deadline:
-            raise SystemExit("record-rcss-messages: rcssserver stopped answering")
+            raise SystemExit("record_rcss_messages: rcssserver stopped answering")
         ready, _, _ = select.select([c.sock for c in clients], [], [], 0.1)
         for client in clients:
             if client.sock in ready and client.receive(kicked_off) == "(think)":
@@ -125,7 +125,7 @@ def main() -> None:
             server.terminate()
             server.wait()
     record = {
-        "description": "What rcssserver 19.0.0 sends a player (tools/record-rcss-messages.py): per player, what it "
+        "description": "What rcssserver 19.0.0 sends a player (tools/record_rcss_messages.py): per player, what it "
                        "sent and the datagrams it received, without their NUL byte; the refused attempts to join.",
         "server": "rcssserver 19.0.0",
         "settings": {k: v for k, v in settings.items() if k not in ("port", "coach_port", "olcoach_port")},
