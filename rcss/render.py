@@ -32,6 +32,7 @@ from dataclasses import dataclass
 
 from keepaway.protocol.messages import COLLISIONS, SIDES, Error, Hear, InitOk, See, SenseBody
 from keepaway.protocol.params import ServerParams
+from keepaway.rcss.commands import ILLEGAL_TEAMNAME, NO_MORE_PLAYER, NO_SUCH_TEAM_OR_PLAYER
 from keepaway.rcss.param_text import ParamValue, cpp_number, parameter_lines
 
 SUPPORTED_VERSIONS = range(8, 20)
@@ -50,10 +51,10 @@ SYNCH_SEE_VERSION = 18  # rcssserver turns synch_see on for a player of this ver
 SYNCH_SEE_REPLY = "(ok synch_see)"
 # rcssserver's answers to a refused init or reconnect (rcssserver src/stadium.cpp), by our error code
 ERROR_TEXTS = {
-    "bad_version": "no_more_player_or_goalie_or_illegal_client_version",
-    "no_more_player": "no_more_player_or_goalie_or_illegal_client_version",
-    "no_such_player": "no_such_team_or_player",
-    "illegal_teamname": "illegal_teamname",
+    "bad_version": NO_MORE_PLAYER,
+    "no_more_player": NO_MORE_PLAYER,
+    "no_such_player": NO_SUCH_TEAM_OR_PLAYER,
+    "illegal_teamname": ILLEGAL_TEAMNAME,
 }
 
 
@@ -236,8 +237,7 @@ def error(msg: Error) -> str | None:
     """rcssserver's answer to a refused ``init`` or ``reconnect`` (rcssserver src/stadium.cpp), for the codes
     that have one (:data:`ERROR_TEXTS`); None for the others: rcssserver has no such refusal or warning (a
     dropped say, a missed cycle) and tells the client nothing."""
-    text = ERROR_TEXTS.get(msg.code)
-    return None if text is None else f"(error {text})"
+    return ERROR_TEXTS.get(msg.code)
 
 
 def think() -> str:

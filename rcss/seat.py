@@ -107,13 +107,18 @@ class TextSeat:
         self.pending: list[m.AtomicCommand] = []  # the commands of the answer under way (until done)
         self.pending_cycle = 0
         self.gone = False  # refused, the server shut down, or the client said bye
-        self.synch_see = False
         self.last_sense_body = ""
         self.held: str | None = None  # this cycle's sense_body, until the referee has spoken (on_server)
 
     @property
     def seated(self) -> bool:
         return self.view is not None
+
+    @property
+    def synch_see(self) -> bool:
+        """rcssserver turns synch_see on at the init of a client of version 18 or later (our server at
+        the ``init`` the seat sends)."""
+        return int(self.version) >= render.SYNCH_SEE_VERSION
 
     def join_message(self) -> Message:
         """What joins the client to our server: ``init`` asking for pre-kick-off percepts as rcssserver
@@ -122,7 +127,7 @@ class TextSeat:
             return m.Reconnect(version=PROTOCOL_VERSION, team=self.team, unum=self.request.unum)
         client = f"{CLIENT_PREFIX} v{self.version:g} {self.request.team}"[:m.MAX_CLIENT_CHARS]
         return m.Init(version=PROTOCOL_VERSION, team=self.team, client=client, pre_kick_off=True,
-                      synch_see=int(self.version) >= render.SYNCH_SEE_VERSION)
+                      synch_see=self.synch_see)
 
     # -- server -> client --------------------------------------------------------------------------------
     def on_server(self, msg: Message) -> Out:
@@ -175,7 +180,6 @@ class TextSeat:
     def _seated(self, msg: m.InitOk) -> list[str]:
         self.view = view = render.TextView.of(msg, self.version, self.names.names())
         self.sync = msg.config.get("mode", "sync") == "sync"
-        self.synch_see = int(self.version) >= render.SYNCH_SEE_VERSION
         self.cycle, self.unum = msg.cycle, msg.unum
         params = ServerParams.from_dict(msg.params)
         settings = {"synch_mode": self.sync}

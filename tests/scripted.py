@@ -120,6 +120,19 @@ class ScriptedCoach(ScriptedClient):
         return self.recv_until(m.CoachInitOk)
 
 
+def play_together(players: list[ScriptedPlayer], cycles: int) -> list[int]:
+    """Answer ``cycles`` thinks with every player in ``players``, a cycle at a time (in synchronous mode
+    none waits for another's timeout); return the cycles seen."""
+    seen = []
+    for _ in range(cycles):
+        for i, p in enumerate(players):
+            msg = p.recv_until(m.Think)
+            if i == 0:
+                seen.append(msg.cycle)
+            p.answer(msg.cycle)
+    return seen
+
+
 def chase_and_kick_out(me: tuple[str, int], state: m.Fullstate, out_dir_deg: float = 180.0) -> tuple:
     """A deterministic test policy from exact state: run to the ball; a keeper kicks it towards
     ``out_dir_deg`` (out of the region), a taker stands on it (so it is taken)."""

@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 
 from keepaway.protocol import messages as m
-from scripted import ScriptedPlayer
+from scripted import ScriptedPlayer, play_together
 
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
@@ -48,14 +48,6 @@ class TextClient:
         self.sock.close()
 
 
-def play(players: list[ScriptedPlayer], cycles: int) -> None:
-    """Our scripted players answer ``cycles`` cycles together (in synchronous mode none waits for another's
-    timeout)."""
-    for _ in range(cycles):
-        for player in players:
-            player.play_cycles(1)
-
-
 def game_with_text_seat(processes, tmp_path, *extra: str):
     """A server with the front, taker 1 left free for a text client, our scripted players in the other
     seats (keepers 1-3 and taker 2)."""
@@ -78,7 +70,7 @@ def test_a_text_client_of_rcssserver_protocol_plays_beside_our_players(processes
         assert isinstance(player.init(team), m.InitOk)
     taker = processes.popen([sys.executable, str(REPO / "examples" / "rcss_text_taker.py"), "--port",
                              str(srv.rcss_port), "--version", str(version), "--cycles", "30"])
-    play(ours, 39)
+    play_together(ours, 39)
     assert taker.wait(timeout=60) == 0, processes.stderr_tail(taker)
     assert srv.proc.wait(timeout=60) == 0
     shows = [line for line in (srv.log_dir / "keepaway.rcg").read_text().splitlines() if line.startswith("(show 39 ")]
@@ -108,9 +100,9 @@ def test_hostile_text_gets_rcssserver_errors_and_the_game_goes_on(processes, tmp
     for _ in range(3000):  # a flood: the others still play every cycle
         seated.send("(dash 100)(turn 30)(kick 100 0)")
         stranger.send("(init flooders (version 12))")
-    play(ours, 20)
+    play_together(ours, 20)
     seated.send("(bye)")
-    play(ours, 30)
+    play_together(ours, 30)
     assert srv.proc.wait(timeout=60) == 0
     stranger.close()
     seated.close()
@@ -161,7 +153,7 @@ def test_the_front_as_a_process_of_its_own_seats_a_text_client(processes, tmp_pa
         assert isinstance(player.init(team), m.InitOk)
     taker = processes.popen([sys.executable, str(REPO / "examples" / "rcss_text_taker.py"), "--port", str(port),
                              "--version", "12", "--cycles", "30"])
-    play(ours, 39)
+    play_together(ours, 39)
     assert taker.wait(timeout=60) == 0, processes.stderr_tail(taker)
     assert srv.proc.wait(timeout=60) == 0
     front.terminate()

@@ -12,7 +12,7 @@ import pytest
 from keepaway.protocol import PROTOCOL_VERSION, ServerParams
 from keepaway.protocol import messages as m
 from keepaway.protocol.landmarks import FLAGS
-from scripted import ScriptedCoach, ScriptedPlayer, connect_all, play_chasers
+from scripted import ScriptedCoach, ScriptedPlayer, connect_all, play_chasers, play_together
 
 
 def test_init_handshake_assigns_numbers_and_sends_the_parameter_table(processes, tmp_path):
@@ -267,23 +267,11 @@ def test_bad_input_gets_one_line_errors_and_the_game_goes_on(processes, tmp_path
     assert "malformed" in log and "bad_value" in log
 
 
-def play_without(players: list[ScriptedPlayer], cycles: int) -> list[int]:
-    """Answer ``cycles`` thinks with every player in ``players``; return the cycles seen."""
-    seen = []
-    for _ in range(cycles):
-        for i, p in enumerate(players):
-            msg = p.recv_until(m.Think)
-            if i == 0:
-                seen.append(msg.cycle)
-            p.answer(msg.cycle)
-    return seen
-
-
 def test_a_player_that_disconnects_is_noticed_and_the_others_keep_playing(processes, tmp_path):
     srv = processes.start_server(tmp_path, "--max-cycles", "12", "--cycle-timeout", "0.1")
     players = connect_all(srv.players_endpoint)
     players[0].close()  # gone mid-game without a bye
-    assert play_without(players[1:], 12) == list(range(12))
+    assert play_together(players[1:], 12) == list(range(12))
     assert srv.wait(30) == 0
     assert "keeper 1 is unreachable (disconnected?); no longer waiting for it" in srv.stderr_text()
 
@@ -291,7 +279,7 @@ def test_a_player_that_disconnects_is_noticed_and_the_others_keep_playing(proces
 def test_a_player_that_never_answers_is_logged_and_the_others_keep_playing(processes, tmp_path):
     srv = processes.start_server(tmp_path, "--max-cycles", "12", "--cycle-timeout", "0.1", "--max-missed", "3")
     players = connect_all(srv.players_endpoint)  # players[0] stays connected but silent
-    assert play_without(players[1:], 12) == list(range(12))
+    assert play_together(players[1:], 12) == list(range(12))
     assert srv.wait(30) == 0
     log = srv.stderr_text()
     assert "keeper 1 missed cycle 0 (1 in a row)" in log
