@@ -8,13 +8,9 @@ time; here the table takes about 9 us and the line 16 us (the kernel itself 8 us
 
 **The numbers.** rcssserver quantizes positions and velocities to ``POS_PREC`` and angles to
 ``ANGLE_PREC`` (``Quantize``: ``rint(value / prec) * prec``) and prints every number as a default C++
-ostream does, ``%.6g``: the double's exact binary value rounded to 6 significant digits, ties to even,
-then the shorter of the fixed and the exponent forms by C's rule, trailing zeros dropped (-0 printed
-"-0"). :func:`_rounded` decides that rounding on the exact value: it scales by a power of ten that a
-double holds exactly (10^k, |k| <= 22) and carries the product's rounding error along (Dekker's exact
-product), so a value just below or above a tie rounds as printf rounds it. A number outside
-[``SMALLEST``, ``LARGEST``) in magnitude, NaN or an infinity, and a count that is not a whole number below
-2^53, is left as a *hole*: the kernel writes nothing there and records where it goes, and
+ostream does, ``%.6g`` (``core.cpp_text``). A number that writer leaves to Python (NaN, an infinity, a
+magnitude outside [``core.cpp_text.SMALLEST``, ``LARGEST``)), and a count that is not a whole number below 2^53, is left
+as a *hole*: the kernel writes nothing there and records where it goes, and
 :func:`server.game_log.show_line` fills it with Python's format of the same number (never in a game:
 tests/test_show_line.py makes them).
 
@@ -29,6 +25,7 @@ import math
 
 import numpy as np
 
+from keepaway.core.cpp_text import put_number, put_text, put_whole
 from keepaway.core.jit import borrowing
 from keepaway.protocol.params import MAX_TEAM_SIZE
 from keepaway.server.world import COLLIDED_BALL, COLLIDED_PLAYER, COUNT_KICK, N_COUNTS
@@ -56,17 +53,12 @@ STATE_KICK_FAULT = 0x4
 STATE_BALL_COLLIDE = 0x400
 STATE_PLAYER_COLLIDE = 0x800
 
-# the magnitudes the kernel prints itself: 10^k of the scaling stays exact (|k| <= 22, see _rounded)
-SMALLEST = 1e-16
-LARGEST = 1e26
 MAX_LINE_BYTES = 16384  # a line of 22 players at the longest numbers is below 9,000
 MAX_HOLES = 4 + N_SLOTS * N_ROW  # every number of a line
 HOLE_NUMBER, HOLE_COUNT = 0, 1  # a hole's kind: a %.6g number, a %d count
 BAD_ORDER = -1  # write_show's length when the table's slots are not increasing within 0..21
 
 _PRECS = np.array([np.nan if prec is None else prec for prec in PLAYER_NUMBERS.values()])
-_POW10 = np.array([10.0 ** k for k in range(23)])  # exact doubles
-_SPLITTER = 134217729.0  # 2^27 + 1 (Veltkamp's split of a double into two 26-bit halves)
 _WHOLE_LIMIT = 2.0 ** 53
 
 
@@ -84,127 +76,7 @@ _STAMINA = _text(") (s ")
 _COUNTS = _text(") (c ")
 _END = _text("))")
 _HEX = _text("0123456789abcdef")
-_SPACE, _MINUS, _PLUS, _DOT, _ZERO, _E, _X, _CLOSE = (ord(c) for c in " -+.0ex)")
-
-
-@borrowing(inline="always")
-def _put(out, at, text, start=0, end=-1) -> int:
-    """``text[start:end]`` (end -1: to its end) at ``out[at:]``; its end."""
-    if end < 0:
-        end = len(text)
-    for i in range(start, end):
-        out[at + i - start] = text[i]
-    return at + end - start
-
-
-@borrowing
-def _put_whole(out, at, value) -> int:
-    """A whole number ``value`` (int64) in decimal (digits from the last: a division by the constant 10
-    is a multiplication)."""
-    if value < 0:
-        out[at] = _MINUS
-        at += 1
-        value = -value
-    n_digits = 1
-    rest = value
-    while rest >= 10:
-        rest //= 10
-        n_digits += 1
-    for i in range(at + n_digits - 1, at - 1, -1):
-        out[i] = _ZERO + value % 10
-        value //= 10
-    return at + n_digits
-
-
-@borrowing
-def _two_product(a, b) -> tuple:
-    """(p, e): p = a * b rounded, p + e = a * b exactly (Dekker; no overflow or underflow here)."""
-    p = a * b
-    c = _SPLITTER * a
-    a_hi = c - (c - a)
-    a_lo = a - a_hi
-    c = _SPLITTER * b
-    b_hi = c - (c - b)
-    b_lo = b - b_hi
-    return p, ((a_hi * b_hi - p) + a_hi * b_lo + a_lo * b_hi) + a_lo * b_lo
-
-
-@borrowing
-def _rounded(a, k) -> int:
-    """``a * 10^k`` rounded to a whole number, ties to even, decided on the exact value (|k| <= 22, the
-    product between 10^4 and 10^7). With k >= 0 the product is exact as h + l; the sign of
-    (h - n - 1/2) + l, each step exact but the last, whose sign is the exact sum's, says which side of
-    n + 1/2 it lies. With k < 0 the quotient's n is compared the other way round: a against
-    (n + 1/2) 10^-k, held exactly as h + l."""
-    if k >= 0:
-        h, l = _two_product(a, _POW10[k])
-        n = math.floor(h)
-        side = ((h - n) - 0.5) + l
-    else:
-        n = math.floor(a / _POW10[-k])
-        h, l = _two_product(n + 0.5, _POW10[-k])
-        side = (a - h) - l
-    if side > 0.0 or (side == 0.0 and n % 2 == 1):
-        return n + 1
-    return n
-
-
-@borrowing
-def _put_number(out, at, x) -> int:
-    """``x`` as ``%.6g`` prints it, at ``out[at:]``; its end, or -1 for a hole (nothing written)."""
-    if x == 0.0:
-        if math.copysign(1.0, x) < 0.0:
-            out[at] = _MINUS
-            at += 1
-        out[at] = _ZERO
-        return at + 1
-    a = abs(x)
-    if not SMALLEST <= a < LARGEST:  # NaN too
-        return -1
-    if x < 0.0:
-        out[at] = _MINUS
-        at += 1
-    k = 5 - math.floor(math.log10(a))  # so that 10^5 <= a 10^k < 10^6, but log10 may miss by one
-    digits = _rounded(a, k)
-    while digits < 100_000 or digits > 1_000_000:
-        k += 1 if digits < 100_000 else -1
-        digits = _rounded(a, k)
-    exponent = 5 - k  # of the first digit
-    if digits == 1_000_000:  # rounded up to the next power of ten
-        digits = 100_000
-        exponent += 1
-    n_digits = 6
-    while digits % 10 == 0:  # %g drops trailing zeros
-        digits //= 10
-        n_digits -= 1
-    # where digit i goes, after `at`: d.ddddde+XX (exponent form), 0.000ddd or ddd.ddd and dddd00 (fixed)
-    fixed = -4 <= exponent < 6
-    if not fixed or exponent >= 0:
-        first, point = 0, (1 if not fixed else exponent + 1)  # the digits before the point
-        end = at + max(n_digits + (1 if n_digits > point else 0), point)
-        if n_digits > point:
-            out[at + point] = _DOT
-        for i in range(at + n_digits, at + point):  # whole digits beyond the significant ones
-            out[i] = _ZERO
-    else:
-        first, point = 1 - exponent, 6  # "0." and -exponent - 1 zeros, then the digits
-        out[at] = _ZERO
-        out[at + 1] = _DOT
-        for i in range(at + 2, at + first):
-            out[i] = _ZERO
-        end = at + first + n_digits
-    for i in range(n_digits - 1, -1, -1):
-        out[at + first + i + (1 if i >= point else 0)] = _ZERO + digits % 10
-        digits //= 10
-    if fixed:
-        return end
-    out[end] = _E
-    out[end + 1] = _MINUS if exponent < 0 else _PLUS
-    end += 2
-    if abs(exponent) < 10:
-        out[end] = _ZERO
-        end += 1
-    return _put_whole(out, end, abs(exponent))
+_SPACE, _MINUS, _ZERO, _X, _CLOSE = (ord(c) for c in " -0x)")
 
 
 @borrowing
@@ -219,7 +91,7 @@ def _hole(holes, n_holes, at, x, kind) -> tuple:
 @borrowing
 def _put_value(out, at, x, holes, n_holes) -> tuple:
     """A number, or a hole where it goes: (end, holes)."""
-    end = _put_number(out, at, x)
+    end = put_number(out, at, x)
     if end < 0:
         return _hole(holes, n_holes, at, x, HOLE_NUMBER)
     return end, n_holes
@@ -229,7 +101,7 @@ def _put_value(out, at, x, holes, n_holes) -> tuple:
 def _put_count(out, at, x, holes, n_holes) -> tuple:
     """A count (%d of a whole float), or a hole: (end, holes)."""
     if abs(x) < _WHOLE_LIMIT and math.floor(x) == x:
-        return _put_whole(out, at, np.int64(x)), n_holes
+        return put_whole(out, at, np.int64(x)), n_holes
     return _hole(holes, n_holes, at, x, HOLE_COUNT)
 
 
@@ -268,9 +140,9 @@ def write_show(out, entry_at, holes, cycle, ball, n_players, slots, states, rows
     for p in range(n_players):
         if not (0 <= slots[p] < N_SLOTS and (p == 0 or slots[p] > slots[p - 1])):
             return BAD_ORDER, 0
-    at = _put(out, 0, _SHOW)
-    at = _put_whole(out, at, cycle)
-    at = _put(out, at, _BALL)
+    at = put_text(out, 0, _SHOW)
+    at = put_whole(out, at, cycle)
+    at = put_text(out, at, _BALL)
     n_holes = 0
     for i in range(4):
         out[at] = _SPACE
@@ -281,32 +153,32 @@ def write_show(out, entry_at, holes, cycle, ball, n_players, slots, states, rows
     for slot in range(N_SLOTS):
         entry_at[slot] = at
         if p >= n_players or slots[p] != slot:
-            at = _put(out, at, parked, parked_at[slot], parked_at[slot + 1])
+            at = put_text(out, at, parked, parked_at[slot], parked_at[slot + 1])
             continue
-        at = _put(out, at, _ENTRY)
+        at = put_text(out, at, _ENTRY)
         out[at] = _SIDES[slot // MAX_UNUM]
         out[at + 1] = _SPACE
-        at = _put_whole(out, at + 2, slot % MAX_UNUM + 1)
-        at = _put(out, at, _STATE)
+        at = put_whole(out, at + 2, slot % MAX_UNUM + 1)
+        at = put_text(out, at, _STATE)
         at = _put_state(out, at, states[p])
         for i in range(N_NUMBERS):
             if i == _VIEW_AT:
-                at = _put(out, at, _VIEW)
+                at = put_text(out, at, _VIEW)
             elif i == _STAMINA_AT:
-                at = _put(out, at, _STAMINA)
+                at = put_text(out, at, _STAMINA)
             else:
                 out[at] = _SPACE
                 at += 1
             prec = _PRECS[i]
             value = rows[p, i] if np.isnan(prec) else np.rint(rows[p, i] / prec) * prec
             at, n_holes = _put_value(out, at, value, holes, n_holes)
-        at = _put(out, at, _COUNTS)
+        at = put_text(out, at, _COUNTS)
         for i in range(N_RCG_COUNTS):
             if i > 0:
                 out[at] = _SPACE
                 at += 1
             at, n_holes = _put_count(out, at, rows[p, N_NUMBERS + i], holes, n_holes)
-        at = _put(out, at, _END)
+        at = put_text(out, at, _END)
         p += 1
     entry_at[N_SLOTS] = at
     out[at] = _CLOSE
@@ -346,8 +218,8 @@ def world_table(w, b, factors, visible_angle, last_kicks, ball, states, rows) ->
 
 
 __all__ = [
-    "ANGLE_PREC", "BAD_ORDER", "HOLE_COUNT", "HOLE_NUMBER", "LARGEST", "MAX_HOLES", "MAX_LINE_BYTES", "MAX_UNUM",
-    "N_NUMBERS", "N_ROW", "N_RCG_COUNTS", "N_SLOTS", "PLAYER_NUMBERS", "POS_PREC", "SMALLEST", "STATE_BALL_COLLIDE",
+    "ANGLE_PREC", "BAD_ORDER", "HOLE_COUNT", "HOLE_NUMBER", "MAX_HOLES", "MAX_LINE_BYTES", "MAX_UNUM",
+    "N_NUMBERS", "N_ROW", "N_RCG_COUNTS", "N_SLOTS", "PLAYER_NUMBERS", "POS_PREC", "STATE_BALL_COLLIDE",
     "STATE_DISABLE", "STATE_KICK", "STATE_KICK_FAULT", "STATE_PLAYER_COLLIDE", "STATE_STAND", "world_table",
     "write_show",
 ]

@@ -14,19 +14,17 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from numba import njit
 
+from keepaway.core.cpp_text import LARGEST, SMALLEST, put_number
 from keepaway.protocol.params import parameter_set
 from keepaway.server.game_log import N_RCG_COUNTS, PlayerShow, Show, ShowTable, WorldShows, show_line
 from keepaway.server.show_text import (
     ANGLE_PREC,
-    LARGEST,
     PLAYER_NUMBERS,
     POS_PREC,
-    SMALLEST,
     STATE_BALL_COLLIDE,
     STATE_KICK,
     STATE_PLAYER_COLLIDE,
     STATE_STAND,
-    _put_number,
 )
 from keepaway.server.world import COLLIDED_BALL, COLLIDED_PLAYER, new_world
 
@@ -162,7 +160,7 @@ def _printed(values, out, ends):
     """Each value through the show kernel's number writer, back to back; a hole's end is -1."""
     at = 0
     for i in range(len(values)):
-        ends[i] = _put_number(out, at, values[i])
+        ends[i] = put_number(out, at, values[i])
         if ends[i] >= 0:
             at = ends[i]
     return at
