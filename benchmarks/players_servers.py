@@ -14,7 +14,9 @@ GetOpen), synchronous, CURRENT parameters, 3v2 on 20 m, server seed ``--seed``, 
 code (``trainer.behaviour``) and are judged against every stored campaign of the C++ players on rcssserver
 (``tests/data/rcss-behaviour/stats_real.json``) with the tolerance rule of ``tests/test_behaviour.py``.
 Prints one row per cell and policy: the episodes, the hold time with its standard error, and how many of
-the 19 statistics are within tolerance, naming those that are not.
+the 19 statistics are within tolerance, naming those that are not; then the C++ players' speed on
+rcssserver and on our server, measured in the same invocation (``benchmarks/rcss_front.py``'s table,
+``--speed-repeats`` runs of ``--speed-seconds``; 0 repeats: not measured).
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
+from benchmarks.rcss_front import SETTINGS, speed_table  # noqa: E402
 from benchmarks.reference_stack import KEEPERS, LOG_NAME, TAKERS, Cell, ReferenceStack, play_campaign  # noqa: E402
 from keepaway.protocol.params import parameter_set  # noqa: E402
 from keepaway.server.episode_log import read_kwy  # noqa: E402
@@ -76,6 +79,8 @@ def main() -> None:
     parser.add_argument("--policies", nargs="+", choices=POLICIES, default=list(POLICIES))
     parser.add_argument("--log-dir", type=Path, help="keep the logs here, as DIR/SERVER_KEEPERS_TAKERS/POLICY")
     parser.add_argument("--logs", type=Path, metavar="DIR", help="measure the logs an earlier --log-dir kept")
+    parser.add_argument("--speed-seconds", type=float, default=12.0, help="measured seconds per speed run")
+    parser.add_argument("--speed-repeats", type=int, default=3, help="speed runs per server (0: none)")
     args = parser.parse_args()
     stack = ReferenceStack(args.build)
     try:
@@ -100,6 +105,9 @@ def main() -> None:
     print(f"Against the {sum(map(len, REFERENCE_CAMPAIGNS.values()))} stored campaigns of the C++ players on "
           f"rcssserver; synchronous, CURRENT parameters, 3v2 on 20 m, server seed {args.seed}\n")
     print("\n".join(lines))
+    if args.speed_repeats > 0:
+        print()
+        print("\n".join(speed_table(stack, "handcoded", args.speed_seconds, args.speed_repeats, SETTINGS[:2])))
 
 
 if __name__ == "__main__":

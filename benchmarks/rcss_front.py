@@ -100,6 +100,29 @@ def measure(stack: ReferenceStack, setting: str, policy: str, seconds: float, lo
     return {"rate": n / elapsed, **{role: (cpu1[role] - cpu0[role]) * 1000 / n for role in roles}}
 
 
+def speed_table(stack: ReferenceStack, policy: str, seconds: float, repeats: int,
+                settings: tuple[str, ...] = SETTINGS) -> list[str]:
+    """Measure ``settings`` (rcssserver first), interleaved so that a slow minute of the machine hits every
+    setting; the table's lines."""
+    results: dict[str, list[dict]] = {setting: [] for setting in settings}
+    with tempfile.TemporaryDirectory(prefix="rcss-front-") as scratch:
+        for repeat in range(repeats):
+            for setting in settings:
+                where = Path(scratch) / f"{repeat}-{SETTINGS.index(setting)}"
+                where.mkdir()
+                results[setting].append(measure(stack, setting, policy, seconds, where))
+    base = statistics.median(r["rate"] for r in results["rcssserver"])
+    lines = [f"C++ players, {policy} Pass, synchronous; median of {repeats} runs of {seconds:g} s",
+             "| setting | cycles/s | / rcssserver | server CPU ms/cycle | front | 5 players |",
+             "|---|---:|---:|---:|---:|---:|"]
+    for setting, runs in results.items():
+        med = {key: statistics.median(r[key] for r in runs) for key in runs[0]}
+        front = f"{med['front']:.2f}" if setting == SETTINGS[2] else "(in the server)" if "front" in setting else "-"
+        lines.append(f"| {setting} | {med['rate']:.0f} | {med['rate'] / base:.2f} | {med['server']:.2f} | {front} | "
+                     f"{med['players']:.2f} |")
+    return lines
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("build", type=Path, help="the reference stack's build directory")
@@ -112,22 +135,7 @@ def main() -> None:
         stack.check()
     except ValueError as exc:
         parser.error(str(exc))
-    results: dict[str, list[dict]] = {setting: [] for setting in SETTINGS}
-    with tempfile.TemporaryDirectory(prefix="rcss-front-") as scratch:
-        for repeat in range(args.repeats):  # interleaved, so a slow minute of the machine hits every setting
-            for setting in SETTINGS:
-                where = Path(scratch) / f"{repeat}-{SETTINGS.index(setting)}"
-                where.mkdir()
-                results[setting].append(measure(stack, setting, args.policy, args.seconds, where))
-    base = statistics.median(r["rate"] for r in results["rcssserver"])
-    print(f"C++ players, {args.policy} Pass, synchronous; median of {args.repeats} runs of {args.seconds:g} s")
-    print("| setting | cycles/s | / rcssserver | server CPU ms/cycle | front | 5 players |")
-    print("|---|---:|---:|---:|---:|---:|")
-    for setting, runs in results.items():
-        med = {key: statistics.median(r[key] for r in runs) for key in runs[0]}
-        front = f"{med['front']:.2f}" if setting == SETTINGS[2] else "(in the server)" if "front" in setting else "-"
-        print(f"| {setting} | {med['rate']:.0f} | {med['rate'] / base:.2f} | {med['server']:.2f} | {front} | "
-              f"{med['players']:.2f} |")
+    print("\n".join(speed_table(stack, args.policy, args.seconds, args.repeats)))
 
 
 if __name__ == "__main__":

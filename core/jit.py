@@ -42,7 +42,7 @@ ROOT = Path(__file__).resolve().parent.parent
 # Every file a kernel is defined in, calls into or reads a module-level value of: the kernel modules and
 # every module they import, directly or through others (tests/test_kernel_cache.py checks it) ...
 KERNEL_SOURCES = ("protocol", "core", "server", "agents", "runner/__init__.py", "runner/job.py", "runner/batched.py",
-                  "rcss/param_text.py")
+                  "rcss/param_text.py", "rcss/see_text.py")
 # ... but these files of those packages, which no kernel module imports (socket loops, command lines,
 # configuration, security): an edit there leaves the compiled kernels as they are. (The files that list
 # the kernels a set compiles, server/game_log.py and agents/player.py, stay in: a new kernel call there

@@ -416,7 +416,51 @@ def parse_commands(datagram: bytes | str, version: float) -> ParsedDatagram:
     datagram does not end with a NUL byte (8 and later). Commands our protocol lacks are answered as
     rcssserver answers them: ``(gaussian_see)`` ``OK_GAUSSIAN_SEE``, ``(clang (ver A B))`` ``(ok clang (ver
     A B))``, ``(compression N)`` ``COMPRESSION_UNSUPPORTED``; ``(long_kick ...)`` and the legs' ``(dash (l P
-    D) (r P D))`` nothing; the others are requests."""
+    D) (r P D))`` nothing; the others are requests.
+
+    A datagram of plain commands, as players send every cycle (``(dash 100)(turn_neck 0)(say "0FI")``),
+    is read statement by statement with each statement's reading remembered (:func:`_plain_commands`);
+    the same reading, a fiftieth of the time."""
+    if type(datagram) is bytes and len(datagram) <= MAX_DATAGRAM_BYTES and _PLAIN_DATAGRAM.fullmatch(datagram):
+        commands = _plain_commands(datagram, version)
+        if commands is not None:
+            return ParsedDatagram(commands)
+    return _parse(datagram, version)
+
+
+# A datagram of statements that each read the same alone as among others, NUL-terminated: a name and
+# words or numbers, or a say of a quoted message; the name of an unquoted say (whose message may run
+# over the statements after it) is not among them.
+_PLAIN_STATEMENT = rb'\((?!say )[a-z_]+(?: [-+.0-9A-Za-z]+)*\)|\(say "[-+.0-9A-Za-z*/?<>_ ]*"\)'
+_PLAIN_DATAGRAM = re.compile(rb"(?:" + _PLAIN_STATEMENT + rb")+\0")
+_PLAIN_STATEMENTS = re.compile(_PLAIN_STATEMENT)
+_PLAIN_MEMORY = 4096  # statements remembered; when full, forgotten all at once
+_plain_read: dict[bytes, AtomicCommand | None] = {}
+
+
+def _plain_commands(datagram: bytes, version: float) -> tuple[AtomicCommand, ...] | None:
+    """The commands of a datagram of plain statements, each read alone by :func:`_parse` (once, then
+    remembered: NUL-terminated, a statement reads the same in every version); None if one of them is not
+    one command of ours (an error, a request, a bye: then the whole datagram is read by :func:`_parse`)."""
+    commands = []
+    for statement in _PLAIN_STATEMENTS.findall(datagram):
+        try:
+            command = _plain_read[statement]
+        except KeyError:
+            parsed = _parse(statement + b"\0", version)
+            alone = len(parsed.commands) == 1 and not parsed.answers and not parsed.bye
+            command = parsed.commands[0] if alone else None
+            if len(_plain_read) >= _PLAIN_MEMORY:
+                _plain_read.clear()
+            _plain_read[statement] = command
+        if command is None:
+            return None
+        commands.append(command)
+    return tuple(commands)
+
+
+def _parse(datagram: bytes | str, version: float) -> ParsedDatagram:
+    """:func:`parse_commands` by the grammar, token by token."""
     data = _received(datagram)
     if not data:
         return ParsedDatagram()  # rcssserver does not read an empty datagram

@@ -3,9 +3,11 @@
 The socket edge of :class:`rcss.seat.TextSeat`. It binds one UDP port, where clients send their
 ``(init ...)`` or ``(reconnect ...)`` as they would to rcssserver; for each client it opens, as rcssserver
 does from protocol version 8 on, a UDP socket of the client's own (the client then talks to the port the
-replies come from), and a ZeroMQ DEALER to our server's players port, so that to our server each text
-client is one more player. One poller serves every socket. The server stays the one authority: the front
-only translates, so a game is the same game whichever protocol its players speak.
+replies come from), and a link to our server, so that to our server each text client is one more player:
+in the server's process (``keepaway server --rcss-port``) a direct call with no socket between them, its
+UDP sockets watched by the server's own poller; as a process of its own (``keepaway rcss-front``) a ZeroMQ
+DEALER to the server's players port. The server stays the one authority: the front only translates, so a
+game is the same game whichever protocol its players speak.
 
 Bad input never stops the front or the game: a malformed or unknown command gets rcssserver's error text
 back, a datagram beyond rcssserver's receive buffer is cut to it as rcssserver cuts it, a client that
@@ -18,10 +20,10 @@ from __future__ import annotations
 import errno
 import logging
 import socket
-import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 from types import SimpleNamespace
+from typing import Any, Protocol
 
 import msgpack
 import zmq
@@ -33,7 +35,7 @@ from keepaway.protocol.endpoints import configure
 from keepaway.protocol.errors import ProtocolError
 from keepaway.protocol.messages import MAX_PLAYERS, decode_for_player
 from keepaway.protocol.security import KeyDir, secure_client
-from keepaway.rcss import render
+from keepaway.rcss import render, see_text
 from keepaway.rcss.commands import (
     MAX_DATAGRAM_BYTES,
     NO_MORE_PLAYER,
@@ -58,71 +60,145 @@ TEXT_ENCODING = "latin-1"  # every byte is a character: the grammar, not the dec
 class FrontConfig:
     """Where the front listens and which server it seats its clients at."""
 
-    server: str  # our server's players endpoint, e.g. tcp://127.0.0.1:6000
     host: str = "127.0.0.1"
     port: int = 6000  # rcssserver's player port; 0: any free one
-    keys: KeyDir | None = None  # CURVE keys towards our server (docs/protocol.md §15)
+    server: str = ""  # a front of its own: our server's players endpoint, e.g. tcp://127.0.0.1:6000
+    keys: KeyDir | None = None  # a front of its own: CURVE keys towards our server (docs/protocol.md §15)
     max_clients: int = MAX_PLAYERS
 
 
-class _Client:
-    """A text client: its address, its own UDP socket, its DEALER to our server and its seat."""
+class ServerLink(Protocol):
+    """One text client's way to our server: our protocol's frames out (:meth:`send`); the server's frames
+    come back through the ``deliver`` callable the link was made with."""
 
-    def __init__(self, addr: tuple[str, int], seat: TextSeat, udp: socket.socket, dealer: zmq.Socket) -> None:
+    def send(self, data: bytes) -> None: ...
+
+    def close(self) -> None: ...
+
+
+# Makes a client's link: given the front and the callable that takes each of the server's frames for it.
+LinkMaker = Callable[["Front", Callable[[bytes], None]], ServerLink]
+
+
+class DealerLink:
+    """A link over ZeroMQ: a DEALER to our server's players port, read by the front's poller (the front
+    as a process of its own, ``keepaway rcss-front``)."""
+
+    def __init__(self, front: Front, deliver: Callable[[bytes], None]) -> None:
+        self.front = front
+        self.deliver = deliver
+        self.dealer = dealer = front.ctx.socket(zmq.DEALER)
+        configure(dealer)
+        secure_client(dealer, front.config.keys)
+        dealer.connect(front.config.server)
+        front.watch(dealer, self._read)
+
+    def _read(self) -> None:
+        for _ in range(READS_PER_ROUND * 4):
+            try:
+                data = self.dealer.recv(zmq.NOBLOCK)
+            except zmq.Again:
+                return
+            self.deliver(data)
+
+    def send(self, data: bytes) -> None:
+        try:
+            self.dealer.send(data, zmq.NOBLOCK)
+        except zmq.Again:
+            log.warning("our server is not reachable; a message is lost", extra={KIND_ATTR: ("unreachable",)})
+
+    def close(self) -> None:
+        self.front.unwatch(self.dealer)
+        self.dealer.close(linger=0)
+
+
+class _Client:
+    """A text client: its address, its own UDP socket, its link to our server and its seat."""
+
+    def __init__(self, addr: tuple[str, int], seat: TextSeat, udp: socket.socket) -> None:
         self.addr = addr
         self.seat = seat
         self.udp = udp
-        self.dealer = dealer
+        self.link: ServerLink | None = None
 
 
 class Front:
-    """Serve text clients until :meth:`run`'s ``stopped`` says so."""
+    """Text clients seated at our server. The front watches its sockets in a poller, its own
+    (:meth:`run`, a front of its own) or the server's (``keepaway server --rcss-port``: the server's loop
+    hands each ready socket to :meth:`on_event`, and the links call into the server without a socket
+    between them)."""
 
-    def __init__(self, config: FrontConfig) -> None:
+    def __init__(self, config: FrontConfig, poller: zmq.Poller | None = None, link: LinkMaker = DealerLink) -> None:
         self.config = config
-        self.ctx = zmq.Context()
+        self.link = link
+        self.ctx = zmq.Context() if link is DealerLink else None
         self.names = TeamNames()
         self.versions: dict[tuple[str, int], float] = {}  # (our team, unum) -> the version it was seated with
         self.clients: dict[tuple[str, int], _Client] = {}  # by the client's address
-        self.by_fd: dict[int, _Client] = {}
-        self.by_dealer: dict[zmq.Socket, _Client] = {}
-        self.poller = zmq.Poller()
+        self.poller = poller if poller is not None else zmq.Poller()
+        self.readers: dict[Any, tuple[_Client | None, Callable[[], None]]] = {}  # poll key -> its reader
         self.udp = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.udp.setblocking(False)
         self.port = 0
+        self.outgoing: list[tuple[socket.socket, bytes, tuple[str, int]]] = []  # datagrams until flush()
 
     def bind(self) -> int:
         """Bind the init port; return it (the OS's pick for port 0)."""
         self.udp.bind((self.config.host, self.config.port))
         self.port = self.udp.getsockname()[1]
-        self.poller.register(self.udp.fileno(), zmq.POLLIN)
+        see_text.compile_kernel()
+        self.watch(self.udp.fileno(), self._on_init_port, None)
         versions = render.SUPPORTED_VERSIONS
-        log.info("rcssserver protocol on udp://%s:%d for the server at %s (versions %d-%d)",
-                 self.config.host, self.port, self.config.server, versions.start, versions.stop - 1)
+        log.info("rcssserver protocol on udp://%s:%d (versions %d-%d)", self.config.host, self.port,
+                 versions.start, versions.stop - 1)
         return self.port
 
+    def watch(self, key: Any, reader: Callable[[], None], client: _Client | None = None) -> None:
+        """Poll ``key`` (a socket's file number or a ZeroMQ socket); call ``reader`` when it is ready."""
+        self.readers[key] = (client, reader)
+        self.poller.register(key, zmq.POLLIN)
+
+    def unwatch(self, key: Any) -> None:
+        if self.readers.pop(key, None) is not None:
+            self.poller.unregister(key)
+
     def run(self, stopped: Callable[[], bool]) -> None:
-        """Serve until ``stopped()`` is true. A fault in serving one client (a bug, not bad input: that
-        is answered) is logged with its traceback and costs that client its seat, never the others'."""
+        """Serve with the front's own poller until ``stopped()`` is true."""
         while not stopped():
+            self.flush()
             for key, _ in self.poller.poll(POLL_MS):
-                if key == self.udp.fileno():
-                    self._on_init_port()
-                    continue
-                client = self.by_dealer.get(key) if isinstance(key, zmq.Socket) else self.by_fd.get(key)
-                if client is None:
-                    continue
-                try:
-                    (self._on_server if isinstance(key, zmq.Socket) else self._on_client)(client)
-                except Exception:
-                    log.exception("%s: dropped after a fault of the front", client.seat.describe())
-                    self._drop(client)
+                self.on_event(key)
+
+    def on_event(self, key: Any) -> bool:
+        """Serve one ready socket; False if it is not the front's. A fault in serving one client (a bug,
+        not bad input: that is answered) is logged with its traceback and costs that client its seat,
+        never the others'."""
+        entry = self.readers.get(key)
+        if entry is None:
+            return False
+        client, reader = entry
+        self._guarded(client, reader)
+        return True
+
+    def _guarded(self, client: _Client | None, work: Callable[..., None], *args: Any) -> None:
+        """``work(*args)``; a fault in it is logged and costs ``client`` (if any) its seat."""
+        try:
+            work(*args)
+        except Exception:
+            if client is None:
+                log.exception("the front failed at its init port")
+            else:
+                log.exception("%s: dropped after a fault of the front", client.seat.describe())
+                self._drop(client)
 
     def close(self) -> None:
+        self.flush()
         for client in list(self.clients.values()):
             self._drop(client)
+        self.unwatch(self.udp.fileno())
         self.udp.close()
-        self.ctx.term()
+        if self.ctx is not None:
+            self.ctx.term()
         repeat_limit.flush()
 
     # -- the init port -----------------------------------------------------------------------------------
@@ -160,17 +236,11 @@ class Front:
         udp = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         udp.setblocking(False)
         udp.bind((self.config.host, 0))
-        dealer = self.ctx.socket(zmq.DEALER)
-        configure(dealer)
-        secure_client(dealer, self.config.keys)
-        dealer.connect(self.config.server)
-        client = _Client(addr, seat, udp, dealer)
+        client = _Client(addr, seat, udp)
         self.clients[addr] = client
-        self.by_fd[udp.fileno()] = client
-        self.by_dealer[dealer] = client
-        self.poller.register(udp.fileno(), zmq.POLLIN)
-        self.poller.register(dealer, zmq.POLLIN)
-        dealer.send(encode(seat.join_message()))
+        self.watch(udp.fileno(), lambda: self._on_client(client), client)
+        client.link = self.link(self, lambda data: self._guarded(client, self._on_server, client, data))
+        client.link.send(encode(seat.join_message()))
         return ()
 
     # -- a client's own port -------------------------------------------------------------------------------
@@ -188,64 +258,68 @@ class Front:
         for text in out.texts:
             self._send_to(client.udp, client.addr, text)
         for msg in out.to_server:
-            self._to_server(client, encode(msg))
+            client.link.send(encode(msg))
         if client.seat.gone:
             self._drop(client)
 
     # -- our server ------------------------------------------------------------------------------------
-    def _on_server(self, client: _Client) -> None:
+    def _on_server(self, client: _Client, data: bytes) -> None:
+        """One frame of our server for ``client``: its texts to the client, the seat's messages back."""
+        if client.addr not in self.clients:
+            return  # dropped while the frame was under way
         seat = client.seat
-        for _ in range(READS_PER_ROUND * 4):
-            try:
-                data = client.dealer.recv(zmq.NOBLOCK)
-            except zmq.Again:
-                break
-            try:
-                msg = percept(data) if seat.seated else decode_for_player(data)
-            except ProtocolError as exc:  # a newer server's message type: ignored, as a client must
-                log.info("%s: a server message was not understood: %s", seat.describe(), exc.message,
-                         extra={KIND_ATTR: ("undecodable", exc.code)})
-                continue
-            was_seated = seat.seated
-            out = seat.on_server(msg)
-            # a refusal comes from the init port, everything after the init from the client's own port
-            sock = client.udp if seat.seated or was_seated else self.udp
-            for text in out.texts:
-                self._send_to(sock, client.addr, text)
-            for reply in out.to_server:
-                self._to_server(client, encode(reply))
-            if seat.seated and not was_seated:
-                self.versions[(seat.team, seat.unum)] = seat.version
-                log.info("%s seated", seat.describe())
-            if seat.gone:
-                self._drop(client)
-                return
-
-    def _to_server(self, client: _Client, data: bytes) -> None:
+        see = seat.on_see_frame(data)
+        if see is not None:
+            for text in see.texts:
+                self._send_to(client.udp, client.addr, text)
+            return
         try:
-            client.dealer.send(data, zmq.NOBLOCK)
-        except zmq.Again:
-            log.warning("%s: our server is not reachable; a message is lost", client.seat.describe(),
-                        extra={KIND_ATTR: ("unreachable", client.addr)})
+            msg = percept(data) if seat.seated else decode_for_player(data)
+        except ProtocolError as exc:  # a newer server's message type: ignored, as a client must
+            log.info("%s: a server message was not understood: %s", seat.describe(), exc.message,
+                     extra={KIND_ATTR: ("undecodable", exc.code)})
+            return
+        was_seated = seat.seated
+        out = seat.on_server(msg)
+        # a refusal comes from the init port, everything after the init from the client's own port
+        sock = client.udp if seat.seated or was_seated else self.udp
+        for text in out.texts:
+            self._send_to(sock, client.addr, text)
+        for reply in out.to_server:
+            client.link.send(encode(reply))
+        if seat.seated and not was_seated:
+            self.versions[(seat.team, seat.unum)] = seat.version
+            log.info("%s seated", seat.describe())
+        if seat.gone:
+            self._drop(client)
+        elif msg.TYPE == THINK:  # the client's last percept of the cycle: its cycle's datagrams go now
+            self.flush()
 
     def _send_to(self, sock: socket.socket, addr: tuple[str, int], text: str) -> None:
-        """One datagram, NUL-terminated as rcssserver's (``std::ends``); a client that does not read loses it."""
-        try:
-            sock.sendto(text.encode(TEXT_ENCODING) + b"\0", addr)
-        except OSError as exc:
-            if exc.errno not in (errno.EAGAIN, errno.ECONNREFUSED, errno.ENOBUFS):
-                raise
+        """One datagram, NUL-terminated as rcssserver's (``std::ends``), sent at the next :meth:`flush`."""
+        self.outgoing.append((sock, text.encode(TEXT_ENCODING) + b"\0", addr))
+
+    def flush(self) -> None:
+        """Send the datagrams written since the last flush, in order, back to back: a client wakes once
+        for its percepts of a cycle rather than once for each (the front flushes at each client's
+        ``think``, the loop that serves the front before it waits). A client that does not read loses
+        them."""
+        outgoing, self.outgoing = self.outgoing, []
+        for sock, data, addr in outgoing:
+            try:
+                sock.sendto(data, addr)
+            except OSError as exc:
+                if exc.errno not in (errno.EAGAIN, errno.ECONNREFUSED, errno.ENOBUFS, errno.EBADF):
+                    raise
 
     def _drop(self, client: _Client) -> None:
         if self.clients.pop(client.addr, None) is None:
             return
         self.names.leave(client.seat.team)
-        self.by_fd.pop(client.udp.fileno(), None)
-        self.by_dealer.pop(client.dealer, None)
-        self.poller.unregister(client.udp.fileno())
-        self.poller.unregister(client.dealer)
+        self.unwatch(client.udp.fileno())
         client.udp.close()
-        client.dealer.close(linger=0)
+        if client.link is not None:
+            client.link.close()
         log.info("%s left", client.seat.describe())
 
 
@@ -253,6 +327,7 @@ class Front:
 # value (the server wrote them; see and sense_body from its kernels, docs/protocol.md §6): attributes of
 # the decoded map, which is what the seat's rendering reads. Others are decoded in full.
 _PERCEPT_TYPES = {"see": m.See, "sense_body": m.SenseBody, "hear": m.Hear, "think": m.Think}
+THINK = m.Think.TYPE
 
 
 def percept(data: bytes) -> Message | SimpleNamespace:
@@ -281,7 +356,7 @@ def _datagrams(sock: socket.socket):
 
 
 def serve(config: FrontConfig, stopped: Callable[[], bool], on_ready: Callable[[int], None] | None = None) -> None:
-    """Bind, announce the port, serve until ``stopped()``, close."""
+    """A front of its own: bind, announce the port, serve until ``stopped()``, close."""
     front = Front(config)
     try:
         port = front.bind()
@@ -290,29 +365,3 @@ def serve(config: FrontConfig, stopped: Callable[[], bool], on_ready: Callable[[
         front.run(stopped)
     finally:
         front.close()
-
-
-class FrontThread:
-    """The front in a thread of the server's process (``keepaway server --rcss-port``): bound at once, so
-    a bind error is the caller's; serving until :meth:`stop`."""
-
-    def __init__(self, config: FrontConfig) -> None:
-        self._stop = threading.Event()
-        self.front = Front(config)
-        try:
-            self.port = self.front.bind()
-        except OSError:
-            self.front.close()
-            raise
-        self._thread = threading.Thread(target=self._serve, name="rcss-front", daemon=True)
-        self._thread.start()
-
-    def _serve(self) -> None:
-        try:
-            self.front.run(self._stop.is_set)
-        finally:
-            self.front.close()
-
-    def stop(self) -> None:
-        self._stop.set()
-        self._thread.join()

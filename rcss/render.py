@@ -92,6 +92,11 @@ class TextView:
         """The version rcssserver picks its writers by."""
         return int(self.version)
 
+    @property
+    def names(self) -> tuple:
+        """The names a see writes and the far lengths that pick them, in ``rcss.see_text.SeeNames.of``'s order."""
+        return self.flag_names, self.line_names, self.team_names, self.unum_far_length, self.team_far_length
+
 
 def supported(version: float) -> bool:
     """Whether a client of ``version`` can be served: else answer its init with :func:`error` of a

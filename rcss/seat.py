@@ -13,6 +13,9 @@ import logging
 from dataclasses import dataclass, field, replace
 from typing import NamedTuple
 
+import numpy as np
+
+from keepaway.core.jit import SteadyCall
 from keepaway.protocol import PROTOCOL_VERSION
 from keepaway.protocol import messages as m
 from keepaway.protocol.codec import Message
@@ -30,6 +33,7 @@ from keepaway.rcss.commands import (
     SynchSeeRequest,
     parse_commands,
 )
+from keepaway.rcss.see_text import MAX_SEE_BYTES, SEE_FRAME_START, SeeNames, write_see
 
 log = logging.getLogger("keepaway.rcss")
 # Our server sets a player's synch_see at its init (version 18 and later ask for it there, as rcssserver
@@ -109,6 +113,9 @@ class TextSeat:
         self.gone = False  # refused, the server shut down, or the client said bye
         self.last_sense_body = ""
         self.held: str | None = None  # this cycle's sense_body, until the referee has spoken (on_server)
+        self.see_names: SeeNames | None = None  # the view's names as the see kernel writes them
+        self.see_out = np.empty(MAX_SEE_BYTES, np.uint8)
+        self.write_see = SteadyCall(write_see)
 
     @property
     def seated(self) -> bool:
@@ -164,9 +171,7 @@ class TextSeat:
             self.cycle = msg.cycle
             self.last_sense_body = self.held = render.sense_body(msg, self.view)
         elif kind == m.See.TYPE:
-            names = self.names.names()
-            if names != self.view.team_names:  # a team named itself since: players are seen under it
-                self.view = replace(self.view, team_names=names)
+            self._follow_team_names()
             out.texts.append(render.see(msg, self.view))
         elif kind == m.Hear.TYPE:
             text = render.hear(msg, self.view)
@@ -177,8 +182,32 @@ class TextSeat:
             out.texts.append(render.think())
         return out  # waiting, fullstate (never asked for): rcssserver sends no such text
 
+    def on_see_frame(self, frame: bytes) -> Out | None:
+        """A see frame of our server as :meth:`on_server` would take its message, written by a kernel
+        (``rcss.see_text``), without decoding it; None for any other frame, and for a see the kernel
+        leaves to :meth:`on_server`."""
+        if self.view is None or not frame.startswith(SEE_FRAME_START):
+            return None
+        self._follow_team_names()
+        n = self.write_see(frame, len(frame), self.see_names, self.see_out)
+        if n < 0:
+            return None
+        held, self.held = self.held, None
+        text = self.see_out[:n].tobytes().decode("latin-1")
+        return Out([held, text] if held is not None else [text], [])
+
+    def _follow_team_names(self) -> None:
+        """A team named itself since the view was made: players are seen under its name."""
+        names = self.names.names()
+        if names != self.view.team_names:
+            self._set_view(replace(self.view, team_names=names))
+
+    def _set_view(self, view: render.TextView) -> None:
+        self.view = view
+        self.see_names = SeeNames.of(*view.names)
+
     def _seated(self, msg: m.InitOk) -> list[str]:
-        self.view = view = render.TextView.of(msg, self.version, self.names.names())
+        self._set_view(view := render.TextView.of(msg, self.version, self.names.names()))
         self.sync = msg.config.get("mode", "sync") == "sync"
         self.cycle, self.unum = msg.cycle, msg.unum
         params = ServerParams.from_dict(msg.params)

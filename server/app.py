@@ -24,6 +24,7 @@ import dataclasses
 import logging
 import math
 import signal
+import struct
 import time
 from collections import Counter
 from dataclasses import dataclass, field
@@ -40,6 +41,7 @@ from keepaway.protocol.endpoints import MONITOR_EPISODE_TOPIC, MONITOR_FRAME_TOP
 from keepaway.protocol.errors import ProtocolError
 from keepaway.protocol.messages import advice_hear, decode_from_coach, decode_from_player
 from keepaway.protocol.security import PortGuard, open_keys
+from keepaway.rcss.front import Front, FrontConfig
 from keepaway.server.arena import TEAMS, Arena, ArenaError, PlayerSlot, player_name, truth_state
 from keepaway.server.config import ServerConfig
 from keepaway.server.episode_log import EpisodeRecord, JsonlLog, KwyLog
@@ -65,6 +67,10 @@ _EVENTS, _POLLIN = int(zmq.EVENTS), int(zmq.POLLIN)
 # which the server does not use): the server sends about 60 frames a cycle (docs/design.md, "Processes
 # and sockets").
 _send_frame = zmq.backend.Socket.send
+# The identities of the players seated from within the server's process (the rcssserver-protocol front's
+# text clients, :class:`LocalLink`). A ZeroMQ peer may set any routing id, so a frame that comes over the
+# players port under one of these is dropped (``_read_round``): no peer can speak for a text client.
+LOCAL_PREFIX = b"\x00text"
 
 
 def _recv_message(sock: zmq.Socket) -> list[bytes]:
@@ -99,6 +105,25 @@ class BoundPorts:
     players: int
     coach: int
     monitor: int
+    rcss: int | None = None  # the rcssserver-protocol front's UDP port (``rcss_port``)
+
+
+class LocalLink:
+    """A text client's link to the server in its own process (``rcss.front.ServerLink``): its frames go
+    to the server's inbox, served by the loop as a ZeroMQ player's are (the same decoding, checks and
+    budgets); the server's frames for it are handed to the front's ``deliver`` without a socket."""
+
+    def __init__(self, server: Server, ident: bytes) -> None:
+        self.server = server
+        self.ident = ident
+
+    def send(self, data: bytes) -> None:
+        self.server.local_inbox.append((self.ident, data))
+
+    def close(self) -> None:
+        """The client is gone: the server finds its seat unreachable at the next send, as a vanished
+        ZeroMQ player's."""
+        self.server.local.pop(self.ident, None)
 
 
 @dataclass
@@ -121,8 +146,14 @@ class Server:
         self.players = self.ctx.socket(zmq.ROUTER)
         self.coach = self.ctx.socket(zmq.ROUTER)
         self.monitor = self.ctx.socket(zmq.XPUB)
+        self.poller = zmq.Poller()
         for sock in (self.players, self.coach, self.monitor):
             configure(sock, cfg.max_message_bytes * HARD_LIMIT_FACTOR)
+            self.poller.register(sock, zmq.POLLIN)
+        self.front: Front | None = None  # the rcssserver-protocol front (rcss_port), made by bind()
+        self.local: dict[bytes, Callable[[bytes], None]] = {}  # a text client's identity -> its deliver
+        self.local_inbox: list[tuple[bytes, bytes]] = []  # the text clients' frames, for the next round
+        self.local_made = 0  # text clients' links made so far: the next identity's number
         self.guard: PortGuard | None = None  # made by bind(): CURVE and ZAP with keys (protocol/security.py)
         self.monitor_topics: Counter[bytes] = Counter()  # the monitor's subscribed topic prefixes
         self.kwy: KwyLog | None = None
@@ -155,6 +186,9 @@ class Server:
             coach=guard.bind(self.coach, cfg.host, cfg.coach_port),
             monitor=guard.bind(self.monitor, cfg.host, cfg.monitor_port),
         )
+        if cfg.rcss_port is not None:
+            self.front = Front(FrontConfig(host=cfg.host, port=cfg.rcss_port), self.poller, self._local_link)
+            ports.rcss = self.front.bind()
         self.ports = ports
         if cfg.log_dir is not None:
             Path(cfg.log_dir).mkdir(parents=True, exist_ok=True)
@@ -165,8 +199,9 @@ class Server:
                                   config=cfg.summary(), params=p.to_dict())
             if cfg.game_log:
                 self.rcg = ArenaGameLog(Path(cfg.log_dir) / f"{cfg.kwy_name or 'keepaway'}{RCG_SUFFIX}", self.arena)
-        log.info("listening: players tcp://%s:%d coach tcp://%s:%d monitor tcp://%s:%d (%s mode, seed %d, %s)",
-                 cfg.host, ports.players, cfg.host, ports.coach, cfg.host, ports.monitor, cfg.mode, cfg.seed,
+        log.info("listening: players tcp://%s:%d coach tcp://%s:%d monitor tcp://%s:%d%s (%s mode, seed %d, %s)",
+                 cfg.host, ports.players, cfg.host, ports.coach, cfg.host, ports.monitor,
+                 "" if ports.rcss is None else f" rcss udp://{cfg.host}:{ports.rcss}", cfg.mode, cfg.seed,
                  "plain TCP" if cfg.keys is None else f"CURVE, keys {cfg.keys}")
         if self.on_ready is not None:
             self.on_ready(ports)
@@ -187,9 +222,7 @@ class Server:
     def run(self) -> int:
         """Serve until stopped (episodes/cycles done, coach stop, signal, hung players with on_hang=stop)."""
         try:
-            poller = zmq.Poller()
-            for sock in (self.players, self.coach, self.monitor):
-                poller.register(sock, zmq.POLLIN)
+            poller = self.poller
             while self.stop_reason is None and not self._ready_to_start():
                 self._send_waiting_if_due(self.config.start_on)
                 self._send_pre_kick_off_if_due()
@@ -213,6 +246,8 @@ class Server:
         for logger in (self.kwy, self.jsonl, self.rcg):
             if logger is not None:
                 logger.close()
+        if self.front is not None:
+            self.front.close()
         for sock in (self.players, self.coach, self.monitor):
             sock.close(linger=0)
         if self.guard is not None:
@@ -470,12 +505,18 @@ class Server:
         seated = [(sock, frames) for sock, intake in self.intakes.items() for frames in intake.due()]
         unseated: list[tuple[zmq.Socket, list[bytes]]] = []
         wait_ms = 0 if seated else min(timeout_ms, int(WINDOW_S * 1000))  # windows end on time
+        if self.front is not None:
+            self.front.flush()  # the text clients' datagrams written since the last round
         events = dict(poller.poll(wait_ms))
         if self.monitor in events:
             self._drain_monitor()
         for sock, members in ((self.players, self.conns), (self.coach, self.coaches)):
             if sock in events:
                 self._read_round(sock, members, seated, unseated)
+        if self.front is not None:
+            for key in events:
+                self.front.on_event(key)  # the text clients' sockets: their frames go to local_inbox
+            self._read_local(seated, unseated)
         for sock, frames in seated + unseated:
             self._serve(sock, frames)
         if time.monotonic() - self.window_opened >= WINDOW_S:
@@ -493,11 +534,32 @@ class Server:
                 frames = _recv_message(sock)
             except zmq.Again:
                 return
+            if frames[0].startswith(LOCAL_PREFIX):
+                log.warning("client %s: a routing id of the server's own text clients; dropped", frames[0].hex(),
+                            extra={KIND_ATTR: ("local-id",)})
+                continue
             member = frames[0] in members
             if intake.admit(frames[0], member, frames):
                 (seated if member else unseated).append((sock, frames))
             if not sock.get(_EVENTS) & _POLLIN:  # nothing more: cheaper to ask than to fail a receive
                 return
+
+    def _read_local(self, seated: list, unseated: list) -> None:
+        """The text clients' frames (:class:`LocalLink`), within their budgets as :meth:`_read_round`'s."""
+        inbox, self.local_inbox = self.local_inbox, []
+        intake = self.intakes[self.players]
+        for ident, data in inbox:
+            member = ident in self.conns
+            frames = [ident, data]
+            if intake.admit(ident, member, frames):
+                (seated if member else unseated).append((self.players, frames))
+
+    def _local_link(self, front: Front, deliver: Callable[[bytes], None]) -> LocalLink:
+        """A link for a text client of the front in this process (``rcss.front.LinkMaker``)."""
+        self.local_made += 1
+        ident = LOCAL_PREFIX + struct.pack(">I", self.local_made)
+        self.local[ident] = deliver
+        return LocalLink(self, ident)
 
     def _serve(self, sock: zmq.Socket, frames: list[bytes]) -> None:
         if len(frames) != 2:
@@ -553,6 +615,11 @@ class Server:
         self._send_raw(self.players, conn.identity, encode(msg))
 
     def _send_raw(self, sock: zmq.Socket, ident: bytes, data: bytes) -> None:
+        if sock is self.players:
+            deliver = self.local.get(ident)
+            if deliver is not None:
+                deliver(data)
+                return
         try:
             _send_frame(sock, ident, _NOBLOCK_MORE)
             _send_frame(sock, data, _NOBLOCK)

@@ -114,14 +114,12 @@ def build_config(config_file: Path | None, parameter_set_name: str | None, overr
                    "rcssserver-protocol front on this UDP port (0 = free port; docs/protocol.md §16).")
 @click.option("-v", "--verbose", count=True, help="More log output (-v info, -vv debug).")
 def server_command(config_file: Path | None, parameter_set_name: str | None, param_pairs: tuple[str, ...],
-                   no_keepaway_launch: bool, field_size: float | None, no_game_log: bool, rcss_port: int | None,
+                   no_keepaway_launch: bool, field_size: float | None, no_game_log: bool,
                    verbose: int, **settings: Any) -> None:
     """Run the Keepaway simulation server (one arena) until its episodes are done or it is stopped.
 
     Prints one line with the bound endpoints (useful with port 0), then logs to stderr.
     """
-    from keepaway.protocol.security import open_keys
-    from keepaway.rcss.front import FrontConfig, FrontThread
     from keepaway.server.app import Server  # imported here so `keepaway --help` does not compile kernels
 
     logging.basicConfig(level=logging.WARNING - 10 * min(verbose, 2) if verbose else logging.WARNING,
@@ -134,16 +132,9 @@ def server_command(config_file: Path | None, parameter_set_name: str | None, par
     except ValueError as exc:
         raise click.UsageError(str(exc)) from None
 
-    front: FrontThread | None = None
-
     def announce(ports: Any) -> None:
-        nonlocal front
         h = config.host
-        text = ""
-        if rcss_port is not None:
-            front = FrontThread(FrontConfig(server=f"tcp://{h}:{ports.players}", host=h, port=rcss_port,
-                                            keys=open_keys(config.keys)))
-            text = f" rcss=udp://{h}:{front.port}"
+        text = "" if ports.rcss is None else f" rcss=udp://{h}:{ports.rcss}"
         click.echo(f"keepaway server listening players=tcp://{h}:{ports.players} "
                    f"coach=tcp://{h}:{ports.coach} monitor=tcp://{h}:{ports.monitor}{text}")
         sys.stdout.flush()
@@ -156,11 +147,7 @@ def server_command(config_file: Path | None, parameter_set_name: str | None, par
         raise click.BadParameter(str(exc), param_hint="--keys") from None
     except Exception as exc:  # zmq.ZMQError, OSError: address in use etc.
         raise click.ClickException(f"cannot bind: {exc}") from None
-    try:
-        code = server.run()
-    finally:
-        if front is not None:
-            front.stop()
+    code = server.run()
     if code:
         click.echo(f"keepaway server: {server.stop_reason}", err=True)
     sys.exit(code)

@@ -40,6 +40,7 @@ class ServerConfig:
     players_port: int = 6000
     coach_port: int = 6001
     monitor_port: int = 6002
+    rcss_port: int | None = None  # also seat rcssserver's UDP text clients here (rcss.front)
     keepers: int = 3
     takers: int = 2
     mode: str = "sync"
@@ -88,7 +89,7 @@ class ServerConfig:
 
 # The allowed values of the settings that have limits; the others take any value of their type.
 SETTING_RANGES: dict[str, Range | OneOf] = {
-    "players_port": PORT, "coach_port": PORT, "monitor_port": PORT,
+    "players_port": PORT, "coach_port": PORT, "monitor_port": PORT, "rcss_port": PORT,
     "keepers": TEAM_SIZE, "takers": TEAM_SIZE,
     "mode": OneOf(TIMING_MODES), "on_hang": OneOf(HANG_POLICIES), "start_on": OneOf(START_ON),
     "seed": SEED, "cycle_timeout_s": POSITIVE, "max_missed_cycles": AT_LEAST_ONE,

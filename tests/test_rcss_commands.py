@@ -43,6 +43,7 @@ from keepaway.rcss.commands import (
     ScoreRequest,
     SenseBodyRequest,
     SynchSeeRequest,
+    _parse,
     command_text,
     commands_text,
     parse_commands,
@@ -479,3 +480,25 @@ def test_huge_datagrams_are_read_in_bounded_time(datagram):
     start = time.perf_counter()
     assert_read_or_refused(datagram)
     assert time.perf_counter() - start < 1.0
+
+
+STATEMENTS = st.sampled_from([
+    "(dash 100)", "(dash -100 45)", "(dash 1e999)", "(dash .5)", "(dash 5.)", "(dash +3)", "(dash 1e5x)",
+    "(dash abc)", "(dash (l 100 0))", "(turn 0)", "(turn 4294967396)", "(turn_neck -19)", "(kick 100 30)",
+    "(kick 100)", "(done)", "(done 1)", "(bye)", "(sense_body)", "(score)", "(synch_see)", "(change_view narrow high)",
+    "(change_view wide)", "(change_view huge)", '(say "0FI")', '(say "1wuAA10Fs")', '(say "")', "(say hi)",
+    '(say "a b")', "(say hi there)", '(say "' + "x" * 600 + '")', "(catch 10)", "(move 1 2)", "(tackle 10 on)",
+    "(pointto off)", "(ear (on our))", "(clang (ver 7 8))", "(compression 1)", "(gaussian_see)", "(long_kick 1 2)",
+    "(unknown 1)", "(dash  100)", "( dash 100)", "(dash 100 )", "(dash\t100)", "(DASH 100)", ")", "(", " ",
+])
+
+
+@FUZZ
+@given(st.lists(STATEMENTS, max_size=8).map("".join), st.sampled_from(["\0", "", "\0(dash 1)"]),
+       st.sampled_from([8.0, 12.0, 19.0]))
+def test_plain_datagrams_read_as_the_grammar_reads_them(text, end, version):
+    """The remembered reading of plain statements (``parse_commands``'s fast path) gives what the grammar,
+    token by token, gives the whole datagram: the unquoted say that runs over what follows, a bad
+    statement that ends the datagram, a request among commands, a datagram without its NUL."""
+    datagram = (text + end).encode("latin-1")
+    assert parse_commands(datagram, version) == _parse(datagram, version)

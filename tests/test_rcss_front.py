@@ -14,8 +14,11 @@ import time
 from pathlib import Path
 
 import pytest
+import zmq
 
 from keepaway.protocol import messages as m
+from keepaway.protocol.codec import encode
+from keepaway.server.app import LOCAL_PREFIX
 from scripted import ScriptedPlayer, play_together
 
 REPO = Path(__file__).resolve().parent.parent
@@ -105,6 +108,27 @@ def test_hostile_text_gets_rcssserver_errors_and_the_game_goes_on(processes, tmp
     play_together(ours, 30)
     assert srv.proc.wait(timeout=60) == 0
     stranger.close()
+    seated.close()
+
+
+def test_no_zeromq_peer_can_speak_for_a_text_client(processes, tmp_path):
+    """A ZeroMQ peer that takes the routing id the server gives its text client (a peer may set any) is
+    not heard: its ``bye`` does not unseat the text client, which goes on getting its cycles."""
+    srv, ours = game_with_text_seat(processes, tmp_path)
+    seated = TextClient(srv.rcss_port)
+    seated.send("(init takers (version 12))")
+    assert seated.recv().startswith("(init r 2 ")
+    impostor = zmq.Context.instance().socket(zmq.DEALER)
+    impostor.setsockopt(zmq.ROUTING_ID, LOCAL_PREFIX + (1).to_bytes(4, "big"))
+    impostor.connect(srv.players_endpoint)
+    impostor.send(encode(m.Bye()))
+    assert not impostor.poll(300)
+    impostor.close(linger=0)
+    play_together(ours, 3)
+    assert seated.recv_until("(sense_body 2 ")
+    seated.send("(bye)")
+    play_together(ours, 57)  # to the 60th cycle: the server stops
+    assert srv.proc.wait(timeout=60) == 0
     seated.close()
 
 

@@ -21,10 +21,12 @@ from collections import Counter
 from functools import cache
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from keepaway.core.objects import BALL
 from keepaway.protocol import messages as m
+from keepaway.protocol.codec import encode
 from keepaway.protocol.landmarks import FLAGS, LINES, to_wire
 from keepaway.protocol.params import parameter_set
 from keepaway.rcss.param_text import PLAYER_PARAMS, SERVER_PARAMS, our_server_params
@@ -41,6 +43,7 @@ from keepaway.rcss.render import (
     supported,
     think,
 )
+from keepaway.rcss.see_text import MAX_SEE_BYTES, NOT_WRITTEN, SeeNames, write_see
 from keepaway.rcss.sexp import parse_one, unquote
 from keepaway.server.arena import REFEREE_EPISODE_MESSAGE
 from keepaway.server.percept_wire import COUNT_NAMES, see_payload, sense_body_payload
@@ -281,6 +284,15 @@ def see_sample_cases():
             yield pytest.param(run, sample, id=f"{run['run']}-{sample['cycle']}")
 
 
+def kernel_see(msg: m.See, text_view: TextView) -> str:
+    """``msg`` as the front writes our server's frame of it: by the see kernel (``rcss.see_text``)."""
+    frame = encode(msg)
+    out = np.empty(MAX_SEE_BYTES, np.uint8)
+    n = write_see(frame, len(frame), SeeNames.of(*text_view.names), out)
+    assert n != NOT_WRITTEN
+    return out[:n].tobytes().decode("latin-1")
+
+
 def see_sample_world(world: dict) -> World:
     return world_of(world["ball"], {obj: world[key]["state"]
                                     for obj, key in ((1, "observer"), (2, "teammate"), (3, "opponent"))})
@@ -294,6 +306,7 @@ def test_see_samples_see_and_sense_body_are_rcssservers(run, sample):
         factor = cone_factor("normal", synch_see=version >= 18)
         ours = lossless_see(see_sample_world(sample["world"]), sample["cycle"], factor, 360.0)
         assert see(as_recorded(ours, sample["see"]), text_view) == sample["see"]
+        assert kernel_see(as_recorded(ours, sample["see"]), text_view) == sample["see"]
     ours = our_sense_body(see_sample_world(sample["world_at_cycle"]), sample["cycle"], ("high", "normal"), Counter())
     assert sense_body(ours, text_view) == sample["sense_body"]
 
@@ -352,6 +365,7 @@ def test_recorded_sees_are_rcssservers(run, window, text):
                         float(run["settings"].get("visible_angle", RCSS_DEFAULTS.visible_angle)))
     expected = text.replace(*CLOSE_GOAL)
     assert see(as_recorded(ours, text), view(version)) == expected
+    assert kernel_see(as_recorded(ours, text), view(version)) == expected  # the front's way (rcss.see_text)
 
 
 @pytest.mark.parametrize("run, window, text", list(play_cases("sense_body")))
