@@ -84,6 +84,15 @@ def _key(frame, n, end, key) -> int:
 
 
 @borrowing
+def _rows(frame, n, end, key) -> tuple:
+    """(rows, next) of the array of rows that follows ``key``; next is BAD if either is not there."""
+    n = _key(frame, n, end, key)
+    if n == BAD:
+        return 0, BAD
+    return read_array(frame, n, end)
+
+
+@borrowing
 def _name(out, at, names, i) -> int:
     return put_text(out, at, names.text, names.starts[i], names.starts[i + 1])
 
@@ -172,34 +181,24 @@ def write_see(frame, end: int, names: SeeNames, out) -> int:
     size, n = read_map(frame, 0, end)
     if n == BAD or size != 6:
         return NOT_WRITTEN
-    n = _key(frame, n, end, _KEYS[0])
-    if n == BAD:
-        return NOT_WRITTEN
-    n = _key(frame, n, end, _KEYS[1])
-    if n == BAD:
-        return NOT_WRITTEN
-    n = _key(frame, n, end, _KEYS[2])
-    if n == BAD:
+    for i in range(3):  # "type" "see" "cycle"
+        if n != BAD:
+            n = _key(frame, n, end, _KEYS[i])
+    if n == BAD:  # (a reader given BAD would read the frame's last byte)
         return NOT_WRITTEN
     cycle, n = read_int(frame, n, end)
     if n == BAD:
         return NOT_WRITTEN
     at = put_whole(out, put_text(out, 0, _SEE), cycle)
-    n = _key(frame, n, end, _KEYS[3])
-    if n == BAD:
-        return NOT_WRITTEN
-    rows, n = read_array(frame, n, end)
+    rows, n = _rows(frame, n, end, _KEYS[3])
     for _ in range(rows):
         if n == BAD or at + names.row_bytes > room:
             return NOT_WRITTEN
         n, at = _landmark(frame, n, end, out, at, names, 0, names.n_flags, 5)
     if n == BAD:
         return NOT_WRITTEN
-    n = _key(frame, n, end, _KEYS[4])
-    if n == BAD:
-        return NOT_WRITTEN
-    lines_at = n  # written last
-    rows, n = read_array(frame, n, end)
+    lines_at = _key(frame, n, end, _KEYS[4])  # written last
+    rows, n = _rows(frame, n, end, _KEYS[4])
     for _ in range(rows):  # skipped: [id, dist, dir], as _landmark reads them
         size, n = read_array(frame, n, end)
         if n == BAD or size != 3:
@@ -230,10 +229,7 @@ def write_see(frame, end: int, names: SeeNames, out) -> int:
         n, at = _values(frame, n, end, out, at, 4, False)
         if n == BAD:
             return NOT_WRITTEN
-    n = _key(frame, n, end, _KEYS[6])
-    if n == BAD:
-        return NOT_WRITTEN
-    rows, n = read_array(frame, n, end)
+    rows, n = _rows(frame, n, end, _KEYS[6])
     for _ in range(rows):
         if n == BAD or at + names.row_bytes > room:
             return NOT_WRITTEN
