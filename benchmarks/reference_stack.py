@@ -181,11 +181,19 @@ class Cell:
     """One cell of the players x servers table: which server plays the game (``"rcssserver"`` or ``"ours"``,
     our server with its rcssserver-protocol front) and whose players keep and take (``"cpp"``,
     keepaway-0.6's ``keepaway_player``, or ``"ours"``, ``keepaway player``, which on rcssserver speaks its
-    text protocol with ``--rcss``)."""
+    text protocol with ``--rcss``), with which parameter set (``"current"``, or ``"classic"`` on our server
+    only: rcssserver 19 has no parameters for what CLASSIC changes in its rules, :data:`CLASSIC_ON_RCSSSERVER`)."""
 
     server: str = "rcssserver"
     keepers: str = "cpp"
     takers: str = "cpp"
+    params: str = "current"
+
+    def __post_init__(self) -> None:
+        if self.params not in ("current", "classic"):
+            raise ValueError(f"parameter set {self.params!r}: current or classic")
+        if self.params == "classic" and self.server == "rcssserver":
+            raise ValueError(CLASSIC_ON_RCSSSERVER)
 
     @property
     def ours(self) -> tuple[str, ...]:
@@ -195,10 +203,12 @@ class Cell:
     @property
     def name(self) -> str:
         players = self.keepers if self.keepers == self.takers else f"{self.keepers} keepers, {self.takers} takers"
-        return f"{players} on {self.server}"
+        return f"{players} on {self.server}" + (", CLASSIC" if self.params == "classic" else "")
 
 
 REFERENCE = Cell()
+CLASSIC_ON_RCSSSERVER = ("rcssserver 19 cannot play CLASSIC: rcssserver 11's noise models, effort rule, failed "
+                         "kick, team loss and stamina reset (protocol.params) are its code, not its parameters")
 
 
 def play_campaign(stack: ReferenceStack, cell: Cell, pass_policy: str, episodes: int, seed: int, log_dir: Path,
@@ -223,7 +233,7 @@ def play_campaign(stack: ReferenceStack, cell: Cell, pass_policy: str, episodes:
             monitor = Monitor(port) if cell.ours else None
         else:
             port = free_udp_ports(1)
-            server, endpoint, _, _ = arena.start_server(our_server_args(port, log_dir, seed, episodes))
+            server, endpoint, _, _ = arena.start_server(our_server_args(port, log_dir, seed, episodes, cell.params))
         for team, side, count in TEAMS:
             policy = pass_policy if team == "keepers" else "handcoded"
             for i in range(1, count + 1):
@@ -258,11 +268,11 @@ def play_campaign(stack: ReferenceStack, cell: Cell, pass_policy: str, episodes:
     return arena.members
 
 
-def our_server_args(rcss_port: int, log_dir: Path, seed: int, episodes: int) -> list[str]:
-    """``keepaway server`` as the reference's rcssserver is launched: CURRENT parameters with keepaway.sh's
-    settings (our server's defaults for ``--params current``), synchronous, 3v2 on 20 m, the front on
-    ``rcss_port``; it plays one episode beyond ``episodes``, as the C++ players never stop."""
-    return ["--params", "current", "--keepers", str(KEEPERS), "--takers", str(TAKERS), "--seed", str(seed),
+def our_server_args(rcss_port: int, log_dir: Path, seed: int, episodes: int, params: str = "current") -> list[str]:
+    """``keepaway server`` as the reference's rcssserver is launched: CURRENT parameters (or ``params``) with
+    keepaway.sh's settings (our server's defaults), synchronous, 3v2 on 20 m, the front on ``rcss_port``; it
+    plays one episode beyond ``episodes``, as the C++ players never stop."""
+    return ["--params", params, "--keepers", str(KEEPERS), "--takers", str(TAKERS), "--seed", str(seed),
             "--rcss-port", str(rcss_port), "--log-dir", str(log_dir), "--kwy-name", LOG_NAME,
             "--episodes", str(episodes + 1)]
 

@@ -135,11 +135,12 @@ def test_no_zeromq_peer_can_speak_for_a_text_client(processes, tmp_path):
 # -------------------------------------------------------------------------------- the C++ players
 
 
-@pytest.mark.parametrize("cell", [Cell("ours", "cpp", "cpp"), Cell("ours", "cpp", "ours")], ids=lambda c: c.name)
+@pytest.mark.parametrize("cell", [Cell("ours", "cpp", "cpp"), Cell("ours", "cpp", "ours"),
+                                  Cell("ours", "cpp", "cpp", "classic")], ids=lambda c: c.name)
 def test_the_keepaway_0_6_cpp_players_play_on_our_server(reference_stack, tmp_path, cell):
     """The unmodified C++ players (keepers with hand-coded Pass; their takers or ours) play three episodes
-    on our server through the front: every episode ends, no cycle is missed, no process fails, and the
-    C++ players print nothing on stderr, as on rcssserver."""
+    on our server through the front, under CURRENT parameters and CLASSIC: every episode ends, no cycle is
+    missed, no process fails, and the C++ players print nothing on stderr, as on rcssserver."""
     stack = reference_stack
     play_campaign(stack, cell, "handcoded", 3, seed=5, log_dir=tmp_path)
     _, episodes = campaign_logs(tmp_path, 3)
@@ -151,6 +152,13 @@ def test_the_keepaway_0_6_cpp_players_play_on_our_server(reference_stack, tmp_pa
         assert (tmp_path / f"{name}.log").read_text() == "", name
     server_log = (tmp_path / "server.log").read_text()
     assert " ERROR " not in server_log and "Traceback" not in server_log, server_log[-2000:]
+
+
+def test_classic_cells_are_on_our_server_only():
+    """rcssserver 19 has no parameters for CLASSIC's rules: the harness says so rather than play a wrong game."""
+    with pytest.raises(ValueError, match="cannot play CLASSIC"):
+        Cell("rcssserver", "cpp", "cpp", "classic")
+    assert Cell("ours", "cpp", "cpp", "classic").name == "cpp on ours, CLASSIC"
 
 
 def test_cpp_players_leave_no_process_behind(reference_stack, tmp_path):
