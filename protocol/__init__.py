@@ -49,6 +49,7 @@ from keepaway.protocol.messages import (
     SenseBody,
     Shutdown,
     Start,
+    SynchSee,
     Think,
     Waiting,
     decode_for_coach,
@@ -78,7 +79,7 @@ __all__ = [
     "MONITOR_EPISODE_TOPIC", "MONITOR_FRAME_TOPIC", "MONITOR_TOPICS", "Message", "NOISE_AXIS", "NOISE_POLAR",
     "PARAMETER_SETS", "PLAYER_TO_SERVER", "PROTOCOL_VERSION", "PlayerReport", "PlayerSaid", "ProtocolError",
     "Reconnect", "Report", "SERVER_TO_COACH", "SERVER_TO_PLAYER", "See", "SenseBody", "ServerParams",
-    "Shutdown", "Start", "Think", "Waiting", "bind", "configure", "connect_endpoint", "decode", "decode_for_coach",
-    "decode_for_player", "decode_from_coach", "decode_from_player", "decode_monitor", "encode",
+    "Shutdown", "Start", "SynchSee", "Think", "Waiting", "bind", "configure", "connect_endpoint", "decode",
+    "decode_for_coach", "decode_for_player", "decode_from_coach", "decode_from_player", "decode_monitor", "encode",
     "parameter_set", "parse_endpoint", "with_square_region",
 ]

@@ -277,6 +277,14 @@ class Bye(Message):
     TYPE: ClassVar[str] = "bye"
 
 
+@message
+class SynchSee(Message):
+    """Switch to rcssserver's synch_see mode for ``see`` from the next cycle on, for good (rcssserver's
+    ``(synch_see)``; ``Init.synch_see`` asks for it at the init)."""
+
+    TYPE: ClassVar[str] = "synch_see"
+
+
 # ------------------------------------------------------------------------------ players port: to client
 
 
@@ -610,7 +618,7 @@ def _by_type(*classes: type[Message]) -> Mapping[str, type[Message]]:
     return MappingProxyType({cls.TYPE: cls for cls in classes})
 
 
-PLAYER_TO_SERVER = _by_type(Init, Reconnect, Command, Report, Bye)
+PLAYER_TO_SERVER = _by_type(Init, Reconnect, Command, Report, Bye, SynchSee)
 SERVER_TO_PLAYER = _by_type(InitOk, Error, SenseBody, See, Hear, Fullstate, Think, Waiting, Shutdown)
 COACH_TO_SERVER = _by_type(CoachInit, Start, Look, Advice, EpisodeControl, CoachBye)
 SERVER_TO_COACH = _by_type(CoachInitOk, LookOk, Error, EpisodeEnd, PlayerReport, PlayerSaid, Shutdown)

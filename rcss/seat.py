@@ -36,9 +36,6 @@ from keepaway.rcss.commands import (
 from keepaway.rcss.see_text import MAX_SEE_BYTES, SEE_FRAME_START, SeeNames, write_see
 
 log = logging.getLogger("keepaway.rcss")
-# Our server sets a player's synch_see at its init (version 18 and later ask for it there, as rcssserver
-# turns it on for them); a (synch_see) of an older client later cannot switch it, and is refused.
-UNSWITCHED_SYNCH_SEE = "(error unknown_command)"
 # The datagram a synchronous client sends every cycle, read once (a NUL-terminated one reads the same in
 # every version).
 DONE_DATAGRAM = b"(done)\0"
@@ -113,6 +110,9 @@ class TextSeat:
         self.gone = False  # refused, the server shut down, or the client said bye
         self.last_sense_body = ""
         self.held: str | None = None  # this cycle's sense_body, until the referee has spoken (on_server)
+        # rcssserver turns synch_see on at the init of a client of version 18 or later (our server at the
+        # init the seat sends), and for any client that asks with (synch_see) (our server at a synch_see)
+        self.synch_see = int(version) >= render.SYNCH_SEE_VERSION
         self.see_names: SeeNames | None = None  # the view's names as the see kernel writes them
         self.see_out = np.empty(MAX_SEE_BYTES, np.uint8)
         self.write_see = SteadyCall(write_see)
@@ -120,12 +120,6 @@ class TextSeat:
     @property
     def seated(self) -> bool:
         return self.view is not None
-
-    @property
-    def synch_see(self) -> bool:
-        """rcssserver turns synch_see on at the init of a client of version 18 or later (our server at
-        the ``init`` the seat sends)."""
-        return int(self.version) >= render.SYNCH_SEE_VERSION
 
     def join_message(self) -> Message:
         """What joins the client to our server: ``init`` asking for pre-kick-off percepts as rcssserver
@@ -237,6 +231,9 @@ class TextSeat:
         once."""
         parsed = DONE if data == DONE_DATAGRAM else parse_commands(data, self.version)
         out = Out([text for text in map(self._answer, parsed.answers) if text], [])
+        if not self.synch_see and any(isinstance(answer, SynchSeeRequest) for answer in parsed.answers):
+            self.synch_see = True
+            out.to_server.append(m.SynchSee())
         commands = [command for command in parsed.commands if command.name != "done"]
         if commands:
             if not self.pending:
@@ -251,9 +248,9 @@ class TextSeat:
 
     def _answer(self, answer) -> str:
         """rcssserver's reply to one answer of a datagram: its text, or what a request asks of the state
-        (src/player.cpp): the last sense_body again, the score (Keepaway keeps none: 0 0), synch_see (as
-        asked, or refused as an unknown command where our server cannot switch it), an unknown team's
-        ear; nothing for the requests rcssserver does not answer."""
+        (src/player.cpp): the last sense_body again, the score (Keepaway keeps none: 0 0), synch_see (on
+        from then on: :meth:`on_datagram` tells our server), an unknown team's ear; nothing for the
+        requests rcssserver does not answer."""
         if isinstance(answer, str):
             return answer
         if isinstance(answer, SenseBodyRequest):
@@ -261,7 +258,7 @@ class TextSeat:
         if isinstance(answer, ScoreRequest):
             return f"(score {self.cycle} 0 0)"
         if isinstance(answer, SynchSeeRequest):
-            return OK_SYNCH_SEE if self.synch_see else UNSWITCHED_SYNCH_SEE
+            return OK_SYNCH_SEE
         if isinstance(answer, EarRequest) and answer.team_name:
             known = answer.team_name.strip('"') in self.view.team_names
             return "" if known else answer.unknown_team_reply

@@ -685,6 +685,8 @@ class Server:
         elif isinstance(msg, m.Report):
             self._to_coaches(encode(m.PlayerReport(cycle=self.arena.cycle, side=conn.slot.side,
                                                    unum=conn.slot.unum, payload=msg.payload)))
+        elif isinstance(msg, m.SynchSee):
+            self.arena.set_synch_see(conn.slot.obj)
         elif isinstance(msg, m.Bye):
             log.info("%s said bye", conn.name)
             self.arena.disconnect(conn.slot.obj)

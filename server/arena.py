@@ -157,6 +157,11 @@ class Arena:
                 return self._enable(s, s.fullstate, s.synch_see, now_ms)
         raise ArenaError("no_such_player", f"there is no {team} {unum}")
 
+    def set_synch_see(self, obj: int) -> None:
+        """Player ``obj``'s see in synch_see mode from the next see on, for good (rcssserver's ``(synch_see)``:
+        src/player.cpp, ``Player::synch_see``)."""
+        self.slot(obj).synch_see = True
+
     def _enable(self, s: PlayerSlot, fullstate: bool, synch_see: bool, now_ms: float) -> PlayerSlot:
         s.connected, s.fullstate, s.synch_see = True, fullstate, synch_see
         s.see_phase_ms = now_ms

@@ -10,6 +10,7 @@ import json
 import socket
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -108,6 +109,40 @@ def test_hostile_text_gets_rcssserver_errors_and_the_game_goes_on(processes, tmp
     play_together(ours, 30)
     assert srv.proc.wait(timeout=60) == 0
     stranger.close()
+    seated.close()
+
+
+def test_synch_see_switches_an_older_clients_see(processes, tmp_path):
+    """A version-12 client that sends ``(synch_see)`` gets ``(ok synch_see)`` and from then on its see
+    every second cycle at normal width, as rcssserver's synch_see mode sends it (before: two cycles of
+    three, on send_step's 150 ms)."""
+    srv, ours = game_with_text_seat(processes, tmp_path)
+    seated = TextClient(srv.rcss_port)
+    seated.send("(init takers (version 12))")
+    assert seated.recv().startswith("(init r 2 ")
+    ours_play = threading.Thread(target=play_together, args=(ours, 40))
+    ours_play.start()
+    seen: list[int] = []
+    switched_at = None
+    while len(seen) < 24:
+        text = seated.recv()
+        if text.startswith("(see "):
+            seen.append(int(text.split()[1]))
+        elif text.startswith("(sense_body "):
+            cycle = int(text.split()[1])
+            if cycle == 12 and switched_at is None:
+                seated.send("(synch_see)")
+                switched_at = cycle
+        elif text == "(think)":
+            seated.send("(done)")
+        elif text.startswith("(ok "):
+            assert text == "(ok synch_see)"
+    before = [c for c in seen if 0 < c <= 12]
+    after = [c for c in seen if c > 13]
+    assert len(before) >= 6 and any(c % 2 for c in before), before  # the 150 ms schedule
+    assert after and all(c % 2 == 0 for c in after) and len(after) >= (after[-1] - after[0]) // 2, after
+    seated.send("(bye)")
+    ours_play.join()
     seated.close()
 
 

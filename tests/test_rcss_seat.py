@@ -78,8 +78,9 @@ def test_requests_are_answered_from_the_seat():
     seat.on_server(body(9))
     (sensed,) = seat.on_server(m.Think(cycle=9)).texts[:1]
     assert seat.on_datagram(b"(score)(sense_body)\0").texts == ["(score 9 0 0)", sensed]
-    assert seat.on_datagram(b"(synch_see)\0").texts == ["(error unknown_command)"]  # v12: set at init only
-    assert seated(version=19).on_datagram(b"(synch_see)\0").texts == ["(ok synch_see)"]
+    assert seat.on_datagram(b"(synch_see)\0") == (["(ok synch_see)"], [m.SynchSee()])  # v12: switched now
+    assert seat.on_datagram(b"(synch_see)\0") == (["(ok synch_see)"], [])  # once
+    assert seated(version=19).on_datagram(b"(synch_see)\0") == (["(ok synch_see)"], [])  # on since its init
     assert seat.on_datagram(b"(ear (on nobody))\0").texts == ["(error no team with name nobody)"]
     assert seat.on_datagram(b"(fly)\0").texts == ["(error illegal_command_form)"]
 
