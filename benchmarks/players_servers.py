@@ -67,11 +67,14 @@ def logged(where: Path, episodes: int, step_s: float) -> BehaviourStats:
 
 
 def row(cell: Cell, policy: str, stats: BehaviourStats, campaigns: list[BehaviourStats]) -> str:
+    """A cell's line, judged against ``campaigns`` (none: the cell is the reference)."""
+    hold = stats.hold_s
+    head = f"| {cell.name} | {policy} | {stats.episodes} | {hold.value:.2f} ± {hold.se:.2f} | "
+    if not campaigns:
+        return head + "(the reference) | |"
     verdicts = judge(stats, campaigns)
     off = [v.statistic for v in verdicts if not v.within_tolerance]
-    hold = stats.hold_s
-    return (f"| {cell.name} | {policy} | {stats.episodes} | {hold.value:.2f} ± {hold.se:.2f} | "
-            f"{len(verdicts) - len(off)} / {len(verdicts)} | {', '.join(off) or '-'} |")
+    return head + f"{len(verdicts) - len(off)} / {len(verdicts)} | {', '.join(off) or '-'} |"
 
 
 def main() -> None:
@@ -117,10 +120,12 @@ def main() -> None:
                     where.mkdir(parents=True, exist_ok=True)
                     play_campaign(stack, cell, policy, args.episodes, args.seed, where)
                 stats = logged(where, args.episodes, step_s)
-                if classic:
-                    references.setdefault(policy, [stats])
-                reference = references[policy] if classic else [stored[c] for c in REFERENCE_CAMPAIGNS[policy]]
-                lines.append(row(cell, policy, stats, reference))
+                if classic and policy not in references:  # the reference: not judged against itself
+                    references[policy] = [stats]
+                    lines.append(row(cell, policy, stats, []))
+                else:
+                    reference = references[policy] if classic else [stored[c] for c in REFERENCE_CAMPAIGNS[policy]]
+                    lines.append(row(cell, policy, stats, reference))
                 print(lines[-1], file=sys.stderr)
     if classic:
         print(f"Against the C++ players on our server (the first rows), CLASSIC parameters; synchronous, 3v2 on "
