@@ -3,9 +3,9 @@
 
 A text client's see is the percept the front writes most (about two of every three cycles, each with some
 fifty flags): decoding the frame into Python values and formatting each number took about 40 us a see,
-a fifth of the time a cycle of five C++ players spends in the front (docs/design.md, "The rcssserver
-front"). Here one kernel reads the frame (``core.msgpack_in``) and writes the text (``core.cpp_text``:
-``%.6g`` and ``%d`` as C prints them), about 3 us.
+a fifth of the time a cycle of five C++ players spends in the front (docs/design.md, "rcssserver's
+protocol: the front"). Here one kernel reads the frame (``core.msgpack_in``) and writes the text
+(``core.cpp_text``: ``%.6g`` and ``%d`` as C prints them), about 8 us.
 
 It takes the frames our server writes (``server.percept_wire.write_see``: the map's fields in the order
 of ``protocol.messages.See``, rows of the lengths that module writes) with numbers C's formats print the
