@@ -21,10 +21,13 @@ Modes (docs/env.md has the spaces, the rewards and why):
 
 Every live keeper is in every step's dictionaries. In the discrete modes the observation is a dict with
 ``action_mask``; a keeper with no decision in the step has only the no-op (the last action) allowed and
-its other entries are zeros. The reward of every keeper is the simulated time in seconds since the
-previous step, so a keeper's rewards between two of its decisions sum to the SMDP reward of the first
-(Stone et al.: the time until its next decision or the episode's end) and every keeper's return is the
-episode's hold time. An episode is one Keepaway episode (terminated, never truncated).
+its other entries are zeros. A disallowed action is refused, or with ``disallowed="fallback"`` played as
+the keeper's lowest allowed action and named in its infos.
+
+The reward of every keeper is the simulated time in seconds since the previous step, so a keeper's
+rewards between two of its decisions sum to the SMDP reward of the first (Stone et al.: the time until its
+next decision or the episode's end) and every keeper's return is the episode's hold time. An episode is
+one Keepaway episode (terminated, never truncated).
 """
 
 from __future__ import annotations
@@ -51,6 +54,9 @@ LOW_LEVEL_COMMANDS = (CMD_DASH, CMD_TURN, CMD_KICK)
 # Per object (ball, me, the other keepers, the takers): x, y, vx, vy, confidence; then my body and neck.
 OBJECT_FEATURES = 5
 SEED_WORDS = 2**63  # reset seeds drawn by the environment are in 0 .. 2^63 - 1 (protocol.messages.MAX_SEED)
+# What a disallowed action of a discrete mode does: a one-line ValueError and no change, or the keeper's
+# lowest allowed action played instead (the no-op when it decides nothing), said in its infos.
+DISALLOWED = ("refuse", "fallback")
 
 
 class KeepawayParallelEnv(ParallelEnv):
@@ -60,7 +66,13 @@ class KeepawayParallelEnv(ParallelEnv):
 
     def __init__(self, keepers: int = 3, takers: int = 2, field_size: float = 20.0,
                  params: str | ServerParams = "classic", getopen_action: bool = False, low_level: bool = False,
-                 getopen: str = "handcoded", server: str | None = None, keys: str | Path | None = None) -> None:
+                 getopen: str = "handcoded", server: str | None = None, keys: str | Path | None = None,
+                 disallowed: str = "refuse", render_mode: str | None = None) -> None:
+        if disallowed not in DISALLOWED:
+            raise ValueError(f"disallowed={disallowed!r}: one of {', '.join(DISALLOWED)}")
+        if render_mode is not None:
+            raise ValueError(f"render_mode={render_mode!r}: the environment does not render (keepaway view "
+                             f"and keepaway render show a game's log)")
         if getopen_action and low_level:
             raise ValueError("low_level already leaves GetOpen to the keepers: choose one of getopen_action "
                              "and low_level")
@@ -72,6 +84,9 @@ class KeepawayParallelEnv(ParallelEnv):
         self.getopen_policy = getopen
         self.server = server
         self.keys = keys
+        self.disallowed = disallowed
+        self.render_mode = render_mode
+        self._replaced: dict[str, tuple[int, int]] = {}  # this step's disallowed actions: agent -> (sent, played)
         self.outside = ((OUTSIDE_BODY,) if low_level
                         else (OUTSIDE_PASS, OUTSIDE_GETOPEN) if getopen_action else (OUTSIDE_PASS,))
         self.possible_agents = [f"{AGENT_PREFIX}{k}" for k in range(1, keepers + 1)]
@@ -141,6 +156,7 @@ class KeepawayParallelEnv(ParallelEnv):
             self._game = self._new_game(seed if seed is not None else int(self._np_random.integers(SEED_WORDS)))
         self.agents = list(self.possible_agents)
         self._in_episode = True
+        self._replaced = {}
         while self._game.advance() is not None:  # an episode over before any decision has no step
             pass
         self._last_cycle = self._game.episode_start
@@ -160,6 +176,7 @@ class KeepawayParallelEnv(ParallelEnv):
         if not self.agents:
             raise ValueError("the episode is over: call reset()")
         game = self._game
+        self._replaced = {}
         chosen = [self._command(i, keeper, actions) for i, keeper in enumerate(game.keepers)]
         for i, (keeper, action) in enumerate(zip(game.keepers, chosen)):
             if action is not None:
@@ -198,8 +215,13 @@ class KeepawayParallelEnv(ParallelEnv):
             args = {CMD_DASH: (values[0], 0.0), CMD_TURN: (values[1], 0.0), CMD_KICK: (values[2], values[3])}[code]
             return code, *args
         action = int(action)
-        if not (0 <= action < self.n_actions and self._mask(keeper)[action]):
-            raise ValueError(f"{agent}'s action {action} is not allowed now (its action_mask)")
+        mask = self._mask(keeper)
+        if not (0 <= action < self.n_actions and mask[action]):
+            if self.disallowed == "refuse":
+                raise ValueError(f"{agent}'s action {action} is not allowed now (its action_mask)")
+            played = int(np.flatnonzero(mask)[0])
+            self._replaced[agent] = (action, played)
+            action = played
         if action == self.noop:
             return None
         return action if action < self.n_keepers else action - self.n_keepers
@@ -234,8 +256,13 @@ class KeepawayParallelEnv(ParallelEnv):
         return obs
 
     def _infos(self) -> dict[str, dict]:
-        return {agent: {"decision": keeper.awaiting.decision if keeper.awaiting is not None else None}
-                for agent, keeper in zip(self.possible_agents, self._game.keepers)}
+        """What each keeper decides now; with ``disallowed="fallback"``, a keeper whose action of the step was
+        not allowed also has ``"disallowed": (sent, played)``."""
+        infos = {agent: {"decision": keeper.awaiting.decision if keeper.awaiting is not None else None}
+                 for agent, keeper in zip(self.possible_agents, self._game.keepers)}
+        for agent, replaced in self._replaced.items():
+            infos[agent]["disallowed"] = replaced
+        return infos
 
 
 def random_action(space: spaces.Space, observation: Any, rng: np.random.Generator) -> Any:

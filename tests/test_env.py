@@ -143,6 +143,36 @@ def test_a_wrong_or_missing_action_is_refused_in_one_line_and_changes_nothing():
     assert rewards[actor] > 0.0
 
 
+def test_with_fallback_a_disallowed_action_plays_the_lowest_allowed_and_says_so():
+    """``disallowed="fallback"``: the deciding keeper's no-op becomes its lowest allowed action (HoldBall), an
+    idle keeper's pass the no-op, each named in its infos; the episode is the one those actions play."""
+    env, same = parallel_env(disallowed="fallback"), parallel_env()
+    obs, _ = env.reset(seed=2)
+    same.reset(seed=2)
+    actor = next(a for a in env.agents if not obs[a]["action_mask"][-1])
+    idle = next(a for a in env.agents if a != actor)
+    sent = {a: env.noop for a in env.agents} | {idle: 1}
+    out, *_, infos = env.step(sent)
+    expected, *_, plain = same.step({a: env.noop for a in env.agents} | {actor: 0})
+    assert infos[actor]["disallowed"] == (env.noop, 0) and infos[idle]["disallowed"] == (1, env.noop)
+    assert all("disallowed" not in info for agent, info in infos.items() if agent not in (actor, idle))
+    assert all(np.array_equal(out[a]["observation"], expected[a]["observation"]) for a in env.agents)
+    assert all("disallowed" not in info for info in plain.values())
+
+
+def test_pettingzoos_seed_test_passes_with_fallback_and_a_render_mode_is_refused():
+    """PettingZoo's ``parallel_seed_test`` samples without masks: it passes with ``disallowed="fallback"``.
+    The environment has no render mode: ``render_mode`` is None, and asking for one is refused in one line."""
+    from pettingzoo.test import parallel_seed_test
+
+    parallel_seed_test(lambda: parallel_env(disallowed="fallback"))
+    assert parallel_env().render_mode is None
+    with pytest.raises(ValueError, match="does not render"):
+        parallel_env(render_mode="human")
+    with pytest.raises(ValueError, match="refuse, fallback"):
+        parallel_env(disallowed="ignore")
+
+
 def test_a_keeper_leaves_only_known_decisions_outside():
     with pytest.raises(ValueError, match="decisions made outside"):
         PlayerAgent("keepers", outside=("kick",))
