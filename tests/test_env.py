@@ -173,6 +173,25 @@ def test_pettingzoos_seed_test_passes_with_fallback_and_a_render_mode_is_refused
         parallel_env(disallowed="ignore")
 
 
+def test_supersuits_vector_wrappers_play_whole_episodes_with_fallback():
+    """SuperSuit's vector wrappers (one keeper per vector slot, two environments concatenated) sample without
+    masks: with ``disallowed="fallback"`` they play whole episodes, each step's reward the time since the last."""
+    import supersuit
+
+    venv = supersuit.concat_vec_envs_v1(supersuit.pettingzoo_env_to_vec_env_v1(parallel_env(disallowed="fallback")),
+                                        2, num_cpus=0, base_class="gymnasium")
+    obs, _ = venv.reset(seed=1)
+    assert venv.num_envs == 6 and obs["action_mask"].shape == (6, 4)
+    ended = 0
+    for _ in range(300):
+        obs, rewards, terminations, truncations, _ = venv.step(np.array([venv.action_space.sample()
+                                                                         for _ in range(venv.num_envs)]))
+        assert rewards.shape == (6,) and (rewards > 0).all() and not truncations.any()
+        ended += int(terminations.sum())
+    assert ended >= 6  # every keeper of both games saw an episode end
+    venv.close()
+
+
 def test_a_keeper_leaves_only_known_decisions_outside():
     with pytest.raises(ValueError, match="decisions made outside"):
         PlayerAgent("keepers", outside=("kick",))
