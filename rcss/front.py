@@ -186,7 +186,7 @@ class Front:
             work(*args)
         except Exception:
             if client is None:
-                log.exception("the front failed at its init port")
+                log.exception("the front failed at a socket of its own")
             else:
                 log.exception("%s: dropped after a fault of the front", client.seat.describe())
                 self._drop(client)
