@@ -17,6 +17,8 @@ from pathlib import Path
 
 import zmq
 
+from keepaway.agents.player import sarsa_config
+from keepaway.agents.policy_file import unpack_pass_arrays
 from keepaway.protocol import MONITOR_EPISODE_TOPIC
 from keepaway.protocol import messages as m
 from keepaway.protocol.messages import decode_monitor
@@ -24,7 +26,7 @@ from keepaway.protocol.params import ServerParams
 from keepaway.protocol.security import open_keys, secure_client
 from keepaway.runner.batched import CHUNK_CYCLES, BatchedArenas
 from keepaway.runner.embedded import ArenaSpec, embedded_episodes
-from keepaway.runner.job import EpisodeTable, RunResult
+from keepaway.runner.job import GREEDY, LEARN, LEARNED, EpisodeTable, RunResult
 from keepaway.runner.kernels import ensure_compiled, kernel_sets
 from keepaway.runner.launch import VIEW_RE, ArenaFailure, ArenaProcesses, keepaway_argv
 from keepaway.server.arena import REFEREE_EPISODE_MESSAGE
@@ -232,9 +234,15 @@ def batched_episodes(opts: RunOptions) -> Iterator[tuple[EpisodeRecord, int]]:
     include the kernels' compilation, so rates are measured from its end)."""
     spec = opts.spec
     theta = spec.policy.getopen_net if spec.policy is not None else None
+    # learned Pass from a policy file plays its weights greedily, as the players of the other modes do
+    # (agents.player.sarsa_pass_factory), with the tile coding they were learned with
+    loaded = spec.pass_policy == LEARNED and spec.policy is not None and bool(spec.policy.pass_arrays)
     arenas = BatchedArenas(spec.params, opts.batch, spec.seed, keepers=spec.keepers, takers=spec.takers,
                            pass_policy=spec.pass_policy, getopen_policy=spec.getopen_policy,
-                           getopen_theta=theta)
+                           getopen_theta=theta, sarsa=sarsa_config(spec.policy) if loaded else None,
+                           pass_mode=GREEDY if loaded else LEARN)
+    if loaded:
+        arenas.load_pass_arrays(unpack_pass_arrays(spec.policy.pass_arrays, spec.keepers))
     logs = BatchedGameLogs(arenas.world, spec.params, opts.out, opts.game_log_arenas)
     ended = cycles = 0
     try:

@@ -18,7 +18,7 @@ from keepaway.agents.policy_file import getopen_theta_size
 from keepaway.agents.sarsa import MODE_EXPLORE, MODE_GREEDY, MODE_LEARN, NO_ACTION, SarsaConfig
 from keepaway.protocol.params import parameter_set
 from keepaway.runner.batched import BatchedArenas
-from keepaway.runner.embedded import ArenaSpec, EmbeddedGame
+from keepaway.runner.embedded import ArenaSpec, EmbeddedGame, embedded_episodes
 from keepaway.runner.job import BATCHED_SARSA
 from keepaway.trainer.curves import welch_p_value
 from test_batched import table_rows
@@ -237,3 +237,30 @@ def test_a_hive_mind_arena_learns_one_table_per_team_whatever_the_threads():
     fresh = learning(2, 9, sarsa=hive)
     fresh.load_pass_arrays(grid)
     np.testing.assert_array_equal(fresh.sarsa.weights, one.sarsa.weights)
+
+
+def test_a_policy_files_pass_weights_play_greedily_in_the_batched_mode_as_in_the_embedded(tmp_path):
+    """``keepaway run --mode batched --pass learned --policy FILE`` plays the file's Pass weights greedily,
+    with the file's tile coding, as the embedded mode's players do: the same episodes; without the file the
+    batched keepers start from zero weights and play other episodes."""
+    from dataclasses import asdict
+    from itertools import islice
+
+    from keepaway.agents.policy_file import load_policy, pack_pass_arrays, save_policy
+    from keepaway.runner.run import RunOptions, batched_episodes
+
+    trained = learning(1, 11)
+    trained.run(episodes_per_arena=40)
+    path = tmp_path / "policy.npz"
+    save_policy(path, pass_arrays=pack_pass_arrays(trained.arena_pass_arrays(0)), config={"sarsa": asdict(SMALL)})
+    spec = ArenaSpec(PARAMS, K, T, 5, pass_policy="learned", policy=load_policy(path))
+
+    def ends(episodes) -> list[tuple[int, int]]:
+        return [(record.start_cycle, record.end_cycle) for record, _ in islice(episodes, 6)]
+
+    batched = ends(batched_episodes(RunOptions(spec, 6, mode="batched", batch=1, out=tmp_path, game_log=False)))
+    embedded = ends(embedded_episodes(spec))
+    untrained = ends(batched_episodes(RunOptions(replace(spec, policy=None), 6, mode="batched", batch=1,
+                                                 out=tmp_path, game_log=False)))
+    assert batched == embedded
+    assert batched != untrained
