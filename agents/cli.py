@@ -43,7 +43,7 @@ from keepaway.agents.edge import (
 )
 from keepaway.agents.rcss_client import DEFAULT_VERSION as RCSS_DEFAULT_VERSION
 from keepaway.agents.rcss_client import rcss_address, run_rcss_player
-from keepaway.core.options import FiniteFloatRange
+from keepaway.core.options import FiniteFloatRange, configure_logging
 from keepaway.protocol.endpoints import DEFAULT_PORTS, parse_endpoint
 from keepaway.protocol.messages import MAX_SEED, SERVER_SILENCE_S
 from keepaway.protocol.security import KeyDir, SecurityError, keys_option, no_answer, open_keys, secure_client
@@ -236,8 +236,7 @@ def player_command(ctx: click.Context, team: str, pass_policy: str, getopen_poli
     Exits 0 when the server shuts down or on SIGTERM/SIGINT (after saying bye), 2 when it cannot start,
     4 when the server falls silent (--server-silence).
     """
-    logging.basicConfig(level=logging.WARNING - 10 * min(verbose, 2) if verbose else logging.WARNING,
-                        format="%(asctime)s %(name)s %(levelname)s %(message)s", stream=sys.stderr)
+    configure_logging(verbose)
     try:
         parse_endpoint(endpoint)
     except ValueError as exc:

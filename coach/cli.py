@@ -3,13 +3,12 @@
 from __future__ import annotations
 
 import json
-import logging
 import sys
 from pathlib import Path
 
 import click
 
-from keepaway.core.options import FiniteFloatRange
+from keepaway.core.options import FiniteFloatRange, configure_logging
 from keepaway.protocol.endpoints import parse_endpoint
 from keepaway.protocol.security import SecurityError, keys_option, open_keys
 
@@ -35,8 +34,7 @@ def coach_command(server_endpoint: str, arena_port: int | None, host: str, idle:
     """Run an arena's online coach: the ground-truth episode record and the trainer's endpoint."""
     from keepaway.coach.coach import Coach
 
-    logging.basicConfig(level=logging.WARNING - 10 * min(verbose, 2),
-                        format="%(asctime)s %(name)s %(levelname)s %(message)s", stream=sys.stderr)
+    configure_logging(verbose)
     if idle and arena_port is None:
         raise click.UsageError("--idle keeps the game paused for a trainer: it needs --arena-port")
     try:

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import logging
 import math
+import sys
 from typing import Any
 
 import click
@@ -20,4 +22,10 @@ class FiniteFloatRange(click.FloatRange):
         return number
 
 
-__all__ = ["FiniteFloatRange"]
+def configure_logging(verbose: int) -> None:
+    """Log to stderr at WARNING, or INFO and DEBUG for ``-v`` and ``-vv`` (every command's ``--verbose``)."""
+    logging.basicConfig(level=logging.WARNING - 10 * min(verbose, 2),
+                        format="%(asctime)s %(name)s %(levelname)s %(message)s", stream=sys.stderr)
+
+
+__all__ = ["FiniteFloatRange", "configure_logging"]

@@ -4,7 +4,6 @@ the server's process; docs/protocol.md §16)."""
 
 from __future__ import annotations
 
-import logging
 import signal
 import sys
 import threading
@@ -12,6 +11,7 @@ from typing import Any
 
 import click
 
+from keepaway.core.options import configure_logging
 from keepaway.protocol.endpoints import DEFAULT_PORTS, parse_endpoint
 from keepaway.protocol.security import SecurityError, keys_option, open_keys
 
@@ -31,8 +31,7 @@ def rcss_front_command(server: str, host: str, port: int, keys: Any, verbose: in
     versions 8-19) at a keepaway server. Prints one line with the bound port, then logs to stderr."""
     from keepaway.rcss.front import FrontConfig, serve
 
-    logging.basicConfig(level=logging.WARNING - 10 * min(verbose, 2) if verbose else logging.WARNING,
-                        format="%(asctime)s %(name)s %(levelname)s %(message)s", stream=sys.stderr)
+    configure_logging(verbose)
     try:
         parse_endpoint(server)
     except ValueError as exc:

@@ -3,14 +3,13 @@
 from __future__ import annotations
 
 import json
-import logging
 import sys
 from pathlib import Path
 from typing import Any
 
 import click
 
-from keepaway.core.options import FiniteFloatRange
+from keepaway.core.options import FiniteFloatRange, configure_logging
 from keepaway.protocol.messages import GETOPEN_NOTE_MODES
 from keepaway.protocol.params import TEAM_SIZE, ServerParams, parameter_set, with_square_region
 from keepaway.protocol.security import SecurityError, keys_option
@@ -122,8 +121,7 @@ def server_command(config_file: Path | None, parameter_set_name: str | None, par
     """
     from keepaway.server.app import Server  # imported here so `keepaway --help` does not compile kernels
 
-    logging.basicConfig(level=logging.WARNING - 10 * min(verbose, 2) if verbose else logging.WARNING,
-                        format="%(asctime)s %(name)s %(levelname)s %(message)s", stream=sys.stderr)
+    configure_logging(verbose)
     if no_game_log:
         settings["game_log"] = False
     try:
